@@ -1,0 +1,23 @@
+"""collide: point-cloud bounding volumes and a broad phase for articulated simulation.
+
+The flat public surface; every name here is re-exported from the module that defines it.
+"""
+
+from . import hull, shapes, volumes
+from .pointcloud import PointCloud, difference, intersection, union
+from .volumes import AABB, OBB, Sphere
+
+__all__ = [
+    "AABB",
+    "OBB",
+    "PointCloud",
+    "Sphere",
+    "difference",
+    "hull",
+    "intersection",
+    "shapes",
+    "union",
+    "volumes",
+]
+
+__version__ = "0.1.0"

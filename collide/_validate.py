@@ -1,0 +1,116 @@
+"""Input checks shared by every module: clear ``ValueError`` s, never a crash deeper down.
+
+Every public entry point funnels user arrays through these helpers, so a NaN pose or a wrongly
+shaped array is reported with the argument's name before scipy, manifold3d or numba sees it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def as_array(value, name: str, shape: tuple, dtype=np.float64) -> np.ndarray:
+    """Convert ``value`` to a C-contiguous array of ``dtype`` and check its shape and finiteness.
+
+    Parameters
+    ----------
+    value : array_like
+        The user's input.
+    name : str
+        Argument name used in error messages.
+    shape : tuple of (int or None)
+        Expected shape; ``None`` entries match any length.
+    dtype : numpy dtype
+        Target dtype (float64 by default).
+
+    Returns
+    -------
+    array : ndarray
+        A new or existing C-contiguous array of ``dtype``.
+    """
+    try:
+        arr = np.ascontiguousarray(value, dtype=dtype)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: cannot be read as a {np.dtype(dtype).name} array ({exc})") from None
+    if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
+        want = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ")"
+        raise ValueError(f"{name}: expected shape {want}, got {arr.shape}")
+    if arr.dtype.kind == "f" and arr.size and not np.all(np.isfinite(arr)):
+        bad = np.argwhere(~np.isfinite(arr))[0]
+        raise ValueError(f"{name}: non-finite value (NaN or inf) at index {tuple(int(i) for i in bad)}")
+    return arr
+
+
+def as_points(value, name: str = "points") -> np.ndarray:
+    """Return ``value`` as finite ``(n, 3) float64`` points; an empty input gives ``(0, 3)``."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: cannot be read as a float64 array ({exc})") from None
+    if arr.size == 0:
+        return np.zeros((0, 3))
+    return as_array(arr, name, (None, 3))
+
+
+def as_radius(value, name: str = "radius") -> float:
+    """Return ``value`` as a finite float ``>= 0``."""
+    try:
+        r = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected a number, got {value!r}") from None
+    if not np.isfinite(r):
+        raise ValueError(f"{name}: must be finite, got {r}")
+    if r < 0.0:
+        raise ValueError(f"{name}: must be >= 0, got {r}")
+    return r
+
+
+def as_positive(value, name: str) -> float:
+    """Return ``value`` as a finite float ``> 0``."""
+    r = as_radius(value, name)
+    if r <= 0.0:
+        raise ValueError(f"{name}: must be > 0, got {r}")
+    return r
+
+
+def as_count(value, name: str, minimum: int) -> int:
+    """Return ``value`` as an int ``>= minimum``."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{name}: expected an integer, got {value!r}")
+    if value < minimum:
+        raise ValueError(f"{name}: must be >= {minimum}, got {value}")
+    return int(value)
+
+
+def as_affine(matrix, translation=None, name: str = "matrix") -> tuple[np.ndarray, np.ndarray]:
+    """Split an affine map into its linear part and translation.
+
+    Parameters
+    ----------
+    matrix : (4, 4) or (3, 3) array_like
+        A homogeneous affine matrix (last row ``[0, 0, 0, 1]``), or the linear part when
+        ``translation`` is given (or omitted, meaning zero).
+    translation : (3,) array_like, optional
+        Translation applied after the linear part.
+
+    Returns
+    -------
+    linear : (3, 3) float64
+    translation : (3,) float64
+    """
+    m = np.asarray(matrix, dtype=np.float64) if not isinstance(matrix, tuple) else None
+    if isinstance(matrix, tuple):
+        if len(matrix) != 2 or translation is not None:
+            raise ValueError(f"{name}: a tuple must be (rotation (3, 3), translation (3,))")
+        matrix, translation = matrix
+        m = np.asarray(matrix, dtype=np.float64)
+    if m.shape == (4, 4):
+        if translation is not None:
+            raise ValueError(f"{name}: give either a (4, 4) matrix or a (3, 3) linear part with a translation")
+        m = as_array(m, name, (4, 4))
+        if not np.array_equal(m[3], [0.0, 0.0, 0.0, 1.0]):
+            raise ValueError(f"{name}: last row of a (4, 4) affine matrix must be [0, 0, 0, 1], got {m[3]}")
+        return m[:3, :3].copy(), m[:3, 3].copy()
+    linear = as_array(m, name, (3, 3))
+    t = np.zeros(3) if translation is None else as_array(translation, "translation", (3,))
+    return linear, t

@@ -1,0 +1,207 @@
+"""Convex hulls that never fail: reduction to hull vertices, ball polytopes, exact hull ∩ hull.
+
+Qhull (through scipy) raises on flat, collinear, single-point and duplicate input, and loses
+precision far from the origin. Every routine here first finds the affine dimension of the input
+(SVD of the centred points), works in that dimension, and falls back to returning its input
+unchanged, which is always conservative, if Qhull still refuses.
+
+Exact hull intersections go through manifold3d (double precision, robust booleans); this module
+and ``csg`` are the only ones that import it (DESIGN.md, layers).
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+from scipy.spatial import ConvexHull, QhullError
+
+# Relative size of a singular value, against the largest, below which a direction is treated as
+# flat. 1e-12 keeps the neglected thickness at the level of float64 rounding of the coordinates.
+FLAT_TOL = 1e-12
+
+
+def affine_basis(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """Centre and principal directions of a point set, and its affine dimension.
+
+    Parameters
+    ----------
+    points : (n, 3) float64
+        Non-empty point set.
+
+    Returns
+    -------
+    center : (3,) float64
+        Mean of the points.
+    axes : (3, 3) float64
+        Rows are the principal directions, largest spread first.
+    rank : int
+        0 (a single point, up to duplicates), 1 (collinear), 2 (flat) or 3.
+    """
+    center = points.mean(axis=0)
+    centred = points - center
+    extent = float(np.abs(centred).max()) if len(points) > 1 else 0.0
+    # A spread at the rounding level of the coordinates themselves is a single point.
+    if extent <= FLAT_TOL * float(np.abs(center).max()) or extent == 0.0:
+        return center, np.eye(3), 0
+    _, s, vt = np.linalg.svd(centred, full_matrices=True)
+    s = np.concatenate([s, np.zeros(3 - len(s))])
+    rank = int(np.sum(s > FLAT_TOL * s[0]))
+    return center, vt, rank
+
+
+def hull_indices(points: np.ndarray) -> np.ndarray:
+    """Indices of the points that span the convex hull, robust to every degenerate input.
+
+    Parameters
+    ----------
+    points : (n, 3) float64
+
+    Returns
+    -------
+    index : (m,) int64
+        Sorted indices into ``points``; ``hull(points[index]) == hull(points)`` up to rounding
+        (a flat set keeps its polygon's vertices, a collinear set its two extremes, a single
+        point one copy). If Qhull refuses even after dimension reduction, all indices of the
+        unique points are returned (conservative).
+    """
+    n = len(points)
+    if n <= 1:
+        return np.arange(n)
+    center, axes, rank = affine_basis(points)
+    if rank == 0:
+        return np.array([0])
+    local = (points - center) @ axes[:rank].T
+    if rank == 1:
+        return np.unique([int(np.argmin(local[:, 0])), int(np.argmax(local[:, 0]))])
+    if n <= rank + 1:
+        return np.arange(n)
+    try:
+        return np.sort(ConvexHull(local).vertices)
+    except (QhullError, ValueError):
+        _, first = np.unique(points, axis=0, return_index=True)
+        return np.sort(first)
+
+
+def hull_vertices(points: np.ndarray) -> np.ndarray:
+    """The points of ``points`` that span its convex hull, ``(m, 3) float64`` (see `hull_indices`)."""
+    return points[hull_indices(points)]
+
+
+@lru_cache(maxsize=8)
+def _ball_polytope(level: int) -> np.ndarray:
+    # Vertices of an icosahedron subdivided ``level`` times, pushed to the unit sphere: an
+    # inscribed polytope. Dividing by its inradius (the smallest facet-plane distance) makes it
+    # circumscribed: the unit ball touches every facet plane from inside. Level 1: 42 points,
+    # circumradius 1.064 (a ball of radius r becomes a polytope at most 6.4 % wider).
+    t = (1.0 + 5.0**0.5) / 2.0
+    v = np.array(
+        [[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t],
+         [0, -1, -t], [0, 1, -t], [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]], dtype=float)
+    v /= np.linalg.norm(v, axis=1)[:, None]
+    for _ in range(level):
+        faces = ConvexHull(v).simplices
+        mids = {}
+        pts = list(v)
+        for f in faces:
+            for a, b in ((f[0], f[1]), (f[1], f[2]), (f[2], f[0])):
+                key = (min(a, b), max(a, b))
+                if key not in mids:
+                    m = v[a] + v[b]
+                    mids[key] = len(pts)
+                    pts.append(m / np.linalg.norm(m))
+        v = np.array(pts)
+    hull = ConvexHull(v)
+    inradius = float(np.min(-hull.equations[:, 3]))
+    out = v / inradius * (1.0 + 1e-12)
+    out.setflags(write=False)
+    return out
+
+
+def ball_polytope(level: int = 1) -> np.ndarray:
+    """Vertices of a polytope that contains the unit ball.
+
+    Parameters
+    ----------
+    level : int
+        Icosahedron subdivision level: 0 gives 12 points (circumradius 1.258), 1 gives 42
+        (1.064), 2 gives 162 (1.016).
+
+    Returns
+    -------
+    points : (m, 3) float64, read-only
+    """
+    return _ball_polytope(int(level))
+
+
+def minkowski_ball(points: np.ndarray, radius: float, level: int = 1) -> np.ndarray:
+    """Points whose hull contains ``hull(points) ⊕ ball(radius)``, reduced to hull vertices.
+
+    Parameters
+    ----------
+    points : (n, 3) float64
+    radius : float
+        ``>= 0``; zero returns ``points`` unchanged.
+    level : int
+        Tightness of the ball polytope (see `ball_polytope`).
+
+    Returns
+    -------
+    points : (m, 3) float64
+    """
+    if radius == 0.0 or len(points) == 0:
+        return points
+    base = hull_vertices(points)
+    out = (base[:, None, :] + radius * ball_polytope(level)[None, :, :]).reshape(-1, 3)
+    return hull_vertices(out)
+
+
+def _manifold_hull(points: np.ndarray):
+    import manifold3d
+
+    return manifold3d.Manifold.hull_points(np.ascontiguousarray(points, dtype=np.float64))
+
+
+def _thicken(points: np.ndarray, eps: float) -> np.ndarray:
+    cube = np.array([[x, y, z] for x in (-eps, eps) for y in (-eps, eps) for z in (-eps, eps)])
+    return hull_vertices((points[:, None, :] + cube[None]).reshape(-1, 3))
+
+
+def intersect_hulls(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Vertices of ``hull(a) ∩ hull(b)``, computed exactly with manifold3d.
+
+    Flat inputs and hulls that only touch are thickened by a cube of half-width ``1e-12``
+    times the coordinate scale first (a conservative inflation at rounding level), so they
+    give a thin but valid cloud instead of an empty one; truly disjoint hulls give ``(0, 3)``.
+
+    Parameters
+    ----------
+    a, b : (n, 3), (m, 3) float64
+        Non-empty point sets.
+
+    Returns
+    -------
+    points : (k, 3) float64
+    """
+    lo = np.maximum(a.min(axis=0), b.min(axis=0))
+    hi = np.minimum(a.max(axis=0), b.max(axis=0))
+    scale = max(float(np.abs(a).max()), float(np.abs(b).max()), float(np.ptp(a, axis=0).max()),
+                float(np.ptp(b, axis=0).max()), 1e-300)
+    eps = 1e-12 * scale
+    if np.any(lo > hi + 4 * eps):
+        return np.zeros((0, 3))
+    a = hull_vertices(a)
+    b = hull_vertices(b)
+    if affine_basis(a)[2] < 3:
+        a = _thicken(a, eps)
+    if affine_basis(b)[2] < 3:
+        b = _thicken(b, eps)
+    for attempt in range(2):
+        inter = _manifold_hull(a) ^ _manifold_hull(b)
+        if not inter.is_empty():
+            return np.array(inter.to_mesh64().vert_properties[:, :3], dtype=np.float64)
+        if attempt == 0:
+            # Touching hulls: the exact intersection is a face, edge or point that the boolean
+            # drops as zero-volume. Thicken both by rounding-level eps and try once more.
+            a, b = _thicken(a, eps), _thicken(b, eps)
+    return np.zeros((0, 3))

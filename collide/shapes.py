@@ -1,0 +1,1 @@
+"""Primitive -> PointCloud constructors (paper §3.1): being written."""
