@@ -46,7 +46,10 @@ def affine_basis(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
         return center, np.eye(3), 0
     _, s, vt = np.linalg.svd(centred, full_matrices=True)
     s = np.concatenate([s, np.zeros(3 - len(s))])
-    rank = int(np.sum(s > FLAT_TOL * s[0]))
+    # Thickness below the rounding noise of the coordinates (a flat set rotated far from the
+    # origin picks up ~eps * |x| of it per point) or below FLAT_TOL of the spread is flatness.
+    noise = 64.0 * np.finfo(np.float64).eps * float(np.abs(points).max()) * np.sqrt(len(points))
+    rank = int(np.sum(s > max(FLAT_TOL * s[0], noise)))
     return center, vt, rank
 
 
@@ -93,7 +96,7 @@ def _ball_polytope(level: int) -> np.ndarray:
     # Vertices of an icosahedron subdivided ``level`` times, pushed to the unit sphere: an
     # inscribed polytope. Dividing by its inradius (the smallest facet-plane distance) makes it
     # circumscribed: the unit ball touches every facet plane from inside. Level 1: 42 points,
-    # circumradius 1.064 (a ball of radius r becomes a polytope at most 6.4 % wider).
+    # circumradius 1.0705 (a ball of radius r becomes a polytope at most 7.1 % wider).
     t = (1.0 + 5.0**0.5) / 2.0
     v = np.array(
         [[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t],
@@ -125,7 +128,7 @@ def ball_polytope(level: int = 1) -> np.ndarray:
     ----------
     level : int
         Icosahedron subdivision level: 0 gives 12 points (circumradius 1.258), 1 gives 42
-        (1.064), 2 gives 162 (1.016).
+        (1.0705), 2 gives 162 (1.018).
 
     Returns
     -------

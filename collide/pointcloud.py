@@ -17,7 +17,7 @@ from . import volumes as _volumes
 from ._validate import as_affine, as_count, as_points, as_radius
 
 # Ball-polytope level used when a radius must become points (general affine maps, mixed radii,
-# intersections): 42 points, at most 6.4 % wider than the ball (see hull.ball_polytope).
+# intersections): 42 points, at most 7.1 % wider than the ball (see hull.ball_polytope).
 BALL_LEVEL = 1
 
 # A linear map whose singular values agree to this relative tolerance is a similarity: the radius

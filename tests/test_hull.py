@@ -1,0 +1,89 @@
+"""Robust hulls: every degenerate input works, reductions keep the hull, ball polytopes contain the ball."""
+
+import numpy as np
+import pytest
+from scipy.optimize import linprog
+
+from collide import hull
+
+
+def _in_hull(points: np.ndarray, query: np.ndarray, tol: float = 1e-9) -> bool:
+    # Brute force: query is a convex combination of points (feasibility LP), up to tol.
+    n = len(points)
+    a_eq = np.vstack([points.T, np.ones((1, n))])
+    for q in query:
+        res = linprog(np.zeros(n), A_eq=a_eq, b_eq=np.append(q, 1.0), bounds=(0, None),
+                      method="highs", options={"primal_feasibility_tolerance": tol})
+        if res.status != 0:
+            return False
+    return True
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_hull_vertices_keep_the_hull(seed):
+    rng = np.random.default_rng(seed)
+    pts = rng.normal(size=(200, 3))
+    verts = hull.hull_vertices(pts)
+    assert len(verts) < len(pts)
+    assert _in_hull(verts, pts[::7])
+
+
+@pytest.mark.parametrize(
+    "pts, expected",
+    [
+        (np.array([[1.0, 2.0, 3.0]]), 1),
+        (np.array([[1.0, 2.0, 3.0]] * 6), 1),
+        (np.array([[0, 0, 0], [1, 1, 1], [2, 2, 2], [0.5, 0.5, 0.5]], float), 2),
+        (np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [0.5, 0.5, 0]], float), 4),
+        (np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float), 3),
+        (np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float), 4),
+    ],
+    ids=["point", "duplicates", "collinear", "flat-square", "triangle", "tetrahedron"],
+)
+def test_degenerate_inputs(pts, expected):
+    for shift in (0.0, 1e5):
+        verts = hull.hull_vertices(pts + shift)
+        assert len(verts) == expected
+        assert _in_hull(verts, pts + shift, tol=1e-7)
+
+
+def test_flat_rotated_polygon_far_from_origin():
+    rng = np.random.default_rng(3)
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    xy = rng.uniform(-1, 1, size=(100, 2))
+    pts = np.column_stack([xy, np.zeros(100)]) @ q.T + 1e5
+    verts = hull.hull_vertices(pts)
+    assert 3 <= len(verts) < 30
+    assert hull.affine_basis(pts)[2] == 2
+
+
+@pytest.mark.parametrize("level", [0, 1, 2])
+def test_ball_polytope_contains_the_unit_ball(level):
+    # The support function of the polytope is >= 1 in every direction (it circumscribes the ball).
+    poly = hull.ball_polytope(level)
+    dirs = np.random.default_rng(level).normal(size=(20000, 3))
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    assert np.min(np.max(dirs @ poly.T, axis=1)) >= 1.0
+    # ...and it is tight: the circumradius falls with the level.
+    assert np.max(np.linalg.norm(poly, axis=1)) < [1.26, 1.071, 1.019][level]
+
+
+def test_minkowski_ball_bounds_the_rounded_hull():
+    rng = np.random.default_rng(7)
+    pts = rng.normal(size=(30, 3))
+    r = 0.3
+    out = hull.minkowski_ball(pts, r)
+    dirs = rng.normal(size=(5000, 3))
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    exact_support = np.max(dirs @ pts.T, axis=1) + r
+    assert np.all(np.max(dirs @ out.T, axis=1) >= exact_support - 1e-12)
+
+
+def test_intersect_hulls_of_flat_sets_is_conservative():
+    square = np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0], [2, 2, 0]], float)
+    cube = np.array([[x, y, z] for x in (1, 3) for y in (1, 3) for z in (-1, 1)], float)
+    out = hull.intersect_hulls(square, cube)
+    assert len(out) > 0
+    lo, hi = out.min(axis=0), out.max(axis=0)
+    np.testing.assert_allclose(lo, [1, 1, 0], atol=1e-9)
+    np.testing.assert_allclose(hi, [2, 2, 0], atol=1e-9)

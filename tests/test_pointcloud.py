@@ -1,0 +1,230 @@
+"""PointCloud and its operators (paper §3.2-§3.3): transforms, unions, intersections, bad input."""
+
+import numpy as np
+import pytest
+
+import collide
+from collide import PointCloud
+
+CUBE = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
+
+
+def _rot(axis, angle):
+    axis = np.asarray(axis, float) / np.linalg.norm(axis)
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
+
+
+def _random_rotation(rng):
+    q, r = np.linalg.qr(rng.normal(size=(3, 3)))
+    q = q * np.sign(np.diag(r))
+    return q if np.linalg.det(q) > 0 else -q
+
+
+def _box_of_rotated_box(lo, hi, rotation):
+    # What a box-of-box hierarchy does: the AABB of the rotated AABB.
+    center, half = (lo + hi) / 2, (hi - lo) / 2
+    c = rotation @ center
+    h = np.abs(rotation) @ half
+    return c - h, c + h
+
+
+def test_points_are_a_read_only_copy():
+    src = np.zeros((3, 3))
+    cloud = PointCloud(src)
+    src[0, 0] = 5.0
+    assert cloud.points[0, 0] == 0.0
+    with pytest.raises(ValueError):
+        cloud.points[0, 0] = 1.0
+    assert len(cloud) == 3 and cloud.radius == 0.0
+
+
+def test_empty_cloud():
+    e = PointCloud.empty()
+    assert len(e) == 0 and e.is_empty
+    assert e.transform(np.eye(4)).is_empty
+    assert e.aabb().volume() == 0.0
+    assert len(collide.union([e, e])) == 0
+    assert len(PointCloud([])) == 0
+
+
+def test_cube_rotated_45_degrees_100_times_keeps_its_exact_box():
+    # The paper's motivating example (§1): the cloud stays exact, the box of boxes explodes.
+    cloud = PointCloud(CUBE)
+    lo, hi = CUBE.min(axis=0), CUBE.max(axis=0)
+    axes = [(1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 0)]
+    total = np.eye(3)
+    for i in range(100):
+        r = _rot(axes[i % len(axes)], np.pi / 4)
+        cloud = cloud.transform(r, np.zeros(3))
+        lo, hi = _box_of_rotated_box(lo, hi, r)
+        total = r @ total
+    exact = CUBE @ total.T
+    box = cloud.aabb()
+    np.testing.assert_allclose(box.lo, exact.min(axis=0), atol=1e-12)
+    np.testing.assert_allclose(box.hi, exact.max(axis=0), atol=1e-12)
+    growth = np.prod(hi - lo) / box.volume()
+    assert growth > 1e6, growth  # orders of magnitude (measured ~1e11 on 2026-11-21)
+
+
+def test_transform_forms_agree():
+    rng = np.random.default_rng(0)
+    cloud = PointCloud(rng.normal(size=(20, 3)), 0.2)
+    r, t = _random_rotation(rng), rng.normal(size=3)
+    m = np.eye(4)
+    m[:3, :3], m[:3, 3] = r, t
+    a, b, c = cloud.transform(m), cloud.transform(r, t), cloud.transform((r, t))
+    for other in (b, c):
+        np.testing.assert_array_equal(a.points, other.points)
+        assert a.radius == other.radius == pytest.approx(0.2)
+    assert cloud.transform(2.5 * r, t).radius == pytest.approx(0.5)
+
+
+def test_general_affine_turns_radius_into_points_conservatively():
+    rng = np.random.default_rng(1)
+    sphere = PointCloud([[0.0, 0.0, 0.0]], 1.0)
+    a = np.diag([1.0, 2.0, 3.0]) @ _random_rotation(rng)
+    out = sphere.transform(a, np.zeros(3))
+    assert out.radius == 0.0 and len(out) > 10
+    # Points on the true ellipsoid surface lie in the cloud's AABB and in its hull (support test).
+    d = rng.normal(size=(5000, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    surface = d @ a.T
+    assert np.all(out.aabb().contains(surface, rtol=1e-12))
+    dirs = rng.normal(size=(2000, 3))
+    assert np.all(np.max(dirs @ out.points.T, axis=1) >= np.max(dirs @ surface.T, axis=1) - 1e-12)
+
+
+def test_union_threshold_and_mixed_radii():
+    rng = np.random.default_rng(2)
+    clouds = [PointCloud(rng.normal(size=(100, 3)) + i) for i in range(3)]
+    assert len(collide.union(clouds, threshold=1000)) == 300
+    reduced = collide.union(clouds, threshold=256)
+    assert len(reduced) < 300
+    # A sphere (radius 1) and a box (radius 0): the result keeps radius 0 and bounds the sphere.
+    mixed = collide.union([PointCloud([[3.0, 0, 0]], 1.0), PointCloud(CUBE)])
+    assert mixed.radius == 0.0
+    d = rng.normal(size=(3000, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    sphere_surface = d + [3.0, 0, 0]
+    assert np.all(np.max(d @ mixed.points.T, axis=1) >= np.max(d @ sphere_surface.T, axis=1) - 1e-12)
+    # Equal radii are kept as they are (a capsule from two spheres is exact).
+    caps = collide.union([PointCloud([[0, 0, -1.0]], 0.5), PointCloud([[0, 0, 1.0]], 0.5)])
+    assert caps.radius == 0.5 and len(caps) == 2
+
+
+def test_union_does_not_mutate_inputs():
+    a = PointCloud(CUBE)
+    b = a.transform(np.eye(3), [5.0, 0, 0])
+    collide.union([a, b])
+    np.testing.assert_array_equal(a.points, CUBE)
+
+
+def test_exact_intersection_of_overlapping_boxes_is_their_box():
+    a = PointCloud(CUBE)
+    b = PointCloud(CUBE * [2.0, 1.0, 0.5] + [0.7, 0.2, -0.1])
+    out = collide.intersection(a, b)
+    box = out.aabb()
+    lo = np.maximum(a.points.min(0), b.points.min(0))
+    hi = np.minimum(a.points.max(0), b.points.max(0))
+    np.testing.assert_allclose(box.lo, lo, atol=1e-9)
+    np.testing.assert_allclose(box.hi, hi, atol=1e-9)
+    assert len(out.reduced()) == 8
+
+
+def test_exact_intersection_of_rotated_boxes_bounds_sampled_intersection():
+    rng = np.random.default_rng(4)
+    a = PointCloud(CUBE)
+    b = PointCloud(CUBE).transform(_random_rotation(rng), [0.4, 0.1, 0.0])
+    out = collide.intersection(a, b)
+    # Points inside both boxes (rejection sampling) lie in the AABB of the result.
+    samples = rng.uniform(-0.9, 0.9, size=(200000, 3))
+    in_a = np.all(np.abs(samples) <= 0.5, axis=1)
+    rot = _random_rotation(np.random.default_rng(4))
+    in_b = np.all(np.abs((samples - [0.4, 0.1, 0.0]) @ rot) <= 0.5, axis=1)
+    both = samples[in_a & in_b]
+    assert len(both) > 1000
+    assert np.all(out.aabb().contains(both, rtol=1e-12))
+    assert out.aabb().volume() < a.aabb().volume()
+
+
+def test_intersection_disjoint_touching_and_box_variant():
+    a = PointCloud(CUBE)
+    assert collide.intersection(a, a.transform(np.eye(3), [1.5, 0, 0])).is_empty
+    touching = collide.intersection(a, a.transform(np.eye(3), [1.0, 0, 0]))
+    assert not touching.is_empty
+    box = touching.aabb()
+    np.testing.assert_allclose(box.lo, [0.5, -0.5, -0.5], atol=1e-9)
+    np.testing.assert_allclose(box.hi, [0.5, 0.5, 0.5], atol=1e-9)
+    fast = collide.intersection(a, a.transform(np.eye(3), [0.5, 0, 0]), exact=False)
+    assert len(fast) == 8
+    np.testing.assert_allclose(fast.aabb().lo, [0.0, -0.5, -0.5])
+    assert collide.intersection(a, a.transform(np.eye(3), [2.0, 0, 0]), exact=False).is_empty
+    assert collide.intersection(a, PointCloud.empty()).is_empty
+
+
+def test_intersection_with_radii_and_flat_clouds():
+    s1 = PointCloud([[0.0, 0, 0]], 1.0)
+    s2 = PointCloud([[1.5, 0, 0]], 1.0)
+    lens = collide.intersection(s1, s2)
+    box = lens.aabb()
+    # The true lens spans x in [0.5, 1.0] and |y|, |z| <= sqrt(1 - 0.75^2) = 0.661.
+    assert box.lo[0] <= 0.5 + 1e-9 and box.hi[0] >= 1.0 - 1e-9
+    assert box.hi[1] >= np.sqrt(1 - 0.75**2) - 1e-9
+    square = PointCloud([[0, 0, 0], [2, 0, 0], [0, 2, 0], [2, 2, 0.0]])
+    flat = collide.intersection(square, PointCloud(CUBE + [1.0, 1.0, 0.0]))
+    assert not flat.is_empty
+    np.testing.assert_allclose(flat.aabb().hi, [1.5, 1.5, 0.0], atol=1e-9)
+
+
+def test_difference_keeps_first_operand():
+    a, b = PointCloud(CUBE), PointCloud(CUBE + 0.2)
+    assert collide.difference(a, b) is a
+
+
+@pytest.mark.parametrize(
+    "points",
+    [
+        [[0.0, 0.0, 0.0]],
+        [[1.0, 1.0, 1.0]] * 5,
+        [[0, 0, 0], [1, 1, 1], [2, 2, 2.0]],
+        [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.0]],
+        (np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]]) + 1e5).tolist(),
+    ],
+    ids=["point", "duplicates", "collinear", "flat", "far"],
+)
+def test_degenerate_clouds_work_everywhere(points):
+    rng = np.random.default_rng(5)
+    cloud = PointCloud(points, 0.1)
+    pts = np.asarray(points)
+    for c in (cloud, cloud.reduced(), cloud.transform(np.diag([1.0, 2.0, 0.5]), np.ones(3))):
+        assert not c.is_empty
+        c.aabb()
+    r = _random_rotation(rng)
+    moved = cloud.transform(r, np.zeros(3)).reduced()
+    assert np.all(moved.aabb().contains(pts @ r.T, rtol=1e-12))
+    assert not collide.union([cloud, cloud]).is_empty
+    assert not collide.intersection(cloud, cloud).is_empty
+
+
+@pytest.mark.parametrize(
+    "make, message",
+    [
+        (lambda: PointCloud([[np.nan, 0, 0]]), "non-finite"),
+        (lambda: PointCloud([[np.inf, 0, 0]]), "non-finite"),
+        (lambda: PointCloud([[0, 0]]), "shape"),
+        (lambda: PointCloud(np.zeros((2, 3, 1))), "shape"),
+        (lambda: PointCloud([[0, 0, 0]], -1.0), ">= 0"),
+        (lambda: PointCloud([[0, 0, 0]], np.nan), "finite"),
+        (lambda: PointCloud([["a", 0, 0]]), "points"),
+        (lambda: PointCloud(CUBE).transform(np.ones((3, 4))), "shape"),
+        (lambda: PointCloud(CUBE).transform(np.full((4, 4), 1.0)), "last row"),
+        (lambda: PointCloud(CUBE).transform(np.eye(3), [0, np.nan, 0]), "non-finite"),
+        (lambda: collide.union([PointCloud(CUBE), CUBE]), "PointCloud"),
+        (lambda: collide.union([PointCloud(CUBE)], threshold=0), "threshold"),
+        (lambda: collide.intersection(PointCloud(CUBE), None), "PointCloud"),
+    ],
+)
+def test_bad_input_raises_a_clear_value_error(make, message):
+    with pytest.raises(ValueError, match=message):
+        make()
