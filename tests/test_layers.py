@@ -1,0 +1,61 @@
+"""The layering rules of DESIGN.md, checked on the source: who may import mujoco, manifold3d, testing."""
+
+import ast
+from pathlib import Path
+
+import collide
+
+PACKAGE = Path(collide.__file__).parent
+
+
+def _imports(path: Path) -> set[str]:
+    # Absolute module names imported by a file; relative imports are resolved against the package.
+    tree = ast.parse(path.read_text())
+    rel = path.relative_to(PACKAGE.parent).with_suffix("")
+    pkg_parts = list(rel.parts[:-1])  # the package a relative import starts from
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = pkg_parts[: len(pkg_parts) - node.level + 1]
+                mod = ".".join(base + ([node.module] if node.module else []))
+                names.add(mod)
+                names.update(f"{mod}.{a.name}" for a in node.names)
+            else:
+                names.add(node.module)
+    return names
+
+
+def _library_files():
+    return [p for p in PACKAGE.rglob("*.py") if "testing" not in p.relative_to(PACKAGE).parts]
+
+
+def _uses(names: set[str], module: str) -> bool:
+    return any(n == module or n.startswith(module + ".") for n in names)
+
+
+def test_only_the_adapter_imports_mujoco():
+    offenders = [p.name for p in _library_files()
+                 if p.name != "mujoco.py" and p.name != "__main__.py" and _uses(_imports(p), "mujoco")]
+    assert offenders == []
+
+
+def test_only_hull_and_csg_import_manifold3d():
+    allowed = {"hull.py", "csg.py"}
+    offenders = [p.name for p in _library_files()
+                 if p.name not in allowed and _uses(_imports(p), "manifold3d")]
+    assert offenders == []
+
+
+def test_library_never_imports_testing():
+    offenders = [str(p.relative_to(PACKAGE)) for p in _library_files()
+                 if _uses(_imports(p), "collide.testing")]
+    assert offenders == []
+
+
+def test_public_surface_is_flat_and_complete():
+    for name in collide.__all__:
+        assert hasattr(collide, name), name
+    assert list(collide.__all__) == sorted(collide.__all__)
