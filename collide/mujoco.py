@@ -1,0 +1,712 @@
+"""MuJoCo adapter: ``MjModel`` -> `Articulation` with MuJoCo 4's collision filter, ``MjData`` -> poses.
+
+The only library module that imports the ``mujoco`` package (DESIGN.md, layers). It maps every
+geom type to a bounding cloud in its geom frame, and MuJoCo's rules for which geom pairs may
+produce contacts to the static filter of `collide.Articulation`, so that our candidates are a
+superset of the pairs MuJoCo can generate contacts for, and contain no pair its rules forbid.
+
+MuJoCo's rules, as read in ``src/engine/engine_collision_driver.c`` (MuJoCo 3.x-4.0:
+``mj_collision``, ``mj_broadphase``, ``filterBodyPair``, ``filterCollisionPair``) and checked on
+this install with small MJCF models (``tests/test_mujoco.py``):
+
+* no contacts at all with ``mjDSBL_CONTACT`` or ``mjDSBL_CONSTRAINT``, or with fewer than 2 bodies;
+* dynamic pairs (not listed in ``<contact><pair>``):
+  - bodies in the same weld group (``body_weldid``, bodies rigidly attached without joints,
+    including every static body in group 0 of the world) never pair;
+  - parent filter, unless ``mjDSBL_FILTERPARENT``: with ``w = body_weldid[b]`` and
+    ``wp = body_weldid[body_parentid[w]]``, bodies ``b1, b2`` never pair when ``w1 == wp2`` or
+    ``w2 == wp1``, except when either weld group is the world's (``w == 0``);
+  - ``<exclude>`` body pairs never pair;
+  - geoms pass when ``(contype1 & conaffinity2) or (contype2 & conaffinity1)``;
+  - a contact is generated when the distance is below ``margin1 + margin2 + gap1 + gap2``
+    (MuJoCo >= 3.9: geoms in the gap produce contacts flagged ``exclude``; with
+    ``mjENBL_OVERRIDE`` the margin sum is ``opt.o_margin``; the gaps stay);
+* explicit ``<pair>``s bypass all the above filters and use their own ``margin + gap``; a dynamic
+  pair with the same two geoms is dropped in favour of the explicit one;
+* planes are half-spaces (``z <= 0`` in the plane frame; the plane's size is visual only);
+  meshes collide as the convex hull of their vertices (``mesh_vert``, already in the geom frame);
+  height fields are bounded by their box ``[-x, x] x [-y, y] x [-base, top]``; SDF geoms by
+  MuJoCo's own ``geom_aabb`` box (the SDF is only known to its plugin: that box is what MuJoCo
+  itself culls with);
+* flexes, sleeping bodies and a user ``mjcb_contactfilter`` are not modelled: flex contacts are
+  not geom pairs; sleeping and user filters only remove pairs, so our candidates stay a superset.
+
+MuJoCo's ``mjTIMER_COL_BROAD`` times ``mj_broadphase`` only: body-level sweep-and-prune in a
+covariance frame plus the weld, parent and bitmask filters, ending in body pairs. Geom pairs
+inside multi-geom bodies are culled afterwards, in the narrow-phase timer (a BVH "midphase",
+bounding spheres). Our time covers everything down to filtered geom pairs.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import sys
+import time
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from . import shapes
+from ._validate import as_array, as_count
+from .articulation import Articulation
+from .broadphase import BroadPhase as _BroadPhase
+from .pointcloud import PointCloud
+
+_GEOM = mujoco.mjtGeom
+_DSBL = mujoco.mjtDisableBit
+_ENBL = mujoco.mjtEnableBit
+_TIMER_BROAD = int(mujoco.mjtTimer.mjTIMER_COL_BROAD)
+
+__all__ = [
+    "BroadPhase",
+    "articulation",
+    "compare",
+    "contact_pairs",
+    "default_scene",
+    "format_report",
+    "geom_clouds",
+    "geom_inflation",
+    "pair_inflation",
+    "parent_excludes",
+    "plot_comparison",
+]
+
+
+# ----------------------------------------------------------------------------------------------
+# Model -> Articulation
+# ----------------------------------------------------------------------------------------------
+
+def _box_corners(lo: np.ndarray, hi: np.ndarray) -> PointCloud:
+    return PointCloud(np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                                for z in (lo[2], hi[2])]))
+
+
+def geom_clouds(model: mujoco.MjModel) -> list:
+    """Bounding cloud of every geom, in its geom frame.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+
+    Returns
+    -------
+    clouds : list of PointCloud or shapes.Plane, length ``model.ngeom``
+        Primitives through `collide.shapes` (sphere and capsule exact; cylinder and ellipsoid
+        as circumscribed polytopes); meshes as their vertices (MuJoCo collides with their convex
+        hull); planes as ``shapes.plane()`` (the half-space ``z <= 0`` of the geom frame);
+        height fields as their box; SDF geoms as MuJoCo's ``geom_aabb`` box.
+    """
+    clouds = []
+    for g in range(model.ngeom):
+        t, size = int(model.geom_type[g]), model.geom_size[g]
+        if t == _GEOM.mjGEOM_SPHERE:
+            clouds.append(shapes.sphere(float(size[0])))
+        elif t == _GEOM.mjGEOM_CAPSULE:
+            clouds.append(shapes.capsule(float(size[0]), float(size[1])))
+        elif t == _GEOM.mjGEOM_CYLINDER:
+            clouds.append(shapes.cylinder(float(size[0]), float(size[1])))
+        elif t == _GEOM.mjGEOM_ELLIPSOID:
+            clouds.append(shapes.ellipsoid(size[:3].astype(np.float64)))
+        elif t == _GEOM.mjGEOM_BOX:
+            clouds.append(shapes.box(size[:3].astype(np.float64)))
+        elif t == _GEOM.mjGEOM_MESH:
+            mid = int(model.geom_dataid[g])
+            adr, num = int(model.mesh_vertadr[mid]), int(model.mesh_vertnum[mid])
+            # mesh_vert is float32 in the mesh frame, which the compiler made the geom frame
+            # (it recentres the mesh and folds the offset into geom_pos/geom_quat).
+            clouds.append(shapes.mesh(model.mesh_vert[adr:adr + num].astype(np.float64)))
+        elif t == _GEOM.mjGEOM_PLANE:
+            clouds.append(shapes.plane())
+        elif t == _GEOM.mjGEOM_HFIELD:
+            sx, sy, top, base = model.hfield_size[int(model.geom_dataid[g])]
+            clouds.append(_box_corners(np.array([-sx, -sy, -base]), np.array([sx, sy, top])))
+        elif t == _GEOM.mjGEOM_SDF:
+            c, h = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
+            clouds.append(_box_corners(c - h, c + h))
+        else:
+            raise ValueError(f"geom {g} ({_geom_name(model, g)}): unsupported geom type {t}")
+    return clouds
+
+
+def geom_inflation(model: mujoco.MjModel) -> np.ndarray:
+    """``(G,) float64``: how far each geom's bound is inflated: ``margin + gap``.
+
+    MuJoCo generates a contact below ``margin1 + margin2 + gap1 + gap2`` (``getMargin`` +
+    ``getGap`` in engine_collision_driver.c); with ``mjENBL_OVERRIDE`` the margin sum becomes
+    ``opt.o_margin``, so each geom takes half of it.
+    """
+    if model.opt.enableflags & _ENBL.mjENBL_OVERRIDE:
+        margin = np.full(model.ngeom, 0.5 * float(model.opt.o_margin))
+    else:
+        margin = np.asarray(model.geom_margin, dtype=np.float64)
+    return np.maximum(margin + np.asarray(model.geom_gap, dtype=np.float64), 0.0)
+
+
+def pair_inflation(model: mujoco.MjModel) -> np.ndarray:
+    """``(P,) float64``: contact distance of each explicit ``<pair>``: ``margin + gap``."""
+    if model.opt.enableflags & _ENBL.mjENBL_OVERRIDE:
+        margin = np.full(model.npair, float(model.opt.o_margin))
+    else:
+        margin = np.asarray(model.pair_margin, dtype=np.float64)
+    return np.maximum(margin + np.asarray(model.pair_gap, dtype=np.float64), 0.0)
+
+
+def parent_excludes(model: mujoco.MjModel) -> np.ndarray:
+    """``(E, 2) int64`` body pairs removed by MuJoCo's parent filter (``filterBodyPair``).
+
+    Bodies ``b1, b2`` never pair when the weld group of one is the weld group of the parent of
+    the other's weld root, unless either group is the world's (0). Only bodies that carry geoms
+    are listed. Empty with ``mjDSBL_FILTERPARENT``.
+    """
+    if model.opt.disableflags & _DSBL.mjDSBL_FILTERPARENT:
+        return np.zeros((0, 2), dtype=np.int64)
+    weld = np.asarray(model.body_weldid)
+    parent = np.asarray(model.body_parentid)
+    has_geom = np.asarray(model.body_geomnum) > 0
+    members: dict[int, np.ndarray] = {}
+    for w in np.unique(weld[has_geom]):
+        members[int(w)] = np.flatnonzero(has_geom & (weld == w))
+    rows = []
+    for w, group in members.items():
+        if w == 0:
+            continue
+        wp = int(weld[parent[w]])
+        if wp == 0 or wp not in members:
+            continue
+        a, b = np.meshgrid(members[wp], group, indexing="ij")
+        rows.append(np.stack([a.ravel(), b.ravel()], axis=1))
+    if not rows:
+        return np.zeros((0, 2), dtype=np.int64)
+    out = np.sort(np.concatenate(rows), axis=1)
+    return np.unique(out, axis=0)
+
+
+def model_excludes(model: mujoco.MjModel) -> np.ndarray:
+    """``(E, 2) int64``: the model's ``<exclude>`` body pairs (decoded from exclude_signature)."""
+    sig = np.asarray(model.exclude_signature, dtype=np.int64)
+    return np.stack([sig >> 16, sig & 0xFFFF], axis=1).reshape(-1, 2)
+
+
+def _quat_to_mat(quat: np.ndarray) -> np.ndarray:
+    out = np.empty((len(quat), 9))
+    for i, q in enumerate(quat):
+        mujoco.mju_quat2Mat(out[i], q)
+    return out.reshape(-1, 3, 3)
+
+
+def articulation(model: mujoco.MjModel) -> Articulation:
+    """The `Articulation` of a MuJoCo model: its bodies, geoms and collision filter.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+
+    Returns
+    -------
+    Articulation
+        Bodies as in the model (body 0 is the world), geoms placed by ``geom_pos`` /
+        ``geom_quat``, clouds from `geom_clouds`, contype/conaffinity, inflation from
+        `geom_inflation`, exclusions from ``<exclude>`` and `parent_excludes`, weld groups
+        from ``body_weldid``, explicit pairs with `pair_inflation`. The parent filter is
+        passed as explicit exclusions (MuJoCo applies it to weld groups, not bodies).
+    """
+    if not isinstance(model, mujoco.MjModel):
+        raise ValueError(f"model: expected a mujoco.MjModel, got {type(model).__name__}")
+    excludes = np.concatenate([model_excludes(model), parent_excludes(model)]).astype(np.int64)
+    pairs = np.stack([model.pair_geom1, model.pair_geom2], axis=1).astype(np.int64).reshape(-1, 2)
+    return Articulation(
+        body_parent=np.asarray(model.body_parentid, dtype=np.int64),
+        geom_body=np.asarray(model.geom_bodyid, dtype=np.int64),
+        geom_cloud=geom_clouds(model),
+        geom_pos=np.asarray(model.geom_pos, dtype=np.float64),
+        geom_rot=_quat_to_mat(np.asarray(model.geom_quat, dtype=np.float64)),
+        geom_contype=np.asarray(model.geom_contype, dtype=np.int64),
+        geom_conaffinity=np.asarray(model.geom_conaffinity, dtype=np.int64),
+        geom_margin=geom_inflation(model),
+        exclude=[tuple(int(v) for v in row) for row in excludes],
+        pairs=pairs,
+        filter_parent=False,
+        # MuJoCo's pair margin + gap is the contact distance; the articulation inflates each of
+        # the two geoms by pair_margin, so each takes half.
+        pair_margin=0.5 * pair_inflation(model),
+        body_weld=np.asarray(model.body_weldid, dtype=np.int64),
+    )
+
+
+def _contacts_disabled(model: mujoco.MjModel) -> bool:
+    flags = int(model.opt.disableflags)
+    return bool(flags & (_DSBL.mjDSBL_CONTACT | _DSBL.mjDSBL_CONSTRAINT)) or model.nbody < 2
+
+
+class BroadPhase:
+    """Our broad phase on a MuJoCo model: ``MjData`` in, candidate geom pairs out.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+        Read once: geometry and filter rules. ``mjDSBL_CONTACT`` / ``mjDSBL_CONSTRAINT`` are
+        re-read at every call (they only switch everything off); other flags are read here.
+
+    Attributes
+    ----------
+    articulation : Articulation
+    broadphase : collide.BroadPhase
+    """
+
+    def __init__(self, model: mujoco.MjModel):
+        self.model = model
+        self.articulation = articulation(model)
+        self.broadphase = _BroadPhase(self.articulation)
+        self._empty2 = np.zeros((0, 2), dtype=np.int32)
+        self._empty3 = np.zeros((0, 3), dtype=np.int32)
+        self._data = None
+        # MuJoCo has no collision function for plane-hfield and hfield-hfield (mjCOLLISIONFUNC
+        # is NULL there): such pairs never make contacts and are removed after the kernel.
+        types = np.asarray(model.geom_type)
+        self._no_function = None
+        if np.any(types == _GEOM.mjGEOM_HFIELD):
+            self._no_function = (types == _GEOM.mjGEOM_HFIELD) | (types == _GEOM.mjGEOM_PLANE)
+
+    def _drop_null(self, pairs: np.ndarray, first: int) -> np.ndarray:
+        if self._no_function is None or len(pairs) == 0:
+            return pairs
+        nf = self._no_function
+        return pairs[~(nf[pairs[:, first]] & nf[pairs[:, first + 1]])]
+
+    @property
+    def stats(self):
+        """Counters of the last call (see `collide.BroadPhase.stats`)."""
+        return self.broadphase.stats
+
+    def pairs(self, data: mujoco.MjData) -> np.ndarray:
+        """Candidate geom pairs at the poses of ``data`` (after ``mj_kinematics`` or a step).
+
+        Parameters
+        ----------
+        data : mujoco.MjData
+            Its ``xpos`` ``(nbody, 3)`` and ``xmat`` ``(nbody, 9)`` are read.
+
+        Returns
+        -------
+        pairs : (K, 2) int32
+            Geom ids, lower first, rows sorted and unique.
+        """
+        if _contacts_disabled(self.model):
+            return self._empty2
+        out = self.broadphase.pairs(data.xpos, data.xmat.reshape(-1, 3, 3))
+        return out if self._no_function is None else self._drop_null(out, 0)
+
+    def pairs_batch(self, model: mujoco.MjModel, qpos) -> np.ndarray:
+        """Candidate pairs of many configurations: kinematics per world, one batched call.
+
+        Parameters
+        ----------
+        model : mujoco.MjModel
+            The model this broad phase was built from.
+        qpos : (B, nq) array_like of float
+            One configuration per world (mocap bodies stay at their model poses).
+
+        Returns
+        -------
+        pairs : (K, 3) int32
+            ``(world, geom1, geom2)`` rows, sorted.
+        """
+        if model is not self.model and (model.nbody != self.model.nbody
+                                         or model.ngeom != self.model.ngeom):
+            raise ValueError("model: not the model this BroadPhase was built from")
+        q = as_array(qpos, "qpos", (None, model.nq))
+        if _contacts_disabled(model):
+            return self._empty3
+        pos, rot = self.kinematics_batch(model, q)
+        out = self.broadphase.pairs_batch(pos, rot)
+        return out if self._no_function is None else self._drop_null(out, 1)
+
+    def kinematics_batch(self, model: mujoco.MjModel, qpos: np.ndarray):
+        """Body poses of each configuration: ``(B, L, 3)`` positions, ``(B, L, 3, 3)`` rotations."""
+        if self._data is None or self._data.model is not model:
+            self._data = mujoco.MjData(model)
+        d = self._data
+        b = len(qpos)
+        pos = np.empty((b, model.nbody, 3))
+        rot = np.empty((b, model.nbody, 9))
+        for i in range(b):
+            d.qpos[:] = qpos[i]
+            mujoco.mj_kinematics(model, d)
+            pos[i] = d.xpos
+            rot[i] = d.xmat
+        return pos, rot.reshape(b, model.nbody, 3, 3)
+
+
+# ----------------------------------------------------------------------------------------------
+# Measuring MuJoCo: its timer, its broad-phase candidates, its contacts
+# ----------------------------------------------------------------------------------------------
+
+def _native_clock():
+    # MuJoCo's timers tick only when mjcb_time is set. A Python callable would add its own call
+    # overhead to every interval, so on Linux we hand it a numba C callback reading
+    # clock_gettime(CLOCK_MONOTONIC) in microseconds; elsewhere we fall back to Python.
+    if not sys.platform.startswith("linux"):
+        return lambda: time.perf_counter() * 1e6
+    try:
+        import numba
+
+        gettime = ctypes.CDLL(None).clock_gettime
+        gettime.argtypes = [ctypes.c_int, ctypes.c_void_p]
+        gettime.restype = ctypes.c_int
+
+        @numba.cfunc("float64()", cache=True)
+        def now_us():
+            ts = np.empty(2, np.int64)
+            gettime(1, ts.ctypes.data)
+            return ts[0] * 1e6 + ts[1] * 1e-3
+
+        return ctypes.cast(now_us.address, ctypes.CFUNCTYPE(ctypes.c_double)), now_us
+    except Exception:  # pragma: no cover - any failure: the portable clock
+        return lambda: time.perf_counter() * 1e6
+
+
+_CLOCK = None
+
+
+class mujoco_timer:
+    """Context manager: MuJoCo's timers tick (``mjcb_time`` set, in microseconds) inside it."""
+
+    def __enter__(self):
+        global _CLOCK
+        if _CLOCK is None:
+            _CLOCK = _native_clock()
+        self._old = mujoco.get_mjcb_time()
+        fn = _CLOCK[0] if isinstance(_CLOCK, tuple) else _CLOCK
+        mujoco.set_mjcb_time(fn)
+        return self
+
+    def __exit__(self, *exc):
+        mujoco.set_mjcb_time(self._old)
+        return False
+
+
+class candidate_counter:
+    """Context manager counting MuJoCo's broad-phase candidates without changing its result.
+
+    A ``mjcb_contactfilter`` replaces MuJoCo's contype/conaffinity test for every geom pair its
+    broad phase and midphase pass on (``filterCollisionPair``); ours counts the call and returns
+    the bitmask verdict MuJoCo would have reached, so the simulation is unchanged.
+
+    Attributes
+    ----------
+    count : int
+        Calls since the last `reset`.
+    """
+
+    def __init__(self, model: mujoco.MjModel):
+        self._contype = [int(v) for v in model.geom_contype]
+        self._conaff = [int(v) for v in model.geom_conaffinity]
+        self.count = 0
+
+    def reset(self) -> None:
+        self.count = 0
+
+    def _filter(self, m, d, g1, g2):
+        self.count += 1
+        ct, ca = self._contype, self._conaff
+        return int(not ((ct[g1] & ca[g2]) or (ct[g2] & ca[g1])))
+
+    def __enter__(self):
+        self._old = mujoco.get_mjcb_contactfilter()
+        mujoco.set_mjcb_contactfilter(self._filter)
+        return self
+
+    def __exit__(self, *exc):
+        mujoco.set_mjcb_contactfilter(self._old)
+        return False
+
+
+def contact_pairs(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+    """MuJoCo's current contacts as geom pairs: ``(K, 2) int32``, lower id first, sorted, unique.
+
+    Contacts involving a flex (geom id -1) are left out: they are not geom pairs.
+    """
+    if data.ncon == 0:
+        return np.zeros((0, 2), dtype=np.int32)
+    g = np.sort(np.asarray(data.contact.geom[:data.ncon], dtype=np.int32), axis=1)
+    g = g[g[:, 0] >= 0]
+    return np.unique(g, axis=0)
+
+
+def _geom_name(model: mujoco.MjModel, g: int) -> str:
+    name = mujoco.mj_id2name(model, _OBJ_GEOM, int(g))
+    return name if name else f"geom{int(g)}"
+
+
+_OBJ_GEOM = mujoco.mjtObj.mjOBJ_GEOM
+
+
+def _control_range(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
+    lo = np.full(model.nu, -1.0)
+    hi = np.full(model.nu, 1.0)
+    limited = np.asarray(model.actuator_ctrllimited, dtype=bool)
+    rng = np.asarray(model.actuator_ctrlrange)
+    lo[limited], hi[limited] = rng[limited, 0], rng[limited, 1]
+    return lo, hi
+
+
+@dataclass
+class Comparison:
+    """Per-step record of a comparison run (see `compare`)."""
+
+    model_name: str
+    seed: int
+    contact_pairs: list = field(default_factory=list)
+    candidates: list = field(default_factory=list)
+    mujoco_candidates: list = field(default_factory=list)
+    time_ours_us: list = field(default_factory=list)
+    time_mujoco_broad_us: list = field(default_factory=list)
+    missed: list = field(default_factory=list)
+
+
+def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str = "model",
+            broadphase: BroadPhase | None = None, on_step=None) -> dict:
+    """Simulate ``model`` with random controls; every step, compare MuJoCo's contacts with ours.
+
+    Each step: random controls (uniform in the control range, or [-1, 1]), ``mj_step``; then,
+    on the state MuJoCo just collided (``xpos``/``xmat`` and ``contact`` are left from the
+    same ``mj_forward``, before integration), our candidates from `BroadPhase.pairs`.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+    steps : int
+        Number of simulation steps, ``>= 1``.
+    seed : int
+        Seed of the random controls.
+    name : str
+        Model name for the report.
+    broadphase : BroadPhase, optional
+        Reused when given (built from ``model`` otherwise).
+    on_step : callable, optional
+        ``on_step(step, data, candidates)`` after each step (the demo uses it to render).
+
+    Returns
+    -------
+    dict
+        JSON-ready: ``steps``, ``recall`` (share of MuJoCo contact pairs, over all steps, among
+        our candidates; 1.0 when there were none), ``missed`` (list of ``{step, geom1, geom2,
+        name1, name2}``), ``contact_pairs_per_step``, ``candidates_per_step``,
+        ``mujoco_candidates_per_step`` (lists of ints, one per step), ``time_ours_us`` and
+        ``time_mujoco_broad_us`` (medians), their ``ratio``, the per-step times
+        (``time_ours_us_per_step``, ``time_mujoco_broad_us_per_step``), ``model``, ``seed``.
+    """
+    steps = as_count(steps, "steps", 1)
+    seed = as_count(seed, "seed", 0)
+    bp = broadphase if broadphase is not None else BroadPhase(model)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    bp.pairs(data)  # compile / warm up outside the timed loop
+    rng = np.random.default_rng(seed)
+    lo, hi = _control_range(model)
+    rec = Comparison(name, seed)
+    timer = data.timer[_TIMER_BROAD]
+    perf = time.perf_counter_ns
+    with mujoco_timer(), candidate_counter(model) as counter:
+        for step in range(steps):
+            if model.nu:
+                data.ctrl[:] = rng.uniform(lo, hi)
+            counter.reset()
+            dur0, num0 = timer.duration, timer.number
+            mujoco.mj_step(model, data)
+            nbroad = max(int(timer.number - num0), 1)
+            t0 = perf()
+            cand = bp.pairs(data)
+            t1 = perf()
+            contacts = contact_pairs(model, data)
+            rec.time_ours_us.append((t1 - t0) * 1e-3)
+            rec.time_mujoco_broad_us.append(float(timer.duration - dur0) / nbroad)
+            rec.mujoco_candidates.append(counter.count)
+            rec.candidates.append(len(cand))
+            rec.contact_pairs.append(len(contacts))
+            if len(contacts):
+                ng = np.int64(model.ngeom)
+                key_c = contacts[:, 0].astype(np.int64) * ng + contacts[:, 1]
+                key_o = cand[:, 0].astype(np.int64) * ng + cand[:, 1]
+                for g1, g2 in contacts[~np.isin(key_c, key_o)]:
+                    rec.missed.append({"step": step, "geom1": int(g1), "geom2": int(g2),
+                                       "name1": _geom_name(model, g1),
+                                       "name2": _geom_name(model, g2)})
+            if on_step is not None:
+                on_step(step, data, cand)
+    total = int(np.sum(rec.contact_pairs))
+    t_ours = float(np.median(rec.time_ours_us))
+    t_mj = float(np.median(rec.time_mujoco_broad_us))
+    return {
+        "model": rec.model_name,
+        "seed": seed,
+        "steps": steps,
+        "recall": 1.0 if total == 0 else (total - len(rec.missed)) / total,
+        "missed": rec.missed,
+        "contact_pairs_total": total,
+        "contact_pairs_per_step": rec.contact_pairs,
+        "candidates_per_step": rec.candidates,
+        "mujoco_candidates_per_step": rec.mujoco_candidates,
+        "time_ours_us": t_ours,
+        "time_mujoco_broad_us": t_mj,
+        "ratio": t_ours / t_mj if t_mj > 0 else float("inf"),
+        "time_ours_us_per_step": rec.time_ours_us,
+        "time_mujoco_broad_us_per_step": rec.time_mujoco_broad_us,
+        "nbody": int(model.nbody),
+        "ngeom": int(model.ngeom),
+    }
+
+
+def format_report(result: dict) -> str:
+    """The comparison as a printable table (see `compare` for the figures)."""
+    c = np.asarray(result["contact_pairs_per_step"])
+    o = np.asarray(result["candidates_per_step"])
+    mj = np.asarray(result["mujoco_candidates_per_step"])
+    lines = [
+        f"collide vs MuJoCo {mujoco.__version__}: {result['model']} "
+        f"({result['nbody']} bodies, {result['ngeom']} geoms), {result['steps']} steps, "
+        f"seed {result['seed']}",
+        "",
+        f"{'per step':<34}{'mean':>10}{'median':>10}{'max':>10}",
+        f"{'MuJoCo contact pairs':<34}{c.mean():>10.1f}{np.median(c):>10.0f}{c.max():>10d}",
+        f"{'our candidates':<34}{o.mean():>10.1f}{np.median(o):>10.0f}{o.max():>10d}",
+        f"{'MuJoCo broad-phase candidates':<34}{mj.mean():>10.1f}{np.median(mj):>10.0f}"
+        f"{mj.max():>10d}",
+        "",
+        f"recall: {100.0 * result['recall']:.2f} % of {result['contact_pairs_total']} MuJoCo "
+        f"contact pairs were among our candidates ({len(result['missed'])} missed)",
+    ]
+    for miss in result["missed"][:20]:
+        lines.append(f"  MISSED step {miss['step']}: {miss['name1']} ({miss['geom1']}) - "
+                     f"{miss['name2']} ({miss['geom2']})")
+    if len(result["missed"]) > 20:
+        lines.append(f"  ... {len(result['missed']) - 20} more")
+    lines += [
+        "",
+        f"median time per step: ours {result['time_ours_us']:.1f} us (Python call included), "
+        f"MuJoCo broad phase {result['time_mujoco_broad_us']:.1f} us "
+        f"(mjTIMER_COL_BROAD), ratio {result['ratio']:.2f}x",
+    ]
+    return "\n".join(lines)
+
+
+def plot_comparison(result: dict, path) -> None:
+    """Write a figure of the per-step figures of `compare` (needs matplotlib).
+
+    Top: MuJoCo contact pairs, our candidates and MuJoCo's broad-phase candidates per step;
+    bottom: our time and MuJoCo's broad-phase time per step.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    steps = np.arange(result["steps"])
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 7), sharex=True)
+    ax1.plot(steps, result["mujoco_candidates_per_step"], lw=0.8,
+             label="MuJoCo broad-phase candidates")
+    ax1.plot(steps, result["candidates_per_step"], lw=0.8, label="our candidates")
+    ax1.plot(steps, result["contact_pairs_per_step"], lw=0.8, label="MuJoCo contact pairs")
+    ax1.set_ylabel("geom pairs per step")
+    ax1.set_title(f"{result['model']}: recall {100 * result['recall']:.2f} %, "
+                  f"{len(result['missed'])} missed")
+    ax1.legend(loc="upper right")
+    ax2.plot(steps, result["time_mujoco_broad_us_per_step"], lw=0.6,
+             label=f"MuJoCo broad phase (median {result['time_mujoco_broad_us']:.1f} us)")
+    ax2.plot(steps, result["time_ours_us_per_step"], lw=0.6,
+             label=f"ours, Python call included (median {result['time_ours_us']:.1f} us)")
+    ax2.set_yscale("log")
+    ax2.set_xlabel("step")
+    ax2.set_ylabel("time per step (us)")
+    ax2.legend(loc="upper right")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+# ----------------------------------------------------------------------------------------------
+# The built-in scene
+# ----------------------------------------------------------------------------------------------
+
+def _add_limb(parent, name: str, pos, axes, segments) -> None:
+    # A chain of capsules, each hinged to the previous one, each hinge with a motor added later.
+    body = parent
+    for k, (direction, length) in enumerate(segments):
+        start = pos if k == 0 else np.asarray(segments[k - 1][0]) * segments[k - 1][1]
+        child = body.add_body(name=f"{name}{k}", pos=list(start))
+        for a, axis in enumerate(axes):
+            child.add_joint(name=f"{name}{k}_j{a}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=axis,
+                            range=[-1.2, 1.2], damping=0.5)
+        end = np.asarray(direction) * length
+        child.add_geom(name=f"{name}{k}", type=_GEOM.mjGEOM_CAPSULE, size=[0.045, 0, 0],
+                       fromto=[0, 0, 0, *end], density=800)
+        body = child
+
+
+def default_scene(seed: int = 0, objects: int = 40) -> mujoco.MjModel:
+    """The built-in comparison scene, made with ``mujoco.MjSpec``: no files needed.
+
+    An articulated figure (a capsule torso on a free joint, head, two arms and two legs of
+    hinged capsules with motors) falls onto a pile of random convex meshes and primitives
+    (boxes, spheres, capsules, cylinders, ellipsoids) dropped on a floor.
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the pile's shapes and positions.
+    objects : int
+        Number of loose objects in the pile.
+
+    Returns
+    -------
+    mujoco.MjModel
+    """
+    seed = as_count(seed, "seed", 0)
+    objects = as_count(objects, "objects", 0)
+    rng = np.random.default_rng(seed)
+    spec = mujoco.MjSpec()
+    spec.modelname = "collide_default_scene"
+    spec.option.timestep = 0.004
+    spec.worldbody.add_geom(name="floor", type=_GEOM.mjGEOM_PLANE, size=[3, 3, 0.1])
+    side = int(np.ceil(np.sqrt(max(objects, 1) / 2.0)))
+    kinds = ["mesh", "mesh", "box", "sphere", "capsule", "cylinder", "ellipsoid"]
+    for i in range(objects):
+        layer, cell = divmod(i, side * side)
+        x, y = (np.array(divmod(cell, side)) - (side - 1) / 2.0) * 0.22
+        pos = [x + rng.uniform(-0.03, 0.03), y + rng.uniform(-0.03, 0.03), 0.1 + 0.22 * layer]
+        quat = rng.normal(size=4)
+        body = spec.worldbody.add_body(name=f"obj{i}", pos=pos, quat=quat / np.linalg.norm(quat))
+        body.add_freejoint()
+        kind = kinds[i % len(kinds)]
+        s = rng.uniform(0.035, 0.08, size=3)
+        if kind == "mesh":
+            pts = rng.normal(size=(int(rng.integers(8, 24)), 3)) * s
+            spec.add_mesh(name=f"hull{i}", uservert=pts.ravel().tolist())
+            body.add_geom(name=f"obj{i}", type=_GEOM.mjGEOM_MESH, meshname=f"hull{i}")
+        else:
+            gtype = {"box": _GEOM.mjGEOM_BOX, "sphere": _GEOM.mjGEOM_SPHERE,
+                     "capsule": _GEOM.mjGEOM_CAPSULE, "cylinder": _GEOM.mjGEOM_CYLINDER,
+                     "ellipsoid": _GEOM.mjGEOM_ELLIPSOID}[kind]
+            body.add_geom(name=f"obj{i}", type=gtype, size=s.tolist())
+    torso = spec.worldbody.add_body(name="torso", pos=[0, 0, 0.45 + 0.22 * (objects // (side * side) + 1)])
+    torso.add_freejoint()
+    torso.add_geom(name="torso", type=_GEOM.mjGEOM_CAPSULE, size=[0.07, 0, 0],
+                   fromto=[0, -0.08, 0, 0, 0.08, 0], density=600)
+    torso.add_geom(name="head", type=_GEOM.mjGEOM_SPHERE, size=[0.08, 0, 0], pos=[0, 0, 0.17])
+    torso.add_geom(name="pelvis", type=_GEOM.mjGEOM_CAPSULE, size=[0.06, 0, 0],
+                   fromto=[0, -0.06, -0.22, 0, 0.06, -0.22], density=600)
+    xy = [[1, 0, 0], [0, 1, 0]]
+    for sign, side_name in ((1, "left"), (-1, "right")):
+        _add_limb(torso, f"{side_name}_arm", [0, sign * 0.13, 0.02], xy,
+                  [([0, sign * 0.6, -0.8], 0.18), ([0, sign * 0.3, -0.95], 0.16)])
+        _add_limb(torso, f"{side_name}_leg", [0, sign * 0.07, -0.25], [[0, 1, 0]],
+                  [([0, 0, -1.0], 0.22), ([0, 0, -1.0], 0.2)])
+    for joint in spec.joints:
+        if joint.type == mujoco.mjtJoint.mjJNT_HINGE:
+            act = spec.add_actuator(name=f"motor_{joint.name}", target=joint.name,
+                                    trntype=mujoco.mjtTrn.mjTRN_JOINT)
+            act.gear[0] = 6.0
+            act.ctrllimited = 1
+            act.ctrlrange = [-1.0, 1.0]
+    return spec.compile()

@@ -1,0 +1,301 @@
+"""The MuJoCo adapter: MuJoCo 4's filter rules on small models, every geom type, real scenes.
+
+Rule tests build MJCF models whose geoms touch (or sit at a known distance), run MuJoCo's own
+collision (``mj_forward``) and demand: MuJoCo's contact pairs are the pairs its rules allow
+(the expectation is written out by name), and our candidates are exactly those pairs, no fewer
+(recall) and no more (a pair MuJoCo's rules forbid is never proposed).
+"""
+
+import json
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+import collide.mujoco as cm
+
+MODELS = Path(__file__).resolve().parents[1] / ".." / "shared" / "models"
+SCENES = sorted(p.name for p in MODELS.iterdir() if (p / "scene.xml").is_file()) if MODELS.is_dir() else []
+
+
+def _names(model, pairs) -> set:
+    """Geom pairs as a set of frozensets of geom names."""
+    return {frozenset((model.geom(int(a)).name, model.geom(int(b)).name)) for a, b in pairs}
+
+
+def _both(xml: str):
+    """MuJoCo's contact pairs and our candidates, by name, at the model's initial state."""
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    ours = cm.BroadPhase(model).pairs(data)
+    assert ours.dtype == np.int32 and ours.ndim == 2 and ours.shape[1] == 2
+    return _names(model, cm.contact_pairs(model, data)), _names(model, ours), model
+
+
+def _pairs(*names: str) -> set:
+    return {frozenset(p.split("-")) for p in names}
+
+
+# ----------------------------------------------------------------------------------- filters
+
+CLUSTER = """<mujoco><worldbody>{}</worldbody></mujoco>"""
+
+
+def _free_sphere(name, pos, extra=""):
+    return (f'<body name="{name}" pos="{pos}"><freejoint/>'
+            f'<geom name="{name}" type="sphere" size=".1" {extra}/></body>')
+
+
+def test_contype_conaffinity():
+    # Five spheres within 0.1 of each other: every pair touches; only the masks decide.
+    masks = {"a": (1, 1), "b": (2, 2), "c": (2, 1), "d": (0, 0), "e": (4, 3)}
+    offs = ["0 0 0", ".05 0 0", "0 .05 0", "0 0 .05", ".03 .03 .03"]
+    body = "".join(_free_sphere(n, o, f'contype="{ct}" conaffinity="{ca}"')
+                   for (n, (ct, ca)), o in zip(masks.items(), offs))
+    mj, ours, _ = _both(CLUSTER.format(body))
+    # (ct1 & ca2) or (ct2 & ca1): a-c (ct_c=2 & ca_a=1 no; ct_a=1 & ca_c=1 yes), b-c, e-a, e-c, e-b
+    expected = _pairs("a-c", "b-c", "a-e", "b-e", "c-e")
+    assert mj == expected
+    assert ours == expected
+
+
+CHAIN = """<mujoco><option><flag filterparent="{fp}"/></option><worldbody>
+  <geom name="w" type="sphere" size=".1" pos="0 0 -.05"/>
+  <body name="a"><freejoint/><geom name="a" type="sphere" size=".1"/>
+    <body name="b" pos=".05 0 0"><joint type="hinge"/><geom name="b" type="sphere" size=".1"/>
+      <body name="c" pos=".05 0 0"><joint type="hinge"/><geom name="c" type="sphere" size=".1"/>
+      </body></body></body>
+</worldbody></mujoco>"""
+
+
+def test_parent_child_filter():
+    mj, ours, _ = _both(CHAIN.format(fp="enable"))
+    # a-b and b-c are parent-child; a-c are not; the world is never filtered as a parent.
+    expected = _pairs("a-c", "w-a", "w-b", "w-c")
+    assert mj == expected
+    assert ours == expected
+
+
+def test_parent_child_filter_disabled():
+    mj, ours, _ = _both(CHAIN.format(fp="disable"))
+    expected = _pairs("a-b", "b-c", "a-c", "w-a", "w-b", "w-c")
+    assert mj == expected
+    assert ours == expected
+
+
+WELD = """<mujoco><option><flag filterparent="{fp}"/></option><worldbody>
+  <geom name="w" type="sphere" size=".1" pos="0 0 -.05"/>
+  <body name="s1" pos=".05 .05 0"><geom name="s1" type="sphere" size=".1"/></body>
+  <body name="s2" pos="-.05 .05 0"><geom name="s2" type="sphere" size=".1"/></body>
+  <body name="a"><freejoint/><geom name="a" type="sphere" size=".1"/>
+    <body name="b" pos=".05 0 0"><geom name="b" type="sphere" size=".1"/>
+      <body name="c" pos=".05 0 0"><joint type="hinge"/><geom name="c" type="sphere" size=".1"/>
+      </body></body></body>
+</worldbody></mujoco>"""
+
+
+def test_weld_groups():
+    # s1, s2 are static (welded to the world, group 0): never with each other or the world.
+    # b has no joint: welded to a (never a-b); c's weld parent is then a's group, so the
+    # parent filter removes c-a and c-b alike. b pairs with what a pairs with.
+    mj, ours, model = _both(WELD.format(fp="enable"))
+    assert model.body_weldid[model.body("b").id] == model.body_weldid[model.body("a").id]
+    expected = _pairs("w-a", "w-b", "w-c", "s1-a", "s1-b", "s1-c", "s2-a", "s2-b", "s2-c")
+    assert mj == expected
+    assert ours == expected
+    mj, ours, _ = _both(WELD.format(fp="disable"))
+    expected |= _pairs("a-c", "b-c")
+    assert mj == expected
+    assert ours == expected
+
+
+def test_child_of_world_pairs_with_world_geoms():
+    xml = """<mujoco><worldbody>
+      <geom name="w1" type="box" size=".1 .1 .1"/>
+      <body name="a" pos="0 0 .15"><joint type="slide" axis="0 0 1"/>
+        <geom name="a" type="sphere" size=".1"/></body>
+    </worldbody></mujoco>"""
+    mj, ours, _ = _both(xml)
+    assert mj == ours == _pairs("w1-a")
+
+
+def test_exclude():
+    body = (_free_sphere("a", "0 0 0") + _free_sphere("b", ".05 0 0")
+            + _free_sphere("c", "0 .05 0"))
+    xml = f"""<mujoco><worldbody>{body}</worldbody>
+      <contact><exclude body1="a" body2="b"/></contact></mujoco>"""
+    mj, ours, _ = _both(xml)
+    assert mj == ours == _pairs("a-c", "b-c")
+
+
+def test_explicit_pairs_bypass_filters_and_use_their_margin():
+    # Surfaces 0.05 apart; contype 0 so no dynamic pair. Explicit pairs: margin .06 reaches,
+    # margin .04 does not, and a pair across a parent-child link (which the parent filter and
+    # the masks would both forbid) with its own margin reaches.
+    xml = """<mujoco><worldbody>
+      <body name="a"><freejoint/><geom name="a" type="sphere" size=".1" contype="0" conaffinity="0"/>
+        <body name="a2" pos="0 0 .25"><joint type="hinge"/>
+          <geom name="a2" type="sphere" size=".1" contype="0" conaffinity="0"/></body></body>
+      <body name="b" pos=".25 0 0"><freejoint/><geom name="b" type="sphere" size=".1" contype="0" conaffinity="0"/></body>
+      <body name="c" pos="-.25 0 0"><freejoint/><geom name="c" type="sphere" size=".1" contype="0" conaffinity="0"/></body>
+    </worldbody><contact>
+      <pair geom1="a" geom2="b" margin=".06"/>
+      <pair geom1="a" geom2="c" margin=".04"/>
+      <pair geom1="a" geom2="a2" margin=".03" gap=".03"/>
+    </contact></mujoco>"""
+    mj, ours, _ = _both(xml)
+    assert mj == _pairs("a-b", "a-a2")
+    assert ours == mj
+
+
+def test_margin_and_gap():
+    # Surfaces 0.05 apart: a contact is generated below margin1 + margin2 + gap1 + gap2.
+    for margin, gap, touch in [(0.02, 0.0, False), (0.03, 0.0, True), (0.02, 0.01, True),
+                               (0.0, 0.03, True), (0.01, 0.01, False)]:
+        extra = f'margin="{margin}" gap="{gap}"'
+        xml = CLUSTER.format(_free_sphere("a", "0 0 0", extra) + _free_sphere("b", ".25 0 0", extra))
+        mj, ours, _ = _both(xml)
+        expected = _pairs("a-b") if touch else set()
+        assert mj == expected, (margin, gap)
+        assert ours == expected, (margin, gap)
+
+
+def test_margin_override():
+    xml = """<mujoco><option o_margin=".06"><flag override="enable"/></option><worldbody>{}</worldbody></mujoco>"""
+    mj, ours, _ = _both(xml.format(_free_sphere("a", "0 0 0") + _free_sphere("b", ".25 0 0")))
+    assert mj == ours == _pairs("a-b")
+
+
+def test_plane_is_a_halfspace():
+    # A floor and a tilted plane on a static body; spheres touching, above, and far out on the
+    # floor (the plane's size is visual only: it is an infinite half-space for collisions).
+    xml = """<mujoco><worldbody>
+      <geom name="floor" type="plane" size=".5 .5 .1"/>
+      <body name="wall" pos="3 0 0" euler="0 -90 0"><geom name="wall" type="plane" size="1 1 .1"/></body>
+      <body name="on"  pos="0 0 .09"><freejoint/><geom name="on" type="sphere" size=".1"/></body>
+      <body name="far" pos="20 20 .05"><freejoint/><geom name="far" type="box" size=".1 .1 .1"/></body>
+      <body name="up"  pos="0 1 .5"><freejoint/><geom name="up" type="sphere" size=".1"/></body>
+      <body name="nearwall" pos="2.95 0 1"><freejoint/><geom name="nearwall" type="capsule" size=".1 .2"/></body>
+    </worldbody></mujoco>"""
+    mj, ours, _ = _both(xml)
+    # "far" is beyond the tilted wall's half-space boundary x = 3 too (x = 20 > 3 - 0.1).
+    expected = _pairs("floor-on", "floor-far", "wall-nearwall", "wall-far")
+    assert mj == expected
+    assert ours == expected
+
+
+def test_contacts_disabled():
+    xml = """<mujoco><option><flag contact="disable"/></option><worldbody>{}</worldbody></mujoco>"""
+    mj, ours, model = _both(xml.format(_free_sphere("a", "0 0 0") + _free_sphere("b", ".05 0 0")))
+    assert mj == ours == set()
+    assert cm.BroadPhase(model).pairs_batch(model, np.zeros((3, model.nq))).shape == (0, 3)
+
+
+# ----------------------------------------------------------------------------------- geom types
+
+TYPES = """<mujoco><asset>
+  <mesh name="tet" vertex="0 0 0  .2 0 0  0 .2 0  0 0 .2  .05 .05 .05"/>
+  <hfield name="hf" nrow="3" ncol="3" size=".5 .5 .1 .05" elevation="0 0 0 0 1 0 0 0 0"/>
+</asset><worldbody>
+  <geom name="floor" type="plane" size="2 2 .1"/>
+  <geom name="hfield" type="hfield" hfield="hf" pos="3 0 0"/>
+  <body name="sphere" pos="0 0 .099"><freejoint/><geom name="sphere" type="sphere" size=".1"/></body>
+  <body name="capsule" pos=".4 0 .05" euler="90 0 0"><freejoint/><geom name="capsule" type="capsule" size=".05 .2"/></body>
+  <body name="ellipsoid" pos=".8 0 .049"><freejoint/><geom name="ellipsoid" type="ellipsoid" size=".2 .1 .05"/></body>
+  <body name="cylinder" pos="1.2 0 .049" euler="0 90 45"><freejoint/><geom name="cylinder" type="cylinder" size=".05 .2"/></body>
+  <body name="box" pos="0 .6 .1" euler="30 0 0"><freejoint/><geom name="box" type="box" size=".1 .1 .1"/></body>
+  <body name="mesh" pos=".6 .6 -.001"><freejoint/><geom name="mesh" type="mesh" mesh="tet"/></body>
+  <body name="onhf" pos="3 0 .13"><freejoint/><geom name="onhf" type="sphere" size=".05"/></body>
+  <body name="pile" pos="1.2 .6 .1"><freejoint/><geom name="pile" type="box" size=".1 .1 .1"/></body>
+  <body name="pile2" pos="1.2 .6 .199"><freejoint/><geom name="pile2" type="mesh" mesh="tet" euler="0 0 30"/></body>
+</worldbody></mujoco>"""
+
+
+def test_every_geom_type_touching():
+    mj, ours, model = _both(TYPES)
+    expected = _pairs("floor-sphere", "floor-capsule", "floor-ellipsoid", "floor-cylinder",
+                      "floor-box", "floor-mesh", "hfield-onhf", "floor-pile", "pile-pile2")
+    assert mj == expected
+    # Every MuJoCo contact is ours; plane-hfield (no collision function in MuJoCo) is not.
+    assert mj <= ours
+    assert frozenset(("floor", "hfield")) not in ours
+    # Our extra candidates, if any, are bound-level near misses, never forbidden pairs.
+    for pair in ours - mj:
+        assert "hfield" not in pair or "floor" not in pair
+
+
+def test_mesh_cloud_is_the_geom_frame_hull():
+    # The mesh's vertices as MuJoCo stores them lie in the geom frame: its own geom_aabb holds
+    # them, and the geom's world points from our cloud match MuJoCo's world AABB corners.
+    model = mujoco.MjModel.from_xml_string(TYPES)
+    clouds = cm.geom_clouds(model)
+    g = model.geom("mesh").id
+    pts = clouds[g].points
+    c, h = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
+    assert np.all(np.abs(pts - c) <= h + 1e-6)
+    np.testing.assert_allclose(pts.min(axis=0), c - h, atol=1e-6)
+    np.testing.assert_allclose(pts.max(axis=0), c + h, atol=1e-6)
+
+
+def test_inflation_values():
+    xml = """<mujoco><worldbody>
+      <body><freejoint/><geom name="a" type="sphere" size=".1" margin=".02" gap=".01"/></body>
+      <body><freejoint/><geom name="b" type="sphere" size=".1"/></body>
+    </worldbody><contact><pair geom1="a" geom2="b" margin=".05" gap=".02"/></contact></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    np.testing.assert_allclose(cm.geom_inflation(model), [0.03, 0.0])
+    np.testing.assert_allclose(cm.pair_inflation(model), [0.07])
+
+
+def test_pairs_batch_equals_single_worlds():
+    model = mujoco.MjModel.from_xml_string(CHAIN.format(fp="enable"))
+    bp = cm.BroadPhase(model)
+    rng = np.random.default_rng(3)
+    qpos = np.tile(model.qpos0, (6, 1))
+    qpos[:, :3] += rng.uniform(-0.3, 0.3, size=(6, 3))
+    qpos[:, 7:] = rng.uniform(-2, 2, size=(6, model.nq - 7))
+    batch = bp.pairs_batch(model, qpos)
+    data = mujoco.MjData(model)
+    total = 0
+    for w in range(len(qpos)):
+        data.qpos[:] = qpos[w]
+        mujoco.mj_kinematics(model, data)
+        single = bp.pairs(data)
+        np.testing.assert_array_equal(batch[batch[:, 0] == w, 1:], single)
+        total += len(single)
+    assert total > 0
+    with pytest.raises(ValueError, match="qpos"):
+        bp.pairs_batch(model, np.zeros((2, model.nq + 1)))
+
+
+def test_bad_model_argument():
+    with pytest.raises(ValueError, match="model"):
+        cm.articulation("not a model")
+
+
+# ----------------------------------------------------------------------------------- real scenes
+
+@pytest.mark.skipif(not SCENES, reason=f"the test models are not present at {MODELS} "
+                    "(the team's shared checkout); nothing to compare against")
+@pytest.mark.parametrize("scene", SCENES)
+def test_scene_recall_is_complete(scene, tmp_path):
+    model = mujoco.MjModel.from_xml_path(str(MODELS / scene / "scene.xml"))
+    result = cm.compare(model, steps=2000, seed=0, name=scene)
+    assert result["missed"] == [], cm.format_report(result)
+    assert result["recall"] == 1.0
+    contacts = np.asarray(result["contact_pairs_per_step"])
+    ours = np.asarray(result["candidates_per_step"])
+    assert result["steps"] == 2000 and len(contacts) == len(ours) == 2000
+    assert contacts.sum() > 0, f"{scene}: no contact in 2000 steps, the test would test nothing"
+    assert np.all(ours >= contacts)
+    assert len(result["mujoco_candidates_per_step"]) == 2000
+    assert result["time_ours_us"] > 0 and result["time_mujoco_broad_us"] > 0
+    # The JSON round trip keeps every figure.
+    path = tmp_path / "r.json"
+    path.write_text(json.dumps(result))
+    back = json.loads(path.read_text())
+    for key in ("steps", "recall", "missed", "contact_pairs_per_step", "candidates_per_step",
+                "mujoco_candidates_per_step", "time_ours_us", "time_mujoco_broad_us"):
+        assert back[key] == result[key]
