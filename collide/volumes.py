@@ -17,75 +17,235 @@ from . import hull as _hull
 from ._validate import as_array, as_points, as_radius
 
 
-@dataclass(frozen=True)
+# Relative slack of the overlap tests and of the records' checks: overlap tests compare with
+# this much room (relative to the coordinates' size) so that rounding can only report an
+# overlap, never hide one (DESIGN.md: a missed pair is the one unforgivable failure).
+OVERLAP_RTOL = 1e-12
+
+# Inflation of fitted OBBs and spheres, relative to the coordinates' size (8 ulps).
+_ROUNDING_PAD = 8.0 * np.finfo(np.float64).eps
+
+# How far from orthonormal an OBB's rotation may be (max |R^T R - I|) before it is rejected.
+ROTATION_TOL = 1e-6
+
+
+def _vec3(value, name: str) -> np.ndarray:
+    arr = as_array(value, name, (3,)).copy()
+    arr.setflags(write=False)
+    return arr
+
+
+def _rotation(value, name: str) -> np.ndarray:
+    rot = as_array(value, name, (3, 3)).copy()
+    err = float(np.abs(rot.T @ rot - np.eye(3)).max())
+    if err > ROTATION_TOL:
+        raise ValueError(f"{name}: not orthonormal (max |R^T R - I| = {err:.3g})")
+    if np.linalg.det(rot) < 0.0:
+        raise ValueError(f"{name}: a reflection (determinant -1), expected a rotation")
+    rot.setflags(write=False)
+    return rot
+
+
+@dataclass(frozen=True, eq=False)
 class AABB:
     """Axis-aligned box ``[lo, hi]``.
 
     Attributes
     ----------
     lo, hi : (3,) float64
-        Corners; an empty box has ``lo = +inf`` and ``hi = -inf``.
+        Corners, read-only; ``lo <= hi``. The empty box has ``lo = +inf`` and ``hi = -inf``
+        (see `AABB.empty`); it contains and overlaps nothing.
     """
 
     lo: np.ndarray
     hi: np.ndarray
 
+    def __post_init__(self):
+        lo = np.asarray(self.lo, dtype=np.float64)
+        hi = np.asarray(self.hi, dtype=np.float64)
+        empty = lo.shape == hi.shape == (3,) and np.all(lo == np.inf) and np.all(hi == -np.inf)
+        if not empty:
+            lo, hi = _vec3(lo, "lo"), _vec3(hi, "hi")
+            if np.any(lo > hi):
+                raise ValueError(f"lo: must be <= hi on every axis, got lo={lo}, hi={hi}")
+        else:
+            lo, hi = lo.copy(), hi.copy()
+            lo.setflags(write=False)
+            hi.setflags(write=False)
+        object.__setattr__(self, "lo", lo)
+        object.__setattr__(self, "hi", hi)
+
+    @classmethod
+    def empty(cls) -> "AABB":
+        """The empty box."""
+        return cls(np.full(3, np.inf), np.full(3, -np.inf))
+
+    @property
+    def is_empty(self) -> bool:
+        """True for the empty box."""
+        return bool(self.lo[0] > self.hi[0])
+
+    @property
+    def center(self) -> np.ndarray:
+        """(3,) float64: the middle (NaN for the empty box)."""
+        return 0.5 * (self.lo + self.hi)
+
+    @property
+    def half_extents(self) -> np.ndarray:
+        """(3,) float64: half side lengths."""
+        return 0.5 * (self.hi - self.lo)
+
     def volume(self) -> float:
         """Volume (0 for an empty box)."""
-        return float(np.prod(np.maximum(self.hi - self.lo, 0.0)))
+        return 0.0 if self.is_empty else float(np.prod(self.hi - self.lo))
 
     def contains(self, points, rtol: float = 0.0) -> np.ndarray:
-        """``(n,) bool``: which of ``points`` ``(n, 3)`` lie in the box, widened by ``rtol`` x size."""
+        """Which points lie in the box, widened by ``rtol`` times its coordinates' size.
+
+        Parameters
+        ----------
+        points : (n, 3) float64
+        rtol : float
+
+        Returns
+        -------
+        inside : (n,) bool
+        """
         p = as_array(points, "points", (None, 3))
+        if self.is_empty:
+            return np.zeros(len(p), dtype=bool)
         pad = rtol * max(float(np.max(np.abs(np.concatenate([self.lo, self.hi])))), 1.0)
         return np.all((p >= self.lo - pad) & (p <= self.hi + pad), axis=1)
 
+    def aabb(self) -> "AABB":
+        """The box itself."""
+        return self
 
-@dataclass(frozen=True)
+    def overlaps(self, other) -> bool:
+        """Whether this box and another volume may intersect (see `overlap`)."""
+        return overlap(self, other)
+
+    def transformed(self, rotation, translation) -> "OBB":
+        """The box under a rigid map: an `OBB` (see `transform`)."""
+        return transform(self, rotation, translation)
+
+
+@dataclass(frozen=True, eq=False)
 class Sphere:
-    """Ball of ``radius`` around ``center`` ``(3,) float64``."""
+    """Ball of ``radius`` around ``center``.
+
+    Attributes
+    ----------
+    center : (3,) float64
+        Read-only.
+    radius : float
+        ``>= 0``.
+    """
 
     center: np.ndarray
     radius: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "center", _vec3(self.center, "center"))
+        object.__setattr__(self, "radius", as_radius(self.radius, "radius"))
 
     def volume(self) -> float:
         """Volume."""
         return 4.0 / 3.0 * np.pi * self.radius**3
 
     def contains(self, points, rtol: float = 0.0) -> np.ndarray:
-        """``(n,) bool``: which of ``points`` ``(n, 3)`` lie in the ball, widened by ``rtol``."""
+        """Which points lie in the ball, widened by ``rtol`` times its size.
+
+        Parameters
+        ----------
+        points : (n, 3) float64
+        rtol : float
+
+        Returns
+        -------
+        inside : (n,) bool
+        """
         p = as_array(points, "points", (None, 3))
         pad = rtol * max(self.radius, float(np.max(np.abs(self.center))), 1.0)
         return np.linalg.norm(p - self.center, axis=1) <= self.radius + pad
 
+    def aabb(self) -> AABB:
+        """The exact axis-aligned box of the ball."""
+        return AABB(self.center - self.radius, self.center + self.radius)
 
-@dataclass(frozen=True)
+    def overlaps(self, other) -> bool:
+        """Whether this ball and another volume may intersect (see `overlap`)."""
+        return overlap(self, other)
+
+    def transformed(self, rotation, translation) -> "Sphere":
+        """The ball under a rigid map (see `transform`)."""
+        return transform(self, rotation, translation)
+
+
+@dataclass(frozen=True, eq=False)
 class OBB:
     """Oriented box.
 
     Attributes
     ----------
     center : (3,) float64
+        Read-only.
     rotation : (3, 3) float64
-        Orthonormal; its columns are the box axes.
+        Read-only, a rotation (orthonormal, determinant +1); its columns are the box axes.
     half_extents : (3,) float64
-        Half side lengths along the axes.
+        Read-only, ``>= 0``: half side lengths along the axes.
     """
 
     center: np.ndarray
     rotation: np.ndarray
     half_extents: np.ndarray
 
+    def __post_init__(self):
+        object.__setattr__(self, "center", _vec3(self.center, "center"))
+        object.__setattr__(self, "rotation", _rotation(self.rotation, "rotation"))
+        half = _vec3(self.half_extents, "half_extents")
+        if np.any(half < 0.0):
+            raise ValueError(f"half_extents: must be >= 0, got {half}")
+        object.__setattr__(self, "half_extents", half)
+
     def volume(self) -> float:
         """Volume."""
         return float(8.0 * np.prod(self.half_extents))
 
+    def corners(self) -> np.ndarray:
+        """The 8 corners, ``(8, 3) float64``."""
+        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+        return self.center + (signs * self.half_extents) @ self.rotation.T
+
     def contains(self, points, rtol: float = 0.0) -> np.ndarray:
-        """``(n,) bool``: which of ``points`` ``(n, 3)`` lie in the box, widened by ``rtol``."""
+        """Which points lie in the box, widened by ``rtol`` times its size.
+
+        Parameters
+        ----------
+        points : (n, 3) float64
+        rtol : float
+
+        Returns
+        -------
+        inside : (n,) bool
+        """
         p = as_array(points, "points", (None, 3))
         local = (p - self.center) @ self.rotation
         pad = rtol * max(float(np.max(self.half_extents)), float(np.max(np.abs(self.center))), 1.0)
         return np.all(np.abs(local) <= self.half_extents + pad, axis=1)
+
+    def aabb(self) -> AABB:
+        """The exact axis-aligned box of the oriented box: half widths ``|R| @ half_extents``."""
+        half = np.abs(self.rotation) @ self.half_extents
+        return AABB(self.center - half, self.center + half)
+
+    def overlaps(self, other) -> bool:
+        """Whether this box and another volume may intersect (see `overlap`)."""
+        return overlap(self, other)
+
+    def transformed(self, rotation, translation) -> "OBB":
+        """The box under a rigid map (see `transform`)."""
+        return transform(self, rotation, translation)
 
 
 def _require_points(points: np.ndarray, what: str) -> None:
@@ -101,8 +261,10 @@ def fit_aabb(points: np.ndarray, radius: float = 0.0) -> AABB:
     points : (n, 3) float64
     radius : float
     """
+    points = as_points(points, "points")
+    radius = as_radius(radius, "radius")
     if len(points) == 0:
-        return AABB(np.full(3, np.inf), np.full(3, -np.inf))
+        return AABB.empty()
     return AABB(points.min(axis=0) - radius, points.max(axis=0) + radius)
 
 
@@ -467,7 +629,11 @@ def fit_obb(points: np.ndarray, radius: float = 0.0, method: str = "optimal") ->
     verts, hull = _hull_points(points - offset)
     rot = pca_axes(verts) if method == "pca" else _optimal_rotation(verts, hull, radius)
     box = box_from_axes(verts, radius, rot)
-    return OBB(box.center + offset, box.rotation, box.half_extents)
+    # A few ulps of the coordinates' size: moving the centre back by ``offset`` and a later
+    # containment test in world coordinates each round by about eps * |x| (DESIGN.md: a tiny
+    # conservative inflation rather than an exact comparison that rounding can break).
+    pad = _ROUNDING_PAD * (float(np.abs(offset).max()) + float(np.abs(verts).max()))
+    return OBB(box.center + offset, box.rotation, box.half_extents + pad)
 
 
 # Relative slack of the "point outside the ball" test in Welzl's algorithm (on squared radii of
@@ -635,4 +801,144 @@ def fit_sphere(points: np.ndarray, radius: float = 0.0, method: str = "exact") -
         center = _ritter_center(points)
     else:
         raise ValueError(f"method: expected 'exact' or 'ritter', got {method!r}")
-    return Sphere(center, float(np.sqrt(np.max(np.sum((points - center) ** 2, axis=1)))) + radius)
+    dist = float(np.sqrt(np.max(np.sum((points - center) ** 2, axis=1))))
+    pad = _ROUNDING_PAD * float(np.abs(points).max())  # see fit_obb
+    return Sphere(center, dist + pad + radius)
+
+
+# ----------------------------------------------------------------------------------------------
+# Rigid transforms and overlap tests.
+
+def transform(volume, rotation, translation):
+    """A volume under the rigid map ``x -> rotation @ x + translation``.
+
+    Parameters
+    ----------
+    volume : AABB, Sphere or OBB
+    rotation : (3, 3) float64
+        A rotation (orthonormal, determinant +1).
+    translation : (3,) float64
+
+    Returns
+    -------
+    Sphere or OBB
+        A sphere stays a sphere and an OBB an OBB (both exact); an AABB becomes the OBB it
+        is mapped to (exact; take ``.aabb()`` of it for an axis-aligned bound).
+    """
+    rot = _rotation(rotation, "rotation")
+    t = as_array(translation, "translation", (3,))
+    if isinstance(volume, Sphere):
+        return Sphere(rot @ volume.center + t, volume.radius)
+    if isinstance(volume, AABB):
+        if volume.is_empty:
+            raise ValueError("volume: the empty box has no transform (it bounds nothing)")
+        volume = OBB(volume.center, np.eye(3), volume.half_extents)
+    if isinstance(volume, OBB):
+        return OBB(rot @ volume.center + t, _orthonormal(rot @ volume.rotation), volume.half_extents)
+    raise ValueError(f"volume: expected an AABB, Sphere or OBB, got {type(volume).__name__}")
+
+
+def aabb_of(volume) -> AABB:
+    """The exact axis-aligned box of an AABB, Sphere or OBB."""
+    if isinstance(volume, (AABB, Sphere, OBB)):
+        return volume.aabb()
+    raise ValueError(f"volume: expected an AABB, Sphere or OBB, got {type(volume).__name__}")
+
+
+def _slack(*arrays) -> float:
+    # Absolute room for rounding: OVERLAP_RTOL times the size of the numbers compared.
+    return OVERLAP_RTOL * max(1.0, *(float(np.max(np.abs(a))) for a in arrays))
+
+
+def _sphere_sphere(a: Sphere, b: Sphere) -> bool:
+    d = a.center - b.center
+    reach = a.radius + b.radius + _slack(a.center, b.center, a.radius, b.radius)
+    return bool(d @ d <= reach * reach)
+
+
+def _aabb_aabb(a: AABB, b: AABB) -> bool:
+    if a.is_empty or b.is_empty:
+        return False
+    pad = _slack(a.lo, a.hi, b.lo, b.hi)
+    return bool(np.all(a.lo <= b.hi + pad) and np.all(b.lo <= a.hi + pad))
+
+
+def _sphere_aabb(s: Sphere, b: AABB) -> bool:
+    if b.is_empty:
+        return False
+    # Closest point of the box to the centre (RTCD §5.2.5); compare its distance to the radius.
+    d = s.center - np.clip(s.center, b.lo, b.hi)
+    reach = s.radius + _slack(s.center, s.radius, b.lo, b.hi)
+    return bool(d @ d <= reach * reach)
+
+
+def _sphere_obb(s: Sphere, b: OBB) -> bool:
+    # The same in the box's frame (RTCD §5.2.6).
+    local = (s.center - b.center) @ b.rotation
+    d = local - np.clip(local, -b.half_extents, b.half_extents)
+    reach = s.radius + _slack(s.center, s.radius, b.center, b.half_extents)
+    return bool(d @ d <= reach * reach)
+
+
+def _obb_obb(a: OBB, b: OBB) -> bool:
+    # Separating-axis test on all 15 axes (Gottschalk 1996; Ericson, Real-Time Collision
+    # Detection, 2005, §4.4.1): the 3 + 3 face normals and the 9 edge-edge cross products,
+    # written in a's frame. An epsilon added to |R| keeps near-parallel edges, whose cross
+    # product is a near-zero (meaningless) axis, from reporting a false separation.
+    r = a.rotation.T @ b.rotation            # r[i, j] = a_i . b_j
+    t = (b.center - a.center) @ a.rotation   # b's centre in a's frame
+    eps = 1e-12
+    ar = np.abs(r) + eps
+    ha, hb = a.half_extents, b.half_extents
+    pad = _slack(a.center, b.center, ha, hb)
+    # a's axes
+    if np.any(np.abs(t) > ha + ar @ hb + pad):
+        return False
+    # b's axes
+    if np.any(np.abs(t @ r) > ar.T @ ha + hb + pad):
+        return False
+    # a_i x b_j, i, j in 0..2 (Ericson's nine cases, vectorised): with (i1, i2) the other two
+    # indices of i and (j1, j2) those of j,
+    #   |t[i2] r[i1, j] - t[i1] r[i2, j]| > ha[i1] ar[i2, j] + ha[i2] ar[i1, j]
+    #                                      + hb[j1] ar[i, j2] + hb[j2] ar[i, j1]
+    i1, i2 = np.array([1, 2, 0]), np.array([2, 0, 1])
+    lhs = np.abs(t[i2][:, None] * r[i1, :] - t[i1][:, None] * r[i2, :])
+    rhs = (ha[i1][:, None] * ar[i2, :] + ha[i2][:, None] * ar[i1, :]
+           + ar[:, i2] * hb[i1][None, :] + ar[:, i1] * hb[i2][None, :])
+    return not bool(np.any(lhs > rhs + pad))
+
+
+def _as_obb(box: AABB) -> OBB:
+    return OBB(box.center, np.eye(3), box.half_extents)
+
+
+def overlap(a, b) -> bool:
+    """Whether two bounding volumes may intersect (closed sets: touching counts).
+
+    Parameters
+    ----------
+    a, b : AABB, Sphere or OBB
+        In any combination; the test is symmetric.
+
+    Returns
+    -------
+    bool
+        Exact up to rounding, and conservative: comparisons get a slack of `OVERLAP_RTOL`
+        times the coordinates' size, so rounding can only report an overlap. Empty boxes
+        overlap nothing.
+    """
+    kinds = (AABB, Sphere, OBB)
+    for name, v in (("a", a), ("b", b)):
+        if not isinstance(v, kinds):
+            raise ValueError(f"{name}: expected an AABB, Sphere or OBB, got {type(v).__name__}")
+    if isinstance(b, Sphere) and not isinstance(a, Sphere):
+        a, b = b, a
+    if isinstance(a, Sphere):
+        if isinstance(b, Sphere):
+            return _sphere_sphere(a, b)
+        return _sphere_aabb(a, b) if isinstance(b, AABB) else _sphere_obb(a, b)
+    if isinstance(a, AABB) and isinstance(b, AABB):
+        return _aabb_aabb(a, b)
+    if (isinstance(a, AABB) and a.is_empty) or (isinstance(b, AABB) and b.is_empty):
+        return False
+    return _obb_obb(_as_obb(a) if isinstance(a, AABB) else a, _as_obb(b) if isinstance(b, AABB) else b)
