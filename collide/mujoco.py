@@ -668,7 +668,9 @@ def default_scene(seed: int = 0, objects: int = 40) -> mujoco.MjModel:
     spec = mujoco.MjSpec()
     spec.modelname = "collide_default_scene"
     spec.option.timestep = 0.004
-    spec.worldbody.add_geom(name="floor", type=_GEOM.mjGEOM_PLANE, size=[3, 3, 0.1])
+    spec.worldbody.add_geom(name="floor", type=_GEOM.mjGEOM_PLANE, size=[3, 3, 0.1],
+                            rgba=[0.55, 0.6, 0.65, 1.0])
+    spec.worldbody.add_light(pos=[0, -1, 3], dir=[0, 0.3, -1], diffuse=[0.8, 0.8, 0.8])
     side = int(np.ceil(np.sqrt(max(objects, 1) / 2.0)))
     kinds = ["mesh", "mesh", "box", "sphere", "capsule", "cylinder", "ellipsoid"]
     for i in range(objects):

@@ -1,0 +1,80 @@
+"""The command line: ``python -m collide compare``, its exit status, JSON and plot."""
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import collide.mujoco as cm
+from collide.__main__ import main
+
+REPO = Path(__file__).resolve().parents[1]
+MODELS = REPO / ".." / "shared" / "models"
+
+KEYS = ("steps", "recall", "missed", "contact_pairs_per_step", "candidates_per_step",
+        "mujoco_candidates_per_step", "time_ours_us", "time_mujoco_broad_us")
+
+
+def test_compare_without_arguments_exits_0():
+    # The main job, as a user runs it: the built-in scene, no files, default 1000 steps.
+    start = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-m", "collide", "compare"], cwd=REPO,
+                          capture_output=True, text=True, timeout=300)
+    elapsed = time.perf_counter() - start
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "recall: 100.00 %" in proc.stdout
+    assert "MuJoCo broad-phase candidates" in proc.stdout
+    print(f"python -m collide compare: {elapsed:.1f} s")  # shown with -s; never asserted
+
+
+def test_compare_writes_consistent_json_and_plot(tmp_path):
+    out, png = tmp_path / "r.json", tmp_path / "r.png"
+    status = main(["compare", "--steps", "150", "--seed", "1", "--json", str(out),
+                   "--plot", str(png)])
+    assert status == 0
+    result = json.loads(out.read_text())
+    for key in KEYS:
+        assert key in result, key
+    assert result["steps"] == 150 and result["recall"] == 1.0 and result["missed"] == []
+    contacts = np.asarray(result["contact_pairs_per_step"])
+    ours = np.asarray(result["candidates_per_step"])
+    assert len(contacts) == len(ours) == len(result["mujoco_candidates_per_step"]) == 150
+    assert contacts.sum() > 0, "the built-in scene must have real contacts"
+    assert np.all(ours >= contacts)
+    assert png.is_file() and png.stat().st_size > 10_000
+
+
+def test_compare_on_a_model_file(tmp_path):
+    path = MODELS / "humanoid" / "scene.xml"
+    if not path.is_file():
+        pytest.skip(f"test model not present at {path}")
+    out = tmp_path / "h.json"
+    assert main(["compare", str(path), "--steps", "200", "--json", str(out)]) == 0
+    result = json.loads(out.read_text())
+    assert result["model"] == "humanoid" and sum(result["contact_pairs_per_step"]) > 0
+
+
+def test_missed_pair_exits_1(monkeypatch, capsys):
+    # A broad phase that proposes nothing must be caught: exit status 1 and the missed pairs
+    # listed with step and geom names.
+    monkeypatch.setattr(cm.BroadPhase, "pairs", lambda self, data: np.zeros((0, 2), np.int32))
+    assert main(["compare", "--steps", "60"]) == 1
+    out = capsys.readouterr().out
+    assert "MISSED step" in out and "floor" in out
+
+
+@pytest.mark.parametrize("argv", [["compare", "--steps", "0"], ["compare", "--seed", "-1"],
+                                  ["compare", "/no/such/model.xml"]])
+def test_bad_usage_exits_2(argv, capsys):
+    assert main(argv) == 2
+    assert "error:" in capsys.readouterr().err
+
+
+def test_unknown_command_is_rejected():
+    with pytest.raises(SystemExit) as exc:
+        main(["frobnicate"])
+    assert exc.value.code == 2
