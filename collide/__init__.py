@@ -4,11 +4,15 @@ The flat public surface; every name here is re-exported from the module that def
 """
 
 from . import hull, shapes, volumes
+from .articulation import Articulation
+from .broadphase import BroadPhase
 from .pointcloud import PointCloud, difference, intersection, union
 from .volumes import AABB, OBB, Sphere
 
 __all__ = [
     "AABB",
+    "Articulation",
+    "BroadPhase",
     "OBB",
     "PointCloud",
     "Sphere",

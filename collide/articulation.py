@@ -1,0 +1,364 @@
+"""The kinematic tree: bodies, geoms, collision filters, depth-first layout, local bounds (once).
+
+An `Articulation` is built from arrays in MuJoCo's layout (body 0 is the world,
+``body_parent[0] == 0``). Set-up, done once per model and tuned for tightness rather than speed,
+computes everything the per-step broad phase (`collide.broadphase`) needs:
+
+- each geom's cloud in its body's frame, its local OBB and enclosing sphere;
+- each body's hull-reduced cloud (union of its geoms, Stürzlinger 1996 §3.3) and local bounds
+  that contain its geoms' bounds (inflated by their margins), so culling a body never culls a
+  geom pair whose own bounds overlap;
+- the depth-first layout: every subtree is one contiguous range of positions;
+- the static filter: weld groups, parent-child rule, excluded body pairs, explicit geom pairs.
+
+Bounds semantics (what "two geoms' bounds overlap" means everywhere in `collide`): the geoms'
+spheres overlap *and* their OBBs overlap (separating-axis test on all 15 axes), each volume
+inflated by the geom's margin (radius + margin, half extents + margin). A plane is the halfspace
+``{x : normal . x <= offset + margin}``; it overlaps a geom when both of the geom's volumes reach it.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from . import shapes as _shapes
+from . import volumes as _volumes
+from ._validate import as_array
+from .pointcloud import PointCloud, union
+
+# Relative guard added to every local bound so that the rounding of the fitters (extents measured
+# as differences of rotated coordinates) can never leave a cloud point outside its volume.
+BOUND_GUARD = 1e-10
+
+# Rotations (geom placement) that deviate from orthonormal by more than this are rejected.
+ORTHO_TOL = 1e-6
+
+
+def _is_plane(obj) -> bool:
+    plane_cls = getattr(_shapes, "Plane", None)
+    if plane_cls is not None and isinstance(obj, plane_cls):
+        return True
+    # Duck typing until shapes.Plane lands: a frozen record with a normal and an offset.
+    return (not isinstance(obj, PointCloud)) and hasattr(obj, "normal") and hasattr(obj, "offset")
+
+
+def fit_local_obb(cloud: PointCloud) -> _volumes.OBB:
+    """Near-minimal OBB of ``cloud`` (``volumes`` "optimal"; PCA while that is being written)."""
+    try:
+        return cloud.obb("optimal")
+    except NotImplementedError:
+        return cloud.obb("pca")
+
+
+def fit_local_sphere(cloud: PointCloud) -> _volumes.Sphere:
+    """Minimal enclosing sphere of ``cloud`` (``volumes`` "exact"; a centred fallback until then)."""
+    try:
+        return cloud.sphere("exact")
+    except NotImplementedError:
+        pts = cloud.points
+        c = (pts.min(axis=0) + pts.max(axis=0)) / 2.0
+        return _volumes.Sphere(c, float(np.sqrt(((pts - c) ** 2).sum(axis=1).max())) + cloud.radius)
+
+
+def _guarded(obb: _volumes.OBB, sphere: _volumes.Sphere):
+    scale = max(float(np.abs(obb.center).max()), float(obb.half_extents.max()),
+                float(np.abs(sphere.center).max()), sphere.radius, 1e-300)
+    pad = BOUND_GUARD * scale
+    return (obb.center.copy(), obb.rotation.copy(), obb.half_extents + pad,
+            sphere.center.copy(), sphere.radius + pad)
+
+
+def _box_corners(center: np.ndarray, rot: np.ndarray, half: np.ndarray) -> np.ndarray:
+    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    return center + (signs * half) @ rot.T
+
+
+def _depth_first(body_parent: np.ndarray):
+    # Children lists in id order, then an explicit-stack DFS from the world: positions, ranges.
+    L = len(body_parent)
+    order = np.argsort(body_parent[1:], kind="stable") + 1
+    counts = np.bincount(body_parent[1:], minlength=L)
+    start = np.concatenate([[0], np.cumsum(counts)])
+    dfs_order = np.empty(L, np.int64)
+    subtree_end = np.empty(L, np.int64)  # by position
+    pos = np.full(L, -1, np.int64)
+    n = 0
+    stack = [(0, False)]
+    while stack:
+        b, done = stack.pop()
+        if done:
+            subtree_end[pos[b]] = n
+            continue
+        pos[b] = n
+        dfs_order[n] = b
+        n += 1
+        stack.append((b, True))
+        kids = order[start[b]:start[b + 1]]
+        stack.extend((int(k), False) for k in kids[::-1])
+    if n != L:
+        bad = int(np.flatnonzero(pos < 0)[0])
+        raise ValueError(f"body_parent: body {bad} is not connected to the world (body 0): "
+                         "the parent links form a cycle")
+    return dfs_order, pos, subtree_end
+
+
+class Articulation:
+    """A kinematic tree of bodies carrying convex geoms, with collision filters.
+
+    Parameters
+    ----------
+    body_parent : (L,) int array_like
+        Parent of each body; body 0 is the world and ``body_parent[0] == 0``. Every other body
+        must reach the world through its parents (no cycle), parents in ``[0, L)``.
+    geom_body : (G,) int array_like
+        Body of each geom, in ``[0, L)``.
+    geom_cloud : sequence of G PointCloud or shapes.Plane
+        Each geom's shape in its own frame (non-empty clouds). A plane is the halfspace
+        ``{x : normal . x <= offset}`` of its frame; planes never pair with planes.
+    geom_pos : (G, 3) float64, optional
+        Position of each geom frame in its body frame (zero by default).
+    geom_rot : (G, 3, 3) float64, optional
+        Rotation of each geom frame in its body frame (identity by default), orthonormal.
+    geom_contype, geom_conaffinity : (G,) int, optional
+        Collision bit masks (1 by default); a pair passes when
+        ``(ct1 & ca2) or (ct2 & ca1)``.
+    geom_margin : (G,) float64, optional
+        Inflation of each geom's bounds (0 by default, ``>= 0``).
+    exclude : (E, 2) int array_like or sequence of pairs, optional
+        Body pairs never reported.
+    pairs : (P, 2) int array_like or sequence of pairs, optional
+        Geom pairs always tested: they bypass every filter but the bounds test (and are then not
+        tested again by the dynamic path). Duplicates are merged.
+    filter_parent : bool, default True
+        A body never pairs with its parent unless the parent is the world.
+    pair_margin : (P,) float64, optional
+        Inflation applied to both geoms of each explicit pair instead of the geoms' margins.
+    body_weld : (L,) int array_like, optional
+        Weld group of each body: bodies with equal value never pair (MuJoCo's weld rule).
+        Default: every body its own group.
+
+    Attributes
+    ----------
+    body_count, geom_count : int
+    body_parent : (L,) int64
+    body_weld : (L,) int64
+    body_dfs_order : (L,) int64
+        ``body_dfs_order[p]`` is the body at depth-first position ``p``.
+    body_dfs_pos : (L,) int64
+        Depth-first position of each body (inverse of ``body_dfs_order``).
+    body_subtree_end : (L,) int64
+        By body: the subtree of body ``b`` is positions ``[body_dfs_pos[b], body_subtree_end[b])``.
+    body_cloud : list of L PointCloud
+        Hull-reduced union of the body's (non-plane) geom clouds, in the body frame.
+    body_has_bounds : (L,) bool
+        Whether the body carries a non-plane geom.
+    body_obb_center, body_obb_rot, body_obb_half : (L, 3), (L, 3, 3), (L, 3) float64
+        Local OBB of the body (contains its geoms' OBBs inflated by their margins).
+    body_sphere_center, body_sphere_radius : (L, 3), (L,) float64
+        Local sphere of the body (contains its geoms' spheres inflated by their margins).
+    geom_body, geom_contype, geom_conaffinity : (G,) int64
+    geom_pos, geom_rot, geom_margin : (G, 3), (G, 3, 3), (G,) float64
+    geom_is_plane : (G,) bool
+    geom_plane : (G, 4) float64
+        For planes: unit normal and offset in the body frame (zeros for other geoms).
+    geom_local_cloud : list of G (PointCloud or None)
+        Each geom's cloud in its body's frame (None for planes).
+    geom_obb_center, geom_obb_rot, geom_obb_half : (G, 3), (G, 3, 3), (G, 3) float64
+        Local OBB of each geom in its body frame, not inflated by the margin.
+    geom_sphere_center, geom_sphere_radius : (G, 3), (G,) float64
+        Local enclosing sphere of each geom in its body frame, not inflated.
+    exclude : (E, 2) int64
+        Excluded body pairs, lower id first, sorted, unique.
+    pairs : (P, 2) int64
+        Explicit geom pairs, lower id first, sorted, unique.
+    pair_margin : (P,) float64
+        Inflation for each explicit pair (NaN where the geoms' own margins apply).
+    filter_parent : bool
+    """
+
+    def __init__(self, body_parent, geom_body, geom_cloud: Sequence, geom_pos=None, geom_rot=None,
+                 geom_contype=None, geom_conaffinity=None, geom_margin=None, exclude=(), pairs=(),
+                 filter_parent: bool = True, pair_margin=None, body_weld=None):
+        parent = self._int_array(body_parent, "body_parent", (None,))
+        L = len(parent)
+        if L == 0:
+            raise ValueError("body_parent: need at least the world body (body 0)")
+        if np.any((parent < 0) | (parent >= L)):
+            bad = int(np.flatnonzero((parent < 0) | (parent >= L))[0])
+            raise ValueError(f"body_parent: parent {int(parent[bad])} of body {bad} is out of range [0, {L})")
+        if parent[0] != 0:
+            raise ValueError(f"body_parent: body 0 is the world and must be its own parent, got {int(parent[0])}")
+        gbody = self._int_array(geom_body, "geom_body", (None,))
+        G = len(gbody)
+        if np.any((gbody < 0) | (gbody >= L)):
+            bad = int(np.flatnonzero((gbody < 0) | (gbody >= L))[0])
+            raise ValueError(f"geom_body: geom {bad} is on body {int(gbody[bad])}, which does not exist "
+                             f"(bodies are 0..{L - 1})")
+        clouds = list(geom_cloud)
+        if len(clouds) != G:
+            raise ValueError(f"geom_cloud: expected {G} shapes (one per geom), got {len(clouds)}")
+        is_plane = np.zeros(G, bool)
+        for g, c in enumerate(clouds):
+            if _is_plane(c):
+                is_plane[g] = True
+            elif not isinstance(c, PointCloud):
+                raise ValueError(f"geom_cloud[{g}]: expected a PointCloud or shapes.Plane, got {type(c).__name__}")
+            elif c.is_empty:
+                raise ValueError(f"geom_cloud[{g}]: the cloud is empty")
+        gpos = np.zeros((G, 3)) if geom_pos is None else as_array(geom_pos, "geom_pos", (G, 3))
+        grot = np.tile(np.eye(3), (G, 1, 1)) if geom_rot is None else as_array(geom_rot, "geom_rot", (G, 3, 3))
+        if G:
+            err = np.abs(np.einsum("gji,gjk->gik", grot, grot) - np.eye(3)).max(axis=(1, 2))
+            det = np.linalg.det(grot)
+            bad = np.flatnonzero((err > ORTHO_TOL) | (det <= 0))
+            if len(bad):
+                raise ValueError(f"geom_rot: rotation of geom {int(bad[0])} is not a proper orthonormal matrix")
+        ct = np.ones(G, np.int64) if geom_contype is None else self._int_array(geom_contype, "geom_contype", (G,))
+        ca = (np.ones(G, np.int64) if geom_conaffinity is None
+              else self._int_array(geom_conaffinity, "geom_conaffinity", (G,)))
+        margin = np.zeros(G) if geom_margin is None else as_array(geom_margin, "geom_margin", (G,))
+        if np.any(margin < 0):
+            raise ValueError(f"geom_margin: margin of geom {int(np.flatnonzero(margin < 0)[0])} is negative")
+        weld = np.arange(L, dtype=np.int64) if body_weld is None else self._int_array(body_weld, "body_weld", (L,))
+
+        self.body_count, self.geom_count = L, G
+        self.body_parent, self.body_weld = parent, weld
+        self.geom_body, self.geom_contype, self.geom_conaffinity = gbody, ct, ca
+        self.geom_pos, self.geom_rot, self.geom_margin = gpos, grot, margin
+        self.geom_is_plane = is_plane
+        self.geom_cloud = clouds
+        self.filter_parent = bool(filter_parent)
+        self.exclude = self._pair_list(exclude, "exclude", L, "body")
+        self.pairs, self.pair_margin = self._explicit(pairs, pair_margin, G)
+        self.body_dfs_order, self.body_dfs_pos, end_by_pos = _depth_first(parent)
+        self.body_subtree_end = end_by_pos[self.body_dfs_pos]
+        self._fit_geoms()
+        self._fit_bodies()
+
+    # ----------------------------------------------------------------------------- validation
+    @staticmethod
+    def _int_array(value, name, shape):
+        arr = np.asarray(value)
+        if arr.size == 0 and len(shape) == 1 and shape[0] in (None, 0):
+            return np.zeros(0, np.int64)
+        if arr.dtype.kind not in "iub":
+            raise ValueError(f"{name}: expected integers, got dtype {arr.dtype}")
+        arr = as_array(arr, name, shape, np.int64)
+        return arr
+
+    @classmethod
+    def _pair_list(cls, value, name, n, what):
+        arr = np.asarray(value)
+        if arr.size == 0:
+            return np.zeros((0, 2), np.int64)
+        arr = cls._int_array(arr, name, (None, 2))
+        if np.any((arr < 0) | (arr >= n)):
+            bad = int(np.flatnonzero(np.any((arr < 0) | (arr >= n), axis=1))[0])
+            raise ValueError(f"{name}: row {bad} names a {what} outside [0, {n}): {arr[bad].tolist()}")
+        arr = np.sort(arr, axis=1)
+        return np.unique(arr, axis=0)
+
+    @classmethod
+    def _explicit(cls, pairs, pair_margin, G):
+        arr = np.asarray(pairs)
+        if arr.size == 0:
+            if pair_margin is not None and np.asarray(pair_margin).size:
+                raise ValueError("pair_margin: given without explicit pairs")
+            return np.zeros((0, 2), np.int64), np.zeros(0)
+        arr = cls._int_array(arr, "pairs", (None, 2))
+        P = len(arr)
+        if np.any((arr < 0) | (arr >= G)):
+            bad = int(np.flatnonzero(np.any((arr < 0) | (arr >= G), axis=1))[0])
+            raise ValueError(f"pairs: row {bad} names a geom outside [0, {G}): {arr[bad].tolist()}")
+        if np.any(arr[:, 0] == arr[:, 1]):
+            bad = int(np.flatnonzero(arr[:, 0] == arr[:, 1])[0])
+            raise ValueError(f"pairs: row {bad} pairs geom {int(arr[bad, 0])} with itself")
+        pm = np.full(P, np.nan) if pair_margin is None else as_array(pair_margin, "pair_margin", (P,))
+        if np.any(pm < 0):
+            raise ValueError(f"pair_margin: margin of pair {int(np.flatnonzero(pm < 0)[0])} is negative")
+        arr = np.sort(arr, axis=1)
+        # Merge duplicates: keep the largest inflation (conservative).
+        key = arr[:, 0] * G + arr[:, 1]
+        uk, inv = np.unique(key, return_inverse=True)
+        out_m = np.full(len(uk), -np.inf)
+        np.maximum.at(out_m, inv, np.where(np.isnan(pm), np.inf, pm))
+        out_m[np.isinf(out_m)] = np.nan
+        return np.stack([uk // G, uk % G], axis=1).astype(np.int64), out_m
+
+    # ----------------------------------------------------------------------------- local bounds
+    def _fit_geoms(self):
+        G = self.geom_count
+        self.geom_local_cloud = [None] * G
+        self.geom_obb_center = np.zeros((G, 3))
+        self.geom_obb_rot = np.tile(np.eye(3), (G, 1, 1))
+        self.geom_obb_half = np.zeros((G, 3))
+        self.geom_sphere_center = np.zeros((G, 3))
+        self.geom_sphere_radius = np.zeros(G)
+        self.geom_plane = np.zeros((G, 4))
+        for g, c in enumerate(self.geom_cloud):
+            R, t = self.geom_rot[g], self.geom_pos[g]
+            if self.geom_is_plane[g]:
+                n = np.asarray(c.normal, float)
+                n = R @ (n / np.linalg.norm(n))
+                self.geom_plane[g, :3] = n
+                self.geom_plane[g, 3] = float(c.offset) + float(n @ t)
+                continue
+            local = c.transform(R, t)
+            self.geom_local_cloud[g] = local
+            (self.geom_obb_center[g], self.geom_obb_rot[g], self.geom_obb_half[g],
+             self.geom_sphere_center[g], self.geom_sphere_radius[g]) = _guarded(
+                fit_local_obb(local), fit_local_sphere(local))
+
+    def _fit_bodies(self):
+        L = self.body_count
+        self.body_cloud = [PointCloud.empty() for _ in range(L)]
+        self.body_has_bounds = np.zeros(L, bool)
+        self.body_obb_center = np.zeros((L, 3))
+        self.body_obb_rot = np.tile(np.eye(3), (L, 1, 1))
+        self.body_obb_half = np.zeros((L, 3))
+        self.body_sphere_center = np.zeros((L, 3))
+        self.body_sphere_radius = np.zeros(L)
+        solid = np.flatnonzero(~self.geom_is_plane)
+        by_body = np.argsort(self.geom_body[solid], kind="stable")
+        solid = solid[by_body]
+        cuts = np.searchsorted(self.geom_body[solid], np.arange(L + 1))
+        for b in range(L):
+            gs = solid[cuts[b]:cuts[b + 1]]
+            if len(gs) == 0:
+                continue
+            self.body_has_bounds[b] = True
+            m = self.geom_margin[gs]
+            self.body_cloud[b] = union([self.geom_local_cloud[g] for g in gs], threshold=1).reduced()
+            if len(gs) == 1:
+                # One geom: the body's bounds are that geom's inflated bounds, bit for bit, so
+                # the body test decides the geom test (the kernel skips the repeat).
+                g = gs[0]
+                self.body_obb_center[b] = self.geom_obb_center[g]
+                self.body_obb_rot[b] = self.geom_obb_rot[g]
+                self.body_obb_half[b] = self.geom_obb_half[g] + m[0]
+                self.body_sphere_center[b] = self.geom_sphere_center[g]
+                self.body_sphere_radius[b] = self.geom_sphere_radius[g] + m[0]
+                continue
+            # The body's OBB must contain its geoms' inflated OBBs (the kernel culls with it
+            # before the geom tests): fit to their corners, one level only.
+            corners = np.concatenate([_box_corners(self.geom_obb_center[g], self.geom_obb_rot[g],
+                                                   self.geom_obb_half[g] + m[i]) for i, g in enumerate(gs)])
+            obb = fit_local_obb(PointCloud(corners))
+            # Its sphere must contain the geoms' inflated spheres: try the body hull's centre and
+            # the geom spheres' centres' centre, keep the smaller enclosing radius.
+            cs, rs = self.geom_sphere_center[gs], self.geom_sphere_radius[gs] + m
+            best = None
+            for cand in (fit_local_sphere(self.body_cloud[b]).center,
+                         fit_local_sphere(PointCloud(cs)).center):
+                r = float(np.max(np.linalg.norm(cs - cand, axis=1) + rs))
+                if best is None or r < best[1]:
+                    best = (cand, r)
+            sph = _volumes.Sphere(np.asarray(best[0], float), best[1])
+            (self.body_obb_center[b], self.body_obb_rot[b], self.body_obb_half[b],
+             self.body_sphere_center[b], self.body_sphere_radius[b]) = _guarded(obb, sph)
+
+    def __repr__(self) -> str:
+        return (f"Articulation({self.body_count} bodies, {self.geom_count} geoms, "
+                f"{len(self.exclude)} excluded body pairs, {len(self.pairs)} explicit pairs)")

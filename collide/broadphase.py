@@ -1,0 +1,230 @@
+"""BroadPhase: body poses in, candidate geom pairs out, every step; one world or many.
+
+All per-step work is one numba kernel call (`collide._kernels.broadphase`); this module lays the
+`Articulation` out as flat arrays once, owns the workspaces, and turns the kernel's status codes
+into ``ValueError`` s. See the kernel module's docstring for the pipeline.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from ._kernels import broadphase as _k
+from .articulation import Articulation
+
+_STAT_NAMES = ("subtree_tests", "body_aabb_tests", "body_sphere_tests", "body_obb_tests",
+               "geom_sphere_tests", "geom_obb_tests", "plane_tests", "pairs")
+
+
+def _local_rows(center, rot, half, sc, sr) -> np.ndarray:
+    n = len(center)
+    rows = np.empty((n, _k.ROW))
+    rows[:, 0:3] = center
+    rows[:, 3:12] = rot.reshape(n, 9)
+    rows[:, 12:15] = half
+    rows[:, 15:18] = sc
+    rows[:, 18] = sr
+    return rows
+
+
+class BroadPhase:
+    """Per-step broad phase of an `Articulation`.
+
+    Parameters
+    ----------
+    articulation : Articulation
+
+    Attributes
+    ----------
+    stats : dict of str to int
+        After a call: bounds tests done at each level (``subtree_tests`` (AABB, tree culling and
+        sweep-and-prune), ``body_aabb_tests``, ``body_sphere_tests``, ``body_obb_tests``,
+        ``geom_sphere_tests``, ``geom_obb_tests``, ``plane_tests``) and ``pairs`` out; summed over
+        worlds after `pairs_batch`.
+
+    Notes
+    -----
+    A pair of geoms is reported when their bounds overlap (both spheres and both OBBs, each
+    inflated by its geom's margin; see `collide.articulation`) and the static filter passes:
+    geoms of one weld group never pair, a body never pairs with its parent unless the parent is the
+    world (``filter_parent``), excluded body pairs never pair, and the masks must match
+    (``(ct1 & ca2) or (ct2 & ca1)``). Explicit pairs bypass the filter and are tested with their
+    own inflation. Planes are halfspaces, tested against the other geom's bounds.
+    """
+
+    def __init__(self, articulation: Articulation):
+        if not isinstance(articulation, Articulation):
+            raise ValueError(f"articulation: expected an Articulation, got {type(articulation).__name__}")
+        a = self.articulation = articulation
+        L, G = a.body_count, a.geom_count
+        self.body_count, self.geom_count = L, G
+        order, pos_of = a.body_dfs_order, a.body_dfs_pos
+        i64 = np.int64
+        end = a.body_subtree_end[order].astype(i64)
+        parent_pos = pos_of[a.body_parent[order]].astype(i64)
+        parent_pos[0] = 0
+        nchild = np.bincount(parent_pos[1:], minlength=L).astype(i64)
+        # Children of each position, in position order (a parent's children are increasing).
+        children = np.argsort(parent_pos[1:], kind="stable").astype(i64) + 1
+        child_start = np.concatenate([[0], np.cumsum(nchild)[:-1]]).astype(i64)
+        solid = np.flatnonzero(~a.geom_is_plane)
+        gpos = pos_of[a.geom_body[solid]]
+        srt = np.argsort(gpos, kind="stable")
+        pgeoms = solid[srt].astype(i64)
+        gstart = np.searchsorted(gpos[srt], np.arange(L + 1)).astype(i64)
+        gcount = np.diff(gstart)
+        single = gcount == 1
+        hasb = a.body_has_bounds[order]
+        ctor = np.zeros(L, i64)
+        caor = np.zeros(L, i64)
+        np.bitwise_or.at(ctor, gpos, a.geom_contype[solid])
+        np.bitwise_or.at(caor, gpos, a.geom_conaffinity[solid])
+        pairflag = np.zeros(L, bool)
+        if len(a.pairs):
+            pairflag[pos_of[a.geom_body[a.pairs.ravel()]]] = True
+        excl = np.sort(a.exclude[:, 0] * L + a.exclude[:, 1]).astype(i64)
+        planes = np.flatnonzero(a.geom_is_plane).astype(i64)
+        blocal = _local_rows(a.body_obb_center, a.body_obb_rot, a.body_obb_half, a.body_sphere_center,
+                             a.body_sphere_radius)[order]
+        glocal = _local_rows(a.geom_obb_center, a.geom_obb_rot, a.geom_obb_half, a.geom_sphere_center,
+                             a.geom_sphere_radius)
+        pair_keys = (a.pairs[:, 0] * G + a.pairs[:, 1]).astype(i64)
+        self._static = (
+            order.astype(i64), pos_of.astype(i64), end, parent_pos, a.body_weld[order].astype(i64),
+            a.filter_parent, nchild, child_start, children, gstart, pgeoms, single, hasb, pairflag,
+            ctor, caor, excl, planes, pos_of[a.geom_body[planes]].astype(i64), a.geom_body.astype(i64),
+            a.geom_contype.astype(i64), a.geom_conaffinity.astype(i64), a.geom_margin.astype(np.float64),
+            blocal, glocal, a.geom_plane.copy(), a.pairs.astype(i64), a.pair_margin.astype(np.float64),
+            pair_keys)
+        self._sap_init = children.copy()
+        self._work = self._workspace(1)
+        self._work1 = tuple(w[0] for w in self._work)
+        self._keys = np.empty(max(64, 4 * G), np.int64)
+        self._stats = np.zeros(_k.N_STATS, np.int64)
+        self._info = np.zeros(3, np.int64)
+        self._batch_work = None
+        self._batch_keys = None
+        self._last_stats = np.zeros(_k.N_STATS, np.int64)
+
+    def _workspace(self, C: int):
+        L, G, Q = self.body_count, self.geom_count, len(self._static[17])
+        return (np.zeros((C, L, _k.ROW)), np.zeros((C, G, _k.ROW)), np.zeros((C, L, 6)),
+                np.zeros((C, L, 6)), np.zeros((C, max(Q, 1), 4)), np.zeros((C, 2, _k.ROW)),
+                np.tile(self._sap_init, (C, 1)))
+
+    def _check(self, body_pos, body_rot, lead: tuple):
+        L = self.body_count
+        shape_p, shape_r = lead + (L, 3), lead + (L, 3, 3)
+        for name, arr, shape in (("body_pos", body_pos, shape_p), ("body_rot", body_rot, shape_r)):
+            if not isinstance(arr, np.ndarray):
+                raise ValueError(f"{name}: expected a numpy array of shape {shape}, got {type(arr).__name__}")
+            if arr.shape != shape:
+                raise ValueError(f"{name}: expected shape {shape}, got {arr.shape}")
+            if arr.dtype.kind != "f":
+                raise ValueError(f"{name}: expected a float array, got dtype {arr.dtype}")
+        if body_pos.dtype != np.float64 or not body_pos.flags.c_contiguous:
+            body_pos = np.ascontiguousarray(body_pos, np.float64)
+        if body_rot.dtype != np.float64 or not body_rot.flags.c_contiguous:
+            body_rot = np.ascontiguousarray(body_rot, np.float64)
+        return body_pos, body_rot
+
+    @staticmethod
+    def _raise(status: int, body: int, where: str = ""):
+        if status == _k.BAD_NONFINITE:
+            raise ValueError(f"{where}body {body}: pose has a non-finite value (NaN or inf)")
+        raise ValueError(f"{where}body {body}: rotation is not a proper orthonormal matrix "
+                         f"(|R^T R - I| > {_k.ORTHO_TOL:g} or det <= 0)")
+
+    def pairs(self, body_pos: np.ndarray, body_rot: np.ndarray) -> np.ndarray:
+        """Geom pairs whose bounds may touch, for one world.
+
+        Parameters
+        ----------
+        body_pos : (L, 3) float64
+            Body positions in the world (float32 is accepted and converted).
+        body_rot : (L, 3, 3) float64
+            Body rotations in the world (body frame to world), proper orthonormal.
+
+        Returns
+        -------
+        pairs : (K, 2) int32
+            Geom ids, lower id first, rows sorted and unique.
+
+        Raises
+        ------
+        ValueError
+            Wrong shape or dtype, or a pose with a NaN/inf or a rotation that is not orthonormal
+            (naming the first offending body); the broad phase stays usable.
+        """
+        if (type(body_pos) is not np.ndarray or type(body_rot) is not np.ndarray
+                or body_pos.dtype != np.float64 or body_rot.dtype != np.float64
+                or body_pos.shape != (self.body_count, 3) or body_rot.shape != (self.body_count, 3, 3)
+                or not body_pos.flags.c_contiguous or not body_rot.flags.c_contiguous):
+            body_pos, body_rot = self._check(body_pos, body_rot, ())
+        info = self._info
+        while True:
+            out = _k.step(body_pos, body_rot, *self._static, *self._work1, self._keys, self._stats, info)
+            if info[0] != _k.OK:
+                self._raise(int(info[0]), int(info[1]))
+            if info[2] <= len(self._keys):
+                break
+            # Never drop a pair: grow and rerun.
+            self._keys = np.empty(2 * int(info[2]), np.int64)
+        self._last_stats = self._stats
+        return out
+
+    @property
+    def stats(self) -> dict:
+        """Bounds tests at each level and pairs out, of the last call (see the class docstring)."""
+        return dict(zip(_STAT_NAMES, (int(v) for v in self._last_stats)))
+
+    def pairs_batch(self, body_pos: np.ndarray, body_rot: np.ndarray) -> np.ndarray:
+        """Geom pairs whose bounds may touch, for many worlds at once (threads over worlds).
+
+        Parameters
+        ----------
+        body_pos : (B, L, 3) float64
+        body_rot : (B, L, 3, 3) float64
+
+        Returns
+        -------
+        pairs : (K, 3) int32
+            Rows ``(world, geom1, geom2)``, geom1 < geom2, sorted; world ``w``'s rows equal
+            ``pairs(body_pos[w], body_rot[w])``.
+
+        Raises
+        ------
+        ValueError
+            As `pairs`, naming the first bad world and body.
+        """
+        if not isinstance(body_pos, np.ndarray) or body_pos.ndim != 3:
+            raise ValueError(f"body_pos: expected shape (B, {self.body_count}, 3), got "
+                             f"{getattr(body_pos, 'shape', type(body_pos).__name__)}")
+        B = body_pos.shape[0]
+        body_pos, body_rot = self._check(body_pos, body_rot, (B,))
+        C = max(1, min(numba.get_num_threads(), B))
+        if self._batch_work is None or self._batch_work[0].shape[0] != C:
+            self._batch_work = self._workspace(C)
+            self._batch_keys = np.empty((C, max(256, 4 * self.geom_count * ((B + C - 1) // C))), np.int64)
+        stats = np.zeros((C, 2 * _k.N_STATS), np.int64)
+        world_count = np.zeros(B, np.int64)
+        world_info = np.zeros((B, 3), np.int64)
+        chunk_total = np.zeros(C, np.int64)
+        while True:
+            stats[:] = 0
+            _k.step_batch(body_pos, body_rot, *self._static, *self._batch_work, self._batch_keys, stats,
+                          world_count, world_info, chunk_total)
+            bad = np.flatnonzero(world_count < 0)
+            if len(bad):
+                w = int(bad[0])
+                self._raise(int(world_info[w, 0]), int(world_info[w, 1]), f"world {w}, ")
+            need = int(chunk_total.max())
+            if need <= self._batch_keys.shape[1]:
+                break
+            self._batch_keys = np.empty((C, 2 * need), np.int64)
+        self._last_stats = stats[:, _k.N_STATS:].sum(axis=0)
+        return _k.gather_batch(self._batch_keys, world_count, chunk_total, self.geom_count, C)
+
+    def __repr__(self) -> str:
+        return f"BroadPhase({self.articulation!r})"

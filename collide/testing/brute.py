@@ -1,0 +1,366 @@
+"""Brute-force twins of the broad phase: every filter-passing geom pair, tested without a tree.
+
+- `brute_force_bound_pairs`: the same world bounds as `collide.BroadPhase` (each geom's sphere and
+  OBB, inflated by its margin; planes as halfspaces) compared pairwise in plain numpy: no tree, no
+  sweep-and-prune, no body-level bounds. The broad phase's candidate set must *equal* it.
+- `brute_force_pairs`: the pairs whose exact sets ``hull(points) ⊕ ball(radius + margin)``
+  intersect, decided by GJK distance between the two hulls (numba; no bounding volume involved).
+  The broad phase must report every one of them.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from .._kernels import broadphase as _k
+from ..articulation import Articulation
+
+
+# ------------------------------------------------------------------------------- static filter
+
+def _filter_mask(art: Articulation, g1: np.ndarray, g2: np.ndarray) -> np.ndarray:
+    """``(n,) bool``: which geom pairs ``(g1, g2)`` pass the static filter of the dynamic path
+    (explicit pairs excluded: they are tested separately)."""
+    b1, b2 = art.geom_body[g1], art.geom_body[g2]
+    ok = art.body_weld[b1] != art.body_weld[b2]
+    if art.filter_parent:
+        par = art.body_parent
+        ok &= ~((par[b1] == b2) & (b2 != 0)) & ~((par[b2] == b1) & (b1 != 0))
+    ct, ca = art.geom_contype, art.geom_conaffinity
+    ok &= ((ct[g1] & ca[g2]) != 0) | ((ct[g2] & ca[g1]) != 0)
+    L, G = art.body_count, art.geom_count
+    if len(art.exclude):
+        lo, hi = np.minimum(b1, b2), np.maximum(b1, b2)
+        ok &= ~np.isin(lo * L + hi, art.exclude[:, 0] * L + art.exclude[:, 1])
+    if len(art.pairs):
+        lo, hi = np.minimum(g1, g2), np.maximum(g1, g2)
+        ok &= ~np.isin(lo * G + hi, art.pairs[:, 0] * G + art.pairs[:, 1])
+    ok &= ~art.geom_is_plane[g1] | ~art.geom_is_plane[g2]
+    return ok
+
+
+def filter_passing_pairs(art: Articulation) -> tuple[np.ndarray, np.ndarray]:
+    """All geom pairs tested by the dynamic path, ``g1 < g2`` (two ``(n,) int64`` arrays)."""
+    g1, g2 = np.triu_indices(art.geom_count, 1)
+    keep = _filter_mask(art, g1, g2)
+    return g1[keep], g2[keep]
+
+
+def _check_poses(art: Articulation, body_pos, body_rot):
+    L = art.body_count
+    body_pos = np.asarray(body_pos, np.float64)
+    body_rot = np.asarray(body_rot, np.float64)
+    if body_pos.shape != (L, 3) or body_rot.shape != (L, 3, 3):
+        raise ValueError(f"poses: expected ({L}, 3) and ({L}, 3, 3), got {body_pos.shape}, {body_rot.shape}")
+    return body_pos, body_rot
+
+
+# ------------------------------------------------------------------------------- world bounds
+
+def world_bounds(art: Articulation, body_pos, body_rot):
+    """World bounds of every geom, not inflated.
+
+    Returns
+    -------
+    center : (G, 3), rot : (G, 3, 3), half : (G, 3), sphere_center : (G, 3), sphere_radius : (G,)
+    plane : (G, 4) float64
+        World normal and offset of planes (zeros for other geoms).
+    """
+    body_pos, body_rot = _check_poses(art, body_pos, body_rot)
+    Rb, pb = body_rot[art.geom_body], body_pos[art.geom_body]
+    center = np.einsum("gij,gj->gi", Rb, art.geom_obb_center) + pb
+    rot = Rb @ art.geom_obb_rot
+    sc = np.einsum("gij,gj->gi", Rb, art.geom_sphere_center) + pb
+    n = np.einsum("gij,gj->gi", Rb, art.geom_plane[:, :3])
+    plane = np.concatenate([n, (art.geom_plane[:, 3] + np.sum(n * pb, axis=1))[:, None]], axis=1)
+    return center, rot, art.geom_obb_half.copy(), sc, art.geom_sphere_radius.copy(), plane
+
+
+def _sat_overlap(ca, Ra, ea, cb, Rb, eb) -> np.ndarray:
+    # Generic 15-axis SAT, vectorised over n box pairs: project both boxes on each axis.
+    A = np.swapaxes(Ra, 1, 2)  # rows = axes
+    B = np.swapaxes(Rb, 1, 2)
+    cross = np.cross(A[:, :, None, :], B[:, None, :, :]).reshape(-1, 9, 3)
+    axes = np.concatenate([A, B, cross], axis=1)  # (n, 15, 3)
+    d = cb - ca
+    ra = np.sum(np.abs(np.einsum("nkx,nix->nki", axes, A)) * ea[:, None, :], axis=2)
+    rb = np.sum(np.abs(np.einsum("nkx,nix->nki", axes, B)) * eb[:, None, :], axis=2)
+    dist = np.abs(np.einsum("nkx,nx->nk", axes, d))
+    size = ea.sum(1) + eb.sum(1)
+    pos = np.abs(ca).sum(1) + np.abs(cb).sum(1)
+    tol = (_k.SLACK_REL + 2 * _k.EPS_PAR) * size + _k.SLACK_POS * pos
+    return np.all(dist <= ra + rb + tol[:, None], axis=1)
+
+
+def _sphere_overlap(c1, r1, c2, r2) -> np.ndarray:
+    r = r1 + r2
+    pos = np.abs(c1).sum(1) + np.abs(c2).sum(1)
+    r = r + _k.SLACK_REL * r + _k.SLACK_POS * pos
+    return np.sum((c1 - c2) ** 2, axis=1) <= r * r
+
+
+def _plane_overlap(plane, c, R, h, sc, sr) -> np.ndarray:
+    n, d = plane[:, :3], plane[:, 3]
+    pos = np.abs(c).sum(1) + np.abs(d)
+    s_ok = np.sum(n * sc, 1) - sr <= d + _k.SLACK_REL * sr + _k.SLACK_POS * pos
+    ext = np.sum(np.abs(np.einsum("nx,nxi->ni", n, R)) * h, axis=1)
+    b_ok = np.sum(n * c, 1) - ext <= d + _k.SLACK_REL * ext + _k.SLACK_POS * pos
+    return s_ok & b_ok
+
+
+def _bounds_test(wb, g1, g2, m1, m2, is_plane) -> np.ndarray:
+    c, R, h, sc, sr, pl = wb
+    p1, p2 = is_plane[g1], is_plane[g2]
+    out = np.zeros(len(g1), bool)
+    both = ~p1 & ~p2
+    i, j = g1[both], g2[both]
+    ok = _sphere_overlap(sc[i], sr[i] + m1[both], sc[j], sr[j] + m2[both])
+    sel = np.flatnonzero(both)[ok]
+    i, j = g1[sel], g2[sel]
+    out[sel] = _sat_overlap(c[i], R[i], h[i] + m1[sel, None], c[j], R[j], h[j] + m2[sel, None])
+    one = p1 ^ p2
+    gp = np.where(p1, g1, g2)[one]
+    gs = np.where(p1, g2, g1)[one]
+    mp = np.where(p1, m1, m2)[one]
+    ms = np.where(p1, m2, m1)[one]
+    pl_inf = pl[gp].copy()
+    pl_inf[:, 3] += mp
+    out[one] = _plane_overlap(pl_inf, c[gs], R[gs], h[gs] + ms[:, None], sc[gs], sr[gs] + ms)
+    return out
+
+
+def _explicit_margins(art: Articulation):
+    g1, g2 = art.pairs[:, 0], art.pairs[:, 1]
+    pm = art.pair_margin
+    m1 = np.where(np.isnan(pm), art.geom_margin[g1], pm)
+    m2 = np.where(np.isnan(pm), art.geom_margin[g2], pm)
+    keep = ~(art.geom_is_plane[g1] & art.geom_is_plane[g2])
+    return g1[keep], g2[keep], m1[keep], m2[keep]
+
+
+def _as_pairs(g1, g2) -> np.ndarray:
+    out = np.stack([np.minimum(g1, g2), np.maximum(g1, g2)], axis=1).astype(np.int32)
+    if len(out) == 0:
+        return np.zeros((0, 2), np.int32)
+    return np.unique(out, axis=0)
+
+
+def brute_force_bound_pairs(art: Articulation, body_pos, body_rot, chunk: int = 200_000) -> np.ndarray:
+    """All filter-passing geom pairs whose world bounds (inflated by margins) overlap.
+
+    Parameters
+    ----------
+    art : Articulation
+    body_pos : (L, 3) float64
+    body_rot : (L, 3, 3) float64
+    chunk : int
+        Pairs tested per numpy batch (memory bound only).
+
+    Returns
+    -------
+    pairs : (K, 2) int32
+        Lower id first, rows sorted and unique; explicit pairs with their own inflation.
+    """
+    wb = world_bounds(art, body_pos, body_rot)
+    g1, g2 = filter_passing_pairs(art)
+    m = art.geom_margin
+    keep = []
+    for s in range(0, len(g1), chunk):
+        a, b = g1[s:s + chunk], g2[s:s + chunk]
+        keep.append(_bounds_test(wb, a, b, m[a], m[b], art.geom_is_plane))
+    keep = np.concatenate(keep) if keep else np.zeros(0, bool)
+    e1, e2, em1, em2 = _explicit_margins(art)
+    ek = _bounds_test(wb, e1, e2, em1, em2, art.geom_is_plane)
+    return _as_pairs(np.r_[g1[keep], e1[ek]], np.r_[g2[keep], e2[ek]])
+
+
+# ------------------------------------------------------------------------------- exact: GJK
+
+@nb.njit(cache=True)
+def _closest_on_simplex(W, n, lam_out):
+    # Closest point to the origin of hull(W[:n]) (n <= 4): every non-empty subset's affine
+    # projection with positive weights is a candidate point of the simplex; the smallest is the
+    # answer (brute-force Johnson, robust to degenerate subsets: singular systems are skipped).
+    best = np.inf
+    bestmask = 0
+    v = np.zeros(3)
+    for mask in range(1, 1 << n):
+        idx = np.empty(4, np.int64)
+        m = 0
+        for i in range(n):
+            if mask & (1 << i):
+                idx[m] = i
+                m += 1
+        # Solve min |sum l_i w_i|^2, sum l_i = 1: [W^T W 1; 1^T 0] [l; mu] = [0; 1]
+        M = np.zeros((m + 1, m + 1))
+        rhs = np.zeros(m + 1)
+        for a in range(m):
+            for b in range(m):
+                M[a, b] = W[idx[a], 0] * W[idx[b], 0] + W[idx[a], 1] * W[idx[b], 1] + W[idx[a], 2] * W[idx[b], 2]
+            M[a, m] = 1.0
+            M[m, a] = 1.0
+        rhs[m] = 1.0
+        if m == 1:
+            lam = np.ones(1)
+        else:
+            scale = 0.0
+            for a in range(m):
+                scale = max(scale, M[a, a])
+            det = np.linalg.det(M)
+            if not np.isfinite(det) or abs(det) <= 1e-13 * max(scale, 1e-300) ** m:
+                continue
+            lam = np.linalg.solve(M, rhs)[:m]
+        feasible = True
+        for a in range(m):
+            if lam[a] < 0.0:
+                feasible = False
+        if not feasible:
+            continue
+        p = np.zeros(3)
+        for a in range(m):
+            for c in range(3):
+                p[c] += lam[a] * W[idx[a], c]
+        d2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2]
+        if d2 < best:
+            best = d2
+            bestmask = mask
+            v[:] = p
+            lam_out[:] = 0.0
+            for a in range(m):
+                lam_out[idx[a]] = lam[a]
+    return v, bestmask
+
+
+@nb.njit(cache=True)
+def gjk_distance(P, Q):
+    """Euclidean distance between ``hull(P)`` and ``hull(Q)`` (``(n, 3)``, ``(m, 3)`` float64).
+
+    Returns ``(upper, lower)``: bounds on the distance that meet at convergence (GJK, Gilbert,
+    Johnson & Keerthi 1988; van den Bergen's termination, relative gap 1e-14).
+    """
+    W = np.zeros((4, 3))
+    lam = np.zeros(4)
+    W[0] = P[0] - Q[0]
+    n = 1
+    v = W[0].copy()
+    lower = 0.0
+    for _ in range(200):
+        vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
+        if vv == 0.0:
+            return 0.0, 0.0
+        # support of P - Q in direction -v
+        ip = 0
+        best = np.inf
+        for i in range(P.shape[0]):
+            s = P[i, 0] * v[0] + P[i, 1] * v[1] + P[i, 2] * v[2]
+            if s < best:
+                best = s
+                ip = i
+        iq = 0
+        best = -np.inf
+        for i in range(Q.shape[0]):
+            s = Q[i, 0] * v[0] + Q[i, 1] * v[1] + Q[i, 2] * v[2]
+            if s > best:
+                best = s
+                iq = i
+        w = P[ip] - Q[iq]
+        vw = v[0] * w[0] + v[1] * w[1] + v[2] * w[2]
+        nv = np.sqrt(vv)
+        lower = max(lower, vw / nv)
+        if vv - vw <= 1e-14 * vv:
+            break
+        dup = False
+        for i in range(n):
+            if W[i, 0] == w[0] and W[i, 1] == w[1] and W[i, 2] == w[2]:
+                dup = True
+        if dup:
+            break
+        W[n] = w
+        n += 1
+        v, mask = _closest_on_simplex(W, n, lam)
+        # keep only the support subset
+        m = 0
+        for i in range(n):
+            if mask & (1 << i):
+                W[m] = W[i]
+                m += 1
+        n = m
+        if n == 4:
+            return 0.0, 0.0
+    return np.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]), max(lower, 0.0)
+
+
+@nb.njit(cache=True)
+def _moved(pts, s, e, R, p):
+    out = np.empty((e - s, 3))
+    for i in range(e - s):
+        for r in range(3):
+            out[i, r] = p[r] + R[r, 0] * pts[s + i, 0] + R[r, 1] * pts[s + i, 1] + R[r, 2] * pts[s + i, 2]
+    return out
+
+
+@nb.njit(cache=True)
+def _pairs_touch(g1, g2, rad, pts, pstart, wrot, wpos, gbody, out):
+    for k in range(g1.shape[0]):
+        a, b = g1[k], g2[k]
+        Pa = _moved(pts, pstart[a], pstart[a + 1], wrot[gbody[a]], wpos[gbody[a]])
+        Pb = _moved(pts, pstart[b], pstart[b + 1], wrot[gbody[b]], wpos[gbody[b]])
+        upper, lower = gjk_distance(Pa, Pb)
+        scale = 0.0
+        for i in range(3):
+            scale = max(scale, abs(wpos[gbody[a], i]), abs(wpos[gbody[b], i]))
+        # Touching within rounding (far below the bounds' 1e-10 guard): decided on the upper bound.
+        out[k] = upper <= rad[k] * (1 + 1e-13) + 1e-14 * scale
+
+
+def brute_force_pairs(art: Articulation, body_pos, body_rot, candidates=None) -> np.ndarray:
+    """All filter-passing geom pairs whose exact sets intersect: ``hull(points) ⊕ ball(radius +
+    margin)`` of each, by GJK distance (planes: the hull's lowest point against the halfspace).
+
+    Parameters
+    ----------
+    art : Articulation
+    body_pos : (L, 3) float64
+    body_rot : (L, 3, 3) float64
+    candidates : tuple of two (n,) int arrays, optional
+        Test only these pairs (default: every filter-passing pair, plus the explicit pairs).
+
+    Returns
+    -------
+    pairs : (K, 2) int32
+        Lower id first, rows sorted and unique.
+    """
+    body_pos, body_rot = _check_poses(art, body_pos, body_rot)
+    if candidates is None:
+        g1, g2 = filter_passing_pairs(art)
+        m1, m2 = art.geom_margin[g1], art.geom_margin[g2]
+        e1, e2, em1, em2 = _explicit_margins(art)
+        g1, g2, m1, m2 = np.r_[g1, e1], np.r_[g2, e2], np.r_[m1, em1], np.r_[m2, em2]
+    else:
+        g1, g2 = (np.asarray(c, np.int64) for c in candidates)
+        m1, m2 = art.geom_margin[g1], art.geom_margin[g2]
+    G = art.geom_count
+    is_plane = art.geom_is_plane
+    sizes = np.array([0 if c is None else len(c) for c in art.geom_local_cloud])
+    pstart = np.r_[0, np.cumsum(sizes)].astype(np.int64)
+    pts = np.concatenate([c.points for c in art.geom_local_cloud if c is not None] or [np.zeros((0, 3))])
+    crad = np.array([0.0 if c is None else c.radius for c in art.geom_local_cloud])
+    touch = np.zeros(len(g1), bool)
+    both = ~is_plane[g1] & ~is_plane[g2]
+    idx = np.flatnonzero(both)
+    res = np.zeros(len(idx), bool)
+    rad = crad[g1[idx]] + crad[g2[idx]] + m1[idx] + m2[idx]
+    _pairs_touch(g1[idx].astype(np.int64), g2[idx].astype(np.int64), rad, pts, pstart, body_rot, body_pos,
+                 art.geom_body.astype(np.int64), res)
+    touch[idx] = res
+    _, _, _, _, _, plane = world_bounds(art, body_pos, body_rot)
+    for k in np.flatnonzero(is_plane[g1] ^ is_plane[g2]):
+        gp, gs = (g1[k], g2[k]) if is_plane[g1[k]] else (g2[k], g1[k])
+        mp, ms = (m1[k], m2[k]) if is_plane[g1[k]] else (m2[k], m1[k])
+        b = art.geom_body[gs]
+        P = art.geom_local_cloud[gs].points @ body_rot[b].T + body_pos[b]
+        low = float(np.min(P @ plane[gp, :3])) - crad[gs] - ms
+        touch[k] = low <= plane[gp, 3] + mp
+    del G
+    return _as_pairs(g1[touch], g2[touch])
