@@ -1,0 +1,897 @@
+"""CSG graphs, cyclic (recursive) graphs of plants, their point clouds, BVHs and ray queries.
+
+Stürzlinger 1996, "Bounding Volume Construction using Point Clouds":
+- §3.1-§3.3: a node's cloud comes from its primitives, moved by transforms, appended by unions
+  (hull-reduced past ``threshold``), intersected exactly (or by boxes), and a difference keeps its
+  left operand. `Node.point_cloud` does this, memoized per (node, recursion level): a shared
+  subgraph's cloud is computed once in its own frame and only transformed for each instance.
+- §3.5: every node of the CSG tree gets a bounding volume from its cloud; a top-down pass clips
+  each child's box to its parent's (an intersection clips both operands, a difference its right
+  one; an empty clip removes a difference's right subtree and empties an intersection).
+  `build_bvh(..., method="box_of_box")` builds the classical hierarchy (each node's box from its
+  children's transformed boxes) for comparison.
+- §4: recursive graphs (a node referring back to itself through a transform: `Recursive` and
+  `Ref`) unrolled to a depth; the flower experiment is `demos/flower.py`.
+
+Ray queries (`raycast`) run in numba (`collide._kernels.ray`) with exact primitive tests and span
+arithmetic (Roth 1982); the brute-force twin is `collide.testing.csg.brute_force_raycast`.
+
+Example
+-------
+>>> import numpy as np
+>>> from collide import csg
+>>> lift = np.eye(4); lift[2, 3] = 1.0
+>>> tower = csg.Recursive("t", csg.Union(csg.box([1, 1, 0.5]), csg.Transform(lift, csg.Ref("t"))), 3)
+>>> tower.point_cloud().aabb().hi
+array([1. , 1. , 2.5])
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import pointcloud as _pc
+from . import shapes as _shapes
+from ._kernels import ray as _ray
+from ._validate import as_affine, as_array, as_count, as_points, as_positive, as_radius
+from .pointcloud import PointCloud
+from .volumes import AABB
+
+__all__ = [
+    "BVH", "Difference", "Instances", "Intersection", "Leaf", "Node", "RayHits", "Recursive", "Ref",
+    "Transform", "Union", "box", "build_bvh", "capsule", "cone", "cylinder", "ellipsoid",
+    "leaves", "mesh", "raycast", "sphere",
+]
+
+# Relative inflation of every BVH box: rounding in the slab test must never miss a leaf that
+# the exact primitive test hits (DESIGN.md: prefer a tiny conservative inflation).
+BOX_PAD = 1e-9
+
+
+def _matrix(value, name: str = "matrix") -> np.ndarray:
+    # Any accepted affine form -> (4, 4) float64.
+    linear, t = as_affine(value, name=name)
+    m = np.eye(4)
+    m[:3, :3] = linear
+    m[:3, 3] = t
+    return m
+
+
+class Node:
+    """Base class of CSG graph nodes. Nodes are immutable; a node may be shared by many parents."""
+
+    __slots__ = ()
+
+    def children(self) -> tuple["Node", ...]:
+        """The node's direct children (a `Ref` has none: it is resolved when unrolled)."""
+        return ()
+
+    def point_cloud(self, threshold: int = 256, exact_intersection: bool = True,
+                    cache: dict | None = None) -> PointCloud:
+        """A cloud bounding the node's solid in its own frame (paper §3.3).
+
+        Parameters
+        ----------
+        threshold : int, default 256
+            Unions are hull-reduced once they pass this many points.
+        exact_intersection : bool, default True
+            True: intersections are the exact hull intersections (manifold3d); False: the
+            corners of the intersection of the two boxes.
+        cache : dict, optional
+            Memo of clouds per (node, recursion state); pass the same dict to share the work
+            between calls (its size is the number of distinct clouds computed).
+
+        Returns
+        -------
+        PointCloud
+        """
+        ctx = _Context(as_count(threshold, "threshold", 1), bool(exact_intersection),
+                       {} if cache is None else cache)
+        with _deep_recursion():
+            return _cloud(self, (), ctx)
+
+
+def _check_node(value, name: str) -> Node:
+    if not isinstance(value, Node):
+        raise ValueError(f"{name}: expected a csg Node, got {type(value).__name__}")
+    return value
+
+
+class Leaf(Node):
+    """A primitive with its exact geometry kept (for ray tests) and its cloud from `collide.shapes`.
+
+    Parameters
+    ----------
+    kind : {"box", "sphere", "capsule", "cylinder", "cone", "ellipsoid", "mesh"}
+    *args, **kwargs
+        The parameters of the matching `collide.shapes` constructor: ``box(half_extents)``,
+        ``sphere(radius)``, ``capsule(radius, half_length)`` (z axis),
+        ``cylinder(radius, half_length, planes=16)`` (z in ``[-h, h]``),
+        ``cone(radius, height, planes=16)`` (base at z = 0, apex at z = height),
+        ``ellipsoid(radii, planes=16)``; ``mesh(mesh)`` takes a closed ``trimesh.Trimesh`` or a
+        ``(vertices (n, 3), faces (m, 3) int)`` pair (ray tests need the faces; a mesh's inside
+        is between odd and even crossings, so it should be closed).
+    """
+
+    __slots__ = ("kind", "params", "_cloud", "_vertices", "_faces")
+
+    KINDS = ("box", "sphere", "capsule", "cylinder", "cone", "ellipsoid", "mesh")
+
+    def __init__(self, kind: str, *args, **kwargs):
+        if kind not in self.KINDS:
+            raise ValueError(f"kind: expected one of {self.KINDS}, got {kind!r}")
+        self.kind = kind
+        self._vertices = self._faces = None
+        if kind == "mesh":
+            if len(args) + len(kwargs) != 1:
+                raise ValueError("mesh: expected one argument, a trimesh.Trimesh or (vertices, faces)")
+            m = args[0] if args else next(iter(kwargs.values()))
+            if hasattr(m, "vertices") and hasattr(m, "faces"):
+                verts, faces = m.vertices, m.faces
+            elif isinstance(m, (tuple, list)) and len(m) == 2:
+                verts, faces = m
+            else:
+                raise ValueError("mesh: expected a trimesh.Trimesh or a (vertices, faces) pair")
+            v = as_points(verts, "vertices")
+            f = as_array(faces, "faces", (None, 3), dtype=np.int64)
+            if len(v) == 0 or len(f) == 0:
+                raise ValueError("mesh: the mesh is empty (no vertices or no faces)")
+            if f.min() < 0 or f.max() >= len(v):
+                raise ValueError(f"faces: indices must lie in [0, {len(v)}), got [{f.min()}, {f.max()}]")
+            self._vertices, self._faces = v, f
+            self.params = {}
+            self._cloud = _shapes.mesh(v)
+        else:
+            # shapes validates and raises ValueError naming the bad parameter.
+            self._cloud = getattr(_shapes, kind)(*args, **kwargs)
+            self.params = self._normalise(kind, args, kwargs)
+
+    @staticmethod
+    def _normalise(kind, args, kwargs) -> dict:
+        names = {"box": ("half_extents",), "sphere": ("radius",),
+                 "capsule": ("radius", "half_length"),
+                 "cylinder": ("radius", "half_length", "planes"),
+                 "cone": ("radius", "height", "planes"), "ellipsoid": ("radii", "planes", "bands")}[kind]
+        params = dict(zip(names, args))
+        params.update(kwargs)
+        for key in ("half_extents", "radii"):
+            if key in params:
+                params[key] = np.asarray(params[key], dtype=np.float64).copy()
+        return params
+
+    def cloud(self) -> PointCloud:
+        """The primitive's cloud in its own frame (from `collide.shapes`)."""
+        return self._cloud
+
+    def triangles(self) -> np.ndarray:
+        """``(m, 3, 3) float64``: a mesh leaf's triangles (local frame); ``(0, 3, 3)`` otherwise."""
+        if self._faces is None:
+            return np.zeros((0, 3, 3))
+        return self._vertices[self._faces]
+
+    def kernel_form(self) -> tuple[int, np.ndarray, np.ndarray]:
+        """(primitive code, parameters ``(3,) float64``, local map ``(4, 4)``) for the ray kernel.
+
+        Ellipsoids become unit spheres under ``diag(radii)``. Zero-volume primitives (a zero
+        radius or height, a flat ellipsoid) become a point-sized box that no ray enters.
+        """
+        p = np.zeros(3)
+        local = np.eye(4)
+        kind, prm = self.kind, self.params
+        if kind == "box":
+            return _ray.P_BOX, prm["half_extents"].copy(), local
+        if kind == "mesh":
+            return _ray.P_MESH, p, local
+        if kind == "sphere":
+            p[0] = prm["radius"]
+            return _ray.P_SPHERE, p, local
+        if kind == "ellipsoid":
+            radii = prm["radii"]
+            if np.any(radii <= 0):
+                return _ray.P_BOX, p, local
+            local[:3, :3] = np.diag(radii)
+            p[0] = 1.0
+            return _ray.P_SPHERE, p, local
+        p[0] = prm["radius"]
+        p[1] = prm["half_length"] if kind in ("capsule", "cylinder") else prm["height"]
+        if kind == "cone" and (p[0] <= 0 or p[1] <= 0):
+            return _ray.P_BOX, np.zeros(3), local
+        return {"capsule": _ray.P_CAPSULE, "cylinder": _ray.P_CYLINDER, "cone": _ray.P_CONE}[kind], p, local
+
+    def __repr__(self) -> str:
+        if self.kind == "mesh":
+            return f"Leaf('mesh', {len(self._vertices)} vertices, {len(self._faces)} faces)"
+        args = ", ".join(f"{k}={np.round(v, 6).tolist() if isinstance(v, np.ndarray) else v}"
+                         for k, v in self.params.items())
+        return f"Leaf({self.kind!r}, {args})"
+
+
+def box(half_extents) -> Leaf:
+    """A box leaf centred at the origin, ``half_extents (3,)``."""
+    return Leaf("box", half_extents)
+
+
+def sphere(radius: float) -> Leaf:
+    """A sphere leaf about the origin."""
+    return Leaf("sphere", radius)
+
+
+def capsule(radius: float, half_length: float) -> Leaf:
+    """A capsule leaf along z (segment ``z`` in ``[-half_length, half_length]``)."""
+    return Leaf("capsule", radius, half_length)
+
+
+def cylinder(radius: float, half_length: float, planes: int = 16) -> Leaf:
+    """A solid cylinder leaf along z, ``z`` in ``[-half_length, half_length]``."""
+    return Leaf("cylinder", radius, half_length, planes)
+
+
+def cone(radius: float, height: float, planes: int = 16) -> Leaf:
+    """A solid cone leaf: base of ``radius`` at z = 0, apex at z = ``height``."""
+    return Leaf("cone", radius, height, planes)
+
+
+def ellipsoid(radii, planes: int = 16) -> Leaf:
+    """A solid ellipsoid leaf with semi-axes ``radii (3,)``."""
+    return Leaf("ellipsoid", radii, planes)
+
+
+def mesh(mesh_or_pair) -> Leaf:
+    """A closed triangle-mesh leaf: a ``trimesh.Trimesh`` or ``(vertices (n, 3), faces (m, 3))``."""
+    return Leaf("mesh", mesh_or_pair)
+
+
+class Transform(Node):
+    """``child`` under an affine map: a ``(4, 4)`` matrix or a ``(rotation, translation)`` pair."""
+
+    __slots__ = ("matrix", "child")
+
+    def __init__(self, matrix, child: Node):
+        self.matrix = _matrix(matrix)
+        self.matrix.setflags(write=False)
+        self.child = _check_node(child, "child")
+
+    def children(self):
+        return (self.child,)
+
+    def __repr__(self) -> str:
+        return f"Transform({self.child!r})"
+
+
+class Union(Node):
+    """The union of any number of children (none: the empty set)."""
+
+    __slots__ = ("items",)
+
+    def __init__(self, *children: Node):
+        self.items = tuple(_check_node(c, f"children[{i}]") for i, c in enumerate(children))
+
+    def children(self):
+        return self.items
+
+    def __repr__(self) -> str:
+        return f"Union({len(self.items)} children)"
+
+
+class Intersection(Node):
+    """``a ∩ b``."""
+
+    __slots__ = ("a", "b")
+
+    def __init__(self, a: Node, b: Node):
+        self.a = _check_node(a, "a")
+        self.b = _check_node(b, "b")
+
+    def children(self):
+        return (self.a, self.b)
+
+
+class Difference(Node):
+    """``a \\ b``."""
+
+    __slots__ = ("a", "b")
+
+    def __init__(self, a: Node, b: Node):
+        self.a = _check_node(a, "a")
+        self.b = _check_node(b, "b")
+
+    def children(self):
+        return (self.a, self.b)
+
+
+class Instances(Node):
+    """One child under many transforms (the paper's CT node): the union of ``matrices[i] @ child``.
+
+    Parameters
+    ----------
+    child : Node
+    matrices : (k, 4, 4) array_like of float
+        Affine matrices (last rows ``[0, 0, 0, 1]``); ``k`` may be zero (the empty set).
+    """
+
+    __slots__ = ("child", "matrices")
+
+    def __init__(self, child: Node, matrices):
+        self.child = _check_node(child, "child")
+        try:
+            mats = np.asarray(matrices, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"matrices: cannot be read as a float64 array ({exc})") from None
+        if mats.size == 0:
+            mats = np.zeros((0, 4, 4))
+        mats = as_array(mats, "matrices", (None, 4, 4))
+        for i, m in enumerate(mats):
+            _matrix(m, f"matrices[{i}]")
+        mats.setflags(write=False)
+        self.matrices = mats
+
+    def children(self):
+        return (self.child,)
+
+    def __repr__(self) -> str:
+        return f"Instances({self.child!r}, {len(self.matrices)} matrices)"
+
+
+class Recursive(Node):
+    """A cyclic graph unrolled to ``depth``: ``body`` with every ``Ref(name)`` inside it standing
+    for the whole node again, one level down; at level 0 a `Ref` is ``base`` (default: empty).
+
+    ``depth = 1`` is ``body`` with its references replaced by ``base``; ``depth = 30`` nests 30
+    copies. A reference normally sits under a `Transform` or `Instances` (a plant's branches).
+
+    Parameters
+    ----------
+    name : str
+    body : Node
+    depth : int
+        ``>= 0``; 0 gives ``base``.
+    base : Node, optional
+    """
+
+    __slots__ = ("name", "body", "depth", "base")
+
+    def __init__(self, name: str, body: Node, depth: int, base: Node | None = None):
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"name: expected a non-empty string, got {name!r}")
+        self.name = name
+        self.body = _check_node(body, "body")
+        self.depth = as_count(depth, "depth", 0)
+        self.base = None if base is None else _check_node(base, "base")
+
+    def children(self):
+        return (self.body,) if self.base is None else (self.body, self.base)
+
+    def __repr__(self) -> str:
+        return f"Recursive({self.name!r}, depth={self.depth})"
+
+
+class Ref(Node):
+    """A reference to the enclosing `Recursive` of the same ``name`` (innermost first)."""
+
+    __slots__ = ("name",)
+
+    def __init__(self, name: str):
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"name: expected a non-empty string, got {name!r}")
+        self.name = name
+
+    def __repr__(self) -> str:
+        return f"Ref({self.name!r})"
+
+
+# ---------------------------------------------------------------------------------------------
+# Unrolling. A recursion state ``env`` is a tuple of bindings ``(name, recursive, level, outer)``
+# (innermost first); ``outer`` is the env in which the Recursive node itself appeared.
+
+_EMPTY = Union()
+
+
+def _resolve(node, env):
+    """Step through Recursive and Ref nodes: (the node they stand for, its env)."""
+    while True:
+        if isinstance(node, Recursive):
+            if node.depth == 0:
+                node, env = (node.base or _EMPTY), env
+                continue
+            return node.body, ((node.name, node, node.depth, env),) + env
+        if isinstance(node, Ref):
+            for name, rec, level, outer in env:
+                if name == node.name:
+                    if level - 1 == 0:
+                        node, env = (rec.base or _EMPTY), outer
+                    else:
+                        return rec.body, ((name, rec, level - 1, outer),) + outer
+                    break
+            else:
+                raise ValueError(f"Ref({node.name!r}) is not inside a Recursive named {node.name!r}")
+            continue
+        return node, env
+
+
+class _deep_recursion:
+    # Unrolling recurses once per graph level; deep recursive graphs need more than Python's
+    # default 1000 frames.
+    def __enter__(self):
+        self.old = sys.getrecursionlimit()
+        sys.setrecursionlimit(max(self.old, 20000))
+
+    def __exit__(self, *exc):
+        sys.setrecursionlimit(self.old)
+
+
+@dataclass
+class _Context:
+    threshold: int
+    exact: bool
+    cache: dict
+    bob: dict = field(default_factory=dict)
+
+
+def _cloud(node, env, ctx: _Context) -> PointCloud:
+    node, env = _resolve(node, env)
+    key = (node, env)
+    got = ctx.cache.get(key)
+    if got is not None:
+        return got
+    if isinstance(node, Leaf):
+        out = node.cloud()
+    elif isinstance(node, Transform):
+        out = _cloud(node.child, env, ctx).transform(node.matrix)
+    elif isinstance(node, Union):
+        out = _pc.union([_cloud(c, env, ctx) for c in node.items], ctx.threshold)
+    elif isinstance(node, Instances):
+        child = _cloud(node.child, env, ctx)
+        out = _pc.union([child.transform(m) for m in node.matrices], ctx.threshold)
+    elif isinstance(node, Intersection):
+        out = _pc.intersection(_cloud(node.a, env, ctx), _cloud(node.b, env, ctx), ctx.exact)
+    elif isinstance(node, Difference):
+        out = _pc.difference(_cloud(node.a, env, ctx), PointCloud.empty())  # paper §3.3: keep a
+    else:
+        raise ValueError(f"unknown node type {type(node).__name__}")
+    if len(out) > ctx.threshold:
+        out = out.reduced()
+    ctx.cache[key] = out
+    return out
+
+
+def _box_corners(lo, hi) -> np.ndarray:
+    return np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+
+
+def _box_under(lo, hi, m) -> tuple[np.ndarray, np.ndarray]:
+    # The box of a transformed box (the box-of-box step that grows under rotation).
+    if np.any(lo > hi):
+        return lo, hi
+    c = _box_corners(lo, hi) @ m[:3, :3].T + m[:3, 3]
+    return c.min(axis=0), c.max(axis=0)
+
+
+_NO_BOX = (np.full(3, np.inf), np.full(3, -np.inf))
+
+
+def _bob(node, env, ctx: _Context):
+    """Box-of-box bound in the node's own frame: (lo, hi), from its children's boxes only."""
+    node, env = _resolve(node, env)
+    key = (node, env)
+    got = ctx.bob.get(key)
+    if got is not None:
+        return got
+    if isinstance(node, Leaf):
+        box_ = node.cloud().aabb()
+        out = (box_.lo, box_.hi)
+    elif isinstance(node, Transform):
+        out = _box_under(*_bob(node.child, env, ctx), node.matrix)
+    elif isinstance(node, (Union, Instances)):
+        if isinstance(node, Union):
+            boxes = [_bob(c, env, ctx) for c in node.items]
+        else:
+            child = _bob(node.child, env, ctx)
+            boxes = [_box_under(*child, m) for m in node.matrices]
+        out = _NO_BOX
+        for lo, hi in boxes:
+            out = (np.minimum(out[0], lo), np.maximum(out[1], hi))
+    elif isinstance(node, Intersection):
+        (la, ha), (lb, hb) = _bob(node.a, env, ctx), _bob(node.b, env, ctx)
+        out = (np.maximum(la, lb), np.minimum(ha, hb))
+        if np.any(out[0] > out[1]):
+            out = _NO_BOX
+    elif isinstance(node, Difference):
+        out = _bob(node.a, env, ctx)
+    else:
+        raise ValueError(f"unknown node type {type(node).__name__}")
+    ctx.bob[key] = out
+    return out
+
+
+def leaves(node: Node) -> list[tuple[Leaf, np.ndarray]]:
+    """Every leaf of the unrolled graph with its world matrix, in depth-first order.
+
+    The position in this list is the leaf id that `raycast` reports.
+
+    Returns
+    -------
+    list of (Leaf, (4, 4) float64)
+    """
+    _check_node(node, "node")
+    out = []
+
+    def walk(n, env, w):
+        n, env = _resolve(n, env)
+        if isinstance(n, Leaf):
+            out.append((n, w))
+        elif isinstance(n, Transform):
+            walk(n.child, env, w @ n.matrix)
+        elif isinstance(n, Instances):
+            for m in n.matrices:
+                walk(n.child, env, w @ m)
+        else:
+            for c in n.children():
+                walk(c, env, w)
+
+    with _deep_recursion():
+        walk(node, (), np.eye(4))
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# BVH: the unrolled tree in world coordinates (transforms folded into the leaves).
+
+class _P:
+    # A node of the unrolled world tree: kind, children, leaf id, world box.
+    __slots__ = ("kind", "kids", "leaf", "lo", "hi")
+
+    def __init__(self, kind, kids, leaf, lo, hi):
+        self.kind, self.kids, self.leaf, self.lo, self.hi = kind, kids, leaf, lo, hi
+
+
+def _world_box(node, env, w, ctx, method):
+    if method == "pointcloud":
+        c = _cloud(node, env, ctx)
+        if c.is_empty:
+            return _NO_BOX
+        # Exact AABB of hull(P) ⊕ ball(r) under x -> L x + t: the ball maps to an ellipsoid whose
+        # half-extent along axis i is r * |row i of L|.
+        pts = c.points @ w[:3, :3].T + w[:3, 3]
+        ext = c.radius * np.linalg.norm(w[:3, :3], axis=1)
+        return pts.min(axis=0) - ext, pts.max(axis=0) + ext
+    return _box_under(*_bob(node, env, ctx), w)
+
+
+def _unroll(node, env, w, ctx, method, leaf_list):
+    """World tree of ``node`` (None where empty); appends (Leaf, world) to ``leaf_list`` in DFS order."""
+    node, env = _resolve(node, env)
+    if isinstance(node, Transform):
+        return _unroll(node.child, env, w @ node.matrix, ctx, method, leaf_list)
+    if isinstance(node, Leaf):
+        leaf_list.append((node, w))
+        lo, hi = _world_box(node, env, w, ctx, method)
+        return _P(_ray.LEAF, [], len(leaf_list) - 1, lo, hi)
+    if isinstance(node, Instances):
+        kids = [_unroll(node.child, env, w @ m, ctx, method, leaf_list) for m in node.matrices]
+    else:
+        kids = [_unroll(c, env, w, ctx, method, leaf_list) for c in node.children()]
+    if isinstance(node, (Union, Instances)):
+        kids = [k for k in kids if k is not None]
+        if not kids:
+            return None
+        kind = _ray.UNION
+    elif isinstance(node, Intersection):
+        if kids[0] is None or kids[1] is None:
+            return None
+        kind = _ray.INTERSECTION
+    else:
+        if kids[0] is None:
+            return None
+        if kids[1] is None:
+            return kids[0]
+        kind = _ray.DIFFERENCE
+    lo, hi = _world_box(node, env, w, ctx, method)
+    if np.any(lo > hi):
+        return None  # e.g. an intersection whose operands' hulls are disjoint
+    return _P(kind, kids, -1, lo, hi)
+
+
+def _clip(p: _P, lo, hi):
+    """Top-down pass (§3.5): clip ``p``'s box to its parent's clipped box; None when emptied."""
+    lo = np.maximum(p.lo, lo)
+    hi = np.minimum(p.hi, hi)
+    if np.any(lo > hi):
+        return None
+    p.lo, p.hi = lo, hi
+    if p.kind == _ray.LEAF:
+        return p
+    kids = [_clip(k, lo, hi) for k in p.kids]
+    if p.kind == _ray.UNION:
+        p.kids = [k for k in kids if k is not None]
+        return p if p.kids else None
+    if p.kind == _ray.INTERSECTION:
+        if kids[0] is None or kids[1] is None:
+            return None  # an empty clip empties an intersection
+        p.kids = kids
+        return p
+    if kids[0] is None:
+        return None
+    if kids[1] is None:
+        return kids[0]  # an empty clip removes a difference's right subtree
+    p.kids = kids
+    return p
+
+
+@dataclass
+class BVH:
+    """A flattened CSG hierarchy ready for `raycast`; node 0 is the root.
+
+    Attributes
+    ----------
+    node_kind : (N,) int8
+        0 leaf, 1 union, 2 intersection, 3 difference.
+    node_first, node_count : (N,) int32
+        Each node's children are ``node_child[node_first : node_first + node_count]``.
+    node_child : (M,) int32
+    node_lo, node_hi : (N, 3) float64
+        World boxes (after the top-down pass when ``tightened``).
+    node_leaf : (N,) int32
+        Leaf id of a leaf node, -1 otherwise.
+    leaf_prim : (L,) int8
+        Kernel primitive code of each unrolled leaf (``collide._kernels.ray.P_*``).
+    leaf_param : (L, 3) float64
+    leaf_inv : (L, 3, 4) float64
+        World -> local affine maps (identity rows for singular maps, which get a null primitive).
+    leaf_tri_first, leaf_tri_count : (L,) int32
+        Mesh leaves: their triangles in ``tri``.
+    tri : (T, 3, 3) float64
+        Triangles of all mesh leaves, in their leaf's local frame.
+    leaf_source : list of Leaf
+        The Leaf node of each unrolled leaf id.
+    leaf_world : (L, 4, 4) float64
+        Local -> world matrix of each leaf.
+    method : str
+        ``"pointcloud"`` or ``"box_of_box"``.
+    tightened : bool
+        Whether the top-down pass ran.
+    """
+
+    node_kind: np.ndarray
+    node_first: np.ndarray
+    node_count: np.ndarray
+    node_child: np.ndarray
+    node_lo: np.ndarray
+    node_hi: np.ndarray
+    node_leaf: np.ndarray
+    leaf_prim: np.ndarray
+    leaf_param: np.ndarray
+    leaf_inv: np.ndarray
+    leaf_tri_first: np.ndarray
+    leaf_tri_count: np.ndarray
+    tri: np.ndarray
+    leaf_source: list
+    leaf_world: np.ndarray
+    method: str
+    tightened: bool
+    root_unclipped: AABB
+    span_capacity: int
+    height: int
+    max_children: int
+    max_tri: int
+
+    @property
+    def n_nodes(self) -> int:
+        """Number of nodes in the flattened tree (empty and removed subtrees excluded)."""
+        return len(self.node_kind)
+
+    @property
+    def n_leaves(self) -> int:
+        """Number of unrolled leaves (ids ``0 .. n_leaves - 1``), including removed ones."""
+        return len(self.leaf_prim)
+
+    def root_aabb(self) -> AABB:
+        """The root's box as constructed (before the top-down pass and the padding)."""
+        return self.root_unclipped
+
+
+def _leaf_arrays(leaf_list):
+    n = len(leaf_list)
+    prim = np.zeros(n, dtype=np.int8)
+    param = np.zeros((n, 3))
+    inv = np.zeros((n, 3, 4))
+    tfirst = np.zeros(n, dtype=np.int32)
+    tcount = np.zeros(n, dtype=np.int32)
+    tris = []
+    ntri = 0
+    for i, (leaf, w) in enumerate(leaf_list):
+        code, p, local = leaf.kernel_form()
+        m = w @ local
+        try:
+            mi = np.linalg.inv(m)
+            ok = np.all(np.isfinite(mi)) and np.linalg.cond(m[:3, :3]) < 1e12
+        except np.linalg.LinAlgError:
+            ok = False
+        if not ok:
+            # A singular map flattens the solid: zero volume, no ray enters it.
+            code, p, mi = _ray.P_BOX, np.zeros(3), np.eye(4)
+        prim[i], param[i], inv[i] = code, p, mi[:3]
+        if code == _ray.P_MESH:
+            t = leaf.triangles()
+            tfirst[i], tcount[i] = ntri, len(t)
+            tris.append(t)
+            ntri += len(t)
+    tri = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
+    return prim, param, inv, tfirst, tcount, np.ascontiguousarray(tri)
+
+
+def build_bvh(node: Node, volume: str = "aabb", method: str = "pointcloud", tighten: bool = True,
+              threshold: int = 256, exact_intersection: bool = True) -> BVH:
+    """Bounding-volume hierarchy of a CSG graph for ray queries (paper §3.5).
+
+    Parameters
+    ----------
+    node : Node
+        The root; recursive parts are unrolled to their depth.
+    volume : {"aabb"}
+        The bounding volume of each node (world-axis boxes; the top-down clipping of §3.5 is
+        defined for boxes).
+    method : {"pointcloud", "box_of_box"}
+        ``"pointcloud"``: each node's box is the exact box of its cloud (memoized per shared
+        subgraph, moved into the world frame). ``"box_of_box"``: each node's box comes from its
+        children's transformed boxes, as in a classical CSG ray tracer (for comparison).
+    tighten : bool, default True
+        Run the top-down pass: every child's box is clipped to its parent's clipped box (an
+        intersection clips both operands, a difference its right one); an empty clip removes a
+        difference's right subtree, an intersection or a union child.
+    threshold, exact_intersection
+        Passed to the cloud construction (see `Node.point_cloud`).
+
+    Returns
+    -------
+    BVH
+    """
+    _check_node(node, "node")
+    if volume != "aabb":
+        raise ValueError(f"volume: only 'aabb' is supported (the top-down clipping is a box "
+                         f"operation), got {volume!r}")
+    if method not in ("pointcloud", "box_of_box"):
+        raise ValueError(f"method: expected 'pointcloud' or 'box_of_box', got {method!r}")
+    ctx = _Context(as_count(threshold, "threshold", 1), bool(exact_intersection), {})
+    leaf_list: list = []
+    with _deep_recursion():
+        root = _unroll(node, (), np.eye(4), ctx, method, leaf_list)
+        root_box = AABB(*_NO_BOX) if root is None else AABB(root.lo.copy(), root.hi.copy())
+        if root is not None and tighten:
+            root = _clip(root, root.lo, root.hi)
+        return _flatten(root, leaf_list, method, bool(tighten), root_box)
+
+
+def _flatten(root, leaf_list, method, tightened, root_box) -> BVH:
+    kinds, firsts, counts, lows, highs, leafs, child = [], [], [], [], [], [], []
+    span_max, caps, heights = [], [], []
+
+    # Pre-order numbering with an explicit stack; children lists filled when a node is numbered.
+    order = []
+    if root is not None:
+        stack = [root]
+        ids = {}
+        while stack:
+            p = stack.pop()
+            ids[id(p)] = len(order)
+            order.append(p)
+            stack.extend(reversed(p.kids))
+        for p in order:
+            kinds.append(p.kind)
+            firsts.append(len(child))
+            counts.append(len(p.kids))
+            child.extend(ids[id(k)] for k in p.kids)
+            scale = max(float(np.abs(p.lo).max()), float(np.abs(p.hi).max()), 1e-300)
+            lows.append(p.lo - BOX_PAD * scale)
+            highs.append(p.hi + BOX_PAD * scale)
+            leafs.append(p.leaf)
+    n = len(order)
+    prim, param, inv, tfirst, tcount, tri = _leaf_arrays(leaf_list)
+    # Span-buffer capacity: S(node) bounds a node's span count, W(node) the buffer an evaluation
+    # needs (acc + child evaluation + merge output; see _kernels.ray._eval_node).
+    span_max = [0] * n
+    caps = [0] * n
+    heights = [1] * n
+    for i in range(n - 1, -1, -1):
+        if kinds[i] == _ray.LEAF:
+            lf = leafs[i]
+            span_max[i] = int(tcount[lf]) // 2 + 1 if prim[lf] == _ray.P_MESH else 1
+            caps[i] = span_max[i]
+            continue
+        kids = child[firsts[i]:firsts[i] + counts[i]]
+        s = sum(span_max[k] for k in kids)
+        span_max[i] = s
+        caps[i] = max([2 * s] + [s - span_max[k] + caps[k] for k in kids])
+        heights[i] = 1 + max(heights[k] for k in kids)
+    return BVH(
+        node_kind=np.array(kinds, dtype=np.int8), node_first=np.array(firsts, dtype=np.int32),
+        node_count=np.array(counts, dtype=np.int32), node_child=np.array(child, dtype=np.int32),
+        node_lo=np.array(lows, dtype=np.float64).reshape(n, 3),
+        node_hi=np.array(highs, dtype=np.float64).reshape(n, 3),
+        node_leaf=np.array(leafs, dtype=np.int32), leaf_prim=prim, leaf_param=param, leaf_inv=inv,
+        leaf_tri_first=tfirst, leaf_tri_count=tcount, tri=tri,
+        leaf_source=[lf for lf, _ in leaf_list],
+        leaf_world=np.array([w for _, w in leaf_list]).reshape(-1, 4, 4),
+        method=method, tightened=tightened, root_unclipped=root_box,
+        span_capacity=int(2 * caps[0] + 4) if n else 4, height=int(heights[0]) if n else 1,
+        max_children=max(counts, default=0), max_tri=int(tcount.max(initial=0)))
+
+
+# ---------------------------------------------------------------------------------------------
+# Ray queries.
+
+@dataclass(frozen=True)
+class RayHits:
+    """First hits of a batch of rays.
+
+    Attributes
+    ----------
+    distance : (R,) float64
+        Ray parameter ``t >= 0`` of the first boundary point (in units of ``|direction|``);
+        ``inf`` on a miss.
+    leaf : (R,) int32
+        Unrolled leaf id (see `leaves`, `BVH.leaf_source`) whose surface was hit; -1 on a miss.
+    normal : (R, 3) float64
+        Unit outward normal of the solid at the hit (facing the ray at an entry); zero on a miss.
+    bound_tests, primitive_tests : (R,) int64
+        Ray-box tests and exact primitive tests spent on each ray.
+    """
+
+    distance: np.ndarray
+    leaf: np.ndarray
+    normal: np.ndarray
+    bound_tests: np.ndarray
+    primitive_tests: np.ndarray
+
+    @property
+    def hit(self) -> np.ndarray:
+        """``(R,) bool``: rays that hit."""
+        return self.leaf >= 0
+
+
+def _rays(origins, directions) -> tuple[np.ndarray, np.ndarray]:
+    o = as_array(origins, "origins", (None, 3))
+    d = as_array(directions, "directions", (None, 3))
+    if len(o) != len(d):
+        raise ValueError(f"origins and directions: different counts ({len(o)} vs {len(d)})")
+    if len(d) and np.any(np.all(d == 0.0, axis=1)):
+        raise ValueError(f"directions: zero vector at row {int(np.argmax(np.all(d == 0.0, axis=1)))}")
+    return o, d
+
+
+def raycast(bvh: BVH, origins, directions) -> RayHits:
+    """First hits of rays ``origins + t * directions``, ``t >= 0``, through a CSG hierarchy.
+
+    The hit is the first point where the ray crosses the boundary of the whole solid (an entry
+    for a ray from outside; the exit for a ray that starts inside).
+
+    Parameters
+    ----------
+    bvh : BVH
+        From `build_bvh`.
+    origins, directions : (R, 3) array_like of float
+        Directions need not be unit (``distance`` is then in units of their length), but must be
+        non-zero.
+
+    Returns
+    -------
+    RayHits
+    """
+    if not isinstance(bvh, BVH):
+        raise ValueError(f"bvh: expected a BVH from build_bvh, got {type(bvh).__name__}")
+    o, d = _rays(origins, directions)
+    r = len(o)
+    out_t = np.full(r, np.inf)
+    out_leaf = np.full(r, -1, dtype=np.int32)
+    out_n = np.zeros((r, 3))
+    out_b = np.zeros(r, dtype=np.int64)
+    out_p = np.zeros(r, dtype=np.int64)
+    if bvh.n_nodes and r:
+        _ray.raycast_kernel(o, d, bvh.node_kind, bvh.node_first, bvh.node_count, bvh.node_child,
+                            bvh.node_lo, bvh.node_hi, bvh.node_leaf, bvh.leaf_prim, bvh.leaf_param,
+                            bvh.leaf_inv, bvh.leaf_tri_first, bvh.leaf_tri_count, bvh.tri,
+                            bvh.span_capacity, bvh.height, bvh.max_children, bvh.max_tri,
+                            out_t, out_leaf, out_n, out_b, out_p)
+    return RayHits(out_t, out_leaf, out_n, out_b, out_p)
