@@ -411,3 +411,102 @@ BAD = [
 def test_bad_input_raises_value_error_with_the_reason(call, reason):
     with pytest.raises(ValueError, match=reason):
         call()
+
+
+# --------------------------------------------------------------------------------------------
+# the samplers themselves: points really on the true surface, and spread over it
+
+
+def _seg_dist(p, a, b):
+    t = np.clip((p - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0)
+    return np.linalg.norm(p - a - t[:, None] * (b - a), axis=1)
+
+
+def _on_polygon_boundary(q, poly, tol=1e-9):
+    d = np.min([_seg_dist(q, poly[i], poly[(i + 1) % len(poly)]) for i in range(len(poly))], axis=0)
+    return d < tol
+
+
+def test_samplers_lie_on_their_implicit_surfaces():
+    rng = np.random.default_rng(11)
+    n = 2000
+    p = T.sample_surface("sphere", n, rng, radius=2.0)
+    np.testing.assert_allclose(np.linalg.norm(p, axis=1), 2.0)
+    p = T.sample_surface("ellipsoid", n, rng, radii=[1.0, 2.0, 3.0], planes=8)
+    np.testing.assert_allclose(np.sum((p / [1.0, 2.0, 3.0]) ** 2, axis=1), 1.0)
+    p = T.sample_surface("torus", n, rng, major_radius=2.0, minor_radius=0.5)
+    np.testing.assert_allclose((np.hypot(p[:, 0], p[:, 1]) - 2.0) ** 2 + p[:, 2] ** 2, 0.25)
+    for e1, e2 in [(0.3, 1.7), (1.0, 1.0), (3.0, 0.5)]:
+        p = T.sample_surface("superquadric", n, rng, radii=[1.0, 2.0, 0.5], e1=e1, e2=e2)
+        q = np.abs(p / [1.0, 2.0, 0.5])
+        f = (q[:, 0] ** (2 / e2) + q[:, 1] ** (2 / e2)) ** (e2 / e1) + q[:, 2] ** (2 / e1)
+        np.testing.assert_allclose(f, 1.0, rtol=1e-9)
+    h = np.array([1.0, 0.5, 2.0])
+    p = T.sample_surface("box", n, rng, half_extents=h)
+    np.testing.assert_allclose(np.max(np.abs(p) / h, axis=1), 1.0)
+    p = T.sample_surface("capsule", n, rng, radius=0.3, half_length=1.0)
+    np.testing.assert_allclose(_seg_dist(p, np.array([0, 0, -1.0]), np.array([0, 0, 1.0])), 0.3)
+    p = T.sample_surface("cylinder", n, rng, radius=0.5, half_length=1.0)
+    rho = np.hypot(p[:, 0], p[:, 1])
+    side = np.isclose(rho, 0.5) & (np.abs(p[:, 2]) <= 1.0)
+    cap = np.isclose(np.abs(p[:, 2]), 1.0) & (rho <= 0.5 + 1e-12)
+    assert np.all(side | cap) and side.sum() > n / 3 and cap.sum() > n / 10
+    p = T.sample_surface("cone", n, rng, radius=1.0, height=2.0)
+    rho = np.hypot(p[:, 0], p[:, 1])
+    lateral = np.isclose(rho, 1.0 - p[:, 2] / 2.0)
+    base = (p[:, 2] == 0.0) & (rho <= 1.0)
+    assert np.all(lateral | base) and lateral.sum() > n / 3 and base.sum() > n / 10
+    poly = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [1.0, 0.5], [0.0, 2.0]])  # non-convex
+    p = T.sample_surface("extrude", n, rng, contour=poly, height=1.5)
+    wall = _on_polygon_boundary(p[:, :2], poly) & (p[:, 2] >= 0) & (p[:, 2] <= 1.5)
+    caps = np.isin(p[:, 2], [0.0, 1.5])
+    assert np.all(wall | caps)
+    notch = np.array([[1.0, 1.5]])  # in the polygon's hull, outside the polygon
+    assert not np.any(np.linalg.norm(p[caps][:, :2] - notch, axis=1) < 0.3)
+    p = T.sample_surface("revolve", n, rng, contour=poly)
+    assert np.all(_on_polygon_boundary(np.column_stack([np.hypot(p[:, 0], p[:, 1]), p[:, 2]]), poly))
+
+
+def test_samplers_spread_over_the_surface():
+    rng = np.random.default_rng(12)
+    for kind, params, lo, hi in [
+        ("ellipsoid", {"radii": [1.0, 2.0, 3.0]}, [-1, -2, -3], [1, 2, 3]),
+        ("torus", {"major_radius": 2.0, "minor_radius": 0.5}, [-2.5, -2.5, -0.5], [2.5, 2.5, 0.5]),
+        ("cone", {"radius": 1.0, "height": 2.0}, [-1, -1, 0], [1, 1, 2]),
+        ("superquadric", {"radii": [1.0, 2.0, 3.0], "e1": 3.0, "e2": 0.2}, [-1, -2, -3], [1, 2, 3]),
+    ]:
+        p = T.sample_surface(kind, 20000, rng, **params)
+        np.testing.assert_allclose(p.min(axis=0), lo, atol=0.03 * np.max(hi), err_msg=kind)
+        np.testing.assert_allclose(p.max(axis=0), hi, atol=0.03 * np.max(hi), err_msg=kind)
+
+
+def test_patch_samplers_agree_with_known_forms():
+    # a bilinear Bezier patch is the bilinear interpolation of its corners; a NURBS patch with
+    # equal weights is its B-spline patch; degree-1 B-spline with clamped knots is bilinear too
+    net = np.random.default_rng(13).normal(size=(2, 2, 3))
+    p = T.sample_surface("bezier_patch", 500, np.random.default_rng(1), control_points=net)
+    uv = np.random.default_rng(1).random((2, 500))
+    u, v = uv[0][:, None], uv[1][:, None]
+    expect = ((1 - u) * (1 - v) * net[0, 0] + (1 - u) * v * net[0, 1] + u * (1 - v) * net[1, 0]
+              + u * v * net[1, 1])
+    np.testing.assert_allclose(p, expect, atol=1e-12)
+    np.testing.assert_allclose(
+        T.sample_surface("bspline_patch", 500, np.random.default_rng(1), control_points=net), expect, atol=1e-12)
+    big = np.random.default_rng(14).normal(size=(5, 4, 3))
+    a = T.sample_surface("bspline_patch", 300, np.random.default_rng(2), control_points=big, degree_u=3, degree_v=2)
+    b = T.sample_surface("nurbs_patch", 300, np.random.default_rng(2), control_points=big,
+                         weights=np.full((5, 4), 3.7), degree_u=3, degree_v=2)
+    np.testing.assert_allclose(a, b, atol=1e-12)
+
+
+@pytest.mark.parametrize("kind", T.SHAPE_KINDS)
+def test_containment_far_from_the_origin(kind):
+    # large coordinates (1e5): rounding grows with the translation; the volumes' rtol is relative
+    rng = np.random.default_rng(100 + len(kind))
+    for _ in range(4):
+        params = T.random_shape_params(kind, rng)
+        cloud = getattr(shapes, kind)(**params)
+        pts = T.sample_surface(kind, N_SURFACE, rng, **params)
+        m = T.random_rigid(rng)
+        m[:3, 3] = rng.uniform(-1e5, 1e5, 3)
+        _assert_contained(cloud.transform(m), T.apply_affine(m, pts), f"{kind} far {params}")
