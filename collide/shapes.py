@@ -615,7 +615,7 @@ def superquadric(radii, e1: float, e2: float, planes: int = 16, bands: int | Non
 # the plane: not a cloud
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Plane:
     """The solid halfspace ``{x : normal . x <= offset}`` in the geom frame.
 
@@ -649,6 +649,15 @@ class Plane:
         n.setflags(write=False)
         object.__setattr__(self, "normal", n)
         object.__setattr__(self, "offset", d)
+
+    def __eq__(self, other) -> bool:
+        # Written out: the generated __eq__ would compare the normal arrays elementwise.
+        if not isinstance(other, Plane):
+            return NotImplemented
+        return bool(np.array_equal(self.normal, other.normal)) and self.offset == other.offset
+
+    def __hash__(self) -> int:
+        return hash((tuple(self.normal.tolist()), self.offset))
 
     def signed_distance(self, points) -> np.ndarray:
         """``(n,) float64``: ``normal . x - offset`` for ``points`` ``(n, 3)`` (<= 0 inside)."""

@@ -353,6 +353,7 @@ def test_plane_is_a_halfspace_record_not_a_cloud():
         q.normal[0] = 1.0  # read-only
     with pytest.raises(ValueError, match="PointCloud"):
         collide.union([shapes.box([1, 1, 1]), p])
+    assert q == shapes.plane([0.0, 0.6, 0.8], 2.0) and q != p and len({p, q, shapes.plane()}) == 2
     for doc in (shapes.plane.__doc__, shapes.Plane.__doc__):
         assert "not** a `PointCloud`" in doc or "not a PointCloud" in doc
         assert "unbounded" in doc.lower()
