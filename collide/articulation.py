@@ -45,21 +45,13 @@ def _is_plane(obj) -> bool:
 
 
 def fit_local_obb(cloud: PointCloud) -> _volumes.OBB:
-    """Near-minimal OBB of ``cloud`` (``volumes`` "optimal"; PCA while that is being written)."""
-    try:
-        return cloud.obb("optimal")
-    except NotImplementedError:
-        return cloud.obb("pca")
+    """Near-minimal OBB of ``cloud`` (``volumes``' "optimal" fitter)."""
+    return cloud.obb("optimal")
 
 
 def fit_local_sphere(cloud: PointCloud) -> _volumes.Sphere:
-    """Minimal enclosing sphere of ``cloud`` (``volumes`` "exact"; a centred fallback until then)."""
-    try:
-        return cloud.sphere("exact")
-    except NotImplementedError:
-        pts = cloud.points
-        c = (pts.min(axis=0) + pts.max(axis=0)) / 2.0
-        return _volumes.Sphere(c, float(np.sqrt(((pts - c) ** 2).sum(axis=1).max())) + cloud.radius)
+    """Minimal enclosing sphere of ``cloud`` (``volumes``' "exact" fitter)."""
+    return cloud.sphere("exact")
 
 
 def _guarded(obb: _volumes.OBB, sphere: _volumes.Sphere):

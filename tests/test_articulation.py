@@ -1,0 +1,128 @@
+"""Articulation: tree validation, depth-first layout, local bounds that contain their geoms, filters."""
+
+import numpy as np
+import pytest
+
+from collide import Articulation, PointCloud, testing
+
+BOX = PointCloud(np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * [0.3, 0.2, 0.1])
+BALL = PointCloud([[0, 0, 0]], 0.25)
+
+
+def _art(parent, geom_body, **kw):
+    return Articulation(parent, geom_body, [BOX] * len(geom_body), **kw)
+
+
+def test_depth_first_layout_ranges_are_subtrees():
+    sc = testing.branching_tree(50, seed=3, filters=False, planes=0, geoms_per_body=(0, 1))
+    a = sc.articulation
+    order, pos, end = a.body_dfs_order, a.body_dfs_pos, a.body_subtree_end
+    assert sorted(order.tolist()) == list(range(a.body_count))
+    assert np.array_equal(pos[order], np.arange(a.body_count))
+
+    def is_ancestor(x, y):  # x is y or an ancestor of y
+        while True:
+            if y == x:
+                return True
+            if y == 0:
+                return False
+            y = a.body_parent[y]
+    for b in range(a.body_count):
+        inside = {int(order[p]) for p in range(pos[b], end[b])}
+        assert inside == {y for y in range(a.body_count) if is_ancestor(b, y)}
+
+
+@pytest.mark.parametrize("parent, msg", [
+    ([0, 2, 1], "cycle"),
+    ([0, 0, 2], "cycle"),           # a self-parented body other than the world
+    ([0, 0, 5], "out of range"),
+    ([0, -1, 0], "out of range"),
+    ([1, 0, 0], "world"),
+])
+def test_invalid_trees_raise(parent, msg):
+    with pytest.raises(ValueError, match=msg):
+        _art(parent, [1])
+
+
+def test_bad_geoms_and_arrays_raise():
+    with pytest.raises(ValueError, match="geom 1 is on body 7"):
+        _art([0, 0], [1, 7])
+    with pytest.raises(ValueError, match="geom_cloud"):
+        Articulation([0, 0], [1], [np.zeros((3, 3))])
+    with pytest.raises(ValueError, match="geom_cloud"):
+        Articulation([0, 0], [1], [BOX, BOX])
+    with pytest.raises(ValueError, match="body_parent: expected integers"):
+        _art([0.0, 0.0], [1])
+    with pytest.raises(ValueError, match="geom_pos"):
+        _art([0, 0], [1], geom_pos=np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="geom_rot: rotation of geom 0"):
+        _art([0, 0], [1], geom_rot=np.diag([1.0, 1.0, 1.1])[None])
+    with pytest.raises(ValueError, match="geom_rot: rotation of geom 0"):
+        _art([0, 0], [1], geom_rot=np.diag([1.0, 1.0, -1.0])[None])
+    with pytest.raises(ValueError, match="geom_margin"):
+        _art([0, 0], [1], geom_margin=[-0.1])
+    with pytest.raises(ValueError, match="geom_pos: non-finite"):
+        _art([0, 0], [1], geom_pos=[[0, np.nan, 0]])
+    with pytest.raises(ValueError, match="exclude: row 0 names a body"):
+        _art([0, 0], [1], exclude=[[0, 3]])
+    with pytest.raises(ValueError, match="pairs: row 0 names a geom"):
+        _art([0, 0], [1], pairs=[[0, 3]])
+    with pytest.raises(ValueError, match="itself"):
+        _art([0, 0], [1, 1], pairs=[[1, 1]])
+    with pytest.raises(ValueError, match="pair_margin"):
+        _art([0, 0], [1, 1], pairs=[[0, 1]], pair_margin=[0.1, 0.2])
+    with pytest.raises(ValueError, match="body_weld"):
+        _art([0, 0], [1], body_weld=[0])
+
+
+def test_pairs_and_excludes_are_normalised():
+    a = _art([0, 0, 1], [1, 2, 2], exclude=[[2, 1], [1, 2]], pairs=[[2, 0], [0, 2], [1, 0]],
+             pair_margin=[0.1, 0.3, 0.0])
+    assert a.exclude.tolist() == [[1, 2]]
+    assert a.pairs.tolist() == [[0, 1], [0, 2]]
+    assert a.pair_margin.tolist() == [0.0, 0.3]  # duplicates keep the larger inflation
+
+
+def _inside_obb(points, c, R, h, tol=1e-9):
+    local = (points - c) @ R
+    return np.all(np.abs(local) <= h + tol)
+
+
+def test_local_bounds_contain_geoms_and_bodies_contain_geom_bounds():
+    sc = testing.branching_tree(30, seed=5, planes=1)
+    a = sc.articulation
+    rng = np.random.default_rng(0)
+    for g in np.flatnonzero(~a.geom_is_plane):
+        cloud = a.geom_local_cloud[g]
+        # points of the exact set: hull points pushed out by the radius in random directions
+        d = rng.normal(size=(200, 3))
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        pts = cloud.points[rng.integers(len(cloud.points), size=200)] + cloud.radius * d
+        assert _inside_obb(pts, a.geom_obb_center[g], a.geom_obb_rot[g], a.geom_obb_half[g])
+        assert np.all(np.linalg.norm(pts - a.geom_sphere_center[g], axis=1) <= a.geom_sphere_radius[g] + 1e-9)
+        b, m = a.geom_body[g], a.geom_margin[g]
+        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+        corners = a.geom_obb_center[g] + (signs * (a.geom_obb_half[g] + m)) @ a.geom_obb_rot[g].T
+        assert _inside_obb(corners, a.body_obb_center[b], a.body_obb_rot[b], a.body_obb_half[b])
+        reach = np.linalg.norm(a.geom_sphere_center[g] - a.body_sphere_center[b]) + a.geom_sphere_radius[g] + m
+        assert reach <= a.body_sphere_radius[b] + 1e-9
+    bare = [b for b in range(a.body_count) if not np.any((a.geom_body == b) & ~a.geom_is_plane)]
+    assert bare and not np.any(a.body_has_bounds[bare])
+
+
+def test_optimal_obb_is_tighter_than_aabb_for_rotated_boxes():
+    R = testing.random_rotation(np.random.default_rng(1))
+    a = Articulation([0, 0], [1], [BOX], geom_rot=R[None])
+    assert np.isclose(np.prod(a.geom_obb_half[0]), 0.3 * 0.2 * 0.1, rtol=1e-6)
+
+
+def test_planes_are_halfspaces_in_the_body_frame():
+    plane = testing.make_plane((0, 0, 1), 0.5)
+    R = testing.random_rotation(np.random.default_rng(2))
+    a = Articulation([0, 0], [0, 1], [plane, BALL], geom_pos=[[1, 2, 3], [0, 0, 0]],
+                     geom_rot=np.stack([R, np.eye(3)]))
+    n = R @ [0, 0, 1]
+    assert np.allclose(a.geom_plane[0, :3], n)
+    assert np.isclose(a.geom_plane[0, 3], 0.5 + n @ [1, 2, 3])
+    assert a.geom_is_plane.tolist() == [True, False]
+    assert not a.body_has_bounds[0] and a.body_has_bounds[1]

@@ -1,0 +1,346 @@
+"""BroadPhase against its brute-force twins on random scenes; filters, planes, batches, bad input."""
+
+import numpy as np
+import pytest
+from scipy.optimize import linprog
+
+from collide import Articulation, BroadPhase, PointCloud, testing
+
+BALL = PointCloud([[0, 0, 0]], 0.5)
+EYE = np.eye(3)
+
+
+def _rows(a):
+    return set(map(tuple, np.asarray(a).tolist()))
+
+
+def _check_sorted_unique(p):
+    assert p.dtype == np.int32 and p.ndim == 2 and p.shape[1] == 2
+    assert np.all(p[:, 0] < p[:, 1])
+    keys = p[:, 0].astype(np.int64) * 1_000_000 + p[:, 1]
+    assert np.all(np.diff(keys) > 0)
+
+
+# --------------------------------------------------------------------------- random scenes
+
+SCENES = [
+    ("chain", lambda: testing.chain(64, seed=11, planes=1, joint_range=1.6), 16),
+    ("tree", lambda: testing.branching_tree(70, seed=12, planes=1), 24),
+    ("robots", lambda: testing.many_robots(14, 6, seed=13, spread=0.8, planes=1), 24),
+    ("hulls", lambda: testing.free_hulls(64, seed=14, size=1.0, filters=True, planes=1), 12),
+]
+
+
+@pytest.fixture(scope="module")
+def totals():
+    return {"checked": 0, "touching": 0, "candidates": 0, "scenes": set()}
+
+
+@pytest.mark.parametrize("name, make, configs", SCENES, ids=[s[0] for s in SCENES])
+def test_random_scenes_equal_bounds_twin_and_miss_nothing(name, make, configs, totals):
+    sc = make()
+    a = sc.articulation
+    bp = BroadPhase(a)
+    rng = np.random.default_rng(100)
+    g1, g2 = testing.filter_passing_pairs(a)
+    for _ in range(configs):
+        if name == "hulls":
+            pos, rot = testing.hull_motion(sc, rng, 1, 0.05)
+            pos, rot = pos[0], rot[0]
+        else:
+            pos, rot = sc.poses(rng)
+        got = bp.pairs(pos, rot)
+        _check_sorted_unique(got)
+        ref = testing.brute_force_bound_pairs(a, pos, rot)
+        assert _rows(got) == _rows(ref)
+        exact = testing.brute_force_pairs(a, pos, rot)
+        missed = _rows(exact) - _rows(got)
+        assert not missed, f"{name}: missed {sorted(missed)[:5]}"
+        assert bp.stats["pairs"] == len(got)
+        totals["checked"] += len(g1) + len(a.pairs)
+        totals["touching"] += len(exact)
+        totals["candidates"] += len(got)
+    totals["scenes"].add(name)
+    # every rule and shape kind was present in these scenes
+    assert len(a.exclude) and a.geom_is_plane.any()
+
+
+def test_random_scene_totals(totals):
+    # Runs after the scene tests (file order): the scenes had real work in them.
+    if totals["scenes"] != {s[0] for s in SCENES}:
+        pytest.skip("needs all scene tests of this module")
+    assert totals["checked"] >= 100_000, totals
+    assert totals["touching"] >= 3_000, totals
+    assert totals["candidates"] >= totals["touching"]
+
+
+def test_every_geom_kind_touches_in_the_scenes():
+    sc = testing.branching_tree(70, seed=12, planes=1)
+    a = sc.articulation
+    rng = np.random.default_rng(100)
+    kinds = set()
+    planes_touched = 0
+    for _ in range(6):
+        pos, rot = sc.poses(rng)
+        ex = testing.brute_force_pairs(a, pos, rot)
+        for g in ex.ravel():
+            c = a.geom_cloud[g]
+            if a.geom_is_plane[g]:
+                planes_touched += 1
+            else:
+                kinds.add((len(c.points) if len(c.points) <= 8 else "mesh", c.radius > 0))
+    assert planes_touched > 0
+    assert {(1, True), (2, True), (8, False), ("mesh", False)} <= kinds
+
+
+# --------------------------------------------------------------------------- batches
+
+def test_batch_equals_single_world_by_world():
+    sc = testing.many_robots(10, 5, seed=21, spread=0.9, planes=1)
+    bp = BroadPhase(sc.articulation)
+    pos, rot = sc.poses(np.random.default_rng(3), worlds=37)
+    got = bp.pairs_batch(pos, rot)
+    assert got.dtype == np.int32 and got.shape[1] == 3
+    total = 0
+    for w in range(37):
+        single = bp.pairs(pos[w], rot[w])
+        mine = got[got[:, 0] == w, 1:]
+        assert np.array_equal(mine, single)
+        total += len(single)
+    assert total > 100 and len(got) == total
+    assert np.all(np.diff(got[:, 0]) >= 0)
+
+
+def test_batch_grows_its_buffers_and_keeps_every_pair():
+    sc = testing.free_hulls(27, seed=5)
+    bp = BroadPhase(sc.articulation)
+    pos, rot = testing.hull_motion(sc, np.random.default_rng(0), 40, 0.02)
+    want = bp.pairs_batch(pos, rot)
+    bp._batch_keys = np.empty((bp._batch_keys.shape[0], 3), np.int64)
+    assert np.array_equal(bp.pairs_batch(pos, rot), want)
+    assert len(want) > 40
+
+
+def test_single_grows_its_buffer_and_keeps_every_pair():
+    sc = testing.free_hulls(64, seed=6)
+    bp = BroadPhase(sc.articulation)
+    pos, rot = testing.hull_motion(sc, np.random.default_rng(0), 1, 0.02)
+    want = testing.brute_force_bound_pairs(sc.articulation, pos[0], rot[0])
+    bp._keys = np.empty(2, np.int64)
+    got = bp.pairs(pos[0], rot[0])
+    assert len(got) > 20 and np.array_equal(got, want)
+
+
+def test_sweep_and_prune_survives_reshuffles():
+    # Many children at the world: the SAP order persists between calls; unrelated poses force
+    # the full-sort fallback, small motions the insertion sort.
+    sc = testing.free_hulls(125, seed=7)
+    a = sc.articulation
+    bp = BroadPhase(a)
+    rng = np.random.default_rng(1)
+    walk_pos, walk_rot = testing.hull_motion(sc, rng, 6, 0.05)
+    for s in range(6):
+        pos, rot = walk_pos[s], walk_rot[s]
+        if s % 2:
+            perm = rng.permutation(np.arange(1, a.body_count))
+            pos = pos.copy()
+            pos[1:] = pos[perm]
+        got = bp.pairs(pos, rot)
+        assert np.array_equal(got, testing.brute_force_bound_pairs(a, pos, rot))
+        assert len(got) > 50
+
+
+# --------------------------------------------------------------------------- filter rules
+
+def _two_balls(**kw):
+    # bodies: 0 world, 1 child of world, 2 child of 1, 3 child of world; balls overlap at origin
+    parent = kw.pop("parent", [0, 0, 1, 0])
+    geom_body = kw.pop("geom_body", [1, 2, 3])
+    a = Articulation(parent, geom_body, [BALL] * len(geom_body), **kw)
+    L = len(parent)
+    return BroadPhase(a), np.zeros((L, 3)), np.tile(EYE, (L, 1, 1))
+
+
+def test_filter_rules():
+    bp, pos, rot = _two_balls()
+    assert _rows(bp.pairs(pos, rot)) == {(0, 2), (1, 2)}  # (0, 1): body 2's parent is body 1
+    bp, pos, rot = _two_balls(filter_parent=False)
+    assert _rows(bp.pairs(pos, rot)) == {(0, 1), (0, 2), (1, 2)}
+    # the parent rule does not apply when the parent is the world
+    bp, pos, rot = _two_balls(geom_body=[0, 1])
+    assert _rows(bp.pairs(pos, rot)) == {(0, 1)}
+    # geoms of one body never pair
+    bp, pos, rot = _two_balls(geom_body=[1, 1, 3])
+    assert _rows(bp.pairs(pos, rot)) == {(0, 2), (1, 2)}
+    # weld groups
+    bp, pos, rot = _two_balls(body_weld=[0, 1, 2, 1])
+    assert _rows(bp.pairs(pos, rot)) == {(1, 2)}
+    # excluded body pairs, either order
+    bp, pos, rot = _two_balls(exclude=[[3, 2]])
+    assert _rows(bp.pairs(pos, rot)) == {(0, 2)}
+    # masks: (ct1 & ca2) or (ct2 & ca1)
+    bp, pos, rot = _two_balls(geom_contype=[1, 2, 0], geom_conaffinity=[0, 0, 2])
+    assert _rows(bp.pairs(pos, rot)) == {(1, 2)}
+    bp, pos, rot = _two_balls(geom_contype=[4, 2, 1], geom_conaffinity=[1, 0, 0])
+    assert _rows(bp.pairs(pos, rot)) == {(0, 2)}
+
+
+def test_margins_inflate_bounds():
+    bp, pos, rot = _two_balls(geom_body=[1, 3])
+    pos[3] = [1.2, 0, 0]  # gap 0.2 between the balls
+    assert len(bp.pairs(pos, rot)) == 0
+    bp, pos, rot = _two_balls(geom_body=[1, 3], geom_margin=[0.05, 0.05])
+    pos[3] = [1.2, 0, 0]
+    assert len(bp.pairs(pos, rot)) == 0
+    bp, pos, rot = _two_balls(geom_body=[1, 3], geom_margin=[0.15, 0.06])
+    pos[3] = [1.2, 0, 0]
+    assert _rows(bp.pairs(pos, rot)) == {(0, 1)}
+
+
+def test_explicit_pairs_bypass_filters_but_not_bounds():
+    # geoms 0, 1 on one body, excluded masks: only the explicit pair reports them
+    kw = dict(geom_body=[1, 1, 3], geom_contype=[0, 0, 0], geom_conaffinity=[0, 0, 0])
+    bp, pos, rot = _two_balls(pairs=[[1, 0]], **kw)
+    assert _rows(bp.pairs(pos, rot)) == {(0, 1)}
+    # far apart: the bounds test still applies, with the pair's own inflation
+    bp, pos, rot = _two_balls(pairs=[[0, 2]], exclude=[[1, 3]], **kw)
+    pos[3] = [1.2, 0, 0]
+    assert len(bp.pairs(pos, rot)) == 0
+    bp, pos, rot = _two_balls(pairs=[[0, 2]], pair_margin=[0.11], exclude=[[1, 3]], **kw)
+    pos[3] = [1.2, 0, 0]
+    assert _rows(bp.pairs(pos, rot)) == {(0, 2)}
+    # an explicit pair overrides the dynamic one: its inflation, reported once
+    bp, pos, rot = _two_balls(geom_body=[1, 3], geom_margin=[0.2, 0.2], pairs=[[0, 1]], pair_margin=[0.0])
+    pos[3] = [1.2, 0, 0]
+    assert len(bp.pairs(pos, rot)) == 0
+    pos[3] = [0.9, 0, 0]
+    assert bp.pairs(pos, rot).tolist() == [[0, 1]]
+
+
+def test_planes_are_halfspaces():
+    floor = testing.make_plane((0, 0, 1), 0.0)
+    a = Articulation([0, 0, 0, 0], [0, 1, 2, 3, 0], [floor, BALL, BALL, BALL, floor],
+                     geom_margin=[0.1, 0, 0, 0, 0], geom_pos=[[0, 0, 0]] * 4 + [[0, 0, -5]])
+    bp = BroadPhase(a)
+    pos = np.array([[0, 0, 0], [0, 0, 0.55], [3, 0, 0.65], [-3, 0, 10.0]])
+    rot = np.tile(EYE, (4, 1, 1))
+    # ball 1 reaches the floor through its margin, ball 2 does not; nothing reaches z <= -5
+    assert _rows(bp.pairs(pos, rot)) == {(0, 1)}
+    # a tilted floor, via the world body's pose
+    rot[0] = testing.scenes.axis_angle(np.array([0.0, 1.0, 0.0]), -0.3)
+    got = _rows(bp.pairs(pos, rot))
+    ref = _rows(testing.brute_force_bound_pairs(a, pos, rot))
+    assert got == ref and (0, 2) in got
+    # planes never pair with planes, even as an explicit pair
+    a2 = Articulation([0, 0], [0, 1, 1], [floor, floor, BALL], pairs=[[0, 1]])
+    assert len(BroadPhase(a2).pairs(np.zeros((2, 3)), np.tile(EYE, (2, 1, 1)))) == 1
+
+
+# --------------------------------------------------------------------------- bad input
+
+@pytest.fixture(scope="module")
+def robot_bp():
+    sc = testing.many_robots(4, 4, seed=2)
+    return sc, BroadPhase(sc.articulation)
+
+
+@pytest.mark.parametrize("what, msg", [
+    ("nan_pos", "body 5: pose has a non-finite"),
+    ("inf_rot", "body 5: pose has a non-finite"),
+    ("scaled_rot", "body 5: rotation is not a proper orthonormal"),
+    ("reflection", "body 5: rotation is not a proper orthonormal"),
+])
+def test_bad_poses_name_the_body_and_next_call_works(robot_bp, what, msg):
+    sc, bp = robot_bp
+    pos, rot = sc.poses(np.random.default_rng(0))
+    good = bp.pairs(pos, rot)
+    bad_pos, bad_rot = pos.copy(), rot.copy()
+    if what == "nan_pos":
+        bad_pos[5, 1] = np.nan
+        bad_pos[9, 0] = np.nan
+    elif what == "inf_rot":
+        bad_rot[5, 2, 2] = np.inf
+    elif what == "scaled_rot":
+        bad_rot[5] *= 1.001
+    else:
+        bad_rot[5, :, 0] *= -1
+    with pytest.raises(ValueError, match=msg):
+        bp.pairs(bad_pos, bad_rot)
+    assert np.array_equal(bp.pairs(pos, rot), good)
+    B = 4
+    bpos, brot = np.repeat(pos[None], B, 0), np.repeat(rot[None], B, 0)
+    bpos[2], brot[2] = bad_pos, bad_rot
+    with pytest.raises(ValueError, match="world 2, " + msg):
+        bp.pairs_batch(bpos, brot)
+    assert len(bp.pairs_batch(np.repeat(pos[None], B, 0), np.repeat(rot[None], B, 0))) == B * len(good)
+
+
+def test_wrong_shapes_and_dtypes_raise(robot_bp):
+    sc, bp = robot_bp
+    pos, rot = sc.poses(np.random.default_rng(0))
+    L = sc.articulation.body_count
+    with pytest.raises(ValueError, match="body_pos: expected shape"):
+        bp.pairs(pos[:-1], rot)
+    with pytest.raises(ValueError, match="body_rot: expected shape"):
+        bp.pairs(pos, rot.reshape(L, 9))
+    with pytest.raises(ValueError, match="body_pos: expected a float array"):
+        bp.pairs(pos.astype(np.int64), rot)
+    with pytest.raises(ValueError, match="body_pos: expected a numpy array"):
+        bp.pairs(pos.tolist(), rot)
+    with pytest.raises(ValueError, match="body_pos"):
+        bp.pairs_batch(pos, rot)
+    with pytest.raises(ValueError, match="body_rot: expected shape"):
+        bp.pairs_batch(pos[None], rot)
+    with pytest.raises(ValueError, match="articulation"):
+        BroadPhase("robot")
+    # float32 and non-contiguous inputs are converted, not rejected
+    ref = bp.pairs(pos, rot)
+    assert np.array_equal(bp.pairs(np.asfortranarray(pos), rot), ref)
+    assert bp.pairs(pos.astype(np.float32), rot.astype(np.float32)).shape[1] == 2
+
+
+# --------------------------------------------------------------------------- the GJK twin
+
+def _lp_intersect(P, Q):
+    # hull(P) ∩ hull(Q) != ∅  <=>  exists l, m >= 0, sum l = sum m = 1, P^T l = Q^T m
+    n, m = len(P), len(Q)
+    A = np.zeros((5, n + m))
+    A[:3, :n], A[:3, n:] = P.T, -Q.T
+    A[3, :n] = 1
+    A[4, n:] = 1
+    res = linprog(np.zeros(n + m), A_eq=A, b_eq=[0, 0, 0, 1, 1], bounds=(0, None), method="highs")
+    return res.status == 0
+
+
+def test_gjk_agrees_with_linear_programming():
+    rng = np.random.default_rng(8)
+    agree = hits = 0
+    for k in range(300):
+        P = testing.random_hull(rng, 1.0, int(rng.integers(1, 25))).points
+        Q = testing.random_hull(rng, 1.0, int(rng.integers(1, 25))).points
+        if k % 3 == 0:  # flat and collinear inputs too
+            Q = Q * [1, 1, 0] if k % 2 else Q * [1, 0, 0]
+        Q = Q + rng.uniform(-0.5, 0.5, 3)
+        upper, lower = testing.gjk_distance(P, Q)
+        assert lower <= upper + 1e-12 and upper - lower <= 1e-6 * max(upper, 1e-9)
+        if upper > 1e-9:
+            assert not _lp_intersect(P, Q)
+            # moving Q by the distance along the separating direction makes them meet
+            d = upper
+            c = (P.mean(0), Q.mean(0))
+            assert d <= np.linalg.norm(c[0] - c[1])
+        else:
+            assert _lp_intersect(P, Q)
+            hits += 1
+        agree += 1
+    assert agree == 300 and 50 < hits < 250
+
+
+def test_gjk_distance_is_exact_on_known_answers():
+    cube = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+    assert np.isclose(testing.gjk_distance(cube, cube + [3, 0, 0])[0], 2.0)
+    assert np.isclose(testing.gjk_distance(cube, cube + [2, 2, 0])[0], np.sqrt(2))
+    assert np.isclose(testing.gjk_distance(cube, cube + [2, 3, 4])[0], np.sqrt(1 + 4 + 9))
+    assert testing.gjk_distance(cube, cube + 0.5)[0] == 0.0
+    seg = np.array([[-1.0, 0, 2], [1.0, 0, 2]])
+    assert np.isclose(testing.gjk_distance(cube, seg)[0], 1.0)
