@@ -440,6 +440,8 @@ def _geom_name(model: mujoco.MjModel, g: int) -> str:
 
 
 _OBJ_GEOM = mujoco.mjtObj.mjOBJ_GEOM
+_UNSTABLE = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
+             mujoco.mjtWarning.mjWARN_BADQACC)
 
 
 def _control_range(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
@@ -466,12 +468,16 @@ class Comparison:
 
 
 def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str = "model",
-            broadphase: BroadPhase | None = None, on_step=None) -> dict:
+            broadphase: BroadPhase | None = None, on_step=None, hold: int = 100) -> dict:
     """Simulate ``model`` with random controls; every step, compare MuJoCo's contacts with ours.
 
-    Each step: random controls (uniform in the control range, or [-1, 1]), ``mj_step``; then,
-    on the state MuJoCo just collided (``xpos``/``xmat`` and ``contact`` are left from the
-    same ``mj_forward``, before integration), our candidates from `BroadPhase.pairs`.
+    Controls are random and piecewise constant: every ``hold`` steps each actuator is set to
+    one end of its control range (or of [-1, 1]), chosen at random. Held extremes drive joints
+    to their limits, where self-contacts and floor contacts happen (per-step uniform noise
+    averages out: a position-controlled arm such as kuka_iiwa_14 then never touches anything
+    in 2000 steps). Each step: ``mj_step``; then, on the state MuJoCo just collided
+    (``xpos``/``xmat`` and ``contact`` are left from the same ``mj_forward``, before
+    integration), our candidates from `BroadPhase.pairs`.
 
     Parameters
     ----------
@@ -486,6 +492,8 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
         Reused when given (built from ``model`` otherwise).
     on_step : callable, optional
         ``on_step(step, data, candidates)`` after each step (the demo uses it to render).
+    hold : int
+        Steps between control changes, ``>= 1``.
 
     Returns
     -------
@@ -495,10 +503,12 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
         name1, name2}``), ``contact_pairs_per_step``, ``candidates_per_step``,
         ``mujoco_candidates_per_step`` (lists of ints, one per step), ``time_ours_us`` and
         ``time_mujoco_broad_us`` (medians), their ``ratio``, the per-step times
-        (``time_ours_us_per_step``, ``time_mujoco_broad_us_per_step``), ``model``, ``seed``.
+        (``time_ours_us_per_step``, ``time_mujoco_broad_us_per_step``), ``model``, ``seed``,
+        ``unstable_resets`` (times MuJoCo reset an unstable simulation).
     """
     steps = as_count(steps, "steps", 1)
     seed = as_count(seed, "seed", 0)
+    hold = as_count(hold, "hold", 1)
     bp = broadphase if broadphase is not None else BroadPhase(model)
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
@@ -510,8 +520,8 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
     perf = time.perf_counter_ns
     with mujoco_timer(), candidate_counter(model) as counter:
         for step in range(steps):
-            if model.nu:
-                data.ctrl[:] = rng.uniform(lo, hi)
+            if model.nu and step % hold == 0:
+                data.ctrl[:] = np.where(rng.random(model.nu) < 0.5, lo, hi)
             counter.reset()
             dur0, num0 = timer.duration, timer.number
             mujoco.mj_step(model, data)
@@ -555,6 +565,7 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
         "time_mujoco_broad_us_per_step": rec.time_mujoco_broad_us,
         "nbody": int(model.nbody),
         "ngeom": int(model.ngeom),
+        "unstable_resets": int(sum(data.warning[int(w)].number for w in _UNSTABLE)),
     }
 
 
@@ -588,6 +599,8 @@ def format_report(result: dict) -> str:
         f"MuJoCo broad phase {result['time_mujoco_broad_us']:.1f} us "
         f"(mjTIMER_COL_BROAD), ratio {result['ratio']:.2f}x",
     ]
+    if result.get("unstable_resets"):
+        lines.append(f"note: MuJoCo reset an unstable simulation {result['unstable_resets']} time(s)")
     return "\n".join(lines)
 
 
