@@ -112,7 +112,8 @@ shape built once in its final pose (the right answer); the AABB a box-only hiera
 (the box of the rotated box, step after step), and its ratio to the cloud's AABB.""")
     run_chain("100 rotations by 45° about z (net 4500° = 180°: the start box is the right answer)",
               [rotation([0, 0, 1], 45)] * 100)
-    run_chain("100 rotations by 45° about x, y, z in turn", [rotation(np.eye(3)[i % 3], 45) for i in range(100)])
+    run_chain("100 rotations by 45° about x, y, z in turn",
+              [rotation(np.eye(3)[i % 3], 45) for i in range(100)])
     rng = np.random.default_rng(0)
     run_chain("100 random rotations (seed 0)", [random_rotation(rng) for _ in range(100)])
     print("""
