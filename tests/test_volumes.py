@@ -348,7 +348,6 @@ def test_overlap_against_brute_force(kinds):
             # Certainly disjoint: a separating direction exists; the test must find it.
             assert not got, f"false overlap at distance {d}"
             outcomes[False] += 1
-    print(kinds, outcomes)
     assert outcomes[True] >= 5 and outcomes[False] >= 5, outcomes
 
 
