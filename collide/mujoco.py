@@ -245,8 +245,9 @@ class BroadPhase:
     Parameters
     ----------
     model : mujoco.MjModel
-        Read once: geometry and filter rules. ``mjDSBL_CONTACT`` / ``mjDSBL_CONSTRAINT`` are
-        re-read at every call (they only switch everything off); other flags are read here.
+        Read once, here: geometry, filter rules and flags (``mjDSBL_CONTACT``,
+        ``mjDSBL_CONSTRAINT``, ``mjDSBL_FILTERPARENT``, ``mjENBL_OVERRIDE``). Build a new
+        BroadPhase after changing them (reading ``model.opt`` costs ~3 us a call in the bindings).
 
     Attributes
     ----------
@@ -261,6 +262,7 @@ class BroadPhase:
         self._empty2 = np.zeros((0, 2), dtype=np.int32)
         self._empty3 = np.zeros((0, 3), dtype=np.int32)
         self._data = None
+        self._disabled = _contacts_disabled(model)
         # MuJoCo has no collision function for plane-hfield and hfield-hfield (mjCOLLISIONFUNC
         # is NULL there): such pairs never make contacts and are removed after the kernel.
         types = np.asarray(model.geom_type)
@@ -292,7 +294,7 @@ class BroadPhase:
         pairs : (K, 2) int32
             Geom ids, lower first, rows sorted and unique.
         """
-        if _contacts_disabled(self.model):
+        if self._disabled:
             return self._empty2
         out = self.broadphase.pairs(data.xpos, data.xmat.reshape(-1, 3, 3))
         return out if self._no_function is None else self._drop_null(out, 0)
@@ -316,7 +318,7 @@ class BroadPhase:
                                          or model.ngeom != self.model.ngeom):
             raise ValueError("model: not the model this BroadPhase was built from")
         q = as_array(qpos, "qpos", (None, model.nq))
-        if _contacts_disabled(model):
+        if self._disabled:
             return self._empty3
         pos, rot = self.kinematics_batch(model, q)
         out = self.broadphase.pairs_batch(pos, rot)
