@@ -733,8 +733,27 @@ def _welzl_mtf(pts: np.ndarray, end: int, support: list) -> tuple[np.ndarray, fl
     return center, r2
 
 
+# Working-set growth of min_sphere_center: violators added per round, and rounds before
+# falling back to Welzl on the whole cloud.
+_SPHERE_ADD = 16
+_SPHERE_ROUNDS = 64
+
+
+def _welzl(pts: np.ndarray) -> tuple[np.ndarray, float]:
+    # Minimal ball (centre, squared radius) of a small point set; random order gives Welzl's
+    # expected linear time, a fixed seed keeps results reproducible.
+    order = np.random.default_rng(0).permutation(len(pts))
+    return _welzl_mtf(np.ascontiguousarray(pts[order]), len(pts), [])
+
+
 def min_sphere_center(points: np.ndarray) -> np.ndarray:
-    """Centre of the minimal enclosing sphere of ``points`` (Welzl's algorithm, move-to-front).
+    """Centre of the minimal enclosing sphere of ``points`` (exact, up to rounding).
+
+    Welzl's algorithm (move-to-front) runs on a small working set, which grows by the points
+    farthest outside its ball until the ball holds every point: the minimal ball of a subset
+    that contains the whole cloud is the cloud's minimal ball (the working-set idea of
+    Gärtner's pivoting, 1999). Each round costs one vectorised distance pass over the cloud,
+    so large clouds never enter the Python-level recursion.
 
     Parameters
     ----------
@@ -752,11 +771,20 @@ def min_sphere_center(points: np.ndarray) -> np.ndarray:
     scale = float(np.abs(local).max())
     if scale == 0.0:
         return offset
-    # Random order gives Welzl's expected linear time; a fixed seed keeps results reproducible.
-    order = np.random.default_rng(0).permutation(len(local))
-    pts = np.ascontiguousarray(local[order] / scale)
-    center, _ = _welzl_mtf(pts, len(pts), [])
-    return offset + center * scale
+    pts = local / scale
+    if len(pts) <= 4 * _SPHERE_ADD:
+        return offset + _welzl(pts)[0] * scale
+    # Start from the extremes along the coordinate axes.
+    work = np.unique(np.concatenate([pts.argmin(axis=0), pts.argmax(axis=0)]))
+    for _ in range(_SPHERE_ROUNDS):
+        center, r2 = _welzl(pts[work])
+        d2 = np.sum((pts - center) ** 2, axis=1)
+        out = np.flatnonzero(d2 > r2 * (1.0 + _WELZL_SLACK) + 1e-30)
+        if len(out) == 0:
+            return offset + center * scale
+        far = out[np.argsort(-d2[out])[:_SPHERE_ADD]]
+        work = np.concatenate([work, far])
+    return offset + _welzl(pts)[0] * scale
 
 
 def _ritter_center(points: np.ndarray) -> np.ndarray:
