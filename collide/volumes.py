@@ -1,8 +1,16 @@
-"""Bounding volumes (AABB, Sphere, OBB) as small array records, and their fitting from clouds.
+"""Bounding volumes (AABB, Sphere, OBB) as small array records: fitting, transforms, overlaps.
 
 Fitters only choose a centre or an orientation; extents and radii are then measured from the
 points themselves, so every fitted volume contains its cloud by construction (up to rounding),
 whatever the fitter's quality.
+
+* `fit_aabb`: exact. `fit_sphere`: ``"exact"`` minimal sphere (Welzl 1991, move-to-front, on a
+  growing working set) or ``"ritter"`` (1990). `fit_obb`: ``"optimal"`` near-minimal volume
+  (hull-face candidates with rotating calipers, then a compass search on rotations; measured
+  in tests/bench/fitting.txt) or ``"pca"``.
+* `transform` (rigid maps), `aabb_of`, and `overlap` for every pair of kinds (the OBB test is
+  the 15-axis separating-axis test of Gottschalk 1996 / Ericson 2005 §4.4.1), conservative
+  under rounding.
 """
 
 from __future__ import annotations
@@ -16,6 +24,9 @@ from scipy.spatial import ConvexHull, QhullError
 from . import hull as _hull
 from ._validate import as_array, as_points, as_radius
 
+
+# ----------------------------------------------------------------------------------------------
+# Records
 
 # Relative slack of the overlap tests and of the records' checks: overlap tests compare with
 # this much room (relative to the coordinates' size) so that rounding can only report an
@@ -247,6 +258,9 @@ class OBB:
         """The box under a rigid map (see `transform`)."""
         return transform(self, rotation, translation)
 
+
+# ----------------------------------------------------------------------------------------------
+# Fitting: AABB and OBB
 
 def _require_points(points: np.ndarray, what: str) -> None:
     if len(points) == 0:
@@ -645,6 +659,9 @@ def fit_obb(points: np.ndarray, radius: float = 0.0, method: str = "optimal") ->
     return OBB(box.center + offset, box.rotation, box.half_extents + pad)
 
 
+# ----------------------------------------------------------------------------------------------
+# Fitting: spheres
+
 # Relative slack of the "point outside the ball" test in Welzl's algorithm (on squared radii of
 # a cloud scaled to unit size): points this close to the sphere count as inside, which keeps
 # rounding from re-triggering recursion; the fitted radius is re-measured afterwards, so the slack
@@ -670,7 +687,7 @@ def _ball_of_support(support: list) -> tuple[np.ndarray, float]:
         w = np.cross(u, v)
         ww = float(w @ w)
         if ww > 1e-24 * float(u @ u) * float(v @ v):
-            # Circumcentre of a triangle in 3D (RTCD §3.? / standard identity).
+            # Circumcentre of a triangle in 3D: a + (|u|^2 (v x w) + |v|^2 (w x u)) / (2 |w|^2).
             off = (float(u @ u) * np.cross(v, w) + float(v @ v) * np.cross(w, u)) / (2.0 * ww)
             return a + off, float(off @ off)
         return _min_ball_brute(support)
@@ -844,6 +861,157 @@ def fit_sphere(points: np.ndarray, radius: float = 0.0, method: str = "exact") -
 
 
 # ----------------------------------------------------------------------------------------------
+# k-DOPs (discrete oriented polytopes: Klosowski et al. 1998, "Efficient collision detection
+# using bounding volume hierarchies of k-DOPs"): slabs along k/2 fixed directions.
+
+def _kdop_directions(k: int) -> np.ndarray:
+    axes = np.eye(3)
+    corners = np.array([[1, 1, 1], [1, 1, -1], [1, -1, 1], [1, -1, -1]], dtype=float) / np.sqrt(3.0)
+    edges = np.array([[1, 1, 0], [1, -1, 0], [1, 0, 1], [1, 0, -1], [0, 1, 1], [0, 1, -1]],
+                     dtype=float) / np.sqrt(2.0)
+    table = {6: [axes], 14: [axes, corners], 18: [axes, edges], 26: [axes, corners, edges]}
+    if k not in table:
+        raise ValueError(f"k: expected 6, 14, 18 or 26, got {k!r}")
+    out = np.concatenate(table[k])
+    out.setflags(write=False)
+    return out
+
+
+KDOP_SIZES = (6, 14, 18, 26)
+
+
+def kdop_directions(k: int) -> np.ndarray:
+    """The ``k // 2`` unit slab directions of a k-DOP, ``(k // 2, 3) float64``, read-only.
+
+    The coordinate axes come first, then (for 14 and 26) the 4 cube-corner diagonals, then
+    (for 18 and 26) the 6 edge diagonals.
+    """
+    return _kdop_directions(k)
+
+
+@dataclass(frozen=True, eq=False)
+class KDOP:
+    """Discrete oriented polytope: ``{x : lo <= D @ x <= hi}`` for ``D = kdop_directions(k)``.
+
+    Attributes
+    ----------
+    lo, hi : (k // 2,) float64
+        Read-only slab bounds along the unit directions; ``k`` is 6, 14, 18 or 26.
+    """
+
+    lo: np.ndarray
+    hi: np.ndarray
+
+    def __post_init__(self):
+        lo = as_array(self.lo, "lo", (None,)).copy()
+        hi = as_array(self.hi, "hi", (len(lo),)).copy()
+        if 2 * len(lo) not in KDOP_SIZES:
+            raise ValueError(f"lo: expected 3, 7, 9 or 13 slab bounds (k = 6, 14, 18, 26), got {len(lo)}")
+        if np.any(lo > hi):
+            raise ValueError(f"lo: must be <= hi on every slab, got lo={lo}, hi={hi}")
+        lo.setflags(write=False)
+        hi.setflags(write=False)
+        object.__setattr__(self, "lo", lo)
+        object.__setattr__(self, "hi", hi)
+
+    @property
+    def k(self) -> int:
+        """Number of bounding planes."""
+        return 2 * len(self.lo)
+
+    @property
+    def directions(self) -> np.ndarray:
+        """``(k // 2, 3) float64``: the slab directions."""
+        return _kdop_directions(self.k)
+
+    def vertices(self) -> np.ndarray:
+        """Vertices of the polytope, ``(m, 3) float64`` (every feasible triple of planes)."""
+        d = self.directions
+        normals = np.concatenate([d, -d])
+        offsets = np.concatenate([self.hi, -self.lo])
+        idx = np.array([(i, j, l) for i in range(self.k) for j in range(i + 1, self.k)
+                        for l in range(j + 1, self.k)])
+        mats = normals[idx]
+        det = np.linalg.det(mats)
+        ok = np.abs(det) > 1e-9
+        pts = np.linalg.solve(mats[ok], offsets[idx[ok]][..., None])[..., 0]
+        scale = max(1.0, float(np.abs(offsets).max()))
+        feasible = np.all(pts @ normals.T <= offsets + 1e-9 * scale, axis=1)
+        return np.unique(pts[feasible], axis=0)
+
+    def volume(self) -> float:
+        """Volume (0 for a flat polytope)."""
+        verts = self.vertices()
+        if len(verts) < 4 or _principal(verts)[1] < 3:
+            return 0.0
+        return float(ConvexHull(verts).volume)
+
+    def contains(self, points, rtol: float = 0.0) -> np.ndarray:
+        """Which points lie in every slab, widened by ``rtol`` times the bounds' size.
+
+        Parameters
+        ----------
+        points : (n, 3) float64
+        rtol : float
+
+        Returns
+        -------
+        inside : (n,) bool
+        """
+        p = as_array(points, "points", (None, 3))
+        proj = p @ self.directions.T
+        pad = rtol * max(float(np.max(np.abs(np.concatenate([self.lo, self.hi])))), 1.0)
+        return np.all((proj >= self.lo - pad) & (proj <= self.hi + pad), axis=1)
+
+    def aabb(self) -> AABB:
+        """An axis-aligned box containing the polytope: its first three slabs (exact when fitted)."""
+        return AABB(self.lo[:3], self.hi[:3])
+
+    def overlaps(self, other) -> bool:
+        """Whether this polytope and another volume may intersect (see `overlap`)."""
+        return overlap(self, other)
+
+    def transformed(self, rotation, translation) -> "KDOP":
+        """The tightest k-DOP of the polytope under a rigid map (see `transform`)."""
+        return transform(self, rotation, translation)
+
+
+def fit_kdop(points: np.ndarray, radius: float = 0.0, k: int = 26) -> KDOP:
+    """Exact k-DOP of ``hull(points) ⊕ ball(radius)``.
+
+    Parameters
+    ----------
+    points : (n, 3) float64
+        Non-empty.
+    radius : float
+        The cloud's radius, ``>= 0`` (directions are unit vectors, so it adds to every slab).
+    k : {6, 14, 18, 26}
+
+    Returns
+    -------
+    KDOP
+    """
+    points = as_points(points, "points")
+    radius = as_radius(radius, "radius")
+    _require_points(points, "kdop")
+    d = _kdop_directions(k)
+    proj = points @ d.T
+    pad = _ROUNDING_PAD * float(np.abs(points).max())  # see fit_obb
+    return KDOP(proj.min(axis=0) - radius - pad, proj.max(axis=0) + radius + pad)
+
+
+def _kdop_kdop(a: KDOP, b: KDOP) -> bool:
+    # Slab-interval test on the directions the two share (all of them when k is equal):
+    # disjoint intervals on a shared direction separate the polytopes; overlapping intervals
+    # everywhere may still leave them apart (no edge-edge axes), so the test is conservative.
+    da, db = a.directions, b.directions
+    match = np.abs(da @ db.T - 1.0) < 1e-12
+    ia, ib = np.nonzero(match)
+    pad = _slack(a.lo, a.hi, b.lo, b.hi)
+    return bool(np.all(a.lo[ia] <= b.hi[ib] + pad) and np.all(b.lo[ib] <= a.hi[ia] + pad))
+
+
+# ----------------------------------------------------------------------------------------------
 # Rigid transforms and overlap tests.
 
 def transform(volume, rotation, translation):
@@ -851,19 +1019,24 @@ def transform(volume, rotation, translation):
 
     Parameters
     ----------
-    volume : AABB, Sphere or OBB
+    volume : AABB, Sphere, OBB or KDOP
     rotation : (3, 3) float64
         A rotation (orthonormal, determinant +1).
     translation : (3,) float64
 
     Returns
     -------
-    Sphere or OBB
+    Sphere, OBB or KDOP
         A sphere stays a sphere and an OBB an OBB (both exact); an AABB becomes the OBB it
-        is mapped to (exact; take ``.aabb()`` of it for an axis-aligned bound).
+        is mapped to (exact; take ``.aabb()`` of it for an axis-aligned bound); a k-DOP
+        becomes the tightest k-DOP of its moved vertices (it grows, as any fixed-direction
+        bound does under rotation).
     """
     rot = _rotation(rotation, "rotation")
     t = as_array(translation, "translation", (3,))
+    if isinstance(volume, KDOP):
+        # Rotated slabs are no longer the fixed directions: refit to the moved vertices.
+        return fit_kdop(volume.vertices() @ rot.T + t, 0.0, volume.k)
     if isinstance(volume, Sphere):
         return Sphere(rot @ volume.center + t, volume.radius)
     if isinstance(volume, AABB):
@@ -872,14 +1045,14 @@ def transform(volume, rotation, translation):
         volume = OBB(volume.center, np.eye(3), volume.half_extents)
     if isinstance(volume, OBB):
         return OBB(rot @ volume.center + t, _orthonormal(rot @ volume.rotation), volume.half_extents)
-    raise ValueError(f"volume: expected an AABB, Sphere or OBB, got {type(volume).__name__}")
+    raise ValueError(f"volume: expected an AABB, Sphere, OBB or KDOP, got {type(volume).__name__}")
 
 
 def aabb_of(volume) -> AABB:
-    """The exact axis-aligned box of an AABB, Sphere or OBB."""
-    if isinstance(volume, (AABB, Sphere, OBB)):
+    """The axis-aligned box of an AABB, Sphere, OBB (exact) or KDOP (its axis slabs)."""
+    if isinstance(volume, (AABB, Sphere, OBB, KDOP)):
         return volume.aabb()
-    raise ValueError(f"volume: expected an AABB, Sphere or OBB, got {type(volume).__name__}")
+    raise ValueError(f"volume: expected an AABB, Sphere, OBB or KDOP, got {type(volume).__name__}")
 
 
 def _slack(*arrays) -> float:
@@ -954,20 +1127,28 @@ def overlap(a, b) -> bool:
 
     Parameters
     ----------
-    a, b : AABB, Sphere or OBB
+    a, b : AABB, Sphere, OBB or KDOP
         In any combination; the test is symmetric.
 
     Returns
     -------
     bool
-        Exact up to rounding, and conservative: comparisons get a slack of `OVERLAP_RTOL`
-        times the coordinates' size, so rounding can only report an overlap. Empty boxes
-        overlap nothing.
+        Exact up to rounding for spheres, AABBs and OBBs, and conservative: comparisons get a
+        slack of `OVERLAP_RTOL` times the coordinates' size, so rounding can only report an
+        overlap. A k-DOP is tested against another by its shared slabs, and against any other
+        kind by its axis slabs (its AABB): conservative, not exact. Empty boxes overlap
+        nothing.
     """
-    kinds = (AABB, Sphere, OBB)
+    kinds = (AABB, Sphere, OBB, KDOP)
     for name, v in (("a", a), ("b", b)):
         if not isinstance(v, kinds):
-            raise ValueError(f"{name}: expected an AABB, Sphere or OBB, got {type(v).__name__}")
+            raise ValueError(f"{name}: expected an AABB, Sphere, OBB or KDOP, got {type(v).__name__}")
+    if isinstance(a, KDOP) and isinstance(b, KDOP):
+        return _kdop_kdop(a, b)
+    if isinstance(a, KDOP):
+        a = a.aabb()
+    if isinstance(b, KDOP):
+        b = b.aabb()
     if isinstance(b, Sphere) and not isinstance(a, Sphere):
         a, b = b, a
     if isinstance(a, Sphere):

@@ -313,15 +313,16 @@ def test_obb_degenerate_clouds():
 
 def test_containment_random_clouds_and_radii():
     rng = np.random.default_rng(7)
-    for trial in range(60):
-        n = int(rng.integers(1, 300))
+    for trial in range(300):
+        n = int(rng.integers(1, 120))
         p = rng.normal(size=(n, 3)) * rng.uniform(1e-3, 1e3, 3) @ _rotation(rng).T
         p = p + rng.normal(size=3) * 10 ** rng.uniform(-2, 5)
         r = float(rng.choice([0.0, rng.uniform(0, 2)]))
         cloud = PointCloud(p, r)
         # Points of the set hull(p) ⊕ ball(r): the points pushed out by r in random directions.
         surf = p + r * _sphere_surface(rng, n)
-        for vol in (cloud.aabb(), cloud.sphere(), cloud.sphere("ritter"), cloud.obb(), cloud.obb("pca")):
+        for vol in (cloud.aabb(), cloud.sphere(), cloud.sphere("ritter"), cloud.obb(), cloud.obb("pca"),
+                    V.fit_kdop(p, r, 26)):
             assert np.all(vol.contains(surf, RTOL)), (trial, type(vol).__name__)
 
 
@@ -445,3 +446,76 @@ def test_bad_input_raises_value_error():
         V.transform(V.Sphere(np.zeros(3), 1.0), np.eye(3) * 2, np.zeros(3))
     with pytest.raises(ValueError, match="translation"):
         V.transform(V.Sphere(np.zeros(3), 1.0), np.eye(3), np.zeros(2))
+
+
+# ---------------------------------------------------------------------------------------------
+# k-DOPs
+
+
+def _hulls_intersect(p: np.ndarray, q: np.ndarray) -> bool:
+    # LP feasibility: lambda, mu >= 0, sum = 1 each, P^T lambda = Q^T mu.
+    from scipy.optimize import linprog
+
+    a_eq = np.zeros((5, len(p) + len(q)))
+    a_eq[:3, :len(p)], a_eq[:3, len(p):] = p.T, -q.T
+    a_eq[3, :len(p)], a_eq[4, len(p):] = 1.0, 1.0
+    res = linprog(np.zeros(len(p) + len(q)), A_eq=a_eq, b_eq=[0, 0, 0, 1, 1], bounds=(0, None))
+    return res.status == 0
+
+
+def test_kdop_fit_volume_and_containment():
+    rng = np.random.default_rng(11)
+    cube = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
+    for k in V.KDOP_SIZES:
+        assert V.fit_kdop(cube, k=k).volume() == pytest.approx(1.0, rel=1e-9)
+        assert V.kdop_directions(k).shape == (k // 2, 3)
+    # An octahedron is its own 14-DOP (its faces are the corner directions) but its AABB is 6x.
+    octa = np.vstack([np.eye(3), -np.eye(3)])
+    assert V.fit_kdop(octa, k=14).volume() == pytest.approx(4.0 / 3.0, rel=1e-9)
+    for _ in range(20):
+        p = rng.normal(size=(int(rng.integers(1, 200)), 3)) * rng.uniform(0.1, 3, 3) + rng.normal(size=3) * 100
+        r = float(rng.uniform(0, 1))
+        surf = p + r * _sphere_surface(rng, len(p))
+        vols = []
+        for k in V.KDOP_SIZES:
+            dop = V.fit_kdop(p, r, k)
+            assert np.all(dop.contains(surf, RTOL)) and np.all(dop.aabb().contains(surf, RTOL))
+            vols.append(dop.volume())
+            rot, t = _rotation(rng), rng.normal(size=3)
+            moved = V.transform(dop, rot, t)
+            assert moved.k == k and np.all(moved.contains(surf @ rot.T + t, RTOL))
+        # more slabs, never larger: 6 >= 14 >= 26 and 6 >= 18 >= 26
+        assert vols[0] >= vols[1] * (1 - 1e-9) and vols[1] >= vols[3] * (1 - 1e-9)
+        assert vols[0] >= vols[2] * (1 - 1e-9) and vols[2] >= vols[3] * (1 - 1e-9)
+        assert vols[0] == pytest.approx(V.fit_aabb(p, r).volume(), rel=1e-9)
+
+
+def test_kdop_overlap_is_conservative():
+    rng = np.random.default_rng(12)
+    outcomes = {True: 0, False: 0}
+    for trial in range(80):
+        k = V.KDOP_SIZES[trial % 4]
+        p = rng.normal(size=(12, 3)) * 0.5 + rng.normal(size=3) * 1.2
+        q = rng.normal(size=(12, 3)) * 0.5 + rng.normal(size=3) * 1.2
+        a, b = V.fit_kdop(p, k=k), V.fit_kdop(q, k=V.KDOP_SIZES[(trial + 1) % 4])
+        got = V.overlap(a, b)
+        assert got == V.overlap(b, a)
+        if _hulls_intersect(p, q):
+            assert got, "a k-DOP pair missed intersecting hulls"
+        outcomes[got] += 1
+        # against other kinds: through the axis slabs, never missing the cloud's own bounds
+        s = V.fit_sphere(q)
+        if V.overlap(V.fit_aabb(p), s):
+            assert V.overlap(a, s)
+    assert outcomes[True] >= 10 and outcomes[False] >= 10, outcomes
+
+
+def test_kdop_bad_input():
+    with pytest.raises(ValueError, match="k"):
+        V.fit_kdop(np.zeros((3, 3)), k=8)
+    with pytest.raises(ValueError, match="lo"):
+        V.KDOP(np.zeros(4), np.ones(4))
+    with pytest.raises(ValueError, match="lo"):
+        V.KDOP(np.ones(7), np.zeros(7))
+    with pytest.raises(ValueError, match="empty"):
+        V.fit_kdop(np.zeros((0, 3)))
