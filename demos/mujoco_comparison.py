@@ -19,13 +19,29 @@ What it does:
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
-import mujoco
-import numpy as np
+# Headless Linux (no X display) and no backend chosen: try EGL, which works with a GPU driver or
+# Mesa alone; MuJoCo reads MUJOCO_GL when it is imported. Any failure later only drops the image.
+if sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
+    os.environ.setdefault("MUJOCO_GL", "egl")
+# A backend whose library is missing makes `import mujoco` itself fail (PyOpenGL finds no GL):
+# switch rendering off instead, so the comparison and the plot still happen.
+_GL_LIBRARY = {"egl": "EGL", "osmesa": "OSMesa"}.get(os.environ.get("MUJOCO_GL", "").lower())
+if _GL_LIBRARY:
+    import ctypes.util
 
-import collide.mujoco as cm
+    if ctypes.util.find_library(_GL_LIBRARY) is None:
+        print(f"note: MUJOCO_GL={os.environ['MUJOCO_GL']} but lib{_GL_LIBRARY} is not installed; "
+              "rendering is off (see the README)")
+        os.environ["MUJOCO_GL"] = "disable"
+
+import mujoco  # noqa: E402
+import numpy as np  # noqa: E402
+
+import collide.mujoco as cm  # noqa: E402
 
 
 def world_obbs(bp: cm.BroadPhase, data: mujoco.MjData):
