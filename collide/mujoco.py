@@ -13,6 +13,9 @@ this install with small MJCF models (``tests/test_mujoco.py``):
 * dynamic pairs (not listed in ``<contact><pair>``):
   - bodies in the same weld group (``body_weldid``, bodies rigidly attached without joints,
     including every static body in group 0 of the world) never pair;
+  - two bodies that dynamics never moves (``body_treeid < 0``: the world, static bodies, mocap
+    bodies and bodies welded to them) never pair (observed in MuJoCo 4.0: a mocap body makes no
+    contact with world geoms, static bodies or another mocap body; explicit pairs still do);
   - parent filter, unless ``mjDSBL_FILTERPARENT``: with ``w = body_weldid[b]`` and
     ``wp = body_weldid[body_parentid[w]]``, bodies ``b1, b2`` never pair when ``w1 == wp2`` or
     ``w2 == wp1``, except when either weld group is the world's (``w == 0``);
@@ -70,6 +73,7 @@ __all__ = [
     "pair_inflation",
     "parent_excludes",
     "plot_comparison",
+    "weld_groups",
 ]
 
 
@@ -208,7 +212,7 @@ def articulation(model: mujoco.MjModel) -> Articulation:
         Bodies as in the model (body 0 is the world), geoms placed by ``geom_pos`` /
         ``geom_quat``, clouds from `geom_clouds`, contype/conaffinity, inflation from
         `geom_inflation`, exclusions from ``<exclude>`` and `parent_excludes`, weld groups
-        from ``body_weldid``, explicit pairs with `pair_inflation`. The parent filter is
+        from `weld_groups`, explicit pairs with `pair_inflation`. The parent filter is
         passed as explicit exclusions (MuJoCo applies it to weld groups, not bodies).
     """
     if not isinstance(model, mujoco.MjModel):
@@ -230,8 +234,18 @@ def articulation(model: mujoco.MjModel) -> Articulation:
         # MuJoCo's pair margin + gap is the contact distance; the articulation inflates each of
         # the two geoms by pair_margin, so each takes half.
         pair_margin=0.5 * pair_inflation(model),
-        body_weld=np.asarray(model.body_weldid, dtype=np.int64),
+        body_weld=weld_groups(model),
     )
+
+
+def weld_groups(model: mujoco.MjModel) -> np.ndarray:
+    """``(L,) int64`` groups of bodies that never pair: ``body_weldid``, with every body that
+    dynamics never moves (``body_treeid < 0``: world, static, mocap) merged into group 0."""
+    weld = np.asarray(model.body_weldid, dtype=np.int64).copy()
+    tree = getattr(model, "body_treeid", None)
+    if tree is not None:
+        weld[np.asarray(tree) < 0] = 0
+    return weld
 
 
 def _contacts_disabled(model: mujoco.MjModel) -> bool:

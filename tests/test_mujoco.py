@@ -150,6 +150,38 @@ def test_explicit_pairs_bypass_filters_and_use_their_margin():
     assert ours == mj
 
 
+def test_explicit_pair_replaces_the_dynamic_pair():
+    # Surfaces 0.05 apart; the geoms' own margins (0.03 each) would make a contact, but an
+    # explicit pair of the same geoms takes over with its own, smaller margin: no contact.
+    xml = """<mujoco><worldbody>
+      <body name="a"><freejoint/><geom name="a" type="sphere" size=".1" margin=".03"/></body>
+      <body name="b" pos=".25 0 0"><freejoint/><geom name="b" type="sphere" size=".1" margin=".03"/></body>
+      <body name="c" pos="-.25 0 0"><freejoint/><geom name="c" type="sphere" size=".1" margin=".03"/></body>
+    </worldbody><contact><pair geom1="b" geom2="a" margin=".01"/></contact></mujoco>"""
+    mj, ours, _ = _both(xml)
+    assert mj == ours == _pairs("a-c")
+
+
+def test_bodies_dynamics_never_moves_never_pair():
+    # Mocap bodies, static bodies and the world have no degrees of freedom (body_treeid < 0):
+    # MuJoCo 4 makes no contact between two of them, though m1's weld group is its own. A body
+    # with a joint under a mocap body is its child (parent filter) but pairs with the rest;
+    # an explicit pair between two of them still makes contacts.
+    xml = """<mujoco><worldbody>
+      <geom name="w" type="sphere" size=".1"/>
+      <body name="m1" mocap="true" pos=".05 0 0"><geom name="m1" type="sphere" size=".1"/>
+        <body name="mc" pos="0 .05 0"><joint/><geom name="mc" type="sphere" size=".1"/></body></body>
+      <body name="m2" mocap="true" pos="0 .05 0"><geom name="m2" type="sphere" size=".1"/></body>
+      <body name="st" pos="0 0 .05"><geom name="st" type="sphere" size=".1"/></body>
+      <body name="f" pos=".03 .03 .03"><freejoint/><geom name="f" type="sphere" size=".1"/></body>
+    </worldbody><contact><pair geom1="st" geom2="m2"/></contact></mujoco>"""
+    mj, ours, model = _both(xml)
+    assert model.body_weldid[model.body("m1").id] != 0
+    expected = _pairs("f-w", "f-m1", "f-m2", "f-st", "f-mc", "mc-w", "mc-m2", "mc-st", "st-m2")
+    assert mj == expected
+    assert ours == expected
+
+
 def test_margin_and_gap():
     # Surfaces 0.05 apart: a contact is generated below margin1 + margin2 + gap1 + gap2.
     for margin, gap, touch in [(0.02, 0.0, False), (0.03, 0.0, True), (0.02, 0.01, True),
