@@ -26,6 +26,8 @@ this install with small MJCF models (``tests/test_mujoco.py``):
     ``mjENBL_OVERRIDE`` the margin sum is ``opt.o_margin``; the gaps stay);
 * explicit ``<pair>``s bypass all the above filters and use their own ``margin + gap``; a dynamic
   pair with the same two geoms is dropped in favour of the explicit one;
+* pairs without a collision function in ``mjCOLLISIONFUNC`` never make contacts: plane-plane,
+  plane-hfield and hfield-hfield (removed from our output);
 * planes are half-spaces (``z <= 0`` in the plane frame; the plane's size is visual only);
   meshes collide as the convex hull of their vertices (``mesh_vert``, already in the geom frame);
   height fields are bounded by their box ``[-x, x] x [-y, y] x [-base, top]``; SDF geoms by
