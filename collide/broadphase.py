@@ -90,28 +90,21 @@ class BroadPhase:
         glocal = _local_rows(a.geom_obb_center, a.geom_obb_rot, a.geom_obb_half, a.geom_sphere_center,
                              a.geom_sphere_radius)
         pair_keys = (a.pairs[:, 0] * G + a.pairs[:, 1]).astype(i64)
-        self._static = (
-            order.astype(i64), pos_of.astype(i64), end, parent_pos, a.body_weld[order].astype(i64),
-            a.filter_parent, nchild, child_start, children, gstart, pgeoms, single, hasb, pairflag,
-            ctor, caor, excl, planes, pos_of[a.geom_body[planes]].astype(i64), a.geom_body.astype(i64),
-            a.geom_contype.astype(i64), a.geom_conaffinity.astype(i64), a.geom_margin.astype(np.float64),
-            blocal, glocal, a.geom_plane.copy(), a.pairs.astype(i64), a.pair_margin.astype(np.float64),
-            pair_keys)
+        self._I, self._F = _k.pack(
+            order, pos_of, end, parent_pos, a.body_weld[order], nchild, child_start, single, hasb, pairflag,
+            ctor, caor, children, gstart, pgeoms, excl, planes, pos_of[a.geom_body[planes]], a.geom_body,
+            a.geom_contype, a.geom_conaffinity, a.pairs, pair_keys, a.filter_parent, blocal, glocal,
+            a.geom_plane, a.geom_margin, a.pair_margin)
+        self._nW = _k.workspace_size(L, G, len(planes))
         self._sap_init = children.copy()
-        self._work = self._workspace(1)
-        self._work1 = tuple(w[0] for w in self._work)
-        self._keys = np.empty(max(64, 4 * G), np.int64)
+        self._W = np.zeros(self._nW)
+        self._sap = children.copy()
+        self._bp = np.empty((4 * L + 64, 2), np.int64)
+        self._keys = np.empty(4 * G + 64, np.int64)
         self._stats = np.zeros(_k.N_STATS, np.int64)
-        self._info = np.zeros(3, np.int64)
-        self._batch_work = None
-        self._batch_keys = None
-        self._last_stats = np.zeros(_k.N_STATS, np.int64)
-
-    def _workspace(self, C: int):
-        L, G, Q = self.body_count, self.geom_count, len(self._static[17])
-        return (np.zeros((C, L, _k.ROW)), np.zeros((C, G, _k.ROW)), np.zeros((C, L, 6)),
-                np.zeros((C, L, 6)), np.zeros((C, max(Q, 1), 4)), np.zeros((C, 2, _k.ROW)),
-                np.tile(self._sap_init, (C, 1)))
+        self._info = np.zeros(4, np.int64)
+        self._batch = None
+        self._last_stats = self._stats
 
     def _check(self, body_pos, body_rot, lead: tuple):
         L = self.body_count
@@ -164,13 +157,16 @@ class BroadPhase:
             body_pos, body_rot = self._check(body_pos, body_rot, ())
         info = self._info
         while True:
-            out = _k.step(body_pos, body_rot, *self._static, *self._work1, self._keys, self._stats, info)
+            out = _k.step(body_pos, body_rot, self._I, self._F, self._W, self._sap, self._bp, self._keys,
+                          self._stats, info)
             if info[0] != _k.OK:
                 self._raise(int(info[0]), int(info[1]))
-            if info[2] <= len(self._keys):
+            if info[3] > 0:  # never drop a pair: grow the buffer and rerun
+                self._bp = np.empty((2 * int(info[3]), 2), np.int64)
+            elif info[2] > len(self._keys):
+                self._keys = np.empty(2 * int(info[2]), np.int64)
+            else:
                 break
-            # Never drop a pair: grow and rerun.
-            self._keys = np.empty(2 * int(info[2]), np.int64)
         self._last_stats = self._stats
         return out
 
@@ -204,27 +200,34 @@ class BroadPhase:
         B = body_pos.shape[0]
         body_pos, body_rot = self._check(body_pos, body_rot, (B,))
         C = max(1, min(numba.get_num_threads(), B))
-        if self._batch_work is None or self._batch_work[0].shape[0] != C:
-            self._batch_work = self._workspace(C)
-            self._batch_keys = np.empty((C, max(256, 4 * self.geom_count * ((B + C - 1) // C))), np.int64)
+        per = (B + C - 1) // C
+        if self._batch is None or self._batch[0].shape[0] != C:
+            L, G = self.body_count, self.geom_count
+            self._batch = [np.zeros((C, self._nW)), np.tile(self._sap_init, (C, 1)),
+                           np.empty((C, 4 * L + 64, 2), np.int64), np.empty((C, max(256, 2 * G * per)), np.int64)]
+        W, sap, bp, keys = self._batch
         stats = np.zeros((C, 2 * _k.N_STATS), np.int64)
         world_count = np.zeros(B, np.int64)
-        world_info = np.zeros((B, 3), np.int64)
+        world_info = np.zeros((B, 4), np.int64)
         chunk_total = np.zeros(C, np.int64)
         while True:
             stats[:] = 0
-            _k.step_batch(body_pos, body_rot, *self._static, *self._batch_work, self._batch_keys, stats,
-                          world_count, world_info, chunk_total)
+            _k.step_batch(body_pos, body_rot, self._I, self._F, W, sap, bp, keys, stats, world_count,
+                          world_info, chunk_total)
             bad = np.flatnonzero(world_count < 0)
             if len(bad):
                 w = int(bad[0])
                 self._raise(int(world_info[w, 0]), int(world_info[w, 1]), f"world {w}, ")
+            need_bp = int(world_info[:, 3].max())
             need = int(chunk_total.max())
-            if need <= self._batch_keys.shape[1]:
+            if need_bp > 0:  # never drop a pair: grow and rerun
+                bp = self._batch[2] = np.empty((C, 2 * need_bp, 2), np.int64)
+            elif need > keys.shape[1]:
+                keys = self._batch[3] = np.empty((C, 2 * need), np.int64)
+            else:
                 break
-            self._batch_keys = np.empty((C, 2 * need), np.int64)
         self._last_stats = stats[:, _k.N_STATS:].sum(axis=0)
-        return _k.gather_batch(self._batch_keys, world_count, chunk_total, self.geom_count, C)
+        return _k.gather_batch(keys, world_count, chunk_total, self.geom_count, C)
 
     def __repr__(self) -> str:
         return f"BroadPhase({self.articulation!r})"

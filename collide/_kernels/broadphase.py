@@ -1,22 +1,27 @@
 """numba kernels of the per-step broad phase: flat arrays in, sorted geom-pair keys out.
 
-Layout (built by `collide.broadphase.BroadPhase` from an `Articulation`): bodies are addressed by
-depth-first *position* ``p`` (every subtree is the range ``[p, end[p])``), geoms by their ids.
-A bounds record ("row") is 19 float64: OBB centre (3), OBB rotation (9, row-major, columns are the
-box axes), OBB half extents (3), sphere centre (3), sphere radius (1).
+Layout (built by `collide.broadphase.BroadPhase` from an `Articulation`, see `pack`): bodies are
+addressed by depth-first *position* ``p`` (every subtree is the range ``[p, end[p])``), geoms by
+their ids. A bounds record ("row") is 19 float64: OBB centre (3), OBB rotation (9, row-major,
+columns are the box axes), OBB half extents (3), sphere centre (3), sphere radius (1).
+
+The static model travels as two flat arrays (``I`` int64 with a header of counts, ``F`` float64)
+and the workspace as one (``W`` float64): a numba call pays ~0.1 us per array argument, so one
+step is a call with 9 arguments, not 40. `_views` slices them back into named arrays (no copy).
 
 One step, for one world (`_world`):
 1. validate each body's pose (finite, proper orthonormal rotation) and move its local bounds to
    the world (one rotation per body; no point is touched), then the same for the geoms of bodies
-   with several geoms (single-geom bodies' bounds *are* their geom's, inflated);
+   with several geoms (a single-geom body's bounds *are* its geom's, inflated);
 2. subtree AABBs by one reverse sweep over the positions (each body's AABB of its world OBB,
    merged into its parent's): the tree is a one-level bounding hierarchy, never boxes of boxes;
 3. every body pair exactly once, at its lowest common ancestor ``n``: body ``n`` against its own
    subtree, and each pair of ``n``'s child subtrees (sweep-and-prune on one axis when ``n`` has many
-   children, all pairs otherwise); a subtree whose AABB misses is skipped whole (``q = end[q]``);
+   children, all pairs otherwise); a subtree whose AABB misses is skipped whole (``q = end[q]``).
+   Surviving body pairs (AABBs overlap) go to a buffer: no deep call chain on the hot path;
 4. body pair -> static filter -> sphere test -> OBB separating-axis test (15 axes, Ericson 2005,
    *Real-Time Collision Detection* §4.4.1) -> geom pairs, the same tests on the geoms' bounds;
-5. planes (halfspaces) against the tree, explicit pairs last; keys ``g1 * G + g2`` sorted.
+5. planes (halfspaces) down the tree, explicit pairs last; keys ``g1 * G + g2`` sorted.
 """
 
 from __future__ import annotations
@@ -45,27 +50,129 @@ BAD_ROTATION = 2
 ST_SUBTREE, ST_BODY_AABB, ST_BODY_SPHERE, ST_BODY_OBB, ST_GEOM_SPHERE, ST_GEOM_OBB, ST_PLANE, ST_OUT = range(8)
 N_STATS = 8
 
+# Header of I: counts
+H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP = range(7)
+HEADER = 8
+
+
+def pack(order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor, caor,
+         children, gstart, pgeoms, excl, planes, plane_pos, geom_bid, gct, gca, pair_g, pair_keys,
+         filter_parent, blocal, glocal, gplane, gmargin, pair_m):
+    """Flatten the static model into ``I`` (int64) and ``F`` (float64); see `_views` for the order."""
+    L, G, Gs, Q, E, P = len(order), len(geom_bid), len(pgeoms), len(planes), len(excl), len(pair_keys)
+    head = np.zeros(HEADER, np.int64)
+    head[[H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP]] = L, G, Gs, Q, E, P, int(filter_parent)
+    parts = [head, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
+             caor, children, gstart, pgeoms, excl, planes, plane_pos, geom_bid, gct, gca,
+             np.asarray(pair_g).reshape(-1), pair_keys]
+    I = np.concatenate([np.asarray(p, np.int64).reshape(-1) for p in parts])
+    F = np.concatenate([np.asarray(p, np.float64).reshape(-1) for p in (blocal, glocal, gplane, gmargin, pair_m)])
+    return I, F
+
+
+def workspace_size(L: int, G: int, Q: int) -> int:
+    """Length of the float64 workspace ``W`` of one world."""
+    return ROW * L + ROW * G + 12 * L + 4 * max(Q, 1) + 2 * ROW
+
 
 @nb.njit(cache=True, inline="always")
-def _world_row(R, p, src, s, dst, d, inflate):
+def _views(I, F, W):
+    L = I[H_L]
+    G = I[H_G]
+    Gs = I[H_GS]
+    Q = I[H_Q]
+    E = I[H_E]
+    P = I[H_P]
+    o = HEADER
+    order = I[o:o + L]
+    o += L
+    pos_of = I[o:o + L]
+    o += L
+    end = I[o:o + L]
+    o += L
+    parent_pos = I[o:o + L]
+    o += L
+    weld = I[o:o + L]
+    o += L
+    nchild = I[o:o + L]
+    o += L
+    child_start = I[o:o + L]
+    o += L
+    single = I[o:o + L]
+    o += L
+    hasb = I[o:o + L]
+    o += L
+    pairflag = I[o:o + L]
+    o += L
+    ctor = I[o:o + L]
+    o += L
+    caor = I[o:o + L]
+    o += L
+    children = I[o:o + L - 1]
+    o += L - 1
+    gstart = I[o:o + L + 1]
+    o += L + 1
+    pgeoms = I[o:o + Gs]
+    o += Gs
+    excl = I[o:o + E]
+    o += E
+    planes = I[o:o + Q]
+    o += Q
+    plane_pos = I[o:o + Q]
+    o += Q
+    geom_bid = I[o:o + G]
+    o += G
+    gct = I[o:o + G]
+    o += G
+    gca = I[o:o + G]
+    o += G
+    pair_g = I[o:o + 2 * P].reshape((P, 2))
+    o += 2 * P
+    pair_keys = I[o:o + P]
+    f = 0
+    blocal = F[f:f + ROW * L].reshape((L, ROW))
+    f += ROW * L
+    glocal = F[f:f + ROW * G].reshape((G, ROW))
+    f += ROW * G
+    gplane = F[f:f + 4 * G].reshape((G, 4))
+    f += 4 * G
+    gmargin = F[f:f + G]
+    f += G
+    pair_m = F[f:f + P]
+    w = 0
+    bw = W[w:w + ROW * L].reshape((L, ROW))
+    w += ROW * L
+    gw = W[w:w + ROW * G].reshape((G, ROW))
+    w += ROW * G
+    baabb = W[w:w + 6 * L].reshape((L, 6))
+    w += 6 * L
+    saabb = W[w:w + 6 * L].reshape((L, 6))
+    w += 6 * L
+    Qm = max(Q, 1)
+    plw = W[w:w + 4 * Qm].reshape((Qm, 4))
+    w += 4 * Qm
+    tmp = W[w:w + 2 * ROW].reshape((2, ROW))
+    return (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
+            caor, children, gstart, pgeoms, excl, planes, plane_pos, geom_bid, gct, gca, pair_g, pair_keys,
+            blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp)
+
+
+# ------------------------------------------------------------------------------- small tests
+
+@nb.njit(cache=True, inline="always")
+def _world_row(R, p, src, s, dst, d):
     # dst[d] = world bounds of local row src[s] under rotation R (3, 3) and translation p (3,)
     for i in range(3):
-        acc = p[i]
-        for k in range(3):
-            acc += R[i, k] * src[s, k]
-        dst[d, i] = acc
-        acc = p[i]
-        for k in range(3):
-            acc += R[i, k] * src[s, 15 + k]
-        dst[d, 15 + i] = acc
+        r0 = R[i, 0]
+        r1 = R[i, 1]
+        r2 = R[i, 2]
+        dst[d, i] = p[i] + r0 * src[s, 0] + r1 * src[s, 1] + r2 * src[s, 2]
+        dst[d, 15 + i] = p[i] + r0 * src[s, 15] + r1 * src[s, 16] + r2 * src[s, 17]
         for j in range(3):
-            acc = 0.0
-            for k in range(3):
-                acc += R[i, k] * src[s, 3 + 3 * k + j]
-            dst[d, 3 + 3 * i + j] = acc
-    for j in range(3):
-        dst[d, 12 + j] = src[s, 12 + j] + inflate
-    dst[d, 18] = src[s, 18] + inflate
+            dst[d, 3 + 3 * i + j] = r0 * src[s, 3 + j] + r1 * src[s, 6 + j] + r2 * src[s, 9 + j]
+    for j in range(12, 15):
+        dst[d, j] = src[s, j]
+    dst[d, 18] = src[s, 18]
 
 
 @nb.njit(cache=True, inline="always")
@@ -81,20 +188,35 @@ def _sphere_hit(A, a, ma, B, b, mb):
 
 @nb.njit(cache=True)
 def obb_hit(A, a, ma, B, b, mb):
-    """Separating-axis test of OBB rows ``A[a]`` and ``B[b]`` inflated by ``ma``, ``mb`` (15 axes)."""
+    """Separating-axis test of OBB rows ``A[a]`` and ``B[b]`` inflated by ``ma``, ``mb`` (15 axes).
+
+    Ericson (2005) §4.4.1 in box A's frame: ``R[i, j] = A_i . B_j``, ``t`` = centre offset in A's
+    frame; ``|R| + EPS_PAR`` so that near-parallel edge pairs never separate by rounding.
+    """
     ea0 = A[a, 12] + ma
     ea1 = A[a, 13] + ma
     ea2 = A[a, 14] + ma
     eb0 = B[b, 12] + mb
     eb1 = B[b, 13] + mb
     eb2 = B[b, 14] + mb
-    R = np.empty((3, 3))
-    AR = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            v = A[a, 3 + i] * B[b, 3 + j] + A[a, 6 + i] * B[b, 6 + j] + A[a, 9 + i] * B[b, 9 + j]
-            R[i, j] = v
-            AR[i, j] = abs(v) + EPS_PAR
+    r00 = A[a, 3] * B[b, 3] + A[a, 6] * B[b, 6] + A[a, 9] * B[b, 9]
+    r01 = A[a, 3] * B[b, 4] + A[a, 6] * B[b, 7] + A[a, 9] * B[b, 10]
+    r02 = A[a, 3] * B[b, 5] + A[a, 6] * B[b, 8] + A[a, 9] * B[b, 11]
+    r10 = A[a, 4] * B[b, 3] + A[a, 7] * B[b, 6] + A[a, 10] * B[b, 9]
+    r11 = A[a, 4] * B[b, 4] + A[a, 7] * B[b, 7] + A[a, 10] * B[b, 10]
+    r12 = A[a, 4] * B[b, 5] + A[a, 7] * B[b, 8] + A[a, 10] * B[b, 11]
+    r20 = A[a, 5] * B[b, 3] + A[a, 8] * B[b, 6] + A[a, 11] * B[b, 9]
+    r21 = A[a, 5] * B[b, 4] + A[a, 8] * B[b, 7] + A[a, 11] * B[b, 10]
+    r22 = A[a, 5] * B[b, 5] + A[a, 8] * B[b, 8] + A[a, 11] * B[b, 11]
+    a00 = abs(r00) + EPS_PAR
+    a01 = abs(r01) + EPS_PAR
+    a02 = abs(r02) + EPS_PAR
+    a10 = abs(r10) + EPS_PAR
+    a11 = abs(r11) + EPS_PAR
+    a12 = abs(r12) + EPS_PAR
+    a20 = abs(r20) + EPS_PAR
+    a21 = abs(r21) + EPS_PAR
+    a22 = abs(r22) + EPS_PAR
     d0 = B[b, 0] - A[a, 0]
     d1 = B[b, 1] - A[a, 1]
     d2 = B[b, 2] - A[a, 2]
@@ -104,36 +226,37 @@ def obb_hit(A, a, ma, B, b, mb):
     pos = abs(A[a, 0]) + abs(A[a, 1]) + abs(A[a, 2]) + abs(B[b, 0]) + abs(B[b, 1]) + abs(B[b, 2])
     tol = SLACK_REL * (ea0 + ea1 + ea2 + eb0 + eb1 + eb2) + SLACK_POS * pos
     # A's face axes
-    if abs(t0) > ea0 + eb0 * AR[0, 0] + eb1 * AR[0, 1] + eb2 * AR[0, 2] + tol:
+    if abs(t0) > ea0 + eb0 * a00 + eb1 * a01 + eb2 * a02 + tol:
         return False
-    if abs(t1) > ea1 + eb0 * AR[1, 0] + eb1 * AR[1, 1] + eb2 * AR[1, 2] + tol:
+    if abs(t1) > ea1 + eb0 * a10 + eb1 * a11 + eb2 * a12 + tol:
         return False
-    if abs(t2) > ea2 + eb0 * AR[2, 0] + eb1 * AR[2, 1] + eb2 * AR[2, 2] + tol:
+    if abs(t2) > ea2 + eb0 * a20 + eb1 * a21 + eb2 * a22 + tol:
         return False
     # B's face axes
-    for j in range(3):
-        ebj = eb0 if j == 0 else (eb1 if j == 1 else eb2)
-        tj = t0 * R[0, j] + t1 * R[1, j] + t2 * R[2, j]
-        if abs(tj) > ea0 * AR[0, j] + ea1 * AR[1, j] + ea2 * AR[2, j] + ebj + tol:
-            return False
+    if abs(t0 * r00 + t1 * r10 + t2 * r20) > ea0 * a00 + ea1 * a10 + ea2 * a20 + eb0 + tol:
+        return False
+    if abs(t0 * r01 + t1 * r11 + t2 * r21) > ea0 * a01 + ea1 * a11 + ea2 * a21 + eb1 + tol:
+        return False
+    if abs(t0 * r02 + t1 * r12 + t2 * r22) > ea0 * a02 + ea1 * a12 + ea2 * a22 + eb2 + tol:
+        return False
     # the nine edge-edge axes A_i x B_j
-    if abs(t2 * R[1, 0] - t1 * R[2, 0]) > ea1 * AR[2, 0] + ea2 * AR[1, 0] + eb1 * AR[0, 2] + eb2 * AR[0, 1] + tol:
+    if abs(t2 * r10 - t1 * r20) > ea1 * a20 + ea2 * a10 + eb1 * a02 + eb2 * a01 + tol:
         return False
-    if abs(t2 * R[1, 1] - t1 * R[2, 1]) > ea1 * AR[2, 1] + ea2 * AR[1, 1] + eb0 * AR[0, 2] + eb2 * AR[0, 0] + tol:
+    if abs(t2 * r11 - t1 * r21) > ea1 * a21 + ea2 * a11 + eb0 * a02 + eb2 * a00 + tol:
         return False
-    if abs(t2 * R[1, 2] - t1 * R[2, 2]) > ea1 * AR[2, 2] + ea2 * AR[1, 2] + eb0 * AR[0, 1] + eb1 * AR[0, 0] + tol:
+    if abs(t2 * r12 - t1 * r22) > ea1 * a22 + ea2 * a12 + eb0 * a01 + eb1 * a00 + tol:
         return False
-    if abs(t0 * R[2, 0] - t2 * R[0, 0]) > ea0 * AR[2, 0] + ea2 * AR[0, 0] + eb1 * AR[1, 2] + eb2 * AR[1, 1] + tol:
+    if abs(t0 * r20 - t2 * r00) > ea0 * a20 + ea2 * a00 + eb1 * a12 + eb2 * a11 + tol:
         return False
-    if abs(t0 * R[2, 1] - t2 * R[0, 1]) > ea0 * AR[2, 1] + ea2 * AR[0, 1] + eb0 * AR[1, 2] + eb2 * AR[1, 0] + tol:
+    if abs(t0 * r21 - t2 * r01) > ea0 * a21 + ea2 * a01 + eb0 * a12 + eb2 * a10 + tol:
         return False
-    if abs(t0 * R[2, 2] - t2 * R[0, 2]) > ea0 * AR[2, 2] + ea2 * AR[0, 2] + eb0 * AR[1, 1] + eb1 * AR[1, 0] + tol:
+    if abs(t0 * r22 - t2 * r02) > ea0 * a22 + ea2 * a02 + eb0 * a11 + eb1 * a10 + tol:
         return False
-    if abs(t1 * R[0, 0] - t0 * R[1, 0]) > ea0 * AR[1, 0] + ea1 * AR[0, 0] + eb1 * AR[2, 2] + eb2 * AR[2, 1] + tol:
+    if abs(t1 * r00 - t0 * r10) > ea0 * a10 + ea1 * a00 + eb1 * a22 + eb2 * a21 + tol:
         return False
-    if abs(t1 * R[0, 1] - t0 * R[1, 1]) > ea0 * AR[1, 1] + ea1 * AR[0, 1] + eb0 * AR[2, 2] + eb2 * AR[2, 0] + tol:
+    if abs(t1 * r01 - t0 * r11) > ea0 * a11 + ea1 * a01 + eb0 * a22 + eb2 * a20 + tol:
         return False
-    if abs(t1 * R[0, 2] - t0 * R[1, 2]) > ea0 * AR[1, 2] + ea1 * AR[0, 2] + eb0 * AR[2, 1] + eb1 * AR[2, 0] + tol:
+    if abs(t1 * r02 - t0 * r12) > ea0 * a12 + ea1 * a02 + eb0 * a21 + eb1 * a20 + tol:
         return False
     return True
 
@@ -185,16 +308,8 @@ def _emit(keys, k, g1, g2, G):
     return k + 1
 
 
-@nb.njit(cache=True)
-def _body_filter(x, y, order, parent_pos, weld, filter_parent, ctor, caor, excl, L):
-    # Static body-level filter; True when some geom pair of x, y may still pass.
-    if (ctor[x] & caor[y]) == 0 and (ctor[y] & caor[x]) == 0:
-        return False
-    return _body_rules(x, y, order, parent_pos, weld, filter_parent, excl, L)
-
-
-@nb.njit(cache=True)
-def _body_rules(x, y, order, parent_pos, weld, filter_parent, excl, L):
+@nb.njit(cache=True, inline="always")
+def _rules(x, y, order, parent_pos, weld, filter_parent, excl, L):
     # Weld groups, the parent rule and excluded body pairs (positions x, y).
     if weld[x] == weld[y]:
         return False
@@ -210,50 +325,18 @@ def _body_rules(x, y, order, parent_pos, weld, filter_parent, excl, L):
     return True
 
 
-@nb.njit(cache=True)
-def _body_pair(x, y, st, ws, keys, k, stats):
-    (order, parent_pos, weld, filter_parent, ctor, caor, excl, gstart, pgeoms, single, pairflag,
-     pair_keys, gct, gca, gmargin, G, L) = st
-    bw, gw = ws
-    if not _body_filter(x, y, order, parent_pos, weld, filter_parent, ctor, caor, excl, L):
-        return k
-    stats[ST_BODY_SPHERE] += 1
-    if not _sphere_hit(bw, x, 0.0, bw, y, 0.0):
-        return k
-    stats[ST_BODY_OBB] += 1
-    if not obb_hit(bw, x, 0.0, bw, y, 0.0):
-        return k
-    both_single = single[x] and single[y]
-    check_pairs = pair_keys.shape[0] > 0 and pairflag[x] and pairflag[y]
-    for ii in range(gstart[x], gstart[x + 1]):
-        g1 = pgeoms[ii]
-        for jj in range(gstart[y], gstart[y + 1]):
-            g2 = pgeoms[jj]
-            if (gct[g1] & gca[g2]) == 0 and (gct[g2] & gca[g1]) == 0:
-                continue
-            if check_pairs:
-                key = g1 * G + g2 if g1 < g2 else g2 * G + g1
-                if _in_sorted(pair_keys, key):
-                    continue
-            if not both_single:
-                A = bw if single[x] else gw
-                a = x if single[x] else g1
-                ma = 0.0 if single[x] else gmargin[g1]
-                B = bw if single[y] else gw
-                b = y if single[y] else g2
-                mb = 0.0 if single[y] else gmargin[g2]
-                stats[ST_GEOM_SPHERE] += 1
-                if not _sphere_hit(A, a, ma, B, b, mb):
-                    continue
-                stats[ST_GEOM_OBB] += 1
-                if not obb_hit(A, a, ma, B, b, mb):
-                    continue
-            k = _emit(keys, k, g1, g2, G)
-    return k
+# ------------------------------------------------------------------------------- traversal
+
+@nb.njit(cache=True, inline="always")
+def _push(bp, nb_, x, y):
+    if nb_ < bp.shape[0]:
+        bp[nb_, 0] = x
+        bp[nb_, 1] = y
+    return nb_ + 1
 
 
-@nb.njit(cache=True)
-def _body_vs_subtree(a, root, end, baabb, saabb, hasb, st, ws, keys, k, stats):
+@nb.njit(cache=True, inline="always")
+def _body_vs_subtree(a, root, end, baabb, saabb, hasb, bp, nb_, stats):
     # Body a against every body of the subtree at position root, skipping missed subtrees whole.
     q = root
     stop = end[root]
@@ -263,117 +346,117 @@ def _body_vs_subtree(a, root, end, baabb, saabb, hasb, st, ws, keys, k, stats):
             if hasb[q]:
                 stats[ST_BODY_AABB] += 1
                 if _aabb_hit(baabb, a, baabb, q):
-                    k = _body_pair(a, q, st, ws, keys, k, stats)
+                    nb_ = _push(bp, nb_, a, q)
             q += 1
         else:
             q = end[q]
-    return k
+    return nb_
 
 
 @nb.njit(cache=True)
-def _subtree_pair(A, B, end, baabb, saabb, hasb, st, ws, keys, k, stats):
+def _subtree_pair(A, B, end, baabb, saabb, hasb, bp, nb_, stats):
     # Every body of subtree A against every body of subtree B (disjoint subtrees).
+    if end[A] == A + 1 and end[B] == B + 1:  # two leaves: their subtree AABBs were just tested
+        stats[ST_BODY_AABB] += 1
+        return _push(bp, nb_, A, B) if hasb[A] and hasb[B] else nb_
     a = A
     stop = end[A]
     while a < stop:
         stats[ST_SUBTREE] += 1
         if _aabb_hit(saabb, a, saabb, B):
             if hasb[a]:
-                k = _body_vs_subtree(a, B, end, baabb, saabb, hasb, st, ws, keys, k, stats)
+                nb_ = _body_vs_subtree(a, B, end, baabb, saabb, hasb, bp, nb_, stats)
             a += 1
         else:
             a = end[a]
-    return k
+    return nb_
 
 
 @nb.njit(cache=True)
-def _children_pairs(n, nchild, child_start, children, sap, saabb, end, baabb, hasb, st, ws, keys, k, stats):
-    kc = nchild[n]
-    off = child_start[n]
-    if kc <= SAP_MIN:
+def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, sap, bp, stats):
+    """Candidate body pairs (world AABBs overlap) into ``bp``; returns their count (may exceed cap)."""
+    nb_ = 0
+    for n in range(L):
+        # body n against its descendants
+        if hasb[n] and end[n] > n + 1:
+            nb_ = _body_vs_subtree(n, n + 1, end, baabb, saabb, hasb, bp, nb_, stats)
+            c = end[n + 1]  # n + 1 is the first child; its siblings follow its range
+            while c < end[n]:
+                nb_ = _body_vs_subtree(n, c, end, baabb, saabb, hasb, bp, nb_, stats)
+                c = end[c]
+        kc = nchild[n]
+        if kc < 2:
+            continue
+        off = child_start[n]
+        if kc <= SAP_MIN:
+            for i in range(kc):
+                ci = children[off + i]
+                for j in range(i + 1, kc):
+                    cj = children[off + j]
+                    stats[ST_SUBTREE] += 1
+                    if _aabb_hit(saabb, ci, saabb, cj):
+                        nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats)
+            continue
+        # Sweep and prune on the axis of the node's largest extent. The order persists between
+        # calls (sap holds it), so insertion sort is ~linear under small motion; a big reshuffle
+        # (a new world in a batch, an axis change) falls back to a full sort.
+        ax = 0
+        best = -1.0
+        for d in range(3):
+            e = saabb[n, 3 + d] - saabb[n, d]
+            if e > best:
+                best = e
+                ax = d
+        swaps = 0
+        limit = 16 * kc + 64
+        for i in range(1, kc):
+            c = sap[off + i]
+            v = saabb[c, ax]
+            j = i - 1
+            while j >= 0 and saabb[sap[off + j], ax] > v:
+                sap[off + j + 1] = sap[off + j]
+                j -= 1
+                swaps += 1
+            sap[off + j + 1] = c
+            if swaps > limit:
+                break
+        if swaps > limit:
+            lo = np.empty(kc)
+            for i in range(kc):
+                lo[i] = saabb[children[off + i], ax]
+            idx = np.argsort(lo)
+            for i in range(kc):
+                sap[off + i] = children[off + idx[i]]
         for i in range(kc):
-            ci = children[off + i]
+            ci = sap[off + i]
+            hi = saabb[ci, 3 + ax]
             for j in range(i + 1, kc):
-                cj = children[off + j]
+                cj = sap[off + j]
+                if saabb[cj, ax] > hi:
+                    break
                 stats[ST_SUBTREE] += 1
                 if _aabb_hit(saabb, ci, saabb, cj):
-                    k = _subtree_pair(ci, cj, end, baabb, saabb, hasb, st, ws, keys, k, stats)
-        return k
-    # Sweep and prune on the axis of the node's largest extent. The order persists between calls
-    # (sap holds it), so insertion sort is ~linear under small motion; a big reshuffle (a new
-    # world in a batch, an axis change) falls back to a full sort.
-    ax = 0
-    best = -1.0
-    for d in range(3):
-        e = saabb[n, 3 + d] - saabb[n, d]
-        if e > best:
-            best = e
-            ax = d
-    swaps = 0
-    limit = 16 * kc + 64
-    for i in range(1, kc):
-        c = sap[off + i]
-        v = saabb[c, ax]
-        j = i - 1
-        while j >= 0 and saabb[sap[off + j], ax] > v:
-            sap[off + j + 1] = sap[off + j]
-            j -= 1
-            swaps += 1
-        sap[off + j + 1] = c
-        if swaps > limit:
-            break
-    if swaps > limit:
-        lo = np.empty(kc)
-        for i in range(kc):
-            lo[i] = saabb[children[off + i], ax]
-        idx = np.argsort(lo)
-        for i in range(kc):
-            sap[off + i] = children[off + idx[i]]
-    for i in range(kc):
-        ci = sap[off + i]
-        hi = saabb[ci, 3 + ax]
-        for j in range(i + 1, kc):
-            cj = sap[off + j]
-            if saabb[cj, ax] > hi:
-                break
-            stats[ST_SUBTREE] += 1
-            if _aabb_hit(saabb, ci, saabb, cj):
-                k = _subtree_pair(ci, cj, end, baabb, saabb, hasb, st, ws, keys, k, stats)
-    return k
+                    nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats)
+    return nb_
 
+
+# ------------------------------------------------------------------------------- one world
 
 @nb.njit(cache=True)
-def _geom_world(g, body_pos, body_rot, geom_bid, glocal, out, o):
-    b = geom_bid[g]
-    _world_row(body_rot[b], body_pos[b], glocal, g, out, o, 0.0)
-
-
-@nb.njit(cache=True)
-def _plane_world(g, body_pos, body_rot, geom_bid, gplane, out, o):
-    b = geom_bid[g]
-    R = body_rot[b]
-    d = gplane[g, 3]
-    for i in range(3):
-        n = R[i, 0] * gplane[g, 0] + R[i, 1] * gplane[g, 1] + R[i, 2] * gplane[g, 2]
-        out[o, i] = n
-        d += n * body_pos[b, i]
-    out[o, 3] = d
-
-
-@nb.njit(cache=True)
-def _world(body_pos, body_rot, order, pos_of, end, parent_pos, weld, filter_parent, nchild,
-           child_start, children, gstart, pgeoms, single, hasb, pairflag, ctor, caor, excl,
-           planes, plane_pos, geom_bid, gct, gca, gmargin, blocal, glocal, gplane, pair_g,
-           pair_m, pair_keys, bw, gw, baabb, saabb, plw, tmp, sap, keys, stats, info):
+def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
     """One world: validate poses, world bounds, tree culling, filters; returns the pair count.
 
-    On a bad pose, info[0] gets the status code, info[1] the body id, and -1 is returned.
-    Keys beyond ``keys.shape[0]`` are counted but not written (the caller grows and reruns).
+    On a bad pose, ``info[0]`` gets the status code, ``info[1]`` the body id, and -1 is returned.
+    Body pairs beyond ``bp``'s capacity set ``info[3]`` to the count needed (the caller grows
+    ``bp`` and reruns); keys beyond ``keys.shape[0]`` are counted but not written (likewise).
     """
-    L = order.shape[0]
-    G = gct.shape[0]
+    (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
+     caor, children, gstart, pgeoms, excl, planes, plane_pos, geom_bid, gct, gca, pair_g, pair_keys,
+     blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp) = _views(I, F, W)
+    filter_parent = I[H_FP] != 0
     for s in range(N_STATS):
         stats[s] = 0
+    info[3] = 0
     # 1. poses -> world bounds of bodies, by body id so the first offender is named.
     for b in range(L):
         R = body_rot[b]
@@ -391,7 +474,7 @@ def _world(body_pos, body_rot, order, pos_of, end, parent_pos, weld, filter_pare
             return -1
         err = 0.0
         for i in range(3):
-            for j in range(3):
+            for j in range(i, 3):
                 v = R[0, i] * R[0, j] + R[1, i] * R[1, j] + R[2, i] * R[2, j] - (1.0 if i == j else 0.0)
                 err = max(err, abs(v))
         det = (R[0, 0] * (R[1, 1] * R[2, 2] - R[1, 2] * R[2, 1]) - R[0, 1] * (R[1, 0] * R[2, 2] - R[1, 2] * R[2, 0])
@@ -402,27 +485,26 @@ def _world(body_pos, body_rot, order, pos_of, end, parent_pos, weld, filter_pare
             return -1
         x = pos_of[b]
         if hasb[x]:
-            _world_row(R, p, blocal, x, bw, x, 0.0)
+            _world_row(R, p, blocal, x, bw, x)
             for i in range(3):
                 h = (abs(bw[x, 3 + 3 * i]) * bw[x, 12] + abs(bw[x, 4 + 3 * i]) * bw[x, 13]
                      + abs(bw[x, 5 + 3 * i]) * bw[x, 14])
                 baabb[x, i] = bw[x, i] - h
                 baabb[x, 3 + i] = bw[x, i] + h
+            if not single[x]:
+                for ii in range(gstart[x], gstart[x + 1]):
+                    g = pgeoms[ii]
+                    _world_row(R, p, glocal, g, gw, g)
         else:
             for i in range(3):
                 baabb[x, i] = BIG
                 baabb[x, 3 + i] = -BIG
-            for i in range(ROW):
-                bw[x, i] = 0.0
-            bw[x, 18] = -BIG
-        if not single[x]:
-            for ii in range(gstart[x], gstart[x + 1]):
-                g = pgeoms[ii]
-                _world_row(R, p, glocal, g, gw, g, 0.0)
     for i in range(planes.shape[0]):
         _plane_world(planes[i], body_pos, body_rot, geom_bid, gplane, plw, i)
     # 2. subtree AABBs: one reverse sweep, children before parents.
-    saabb[:, :] = baabb
+    for x in range(L):
+        for i in range(6):
+            saabb[x, i] = baabb[x, i]
     for x in range(L - 1, 0, -1):
         q = parent_pos[x]
         for i in range(3):
@@ -430,23 +512,56 @@ def _world(body_pos, body_rot, order, pos_of, end, parent_pos, weld, filter_pare
                 saabb[q, i] = saabb[x, i]
             if saabb[x, 3 + i] > saabb[q, 3 + i]:
                 saabb[q, 3 + i] = saabb[x, 3 + i]
-    st = (order, parent_pos, weld, filter_parent, ctor, caor, excl, gstart, pgeoms, single, pairflag,
-          pair_keys, gct, gca, gmargin, G, L)
-    ws = (bw, gw)
+    # 3. candidate body pairs down the tree.
+    nbp = _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, sap, bp, stats)
+    if nbp > bp.shape[0]:
+        info[3] = nbp
+        return 0
+    # 4. body pairs -> filter -> sphere -> OBB -> geom pairs.
     k = 0
-    # 3-4. every body pair at its lowest common ancestor n.
-    for n in range(L):
-        if hasb[n] and end[n] > n + 1:
-            k = _body_vs_subtree(n, n + 1, end, baabb, saabb, hasb, st, ws, keys, k, stats)
-            # n + 1 is n's first child; the remaining children follow their siblings' ranges.
-            c = end[n + 1]
-            while c < end[n]:
-                k = _body_vs_subtree(n, c, end, baabb, saabb, hasb, st, ws, keys, k, stats)
-                c = end[c]
-        if nchild[n] >= 2:
-            k = _children_pairs(n, nchild, child_start, children, sap, saabb, end, baabb, hasb, st, ws,
-                                keys, k, stats)
-    # 5a. planes against the tree.
+    check_pairs = pair_keys.shape[0] > 0
+    for t in range(nbp):
+        x = bp[t, 0]
+        y = bp[t, 1]
+        if (ctor[x] & caor[y]) == 0 and (ctor[y] & caor[x]) == 0:
+            continue
+        if not _rules(x, y, order, parent_pos, weld, filter_parent, excl, L):
+            continue
+        stats[ST_BODY_SPHERE] += 1
+        if not _sphere_hit(bw, x, 0.0, bw, y, 0.0):
+            continue
+        stats[ST_BODY_OBB] += 1
+        if not obb_hit(bw, x, 0.0, bw, y, 0.0):
+            continue
+        sx = single[x] != 0
+        sy = single[y] != 0
+        cp = check_pairs and pairflag[x] != 0 and pairflag[y] != 0
+        for ii in range(gstart[x], gstart[x + 1]):
+            g1 = pgeoms[ii]
+            for jj in range(gstart[y], gstart[y + 1]):
+                g2 = pgeoms[jj]
+                if (gct[g1] & gca[g2]) == 0 and (gct[g2] & gca[g1]) == 0:
+                    continue
+                if cp:
+                    key = g1 * G + g2 if g1 < g2 else g2 * G + g1
+                    if _in_sorted(pair_keys, key):
+                        continue
+                if not (sx and sy):
+                    # A single-geom body's row is its geom's, already inflated.
+                    A = bw if sx else gw
+                    a = x if sx else g1
+                    ma = 0.0 if sx else gmargin[g1]
+                    B = bw if sy else gw
+                    b = y if sy else g2
+                    mb = 0.0 if sy else gmargin[g2]
+                    stats[ST_GEOM_SPHERE] += 1
+                    if not _sphere_hit(A, a, ma, B, b, mb):
+                        continue
+                    stats[ST_GEOM_OBB] += 1
+                    if not obb_hit(A, a, ma, B, b, mb):
+                        continue
+                k = _emit(keys, k, g1, g2, G)
+    # 5a. planes down the tree (subtree AABB against the halfspace).
     for i in range(planes.shape[0]):
         qg = planes[i]
         qx = plane_pos[i]
@@ -457,23 +572,23 @@ def _world(body_pos, body_rot, order, pos_of, end, parent_pos, weld, filter_pare
             if not _aabb_plane_hit(saabb, x, plw, i, mq):
                 x = end[x]
                 continue
-            if hasb[x] and x != qx and _body_rules(x, qx, order, parent_pos, weld, filter_parent, excl, L):
-                if (gct[qg] & caor[x]) != 0 or (ctor[x] & gca[qg]) != 0:
-                    stats[ST_PLANE] += 1
-                    if _plane_hit(plw, i, mq, bw, x, 0.0):
-                        for ii in range(gstart[x], gstart[x + 1]):
-                            g = pgeoms[ii]
-                            if (gct[g] & gca[qg]) == 0 and (gct[qg] & gca[g]) == 0:
+            if (hasb[x] and x != qx and ((gct[qg] & caor[x]) != 0 or (ctor[x] & gca[qg]) != 0)
+                    and _rules(x, qx, order, parent_pos, weld, filter_parent, excl, L)):
+                stats[ST_PLANE] += 1
+                if _plane_hit(plw, i, mq, bw, x, 0.0):
+                    for ii in range(gstart[x], gstart[x + 1]):
+                        g = pgeoms[ii]
+                        if (gct[g] & gca[qg]) == 0 and (gct[qg] & gca[g]) == 0:
+                            continue
+                        if check_pairs:
+                            key = g * G + qg if g < qg else qg * G + g
+                            if _in_sorted(pair_keys, key):
                                 continue
-                            if pair_keys.shape[0] > 0:
-                                key = g * G + qg if g < qg else qg * G + g
-                                if _in_sorted(pair_keys, key):
-                                    continue
-                            if not single[x]:
-                                stats[ST_PLANE] += 1
-                                if not _plane_hit(plw, i, mq, gw, g, gmargin[g]):
-                                    continue
-                            k = _emit(keys, k, g, qg, G)
+                        if single[x] == 0:
+                            stats[ST_PLANE] += 1
+                            if not _plane_hit(plw, i, mq, gw, g, gmargin[g]):
+                                continue
+                        k = _emit(keys, k, g, qg, G)
             x += 1
     # 5b. explicit pairs: only the bounds test, with the pair's own inflation if given.
     for i in range(pair_g.shape[0]):
@@ -486,15 +601,21 @@ def _world(body_pos, body_rot, order, pos_of, end, parent_pos, weld, filter_pare
         if p1 and p2:
             continue  # two halfspaces: never a pair
         if p1 or p2:
-            gp, gs, mp, ms = (g1, g2, m1, m2) if p1 else (g2, g1, m2, m1)
+            gp = g1 if p1 else g2
+            gs = g2 if p1 else g1
+            mp = m1 if p1 else m2
+            ms = m2 if p1 else m1
             _plane_world(gp, body_pos, body_rot, geom_bid, gplane, tmp, 0)
-            _geom_world(gs, body_pos, body_rot, geom_bid, glocal, tmp, 1)
+            b = geom_bid[gs]
+            _world_row(body_rot[b], body_pos[b], glocal, gs, tmp, 1)
             stats[ST_PLANE] += 1
             if _plane_hit(tmp, 0, mp, tmp, 1, ms):
                 k = _emit(keys, k, g1, g2, G)
             continue
-        _geom_world(g1, body_pos, body_rot, geom_bid, glocal, tmp, 0)
-        _geom_world(g2, body_pos, body_rot, geom_bid, glocal, tmp, 1)
+        b = geom_bid[g1]
+        _world_row(body_rot[b], body_pos[b], glocal, g1, tmp, 0)
+        b = geom_bid[g2]
+        _world_row(body_rot[b], body_pos[b], glocal, g2, tmp, 1)
         stats[ST_GEOM_SPHERE] += 1
         if not _sphere_hit(tmp, 0, m1, tmp, 1, m2):
             continue
@@ -507,22 +628,31 @@ def _world(body_pos, body_rot, order, pos_of, end, parent_pos, weld, filter_pare
     return k
 
 
+@nb.njit(cache=True, inline="always")
+def _plane_world(g, body_pos, body_rot, geom_bid, gplane, out, o):
+    b = geom_bid[g]
+    R = body_rot[b]
+    d = gplane[g, 3]
+    for i in range(3):
+        n = R[i, 0] * gplane[g, 0] + R[i, 1] * gplane[g, 1] + R[i, 2] * gplane[g, 2]
+        out[o, i] = n
+        d += n * body_pos[b, i]
+    out[o, 3] = d
+
+
+# ------------------------------------------------------------------------------- entry points
+
 @nb.njit(cache=True)
-def step(body_pos, body_rot, order, pos_of, end, parent_pos, weld, filter_parent, nchild, child_start,
-         children, gstart, pgeoms, single, hasb, pairflag, ctor, caor, excl, planes, plane_pos, geom_bid,
-         gct, gca, gmargin, blocal, glocal, gplane, pair_g, pair_m, pair_keys, bw, gw, baabb, saabb, plw,
-         tmp, sap, keys, stats, info):
-    """One world, one call: returns the ``(K, 2) int32`` pairs, or an empty array with
-    ``info = (status, body, K)`` when a pose is bad (status > 0) or ``keys`` overflowed (K > cap)."""
+def step(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
+    """One world, one call: the ``(K, 2) int32`` pairs, or an empty array with ``info = (status,
+    body, K, body pairs)`` when a pose is bad (status > 0) or a buffer overflowed (K > keys'
+    capacity, or body pairs > bp's): the caller grows it and reruns."""
     info[0] = OK
-    k = _world(body_pos, body_rot, order, pos_of, end, parent_pos, weld, filter_parent, nchild,
-               child_start, children, gstart, pgeoms, single, hasb, pairflag, ctor, caor, excl,
-               planes, plane_pos, geom_bid, gct, gca, gmargin, blocal, glocal, gplane, pair_g,
-               pair_m, pair_keys, bw, gw, baabb, saabb, plw, tmp, sap, keys, stats, info)
+    k = _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info)
     info[2] = k
-    if k < 0 or k > keys.shape[0]:
+    if k < 0 or k > keys.shape[0] or info[3] > 0:
         return np.empty((0, 2), np.int32)
-    G = gct.shape[0]
+    G = I[H_G]
     out = np.empty((k, 2), np.int32)
     for i in range(k):
         out[i, 0] = keys[i] // G
@@ -531,16 +661,14 @@ def step(body_pos, body_rot, order, pos_of, end, parent_pos, weld, filter_parent
 
 
 @nb.njit(cache=True, parallel=True)
-def step_batch(body_pos, body_rot, order, pos_of, end, parent_pos, weld, filter_parent, nchild,
-               child_start, children, gstart, pgeoms, single, hasb, pairflag, ctor, caor, excl, planes,
-               plane_pos, geom_bid, gct, gca, gmargin, blocal, glocal, gplane, pair_g, pair_m, pair_keys,
-               bw, gw, baabb, saabb, plw, tmp, sap, keys, stats, world_count, world_info, chunk_total):
-    """Worlds split into ``C = bw.shape[0]`` contiguous chunks, one per thread (prange), each with
-    its own workspace (leading axis C). World ``w``'s sorted keys follow the previous worlds of its
-    chunk in ``keys[c]``; ``world_count[w]`` is its pair count (-1 with ``world_info[w]`` = (status,
-    body) on a bad pose); ``chunk_total[c]`` may exceed the capacity (then the caller reruns)."""
+def step_batch(body_pos, body_rot, I, F, W, sap, bp, keys, stats, world_count, world_info, chunk_total):
+    """Worlds split into ``C = W.shape[0]`` contiguous chunks, one per thread (prange), each with
+    its own workspace (leading axis C of W, sap, bp, keys, stats). World ``w``'s sorted keys follow
+    the previous worlds of its chunk in ``keys[c]``; ``world_count[w]`` is its pair count (-1 with
+    ``world_info[w]`` = (status, body, ...) on a bad pose); ``chunk_total[c]`` may exceed the keys'
+    capacity and ``world_info[w, 3]`` report a body-pair overflow (then the caller reruns)."""
     B = body_pos.shape[0]
-    C = bw.shape[0]
+    C = W.shape[0]
     cap = keys.shape[1]
     for c in nb.prange(C):
         w0 = (B * c) // C
@@ -550,16 +678,14 @@ def step_batch(body_pos, body_rot, order, pos_of, end, parent_pos, weld, filter_
         for w in range(w0, w1):
             # Beyond capacity, keep counting (on a zero-length tail) so the caller learns the size.
             start = off if off < cap else cap
-            kw = _world(body_pos[w], body_rot[w], order, pos_of, end, parent_pos, weld, filter_parent,
-                        nchild, child_start, children, gstart, pgeoms, single, hasb, pairflag, ctor, caor,
-                        excl, planes, plane_pos, geom_bid, gct, gca, gmargin, blocal, glocal, gplane,
-                        pair_g, pair_m, pair_keys, bw[c], gw[c], baabb[c], saabb[c], plw[c], tmp[c],
-                        sap[c], keys[c, start:], st, world_info[w])
+            info = world_info[w]
+            info[0] = OK
+            kw = _world(body_pos[w], body_rot[w], I, F, W[c], sap[c], bp[c], keys[c, start:], st, info)
             world_count[w] = kw
             if kw > 0:
                 off += kw
             for s in range(N_STATS):
-                stats[c, N_STATS + s] += st[s]
+                st[N_STATS + s] += st[s]
         chunk_total[c] = off
     return 0
 
