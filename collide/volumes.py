@@ -585,7 +585,13 @@ def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: floa
     if rank <= 1:
         return _right_handed(axes.T)
     if rank == 2:
-        return _right_handed(_frame_from_normal(axes[2], verts))
+        # Exact minimal-area rectangle; with a radius the box has thickness 2 r and a slight
+        # tilt can trade it against area, so polish then.
+        rot = _right_handed(_frame_from_normal(axes[2], verts))
+        if radius > 0.0:
+            rot = _orthonormal(_nb_polish(np.ascontiguousarray(verts), rot, float(radius), _POLISH_STEP,
+                                          _POLISH_MIN_STEP, 1000, _COMPASS)[0])
+        return rot
     starts = [_right_handed(axes.T)]
     if hull is not None:
         starts.append(_surface_pca(hull.points, hull.simplices))

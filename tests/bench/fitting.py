@@ -156,6 +156,7 @@ def main() -> None:
     rows, srows = [], []
     worst_exact_vs_slsqp, worst_cert = -np.inf, 0.0
     beat_search = 0
+    kept = []  # (cloud, reference volume) of the non-flat instances, for the ablation
     for kind in KINDS:
         ratio = {k: [] for k in all_ratio}
         times = {k: [] for k in all_ratio}
@@ -180,6 +181,8 @@ def main() -> None:
                 vols = {"optimal": area(opt), "pca": area(pca), "trimesh": tm}
                 ref = ref_area
             beat_search += vols["optimal"] < search * (1 - 1e-9) and kind != "flat"
+            if kind != "flat":
+                kept.append((p, ref))
             for k in ratio:
                 if isinstance(vols[k], float):
                     ratio[k].append(vols[k] / ref)
@@ -237,9 +240,37 @@ def main() -> None:
     print(f"{'all':32s} | {fmt_ratio(sph['exact'])} {fmt_ratio(sph['ritter'])} {fmt_ratio(sph['nsphere'])} | "
           f"{fmt_time(sph_time['exact'])} {fmt_time(sph_time['ritter'])} {fmt_time(sph_time['nsphere'])}")
     print(f"# exact sphere: worst optimality-certificate residual {worst_cert:.2e} (0 = centre in the hull "
-          f"of the farthest points); worst (exact - SLSQP minimax) / r = {worst_exact_vs_slsqp:.2e} "
-          f"(<= 0: exact never larger)")
+          f"of the farthest points);")
+    print(f"#   worst (exact - SLSQP minimax radius) / r = {worst_exact_vs_slsqp:.2e} "
+          f"(rounding and the fitted sphere's 8-ulp pad included; target <= 1e-9)")
     print("# n/a: trimesh.nsphere.minimum_nsphere raised on flat clouds (Qhull: initial simplex is flat)")
+    _ablation(kept)
+
+
+ABLATION = [  # (face candidates, polished starts, first polish step)
+    (0, 1, 0.1), (0, 2, 0.1), (4, 1, 0.1), (12, 1, 0.1), (12, 2, 0.1), (12, 3, 0.1),
+    (24, 3, 0.1), (12, 3, 0.3), (12, 3, 0.03)]
+
+
+def _ablation(kept) -> None:
+    # The "optimal" fitter's settings, on the non-flat instances above (same references).
+    saved = (V._FACE_CANDIDATES, V._POLISH_STARTS, V._POLISH_STEP)
+    default = saved
+    print()
+    print("## Ablation of fit_obb(method=\"optimal\") settings, non-flat instances above "
+          "(volume / reference: mean, worst; median time [ms])")
+    print(f"{'faces':>5s} {'starts':>6s} {'step':>5s} | {'mean':>7s} {'worst':>7s} | {'time':>7s}")
+    for faces, starts, step in ABLATION:
+        V._FACE_CANDIDATES, V._POLISH_STARTS, V._POLISH_STEP = faces, starts, step
+        ratios, times = [], []
+        for p, ref in kept:
+            box, t = _timed(V.fit_obb, p)
+            ratios.append(box.volume() / ref)
+            times.append(t)
+        mark = "  <- default" if (faces, starts, step) == default else ""
+        print(f"{faces:5d} {starts:6d} {step:5.2f} | {np.mean(ratios):7.4f} {np.max(ratios):7.4f} | "
+              f"{np.median(times) * 1e3:7.2f}{mark}")
+    V._FACE_CANDIDATES, V._POLISH_STARTS, V._POLISH_STEP = saved
 
 
 def _flat_search(points, rng) -> float:
