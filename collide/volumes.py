@@ -655,13 +655,16 @@ def fit_obb(points: np.ndarray, radius: float = 0.0, method: str = "optimal") ->
         raise ValueError(f"method: expected 'optimal' or 'pca', got {method!r}")
     # Centre first: Qhull and the SVD lose precision on coordinates far from the origin.
     offset = 0.5 * (points.min(axis=0) + points.max(axis=0))
-    verts, hull = _hull_points(points - offset)
+    local = points - offset
+    verts, hull = _hull_points(local)
     rot = pca_axes(verts) if method == "pca" else _optimal_rotation(verts, hull, radius)
-    box = box_from_axes(verts, radius, rot)
+    # Extents from every point, not only the hull vertices: the hull reduction treats
+    # thickness below ~1e-12 of the spread as flat and drops it, the box must not.
+    box = box_from_axes(local, radius, rot)
     # A few ulps of the coordinates' size: moving the centre back by ``offset`` and a later
     # containment test in world coordinates each round by about eps * |x| (DESIGN.md: a tiny
     # conservative inflation rather than an exact comparison that rounding can break).
-    pad = _ROUNDING_PAD * (float(np.abs(offset).max()) + float(np.abs(verts).max()))
+    pad = _ROUNDING_PAD * (float(np.abs(offset).max()) + float(np.abs(local).max()))
     return OBB(box.center + offset, box.rotation, box.half_extents + pad)
 
 

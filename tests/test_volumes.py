@@ -326,6 +326,45 @@ def test_containment_random_clouds_and_radii():
             assert np.all(vol.contains(surf, RTOL)), (trial, type(vol).__name__)
 
 
+def _awkward_cloud(rng, kind: int) -> np.ndarray:
+    # Clouds that trip hull and sphere code: lattices, cocircular sets, near-duplicates,
+    # far from the origin, tiny, near-collinear and near-flat below the hull's flatness tolerance.
+    n = int(rng.integers(1, 150))
+    t = rng.uniform(0, 2 * np.pi, n)
+    if kind == 0:
+        return rng.integers(-2, 3, size=(n, 3)).astype(float)
+    if kind == 1:
+        return np.c_[np.cos(t), np.sin(t), np.zeros(n)]
+    if kind == 2:
+        p = rng.normal(size=(max(n // 10, 1), 3))
+        return np.repeat(p, 10, axis=0) + rng.normal(size=(len(p) * 10, 3)) * 1e-14
+    if kind == 3:
+        return rng.normal(size=(n, 3)) * 1e-3 + 1e8
+    if kind == 4:
+        return rng.normal(size=(n, 3)) * 1e-8
+    if kind == 5:
+        return np.c_[np.cos(t), np.sin(t), rng.integers(0, 2, n)]  # two cocircular rims
+    if kind == 6:
+        return np.round(_sphere_surface(rng, n), 2)
+    if kind == 7:
+        return np.outer(rng.normal(size=n), [1, 1, 1]) + rng.normal(size=(n, 3)) * 1e-13
+    return rng.normal(size=(n, 3)) * [1, 1, 1e-11]
+
+
+@pytest.mark.parametrize("kind", range(9))
+def test_awkward_clouds_contained_and_sphere_minimal(kind):
+    rng = np.random.default_rng(20 + kind)
+    for _ in range(12):
+        p = _awkward_cloud(rng, kind)
+        sphere = V.fit_sphere(p)
+        opt, pca = V.fit_obb(p), V.fit_obb(p, method="pca")
+        for vol in (sphere, V.fit_sphere(p, method="ritter"), opt, pca, V.fit_kdop(p)):
+            assert np.all(vol.contains(p)), type(vol).__name__  # rtol = 0: no slack at all
+        assert _is_minimal_center(p, sphere.center)
+        assert opt.volume() <= pca.volume() * (1 + 1e-9) + 1e-300
+        assert _is_rotation(opt.rotation) and _is_rotation(pca.rotation)
+
+
 # ---------------------------------------------------------------------------------------------
 # Overlap tests and transforms
 
