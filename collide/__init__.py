@@ -7,18 +7,20 @@ from . import hull, shapes, volumes
 from .articulation import Articulation
 from .broadphase import BroadPhase
 from .pointcloud import PointCloud, difference, intersection, union
-from .volumes import AABB, OBB, Sphere
+from .volumes import AABB, KDOP, OBB, Sphere, overlap
 
 __all__ = [
     "AABB",
     "Articulation",
     "BroadPhase",
+    "KDOP",
     "OBB",
     "PointCloud",
     "Sphere",
     "difference",
     "hull",
     "intersection",
+    "overlap",
     "shapes",
     "union",
     "volumes",
