@@ -8,9 +8,10 @@ whatever the fitter's quality.
   growing working set) or ``"ritter"`` (1990). `fit_obb`: ``"optimal"`` near-minimal volume
   (hull-face candidates with rotating calipers, then a compass search on rotations; measured
   in tests/bench/fitting.txt) or ``"pca"``.
+* `KDOP` and `fit_kdop`: 6-, 14-, 18- and 26-DOPs (Klosowski et al. 1998).
 * `transform` (rigid maps), `aabb_of`, and `overlap` for every pair of kinds (the OBB test is
   the 15-axis separating-axis test of Gottschalk 1996 / Ericson 2005 §4.4.1), conservative
-  under rounding.
+  under rounding; `overlap_spheres` and `overlap_obbs` test many pairs given as arrays.
 """
 
 from __future__ import annotations
@@ -1169,3 +1170,72 @@ def overlap(a, b) -> bool:
     if (isinstance(a, AABB) and a.is_empty) or (isinstance(b, AABB) and b.is_empty):
         return False
     return _obb_obb(_as_obb(a) if isinstance(a, AABB) else a, _as_obb(b) if isinstance(b, AABB) else b)
+
+
+# ----------------------------------------------------------------------------------------------
+# Batched forms: many pairs at once, as parallel arrays (numpy; the per-step kernels of the
+# broad phase are separate, these serve setup code and as their reference).
+
+def overlap_spheres(center_a, radius_a, center_b, radius_b) -> np.ndarray:
+    """Pairwise sphere overlap, ``a[i]`` against ``b[i]`` (same rule as `overlap`).
+
+    Parameters
+    ----------
+    center_a, center_b : (n, 3) float64
+    radius_a, radius_b : (n,) float64
+        ``>= 0``.
+
+    Returns
+    -------
+    overlaps : (n,) bool
+    """
+    ca = as_array(center_a, "center_a", (None, 3))
+    n = len(ca)
+    cb = as_array(center_b, "center_b", (n, 3))
+    ra = as_array(radius_a, "radius_a", (n,))
+    rb = as_array(radius_b, "radius_b", (n,))
+    if np.any(ra < 0) or np.any(rb < 0):
+        raise ValueError("radius_a, radius_b: must be >= 0")
+    size = np.maximum.reduce([np.abs(ca).max(axis=1, initial=0.0), np.abs(cb).max(axis=1, initial=0.0),
+                              ra, rb, np.ones(n)])
+    reach = ra + rb + OVERLAP_RTOL * size
+    return np.sum((ca - cb) ** 2, axis=1) <= reach * reach
+
+
+def overlap_obbs(center_a, rotation_a, half_a, center_b, rotation_b, half_b) -> np.ndarray:
+    """Pairwise OBB overlap, ``a[i]`` against ``b[i]``: the 15-axis test of `overlap`, batched.
+
+    Parameters
+    ----------
+    center_a, center_b : (n, 3) float64
+    rotation_a, rotation_b : (n, 3, 3) float64
+        Rotations; columns are the box axes (not checked for orthonormality here).
+    half_a, half_b : (n, 3) float64
+        Half extents, ``>= 0``.
+
+    Returns
+    -------
+    overlaps : (n,) bool
+        Conservative under rounding, like `overlap`.
+    """
+    ca = as_array(center_a, "center_a", (None, 3))
+    n = len(ca)
+    cb = as_array(center_b, "center_b", (n, 3))
+    ra_, rb_ = as_array(rotation_a, "rotation_a", (n, 3, 3)), as_array(rotation_b, "rotation_b", (n, 3, 3))
+    ha, hb = as_array(half_a, "half_a", (n, 3)), as_array(half_b, "half_b", (n, 3))
+    if np.any(ha < 0) or np.any(hb < 0):
+        raise ValueError("half_a, half_b: must be >= 0")
+    r = np.einsum("nki,nkj->nij", ra_, rb_)                  # r[n, i, j] = a_i . b_j
+    t = np.einsum("nk,nki->ni", cb - ca, ra_)                 # b's centre in a's frame
+    ar = np.abs(r) + 1e-12                                    # Ericson's epsilon, see _obb_obb
+    size = np.maximum.reduce([np.abs(ca).max(axis=1, initial=0.0), np.abs(cb).max(axis=1, initial=0.0),
+                              ha.max(axis=1, initial=0.0), hb.max(axis=1, initial=0.0), np.ones(n)])
+    pad = OVERLAP_RTOL * size
+    sep = np.any(np.abs(t) > ha + np.einsum("nij,nj->ni", ar, hb) + pad[:, None], axis=1)
+    sep |= np.any(np.abs(np.einsum("ni,nij->nj", t, r)) > np.einsum("nij,ni->nj", ar, ha) + hb + pad[:, None], axis=1)
+    i1, i2 = np.array([1, 2, 0]), np.array([2, 0, 1])
+    lhs = np.abs(t[:, i2, None] * r[:, i1, :] - t[:, i1, None] * r[:, i2, :])
+    rhs = (ha[:, i1, None] * ar[:, i2, :] + ha[:, i2, None] * ar[:, i1, :]
+           + ar[:, :, i2] * hb[:, None, i1] + ar[:, :, i1] * hb[:, None, i2])
+    sep |= np.any(lhs > rhs + pad[:, None, None], axis=(1, 2))
+    return ~sep

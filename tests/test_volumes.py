@@ -558,3 +558,25 @@ def test_kdop_bad_input():
         V.KDOP(np.ones(7), np.zeros(7))
     with pytest.raises(ValueError, match="empty"):
         V.fit_kdop(np.zeros((0, 3)))
+
+
+def test_batched_overlaps_equal_the_pairwise_test():
+    rng = np.random.default_rng(13)
+    obbs_a = [_random_volume(rng, "obb", 0.8) for _ in range(300)]
+    obbs_b = [_random_volume(rng, "obb", 0.8) for _ in range(300)]
+    got = V.overlap_obbs(np.array([o.center for o in obbs_a]), np.array([o.rotation for o in obbs_a]),
+                         np.array([o.half_extents for o in obbs_a]), np.array([o.center for o in obbs_b]),
+                         np.array([o.rotation for o in obbs_b]), np.array([o.half_extents for o in obbs_b]))
+    want = np.array([V.overlap(a, b) for a, b in zip(obbs_a, obbs_b)])
+    assert np.array_equal(got, want) and 30 <= want.sum() <= 270
+    sa = [_random_volume(rng, "sphere", 0.8) for _ in range(300)]
+    sb = [_random_volume(rng, "sphere", 0.8) for _ in range(300)]
+    got = V.overlap_spheres(np.array([s.center for s in sa]), np.array([s.radius for s in sa]),
+                            np.array([s.center for s in sb]), np.array([s.radius for s in sb]))
+    want = np.array([V.overlap(a, b) for a, b in zip(sa, sb)])
+    assert np.array_equal(got, want) and 30 <= want.sum() <= 270
+    with pytest.raises(ValueError, match="center_b"):
+        V.overlap_spheres(np.zeros((2, 3)), np.ones(2), np.zeros((3, 3)), np.ones(3))
+    with pytest.raises(ValueError, match="half_a"):
+        V.overlap_obbs(np.zeros((1, 3)), np.eye(3)[None], -np.ones((1, 3)), np.zeros((1, 3)), np.eye(3)[None],
+                       np.ones((1, 3)))
