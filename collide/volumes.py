@@ -414,7 +414,8 @@ def _nb_volume(points, rot, radius, index, count):
             p = points[i, 0] * rot[0, a] + points[i, 1] * rot[1, a] + points[i, 2] * rot[2, a]
             lo[a] = min(lo[a], p)
             hi[a] = max(hi[a], p)
-    return (hi[0] - lo[0] + 2.0 * radius) * (hi[1] - lo[1] + 2.0 * radius) * (hi[2] - lo[2] + 2.0 * radius)
+    w = 2.0 * radius
+    return (hi[0] - lo[0] + w) * (hi[1] - lo[1] + w) * (hi[2] - lo[2] + w)
 
 
 @numba.njit(cache=True)
@@ -498,7 +499,8 @@ def _nb_min_rect(points, u, v):
             i = order[t] if rep == 0 else order[n - 1 - t]
             while h >= start + 2:
                 o, a = hull[h - 2], hull[h - 1]
-                cr = (xy[a, 0] - xy[o, 0]) * (xy[i, 1] - xy[o, 1]) - (xy[a, 1] - xy[o, 1]) * (xy[i, 0] - xy[o, 0])
+                cr = ((xy[a, 0] - xy[o, 0]) * (xy[i, 1] - xy[o, 1])
+                      - (xy[a, 1] - xy[o, 1]) * (xy[i, 0] - xy[o, 0]))
                 if cr > 0.0:
                     break
                 h -= 1
@@ -725,7 +727,8 @@ def _min_ball_brute(support: list) -> tuple[np.ndarray, float]:
             ww = float(w @ w)
             if not ww > 1e-24 * float(u @ u) * float(v @ v):
                 continue
-            c = pts[sub[0]] + (float(u @ u) * np.cross(v, w) + float(v @ v) * np.cross(w, u)) / (2.0 * ww)
+            off = (float(u @ u) * np.cross(v, w) + float(v @ v) * np.cross(w, u)) / (2.0 * ww)
+            c = pts[sub[0]] + off
         else:
             c = 0.5 * (pts[sub[0]] + pts[sub[1]])
         r2 = float(np.max(np.sum((pts - c) ** 2, axis=1)))
@@ -916,7 +919,8 @@ class KDOP:
         lo = as_array(self.lo, "lo", (None,)).copy()
         hi = as_array(self.hi, "hi", (len(lo),)).copy()
         if 2 * len(lo) not in KDOP_SIZES:
-            raise ValueError(f"lo: expected 3, 7, 9 or 13 slab bounds (k = 6, 14, 18, 26), got {len(lo)}")
+            raise ValueError(f"lo: expected 3, 7, 9 or 13 slab bounds (k = 6, 14, 18, 26), "
+                             f"got {len(lo)}")
         if np.any(lo > hi):
             raise ValueError(f"lo: must be <= hi on every slab, got lo={lo}, hi={hi}")
         lo.setflags(write=False)
@@ -1221,7 +1225,8 @@ def overlap_obbs(center_a, rotation_a, half_a, center_b, rotation_b, half_b) -> 
     ca = as_array(center_a, "center_a", (None, 3))
     n = len(ca)
     cb = as_array(center_b, "center_b", (n, 3))
-    ra_, rb_ = as_array(rotation_a, "rotation_a", (n, 3, 3)), as_array(rotation_b, "rotation_b", (n, 3, 3))
+    ra_ = as_array(rotation_a, "rotation_a", (n, 3, 3))
+    rb_ = as_array(rotation_b, "rotation_b", (n, 3, 3))
     ha, hb = as_array(half_a, "half_a", (n, 3)), as_array(half_b, "half_b", (n, 3))
     if np.any(ha < 0) or np.any(hb < 0):
         raise ValueError("half_a, half_b: must be >= 0")
@@ -1232,7 +1237,8 @@ def overlap_obbs(center_a, rotation_a, half_a, center_b, rotation_b, half_b) -> 
                               ha.max(axis=1, initial=0.0), hb.max(axis=1, initial=0.0), np.ones(n)])
     pad = OVERLAP_RTOL * size
     sep = np.any(np.abs(t) > ha + np.einsum("nij,nj->ni", ar, hb) + pad[:, None], axis=1)
-    sep |= np.any(np.abs(np.einsum("ni,nij->nj", t, r)) > np.einsum("nij,ni->nj", ar, ha) + hb + pad[:, None], axis=1)
+    tb = np.einsum("ni,nij->nj", t, r)                       # b's centre on b's axes
+    sep |= np.any(np.abs(tb) > np.einsum("nij,ni->nj", ar, ha) + hb + pad[:, None], axis=1)
     i1, i2 = np.array([1, 2, 0]), np.array([2, 0, 1])
     lhs = np.abs(t[:, i2, None] * r[:, i1, :] - t[:, i1, None] * r[:, i2, :])
     rhs = (ha[:, i1, None] * ar[:, i2, :] + ha[:, i2, None] * ar[:, i1, :]

@@ -217,7 +217,8 @@ def test_exact_sphere_satisfies_the_optimality_certificate():
               _sphere_surface(rng, 2000) * [2, 1.5, 1],
               rng.uniform(-1, 1, (300, 3)) + 1e5,
               np.c_[_sphere_surface(rng, 64)[:, :2], np.zeros(64)],  # cocircular-ish, flat
-              np.array([[np.cos(t), np.sin(t), 0.0] for t in np.linspace(0, 2 * np.pi, 12, endpoint=False)]),
+              np.array([[np.cos(t), np.sin(t), 0.0]
+                        for t in np.linspace(0, 2 * np.pi, 12, endpoint=False)]),
               rng.normal(size=(20000, 3))]
     for p in clouds:
         s = V.fit_sphere(p)
@@ -266,10 +267,11 @@ def test_optimal_obb_near_the_multistart_optimum_and_never_worse_than_pca():
     rng = np.random.default_rng(5)
     import trimesh
 
+    bend = V._rodrigues(np.array([[0, 0, 1.1]]))[0]
     clouds = [_sphere_surface(rng, 400) * [3, 2, 1],
               rng.normal(size=(400, 3)) * [10, 1, 0.5],
               np.vstack([rng.uniform(size=(200, 3)) * [4, .6, .6],
-                         rng.uniform(size=(200, 3)) * [4, .5, .5] @ V._rodrigues(np.array([[0, 0, 1.1]]))[0].T]),
+                         rng.uniform(size=(200, 3)) * [4, .5, .5] @ bend.T]),
               trimesh.creation.cylinder(1.0, 3.0, sections=20).vertices,
               trimesh.creation.icosphere(2).vertices * [2, 1, 1]]
     ratios = []
@@ -441,7 +443,8 @@ def test_transform_and_aabb_of_volumes():
             assert np.all(vol.contains(surf, RTOL))
         # The AABB of an OBB is exact: it touches the OBB's extreme corners.
         corners = box.corners()
-        assert np.allclose(box.aabb().lo, corners.min(axis=0)) and np.allclose(box.aabb().hi, corners.max(axis=0))
+        assert np.allclose(box.aabb().lo, corners.min(axis=0))
+        assert np.allclose(box.aabb().hi, corners.max(axis=0))
         # Rigid maps keep sizes.
         assert ball.radius == cloud.sphere().radius
         assert np.allclose(box.half_extents, cloud.obb().half_extents)
@@ -512,7 +515,8 @@ def test_kdop_fit_volume_and_containment():
     octa = np.vstack([np.eye(3), -np.eye(3)])
     assert V.fit_kdop(octa, k=14).volume() == pytest.approx(4.0 / 3.0, rel=1e-9)
     for _ in range(20):
-        p = rng.normal(size=(int(rng.integers(1, 200)), 3)) * rng.uniform(0.1, 3, 3) + rng.normal(size=3) * 100
+        n = int(rng.integers(1, 200))
+        p = rng.normal(size=(n, 3)) * rng.uniform(0.1, 3, 3) + rng.normal(size=3) * 100
         r = float(rng.uniform(0, 1))
         surf = p + r * _sphere_surface(rng, len(p))
         vols = []
@@ -564,9 +568,11 @@ def test_batched_overlaps_equal_the_pairwise_test():
     rng = np.random.default_rng(13)
     obbs_a = [_random_volume(rng, "obb", 0.8) for _ in range(300)]
     obbs_b = [_random_volume(rng, "obb", 0.8) for _ in range(300)]
-    got = V.overlap_obbs(np.array([o.center for o in obbs_a]), np.array([o.rotation for o in obbs_a]),
-                         np.array([o.half_extents for o in obbs_a]), np.array([o.center for o in obbs_b]),
-                         np.array([o.rotation for o in obbs_b]), np.array([o.half_extents for o in obbs_b]))
+    def arrays(obbs):
+        return (np.array([o.center for o in obbs]), np.array([o.rotation for o in obbs]),
+                np.array([o.half_extents for o in obbs]))
+
+    got = V.overlap_obbs(*arrays(obbs_a), *arrays(obbs_b))
     want = np.array([V.overlap(a, b) for a, b in zip(obbs_a, obbs_b)])
     assert np.array_equal(got, want) and 30 <= want.sum() <= 270
     sa = [_random_volume(rng, "sphere", 0.8) for _ in range(300)]
@@ -578,5 +584,5 @@ def test_batched_overlaps_equal_the_pairwise_test():
     with pytest.raises(ValueError, match="center_b"):
         V.overlap_spheres(np.zeros((2, 3)), np.ones(2), np.zeros((3, 3)), np.ones(3))
     with pytest.raises(ValueError, match="half_a"):
-        V.overlap_obbs(np.zeros((1, 3)), np.eye(3)[None], -np.ones((1, 3)), np.zeros((1, 3)), np.eye(3)[None],
-                       np.ones((1, 3)))
+        V.overlap_obbs(np.zeros((1, 3)), np.eye(3)[None], -np.ones((1, 3)),
+                       np.zeros((1, 3)), np.eye(3)[None], np.ones((1, 3)))

@@ -124,7 +124,8 @@ def _slsqp_radius(points) -> float:
     r0 = float(np.max(np.sum(p * p, axis=1)))
     res = minimize(lambda z: z[3], np.r_[0.0, 0.0, 0.0, r0], method="SLSQP",
                    jac=lambda z: np.r_[0.0, 0.0, 0.0, 1.0],
-                   constraints=[{"type": "ineq", "fun": lambda z: z[3] - np.sum((p - z[:3]) ** 2, axis=1),
+                   constraints=[{"type": "ineq",
+                                 "fun": lambda z: z[3] - np.sum((p - z[:3]) ** 2, axis=1),
                                  "jac": lambda z: np.c_[2.0 * (p - z[:3]), np.ones(len(p))]}],
                    options={"ftol": 1e-16, "maxiter": 1000})
     return float(np.sqrt(np.max(np.sum((p - res.x[:3]) ** 2, axis=1))))
@@ -139,14 +140,17 @@ def _certificate(points, center) -> float:
 
 
 def main() -> None:
-    cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo") if line.startswith("model name")), "?")
+    cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo")
+                if line.startswith("model name")), "?")
     import os
 
     print("# OBB and sphere fitting, 1000-point clouds (tests/bench/fitting.py)")
     print(f"# machine: {os.cpu_count()} cores, Python {platform.python_version()}, {cpu}; "
           f"trimesh {trimesh.__version__}, numpy {np.__version__}")
-    print(f"# {INSTANCES} instances per kind, times = median over instances of the median of {REPEATS} calls")
-    print(f"# OBB reference: best of a {STARTS}-start search (compass polish + Nelder-Mead) and every method's box")
+    print(f"# {INSTANCES} instances per kind, times = median over instances of the median "
+          f"of {REPEATS} calls")
+    print(f"# OBB reference: best of a {STARTS}-start search (compass polish + Nelder-Mead) "
+          "and every method's box")
     rng = np.random.default_rng(2026)
     V.fit_obb(rng.normal(size=(50, 3)))  # numba compilation / cache load outside the timings
     all_ratio = {"optimal": [], "pca": [], "trimesh": []}
