@@ -312,7 +312,14 @@ class BroadPhase:
         """
         if self._disabled:
             return self._empty2
-        out = self.broadphase.pairs(data.xpos, data.xmat.reshape(-1, 3, 3))
+        xmat = data.xmat
+        try:
+            out = self.broadphase.pairs(data.xpos, xmat.reshape(-1, 3, 3))
+        except ValueError as exc:
+            if not np.any(xmat):
+                raise ValueError("data: body poses are all zero; run mujoco.mj_kinematics, "
+                                 "mj_forward or mj_step on it first") from exc
+            raise
         return out if self._no_function is None else self._drop_null(out, 0)
 
     def pairs_batch(self, model: mujoco.MjModel, qpos) -> np.ndarray:

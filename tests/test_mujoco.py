@@ -302,6 +302,12 @@ def test_pairs_batch_equals_single_worlds():
         bp.pairs_batch(model, np.zeros((2, model.nq + 1)))
 
 
+def test_data_before_kinematics_is_reported():
+    model = mujoco.MjModel.from_xml_string(CHAIN.format(fp="enable"))
+    with pytest.raises(ValueError, match="mj_kinematics"):
+        cm.BroadPhase(model).pairs(mujoco.MjData(model))
+
+
 def test_bad_model_argument():
     with pytest.raises(ValueError, match="model"):
         cm.articulation("not a model")
