@@ -43,7 +43,7 @@ from .volumes import AABB
 __all__ = [
     "BVH", "Difference", "Instances", "Intersection", "Leaf", "Node", "RayHits", "Recursive", "Ref",
     "Transform", "Union", "box", "build_bvh", "capsule", "cone", "cylinder", "ellipsoid",
-    "leaves", "mesh", "raycast", "sphere",
+    "leaves", "mesh", "pinhole_rays", "raycast", "sphere",
 ]
 
 # Relative inflation of every BVH box: rounding in the slab test must never miss a leaf that
@@ -895,3 +895,46 @@ def raycast(bvh: BVH, origins, directions) -> RayHits:
                             bvh.span_capacity, bvh.height, bvh.max_children, bvh.max_tri,
                             out_t, out_leaf, out_n, out_b, out_p)
     return RayHits(out_t, out_leaf, out_n, out_b, out_p)
+
+
+def pinhole_rays(eye, target, width: int, height: int, fov_deg: float = 40.0,
+                 up=(0.0, 0.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
+    """Rays of a pinhole camera, one per pixel, row-major from the top-left pixel.
+
+    Parameters
+    ----------
+    eye, target : (3,) array_like of float
+        Camera position and the point it looks at.
+    width, height : int
+        Image size in pixels.
+    fov_deg : float
+        Vertical field of view.
+    up : (3,) array_like of float
+        Approximate up direction (not parallel to ``target - eye``).
+
+    Returns
+    -------
+    origins : (height * width, 3) float64
+    directions : (height * width, 3) float64
+        Unit vectors.
+    """
+    eye = as_array(eye, "eye", (3,))
+    fwd = as_array(target, "target", (3,)) - eye
+    w = as_count(width, "width", 1)
+    h = as_count(height, "height", 1)
+    fov = as_positive(fov_deg, "fov_deg")
+    if not np.linalg.norm(fwd) > 0:
+        raise ValueError("target: must differ from eye")
+    fwd = fwd / np.linalg.norm(fwd)
+    right = np.cross(fwd, as_array(up, "up", (3,)))
+    if not np.linalg.norm(right) > 1e-12:
+        raise ValueError("up: must not be parallel to the viewing direction")
+    right /= np.linalg.norm(right)
+    true_up = np.cross(right, fwd)
+    s = np.tan(np.radians(fov) / 2)
+    ys = (1 - 2 * (np.arange(h) + 0.5) / h) * s
+    xs = (2 * (np.arange(w) + 0.5) / w - 1) * s * w / h
+    d = fwd + xs[None, :, None] * right + ys[:, None, None] * true_up
+    d = d.reshape(-1, 3)
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    return np.repeat(eye[None], len(d), axis=0), d

@@ -1,0 +1,347 @@
+"""Brute-force twin of `collide.csg.raycast`: every leaf, no hierarchy, point classification.
+
+Independent of the fast path on purpose: it unrolls the CSG graph with its own walker, tests
+every leaf with numpy (a primitive's ray interval is found by classifying the gaps between the
+roots of its bounding surfaces, not by the kernel's case analysis), and finds the first
+boundary of the whole solid by classifying the gaps between all candidate surface points with a
+boolean evaluation of the CSG tree (Requicha's membership classification), instead of span
+arithmetic. Slow (fine for a 128 x 128 image of a few dozen leaves), never used by the library.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import csg
+
+_BIG = 1e300
+
+
+def _walk(node, env, w, leaves):
+    # -> expression tree of tuples; appends (Leaf, world (4, 4)) in depth-first order.
+    if isinstance(node, csg.Recursive):
+        if node.depth == 0:
+            return _walk(node.base, env, w, leaves) if node.base is not None else ("union", [])
+        return _walk(node.body, {**env, node.name: (node, node.depth, env)}, w, leaves)
+    if isinstance(node, csg.Ref):
+        if node.name not in env:
+            raise ValueError(f"unbound Ref({node.name!r})")
+        rec, level, outer = env[node.name]
+        if level == 1:
+            return _walk(rec.base, outer, w, leaves) if rec.base is not None else ("union", [])
+        return _walk(rec.body, {**outer, rec.name: (rec, level - 1, outer)}, w, leaves)
+    if isinstance(node, csg.Leaf):
+        leaves.append((node, w))
+        return ("leaf", len(leaves) - 1)
+    if isinstance(node, csg.Transform):
+        return _walk(node.child, env, w @ node.matrix, leaves)
+    if isinstance(node, csg.Instances):
+        return ("union", [_walk(node.child, env, w @ m, leaves) for m in node.matrices])
+    if isinstance(node, csg.Union):
+        return ("union", [_walk(c, env, w, leaves) for c in node.items])
+    if isinstance(node, csg.Intersection):
+        return ("inter", _walk(node.a, env, w, leaves), _walk(node.b, env, w, leaves))
+    if isinstance(node, csg.Difference):
+        return ("diff", _walk(node.a, env, w, leaves), _walk(node.b, env, w, leaves))
+    raise ValueError(f"unknown node {node!r}")
+
+
+def _roots(a, b, c):
+    # Real roots of a t^2 + b t + c (nan where none); a linear fallback where a == 0.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        disc = b * b - 4 * a * c
+        s = np.sqrt(np.where(disc > 0, disc, np.nan))
+        r0 = (-b - s) / (2 * a)
+        r1 = (-b + s) / (2 * a)
+        lin = -c / b
+    r0 = np.where(a == 0, lin, r0)
+    r1 = np.where(a == 0, np.nan, r1)
+    return r0, r1
+
+
+def _plane_hits(o, d, lo, hi):
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return (lo - o) / d, (hi - o) / d
+
+
+def _convex_interval(breaks, inside_at):
+    # The interval between consecutive break points whose midpoint is inside (the solid is
+    # convex: at most one such gap of positive length). breaks: (R, k) with nan for none.
+    r = len(breaks)
+    b = np.where(np.isfinite(breaks), breaks, np.nan)
+    b = np.concatenate([b, np.full((r, 1), -_BIG), np.full((r, 1), _BIG)], axis=1)
+    b = np.sort(b, axis=1)  # nan last
+    mids = 0.5 * (b[:, :-1] + b[:, 1:])
+    inside = inside_at(mids) & (b[:, 1:] > b[:, :-1])
+    t0 = np.full(r, np.nan)
+    t1 = np.full(r, np.nan)
+    for j in range(mids.shape[1] - 1, -1, -1):
+        t0 = np.where(inside[:, j], b[:, j], t0)
+        t1 = np.where(inside[:, j], b[:, j + 1], t1)
+    # Adjacent inside gaps (a break point inside the solid, e.g. a capsule seam) merge.
+    for j in range(mids.shape[1]):
+        grow = inside[:, j] & (b[:, j] == t1)
+        t1 = np.where(grow, b[:, j + 1], t1)
+    return t0[:, None], t1[:, None]
+
+
+def leaf_spans(leaf: "csg.Leaf", world: np.ndarray, origins: np.ndarray, directions: np.ndarray):
+    """Spans of one leaf along every ray: ``(t0, t1)``, each ``(R, k) float64``, nan-padded."""
+    m = world.copy()
+    kind, p = leaf.kind, leaf.params
+    if kind == "ellipsoid":
+        m = m @ np.diag(list(p["radii"]) + [1.0])
+    r = len(origins)
+    none = (np.full((r, 1), np.nan), np.full((r, 1), np.nan))
+    if abs(np.linalg.det(m[:3, :3])) < 1e-300 or np.linalg.cond(m[:3, :3]) >= 1e12:
+        return none
+    inv = np.linalg.inv(m)
+    o = origins @ inv[:3, :3].T + inv[:3, 3]
+    d = directions @ inv[:3, :3].T
+    at = lambda t, i: o[:, i, None] + t * d[:, i, None]  # noqa: E731
+
+    if kind == "mesh":
+        tri = leaf.triangles()
+        v0, e1, e2 = tri[:, 0], tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+        # Cramer's rule on o + t d = v0 + u e1 + v e2 with scalar triple products, all rays x
+        # all triangles (the kernel uses Möller-Trumbore's factored form).
+        nrm = np.cross(e1, e2)
+        hits = np.full((r, len(tri)), np.nan)
+        for c0 in range(0, r, 2048):
+            oc, dc = o[c0:c0 + 2048], d[c0:c0 + 2048]
+            s = oc[:, None, :] - v0[None]
+            det = -np.einsum("rk,tk->rt", dc, nrm)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = np.einsum("rtk,tk->rt", s, nrm) / det
+                u = -np.einsum("rk,rtk->rt", dc, np.cross(s, e2[None])) / det
+                v = -np.einsum("rk,rtk->rt", dc, np.cross(e1[None], s)) / det
+            hit = (det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1)
+            hits[c0:c0 + 2048] = np.where(hit, t, np.nan)
+        hits = np.sort(hits, axis=1)
+        k = hits.shape[1] // 2
+        t0, t1 = hits[:, 0:2 * k:2], hits[:, 1:2 * k:2]
+        return np.where(t0 < t1, t0, np.nan), np.where(t0 < t1, t1, np.nan)
+    if kind == "box":
+        h = p["half_extents"]
+        if np.any(h <= 0):
+            return none
+        breaks = np.concatenate([np.stack(_plane_hits(o[:, i], d[:, i], -h[i], h[i]), 1)
+                                 for i in range(3)], axis=1)
+        return _convex_interval(breaks, lambda t: np.all(
+            [np.abs(at(t, i)) <= h[i] for i in range(3)], axis=0))
+    if kind in ("sphere", "ellipsoid"):
+        rad = 1.0 if kind == "ellipsoid" else p["radius"]
+        if rad <= 0 or (kind == "ellipsoid" and np.any(p["radii"] <= 0)):
+            return none
+        breaks = np.stack(_roots((d * d).sum(1), 2 * (o * d).sum(1), (o * o).sum(1) - rad**2), 1)
+        return _convex_interval(breaks, lambda t: at(t, 0)**2 + at(t, 1)**2 + at(t, 2)**2 <= rad**2)
+    if kind in ("cylinder", "capsule"):
+        rad, h = p["radius"], p["half_length"]
+        if rad <= 0:
+            return none
+        parts = [np.stack(_roots(d[:, 0]**2 + d[:, 1]**2, 2 * (o[:, 0] * d[:, 0] + o[:, 1] * d[:, 1]),
+                                 o[:, 0]**2 + o[:, 1]**2 - rad**2), 1),
+                 np.stack(_plane_hits(o[:, 2], d[:, 2], -h, h), 1)]
+
+        def in_cyl(t):
+            return (at(t, 0)**2 + at(t, 1)**2 <= rad**2) & (np.abs(at(t, 2)) <= h)
+
+        if kind == "cylinder":
+            return _convex_interval(np.concatenate(parts, 1), in_cyl)
+        for zc in (-h, h):
+            oz = o[:, 2] - zc
+            parts.append(np.stack(_roots((d * d).sum(1), 2 * (o[:, 0] * d[:, 0] + o[:, 1] * d[:, 1]
+                                                              + oz * d[:, 2]),
+                                         o[:, 0]**2 + o[:, 1]**2 + oz**2 - rad**2), 1))
+
+        def in_caps(t):
+            xy = at(t, 0)**2 + at(t, 1)**2
+            z = at(t, 2)
+            return in_cyl(t) | (xy + (z + h)**2 <= rad**2) | (xy + (z - h)**2 <= rad**2)
+
+        return _convex_interval(np.concatenate(parts, 1), in_caps)
+    if kind == "cone":
+        rad, hh = p["radius"], p["height"]
+        if rad <= 0 or hh <= 0:
+            return none
+        k2 = (rad / hh) ** 2
+        u0 = hh - o[:, 2]
+        breaks = np.concatenate([
+            np.stack(_roots(d[:, 0]**2 + d[:, 1]**2 - k2 * d[:, 2]**2,
+                            2 * (o[:, 0] * d[:, 0] + o[:, 1] * d[:, 1] + k2 * u0 * d[:, 2]),
+                            o[:, 0]**2 + o[:, 1]**2 - k2 * u0**2), 1),
+            np.stack(_plane_hits(o[:, 2], d[:, 2], 0.0, hh), 1)], axis=1)
+        return _convex_interval(breaks, lambda t: (at(t, 0)**2 + at(t, 1)**2 <= k2 * (hh - at(t, 2))**2)
+                                & (at(t, 2) >= 0) & (at(t, 2) <= hh))
+    raise ValueError(f"unknown leaf kind {kind!r}")
+
+
+def _member(expr, spans, t):
+    kind = expr[0]
+    if kind == "leaf":
+        t0, t1 = spans[expr[1]]
+        out = np.zeros(t.shape, dtype=bool)
+        for j in range(t0.shape[1]):
+            out |= (t0[:, j, None] < t) & (t < t1[:, j, None])
+        return out
+    if kind == "union":
+        out = np.zeros(t.shape, dtype=bool)
+        for c in expr[1]:
+            out |= _member(c, spans, t)
+        return out
+    a = _member(expr[1], spans, t)
+    b = _member(expr[2], spans, t)
+    return a & b if kind == "inter" else a & ~b
+
+
+def brute_force_raycast(node: "csg.Node", origins, directions) -> tuple[np.ndarray, np.ndarray]:
+    """First boundary point ``t >= 0`` of the whole solid along each ray, and the leaf it is on.
+
+    Parameters
+    ----------
+    node : csg.Node
+    origins, directions : (R, 3) array_like of float
+
+    Returns
+    -------
+    distance : (R,) float64
+        ``inf`` on a miss.
+    leaf : (R,) int32
+        Depth-first leaf id (as `collide.csg.leaves`); -1 on a miss.
+    """
+    o = np.asarray(origins, dtype=np.float64)
+    d = np.asarray(directions, dtype=np.float64)
+    leaves: list = []
+    expr = _walk(node, {}, np.eye(4), leaves)
+    with np.errstate(over="ignore", invalid="ignore"):
+        spans = [leaf_spans(lf, w, o, d) for lf, w in leaves]
+    r = len(o)
+    if not spans:
+        return np.full(r, np.inf), np.full(r, -1, dtype=np.int32)
+    cand = np.concatenate([np.concatenate([t0, t1], 1) for t0, t1 in spans], axis=1)
+    label = np.concatenate([np.full(2 * t0.shape[1], i) for i, (t0, _) in enumerate(spans)])
+    cand = np.where(np.isfinite(cand), cand, np.inf)
+    order = np.argsort(cand, axis=1, kind="stable")
+    cand = np.take_along_axis(cand, order, axis=1)
+    lab = label[order]
+    k = int(np.max(np.sum(np.isfinite(cand), axis=1)))
+    dist = np.full(r, np.inf)
+    leaf = np.full(r, -1, dtype=np.int32)
+    if k == 0:
+        return dist, leaf
+    cand, lab = cand[:, :k], lab[:, :k]
+    # Gap j lies between candidates j - 1 and j (gap 0 before the first); each is sampled at its
+    # midpoint. Gaps past a ray's last finite candidate repeat its last gap (no change there).
+    count = np.sum(np.isfinite(cand), axis=1)
+    left = np.concatenate([cand[:, :1] - 1.0, cand], axis=1)
+    right = np.concatenate([cand, np.full((r, 1), np.inf)], axis=1)
+    idx = np.minimum(np.arange(k + 1)[None, :], count[:, None])
+    left = np.take_along_axis(left, idx, axis=1)
+    right = np.take_along_axis(right, idx, axis=1)
+    left = np.where(np.isfinite(left), left, 0.0)
+    right = np.where(np.isfinite(right), right, left + 1.0)
+    inside = _member(expr, spans, 0.5 * (left + right))
+    change = inside[:, :-1] != inside[:, 1:]
+    valid = np.isfinite(cand) & (cand >= 0) & change
+    first = np.argmax(valid, axis=1)
+    got = valid[np.arange(r), first]
+    dist[got] = cand[got, first[got]]
+    leaf[got] = lab[got, first[got]]
+    return dist, leaf
+
+
+# --------------------------------------------------------------------------------------------
+# Random scenes with every node kind (for the twin tests).
+
+def _pose(rng, spread: float, stretch: bool = True) -> np.ndarray:
+    from .surfaces import random_rotation
+
+    m = np.eye(4)
+    lin = random_rotation(rng)
+    if stretch:
+        lin = lin @ np.diag(rng.uniform(0.7, 1.4, 3))  # mild non-uniform scale: general affine
+    m[:3, :3] = lin
+    m[:3, 3] = rng.uniform(-spread, spread, 3)
+    return m
+
+
+def random_leaf(kind: str, rng: np.random.Generator) -> "csg.Leaf":
+    """A leaf of ``kind`` (any of `csg.Leaf.KINDS`) with random parameters of size about 0.3-1."""
+    import trimesh
+
+    u = lambda lo=0.3, hi=0.9: float(rng.uniform(lo, hi))  # noqa: E731
+    if kind == "box":
+        return csg.box(rng.uniform(0.2, 0.8, 3))
+    if kind == "sphere":
+        return csg.sphere(u())
+    if kind == "capsule":
+        return csg.capsule(u(0.2, 0.5), u(0.2, 0.8))
+    if kind == "cylinder":
+        return csg.cylinder(u(0.2, 0.7), u(0.2, 0.8))
+    if kind == "cone":
+        return csg.cone(u(0.3, 0.8), u(0.5, 1.5))
+    if kind == "ellipsoid":
+        return csg.ellipsoid(rng.uniform(0.2, 0.9, 3))
+    if kind == "mesh":
+        if rng.random() < 0.5:
+            return csg.mesh(trimesh.creation.icosphere(1, radius=u(0.4, 0.9)))
+        return csg.mesh(trimesh.creation.torus(u(0.5, 0.8), u(0.15, 0.3), major_sections=12,
+                                               minor_sections=8))
+    raise ValueError(f"unknown leaf kind {kind!r}")
+
+
+def random_scene(seed: int, n_items: int = 10, spread: float = 1.5,
+                 max_leaves: int = 80) -> "csg.Node":
+    """A random CSG graph with every node kind, every leaf kind and shared subgraphs.
+
+    Items (transformed leaves) are combined pairwise by unions, intersections (with a primitive
+    placed over the operand, so the result is rarely empty), differences (a primitive cut out of
+    the operand), instancing (2-3 copies) and a small recursion (the item plus a shrunken,
+    rotated copy of the whole, 3 levels). Some items are reused under a second transform (a
+    shared subgraph). The multiplying operations are skipped (a union instead) once the
+    unrolled scene would pass ``max_leaves``. Mostly inside ``[-4, 4]^3``.
+    """
+    rng = np.random.default_rng(seed)
+    kinds = csg.Leaf.KINDS
+    pool = [csg.Transform(_pose(rng, spread), random_leaf(kinds[i % len(kinds)], rng))
+            for i in range(n_items)]
+    rec = 0
+    size = {id(p): 1 for p in pool}
+    while len(pool) > 1:
+        rng.shuffle(pool)
+        a = pool.pop()
+        op = str(rng.choice(["union", "inter", "diff", "instances", "recursive", "share"]))
+        total = sum(size[id(p)] for p in pool) + size[id(a)]
+        grow = {"inter": 1, "diff": 1, "instances": 3, "recursive": 3, "share": 2}.get(op, 0)
+        if total + (grow - 1) * size[id(a)] > max_leaves and grow > 1:
+            op = "union"
+        n = size[id(a)] * max(grow, 1) + (1 if op in ("inter", "diff") else 0)
+        if op == "union":
+            n += size[id(pool[-1])]
+            out = csg.Union(a, pool.pop())
+        elif op in ("inter", "diff"):
+            c = a.point_cloud()
+            box_ = c.aabb()
+            center = 0.5 * (box_.lo + box_.hi) + (0 if op == "inter" else 0.4 * (box_.hi - box_.lo)
+                                                   * rng.uniform(-1, 1, 3))
+            cutter = random_leaf(kinds[int(rng.integers(len(kinds)))], rng)
+            m = _pose(rng, 0.0)
+            m[:3, 3] = center
+            if op == "inter":
+                m[:3, :3] *= 1.5
+                out = csg.Intersection(a, csg.Transform(m, cutter))
+            else:
+                out = csg.Difference(a, csg.Transform(m, cutter))
+        elif op == "instances":
+            out = csg.Instances(a, [_pose(rng, 1.0, stretch=False) for _ in range(int(rng.integers(2, 4)))])
+        elif op == "recursive":
+            name = f"r{rec}"
+            rec += 1
+            m = _pose(rng, 0.8, stretch=False)
+            m[:3, :3] *= 0.7
+            out = csg.Recursive(name, csg.Union(a, csg.Transform(m, csg.Ref(name))), 3)
+        else:
+            out = csg.Union(a, csg.Transform(_pose(rng, 1.5), a))
+        size[id(out)] = n
+        pool.append(out)
+    return pool[0]
