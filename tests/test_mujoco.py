@@ -302,6 +302,49 @@ def test_pairs_batch_equals_single_worlds():
         bp.pairs_batch(model, np.zeros((2, model.nq + 1)))
 
 
+def _random_qpos(model, worlds, rng):
+    """Configurations around qpos0: joints moved within +-1.5 rad / 0.3 m, random orientations."""
+    q = np.tile(model.qpos0, (worlds, 1))
+    for j in range(model.njnt):
+        a, t = model.jnt_qposadr[j], model.jnt_type[j]
+        if t == mujoco.mjtJoint.mjJNT_FREE:
+            q[:, a:a + 3] += rng.uniform(-0.3, 0.3, size=(worlds, 3))
+            q[:, a + 3:a + 7] = rng.normal(size=(worlds, 4)) * rng.uniform(0.5, 2.0, size=(worlds, 1))
+        elif t == mujoco.mjtJoint.mjJNT_BALL:
+            q[:, a:a + 4] = rng.normal(size=(worlds, 4))
+        elif t == mujoco.mjtJoint.mjJNT_SLIDE:
+            q[:, a] += rng.uniform(-0.3, 0.3, size=worlds)
+        else:
+            q[:, a] += rng.uniform(-1.5, 1.5, size=worlds)
+    return q
+
+
+KIN = """<mujoco><worldbody>
+  <body name="m" mocap="true" pos="0 1 0" quat="0.9 0.1 0 0.2"><geom size=".1"/></body>
+  <body name="a" pos="0 0 1" euler="10 20 30"><freejoint/><geom size=".1"/>
+    <body name="b" pos=".2 0 0" euler="0 30 0"><joint type="hinge" axis="0 1 1" pos=".05 0 0"/>
+      <joint type="slide" axis="1 0 0"/><geom size=".1"/>
+      <body name="c" pos=".2 .1 0"><joint type="ball" pos="0 0 .1"/><geom size=".1"/>
+        <body name="d" pos="0 0 .2" quat="0 1 0 0"><geom size=".1"/></body></body></body></body>
+</worldbody></mujoco>"""
+
+
+@pytest.mark.parametrize("scene", ["kinematics_mjcf"] + SCENES)
+def test_kinematics_batch_matches_mj_kinematics(scene):
+    if scene == "kinematics_mjcf":
+        model = mujoco.MjModel.from_xml_string(KIN)
+    else:
+        model = mujoco.MjModel.from_xml_path(str(MODELS / scene / "scene.xml"))
+    qpos = _random_qpos(model, 8, np.random.default_rng(7))
+    pos, rot = cm.kinematics_batch(model, qpos)
+    data = mujoco.MjData(model)
+    for w in range(len(qpos)):
+        data.qpos[:] = qpos[w]
+        mujoco.mj_kinematics(model, data)
+        np.testing.assert_allclose(pos[w], data.xpos, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(rot[w], data.xmat.reshape(-1, 3, 3), rtol=0, atol=1e-12)
+
+
 def test_data_before_kinematics_is_reported():
     model = mujoco.MjModel.from_xml_string(CHAIN.format(fp="enable"))
     with pytest.raises(ValueError, match="mj_kinematics"):
