@@ -763,9 +763,12 @@ def _welzl_mtf(pts: np.ndarray, end: int, support: list) -> tuple[np.ndarray, fl
     return center, r2
 
 
-# Working-set growth of min_sphere_center: violators added per round, and rounds before
-# falling back to Welzl on the whole cloud.
-_SPHERE_ADD = 16
+# min_sphere_center: clouds up to _SPHERE_DIRECT points go straight to Welzl; larger ones grow
+# a working set by _SPHERE_ADD violators per round, for at most _SPHERE_ROUNDS rounds before
+# falling back to Welzl on the whole cloud. Timed on gaussian clouds of 8 to 1000 points
+# (2026-11-21): 0.45-2.2 ms per cloud, against 0.6-2.1 ms (and 2 ms at 50 points) with 16 and 64.
+_SPHERE_DIRECT = 16
+_SPHERE_ADD = 8
 _SPHERE_ROUNDS = 64
 
 
@@ -802,7 +805,7 @@ def min_sphere_center(points: np.ndarray) -> np.ndarray:
     if scale == 0.0:
         return offset
     pts = local / scale
-    if len(pts) <= 4 * _SPHERE_ADD:
+    if len(pts) <= _SPHERE_DIRECT:
         return offset + _welzl(pts)[0] * scale
     # Start from the extremes along the coordinate axes.
     work = np.unique(np.concatenate([pts.argmin(axis=0), pts.argmax(axis=0)]))
