@@ -133,10 +133,11 @@ def test_single_grows_its_buffer_and_keeps_every_pair():
     assert len(got) > 20 and np.array_equal(got, want)
 
 
-def test_sweep_and_prune_survives_reshuffles():
-    # Many children at the world: the SAP order persists between calls; unrelated poses force
-    # the full-sort fallback, small motions the insertion sort.
-    sc = testing.free_hulls(125, seed=7)
+@pytest.mark.parametrize("n", [40, 125], ids=["sweep_and_prune", "grid"])
+def test_wide_nodes_survive_reshuffles(n):
+    # Many children at the world: sweep-and-prune (its order persists between calls; unrelated
+    # poses force the full-sort fallback) or, past GRID_MIN children, the hash grid.
+    sc = testing.free_hulls(n, seed=7)
     a = sc.articulation
     bp = BroadPhase(a)
     rng = np.random.default_rng(1)
@@ -149,7 +150,28 @@ def test_sweep_and_prune_survives_reshuffles():
             pos[1:] = pos[perm]
         got = bp.pairs(pos, rot)
         assert np.array_equal(got, testing.brute_force_bound_pairs(a, pos, rot))
-        assert len(got) > 50
+        assert len(got) > n // 3
+
+
+def test_grid_with_oversized_children():
+    # A few children far larger than the rest are kept out of the grid and tested against all.
+    rng = np.random.default_rng(4)
+    n_small, n_big = 150, 4
+    clouds = [PointCloud(np.zeros((1, 3)), 0.3) for _ in range(n_small)]
+    clouds += [PointCloud(np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * [2.0, 0.1, 0.1])
+               for _ in range(n_big)]
+    L = n_small + n_big + 1
+    a = Articulation(np.zeros(L, int), np.arange(1, L), clouds)
+    bp = BroadPhase(a)
+    for _ in range(4):
+        pos = np.zeros((L, 3))
+        pos[1:] = rng.uniform(-2, 2, (L - 1, 3))
+        rot = np.concatenate([EYE[None], testing.scenes.random_rotation(rng, L - 1)])
+        got = bp.pairs(pos, rot)
+        ref = testing.brute_force_bound_pairs(a, pos, rot)
+        assert np.array_equal(got, ref)
+        big = got[got[:, 1] >= n_small]
+        assert len(big) > 5 and len(got) > len(big) + 5
 
 
 # --------------------------------------------------------------------------- filter rules

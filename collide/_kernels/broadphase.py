@@ -39,7 +39,11 @@ ORTHO_TOL = 1e-6  # max |R^T R - I| accepted for a body rotation
 EPS_PAR = 1e-12
 SLACK_REL = 1e-12
 SLACK_POS = 1e-13
-SAP_MIN = 8  # a node with more children than this sorts them (sweep-and-prune)
+SAP_MIN = 8  # a node with more children than this sorts them (sweep-and-prune) ...
+GRID_MIN = 96  # ... or, with more than this, hashes them into a uniform grid
+# Forward neighbour cells (lexicographically after (0, 0, 0)): each pair of adjacent cells once.
+_FWD = np.array([(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
+                 if (dx, dy, dz) > (0, 0, 0)], np.int64)
 
 # Status codes written to info[0]
 OK = 0
@@ -160,14 +164,15 @@ def _views(I, F, W):
 # ------------------------------------------------------------------------------- small tests
 
 @nb.njit(cache=True, inline="always")
-def _world_row(R, p, src, s, dst, d):
-    # dst[d] = world bounds of local row src[s] under rotation R (3, 3) and translation p (3,)
+def _world_row(rot, pos, b, src, s, dst, d):
+    # dst[d] = world bounds of local row src[s] under body b's pose (rot[b] (3, 3), pos[b] (3,)).
+    # Indexing the pose arrays directly (no per-body views) spares numba's reference counting.
     for i in range(3):
-        r0 = R[i, 0]
-        r1 = R[i, 1]
-        r2 = R[i, 2]
-        dst[d, i] = p[i] + r0 * src[s, 0] + r1 * src[s, 1] + r2 * src[s, 2]
-        dst[d, 15 + i] = p[i] + r0 * src[s, 15] + r1 * src[s, 16] + r2 * src[s, 17]
+        r0 = rot[b, i, 0]
+        r1 = rot[b, i, 1]
+        r2 = rot[b, i, 2]
+        dst[d, i] = pos[b, i] + r0 * src[s, 0] + r1 * src[s, 1] + r2 * src[s, 2]
+        dst[d, 15 + i] = pos[b, i] + r0 * src[s, 15] + r1 * src[s, 16] + r2 * src[s, 17]
         for j in range(3):
             dst[d, 3 + 3 * i + j] = r0 * src[s, 3 + j] + r1 * src[s, 6 + j] + r2 * src[s, 9 + j]
     for j in range(12, 15):
@@ -373,6 +378,112 @@ def _subtree_pair(A, B, end, baabb, saabb, hasb, bp, nb_, stats):
 
 
 @nb.njit(cache=True)
+def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bp, nb_, stats):
+    """Pairs of overlapping child subtrees of a wide node through a uniform hash grid.
+
+    A sweep on one axis tests O(k^(5/3)) pairs when k children fill a volume (a scene of free
+    bodies); a grid whose cell is at least every child's extent finds overlaps in O(k): each child
+    sits in the cell of its AABB's min corner, and two overlapping AABBs have min corners at most
+    one cell apart per axis, so a child's own cell and its 13 forward neighbours cover every pair
+    exactly once. Children much larger than the mean (4x) would inflate the cell; they are tested
+    against every child instead.
+    """
+    ext = np.empty(kc)
+    total = 0.0
+    nvalid = 0
+    for i in range(kc):
+        c = children[off + i]
+        if saabb[c, 0] > saabb[c, 3]:
+            ext[i] = -1.0  # no bounds in this subtree
+            continue
+        e = max(saabb[c, 3] - saabb[c, 0], saabb[c, 4] - saabb[c, 1], saabb[c, 5] - saabb[c, 2])
+        ext[i] = e
+        total += e
+        nvalid += 1
+    if nvalid < 2:
+        return nb_
+    lim = 4.0 * total / nvalid
+    h = 0.0
+    for i in range(kc):
+        if ext[i] <= lim and ext[i] > h:
+            h = ext[i]
+    scale = abs(saabb[n, 0]) + abs(saabb[n, 1]) + abs(saabb[n, 2]) + abs(saabb[n, 3]) + abs(saabb[n, 4]) + abs(saabb[n, 5])
+    span = max(saabb[n, 3] - saabb[n, 0], saabb[n, 4] - saabb[n, 1], saabb[n, 5] - saabb[n, 2])
+    # The slack (1e-9 of a cell) must dwarf the rounding of (lo - origin) / h, ~1e-16 of the cell
+    # index: at most 1e6 cells per axis keeps it so (a coarser grid is still correct).
+    h = max(h * (1.0 + 1e-9), 1e-6 * span, 1e-12 * scale, 1e-300)
+    ox = saabb[n, 0]
+    oy = saabb[n, 1]
+    oz = saabb[n, 2]
+    T = 16
+    while T < 2 * nvalid:
+        T *= 2
+    cell = np.empty((kc, 3), np.int64)
+    slot = np.empty(kc, np.int64)
+    cnt = np.zeros(T + 1, np.int64)
+    for i in range(kc):
+        if ext[i] < 0.0 or ext[i] > lim:
+            slot[i] = -1
+            continue
+        c = children[off + i]
+        cx = np.int64((saabb[c, 0] - ox) / h)
+        cy = np.int64((saabb[c, 1] - oy) / h)
+        cz = np.int64((saabb[c, 2] - oz) / h)
+        cell[i, 0] = cx
+        cell[i, 1] = cy
+        cell[i, 2] = cz
+        sl = ((cx * 73856093) ^ (cy * 19349663) ^ (cz * 83492791)) & (T - 1)
+        slot[i] = sl
+        cnt[sl + 1] += 1
+    for t in range(T):
+        cnt[t + 1] += cnt[t]
+    items = np.empty(kc, np.int64)
+    fill = cnt[:T].copy()
+    for i in range(kc):
+        if slot[i] >= 0:
+            items[fill[slot[i]]] = i
+            fill[slot[i]] += 1
+    for i in range(kc):
+        if slot[i] < 0:
+            continue
+        ci = children[off + i]
+        cx = cell[i, 0]
+        cy = cell[i, 1]
+        cz = cell[i, 2]
+        for f in range(-1, 13):
+            if f < 0:
+                nx, ny, nz = cx, cy, cz
+            else:
+                nx = cx + _FWD[f, 0]
+                ny = cy + _FWD[f, 1]
+                nz = cz + _FWD[f, 2]
+            sl = ((nx * 73856093) ^ (ny * 19349663) ^ (nz * 83492791)) & (T - 1)
+            for u in range(cnt[sl], cnt[sl + 1]):
+                j = items[u]
+                if cell[j, 0] != nx or cell[j, 1] != ny or cell[j, 2] != nz:
+                    continue  # another cell hashed to this slot
+                if f < 0 and j <= i:
+                    continue  # own cell: each pair once
+                cj = children[off + j]
+                stats[ST_SUBTREE] += 1
+                if _aabb_hit(saabb, ci, saabb, cj):
+                    nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats)
+    # the oversized children against every child
+    for i in range(kc):
+        if ext[i] <= lim:
+            continue
+        ci = children[off + i]
+        for j in range(kc):
+            if j == i or ext[j] < 0.0 or (ext[j] > lim and j < i):
+                continue
+            cj = children[off + j]
+            stats[ST_SUBTREE] += 1
+            if _aabb_hit(saabb, ci, saabb, cj):
+                nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats)
+    return nb_
+
+
+@nb.njit(cache=True)
 def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, sap, bp, stats):
     """Candidate body pairs (world AABBs overlap) into ``bp``; returns their count (may exceed cap)."""
     nb_ = 0
@@ -396,6 +507,9 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, sap, bp
                     stats[ST_SUBTREE] += 1
                     if _aabb_hit(saabb, ci, saabb, cj):
                         nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats)
+            continue
+        if kc > GRID_MIN:
+            nb_ = _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bp, nb_, stats)
             continue
         # Sweep and prune on the axis of the node's largest extent. The order persists between
         # calls (sap holds it), so insertion sort is ~linear under small motion; a big reshuffle
@@ -459,33 +573,33 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
     info[3] = 0
     # 1. poses -> world bounds of bodies, by body id so the first offender is named.
     for b in range(L):
-        R = body_rot[b]
-        p = body_pos[b]
-        fin = True
+        acc = 0.0
         for i in range(3):
-            if not np.isfinite(p[i]):
-                fin = False
+            acc += body_pos[b, i]
             for j in range(3):
-                if not np.isfinite(R[i, j]):
-                    fin = False
-        if not fin:
+                acc += body_rot[b, i, j]
+        if not np.isfinite(acc):  # NaN and inf propagate through the sum
             info[0] = BAD_NONFINITE
             info[1] = b
             return -1
         err = 0.0
         for i in range(3):
             for j in range(i, 3):
-                v = R[0, i] * R[0, j] + R[1, i] * R[1, j] + R[2, i] * R[2, j] - (1.0 if i == j else 0.0)
+                v = (body_rot[b, 0, i] * body_rot[b, 0, j] + body_rot[b, 1, i] * body_rot[b, 1, j]
+                     + body_rot[b, 2, i] * body_rot[b, 2, j] - (1.0 if i == j else 0.0))
                 err = max(err, abs(v))
-        det = (R[0, 0] * (R[1, 1] * R[2, 2] - R[1, 2] * R[2, 1]) - R[0, 1] * (R[1, 0] * R[2, 2] - R[1, 2] * R[2, 0])
-               + R[0, 2] * (R[1, 0] * R[2, 1] - R[1, 1] * R[2, 0]))
+        # det > 0 (no reflection): column 2 must agree with column 0 x column 1 in sign
+        c0 = body_rot[b, 1, 0] * body_rot[b, 2, 1] - body_rot[b, 2, 0] * body_rot[b, 1, 1]
+        c1 = body_rot[b, 2, 0] * body_rot[b, 0, 1] - body_rot[b, 0, 0] * body_rot[b, 2, 1]
+        c2 = body_rot[b, 0, 0] * body_rot[b, 1, 1] - body_rot[b, 1, 0] * body_rot[b, 0, 1]
+        det = c0 * body_rot[b, 0, 2] + c1 * body_rot[b, 1, 2] + c2 * body_rot[b, 2, 2]
         if err > ORTHO_TOL or det <= 0.0:
             info[0] = BAD_ROTATION
             info[1] = b
             return -1
         x = pos_of[b]
         if hasb[x]:
-            _world_row(R, p, blocal, x, bw, x)
+            _world_row(body_rot, body_pos, b, blocal, x, bw, x)
             for i in range(3):
                 h = (abs(bw[x, 3 + 3 * i]) * bw[x, 12] + abs(bw[x, 4 + 3 * i]) * bw[x, 13]
                      + abs(bw[x, 5 + 3 * i]) * bw[x, 14])
@@ -494,7 +608,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
             if not single[x]:
                 for ii in range(gstart[x], gstart[x + 1]):
                     g = pgeoms[ii]
-                    _world_row(R, p, glocal, g, gw, g)
+                    _world_row(body_rot, body_pos, b, glocal, g, gw, g)
         else:
             for i in range(3):
                 baabb[x, i] = BIG
@@ -607,15 +721,15 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
             ms = m2 if p1 else m1
             _plane_world(gp, body_pos, body_rot, geom_bid, gplane, tmp, 0)
             b = geom_bid[gs]
-            _world_row(body_rot[b], body_pos[b], glocal, gs, tmp, 1)
+            _world_row(body_rot, body_pos, b, glocal, gs, tmp, 1)
             stats[ST_PLANE] += 1
             if _plane_hit(tmp, 0, mp, tmp, 1, ms):
                 k = _emit(keys, k, g1, g2, G)
             continue
         b = geom_bid[g1]
-        _world_row(body_rot[b], body_pos[b], glocal, g1, tmp, 0)
+        _world_row(body_rot, body_pos, b, glocal, g1, tmp, 0)
         b = geom_bid[g2]
-        _world_row(body_rot[b], body_pos[b], glocal, g2, tmp, 1)
+        _world_row(body_rot, body_pos, b, glocal, g2, tmp, 1)
         stats[ST_GEOM_SPHERE] += 1
         if not _sphere_hit(tmp, 0, m1, tmp, 1, m2):
             continue
@@ -631,10 +745,9 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
 @nb.njit(cache=True, inline="always")
 def _plane_world(g, body_pos, body_rot, geom_bid, gplane, out, o):
     b = geom_bid[g]
-    R = body_rot[b]
     d = gplane[g, 3]
     for i in range(3):
-        n = R[i, 0] * gplane[g, 0] + R[i, 1] * gplane[g, 1] + R[i, 2] * gplane[g, 2]
+        n = body_rot[b, i, 0] * gplane[g, 0] + body_rot[b, i, 1] * gplane[g, 1] + body_rot[b, i, 2] * gplane[g, 2]
         out[o, i] = n
         d += n * body_pos[b, i]
     out[o, 3] = d
