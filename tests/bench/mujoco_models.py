@@ -12,9 +12,10 @@ keeps MuJoCo's own verdict). Recall is checked on the way (every MuJoCo contact 
 among ours).
 
 Batched: ``BroadPhase.pairs_batch(model, qpos)`` on B humanoid configurations taken from a
-simulated trajectory: time per world of the whole call (MuJoCo kinematics per world included)
-and of the broad-phase kernel alone (poses already computed), against MuJoCo's single-world
-broad-phase time on the same model.
+simulated trajectory: time per world of the whole call (our numba forward kinematics included),
+of the kinematics, and of the broad-phase kernel alone (poses already computed), with 1 numba
+thread and with the default count, against MuJoCo's single-world broad-phase time on the same
+configurations.
 """
 
 from __future__ import annotations
@@ -77,19 +78,27 @@ def bench_batch(path: Path, worlds: int, repeats: int = 5) -> dict:
     bp.pairs_batch(model, qpos[:8])  # compile / warm up
     pos, rot = bp.kinematics_batch(model, qpos)
     bp.broadphase.pairs_batch(pos, rot)
-    full, kern, kin = [], [], []
-    for _ in range(repeats):
-        t0 = time.perf_counter_ns()
-        out = bp.pairs_batch(model, qpos)
-        full.append((time.perf_counter_ns() - t0) * 1e-3 / worlds)
-        t0 = time.perf_counter_ns()
-        pos, rot = bp.kinematics_batch(model, qpos)
-        kin.append((time.perf_counter_ns() - t0) * 1e-3 / worlds)
-        t0 = time.perf_counter_ns()
-        bp.broadphase.pairs_batch(pos, rot)
-        kern.append((time.perf_counter_ns() - t0) * 1e-3 / worlds)
-    return {"worlds": worlds, "pairs": len(out), "full_us": float(np.median(full)),
-            "kernel_us": float(np.median(kern)), "kinematics_us": float(np.median(kin)),
+    import numba
+
+    rows = {}
+    default = numba.get_num_threads()
+    for threads in sorted({1, default}):
+        numba.set_num_threads(threads)
+        full, kern, kin = [], [], []
+        for _ in range(repeats):
+            t0 = time.perf_counter_ns()
+            out = bp.pairs_batch(model, qpos)
+            full.append((time.perf_counter_ns() - t0) * 1e-3 / worlds)
+            t0 = time.perf_counter_ns()
+            pos, rot = bp.kinematics_batch(model, qpos)
+            kin.append((time.perf_counter_ns() - t0) * 1e-3 / worlds)
+            t0 = time.perf_counter_ns()
+            bp.broadphase.pairs_batch(pos, rot)
+            kern.append((time.perf_counter_ns() - t0) * 1e-3 / worlds)
+        rows[threads] = {"full_us": float(np.median(full)), "kernel_us": float(np.median(kern)),
+                         "kinematics_us": float(np.median(kin))}
+    numba.set_num_threads(default)
+    return {"worlds": worlds, "pairs": len(out), "threads": rows,
             "mujoco_us": float(np.median(mj_times))}
 
 
@@ -133,13 +142,13 @@ def main(argv=None) -> int:
     if humanoid.is_file():
         b = bench_batch(humanoid, args.worlds)
         print(f"# batched: humanoid, {b['worlds']} worlds in one pairs_batch call, "
-              f"{b['pairs']} pairs out; per world, medians of 5 calls")
-        print(f"{'pairs_batch(model, qpos), kinematics included':<52}{b['full_us']:>8.2f} us"
-              f"  ratio to MuJoCo single world {b['full_us'] / b['mujoco_us']:.2f}")
-        print(f"{'  of which MuJoCo kinematics (mj_kinematics loop)':<52}{b['kinematics_us']:>8.2f} us")
-        print(f"{'broadphase.pairs_batch(pos, rot) alone':<52}{b['kernel_us']:>8.2f} us"
-              f"  ratio to MuJoCo single world {b['kernel_us'] / b['mujoco_us']:.2f}")
-        print(f"{'MuJoCo broad phase, single world (median)':<52}{b['mujoco_us']:>8.2f} us")
+              f"{b['pairs']} pairs out; per world, medians of 5 calls; MuJoCo single world "
+              f"{b['mujoco_us']:.2f} us (mjTIMER_COL_BROAD in mj_fwdPosition, same configurations)")
+        print(f"{'numba threads':<16}{'pairs_batch(model, qpos)':>26}{'kinematics':>12}"
+              f"{'broad phase alone':>19}{'ratio (alone)':>15}")
+        for threads, t in b["threads"].items():
+            print(f"{threads:<16}{t['full_us']:>23.2f} us{t['kinematics_us']:>9.2f} us"
+                  f"{t['kernel_us']:>16.2f} us{t['kernel_us'] / b['mujoco_us']:>15.2f}")
     return 0 if all(not r["missed"] for r in rows) else 1
 
 
