@@ -44,8 +44,15 @@ def affine_basis(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     # A spread at the rounding level of the coordinates themselves is a single point.
     if extent <= FLAT_TOL * float(np.abs(center).max()) or extent == 0.0:
         return center, np.eye(3), 0
-    _, s, vt = np.linalg.svd(centred, full_matrices=True)
-    s = np.concatenate([s, np.zeros(3 - len(s))])
+    # Reduced SVD: full_matrices=True would build an (n, n) matrix (out of memory at 1e5 points).
+    _, s, vt = np.linalg.svd(centred, full_matrices=False)
+    if len(s) < 3:  # two points: rank <= 1; complete the first direction to a basis
+        u = vt[0]
+        helper = np.eye(3)[int(np.argmin(np.abs(u)))]
+        v = np.cross(u, helper)
+        v /= np.linalg.norm(v)
+        vt = np.array([u, v, np.cross(u, v)])
+        s = np.concatenate([s, np.zeros(3 - len(s))])
     # Thickness below the rounding noise of the coordinates (a flat set rotated far from the
     # origin picks up ~eps * |x| of it per point) or below FLAT_TOL of the spread is flatness.
     noise = 64.0 * np.finfo(np.float64).eps * float(np.abs(points).max()) * np.sqrt(len(points))
