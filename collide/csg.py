@@ -113,7 +113,9 @@ class Leaf(Node):
         ``cone(radius, height, planes=16)`` (base at z = 0, apex at z = height),
         ``ellipsoid(radii, planes=16)``; ``mesh(mesh)`` takes a closed ``trimesh.Trimesh`` or a
         ``(vertices (n, 3), faces (m, 3) int)`` pair (ray tests need the faces; a mesh's inside
-        is between odd and even crossings, so it should be closed).
+        is between odd and even crossings, so it should be closed). A ray through a shared edge
+        or vertex is counted once per triangle (Möller-Trumbore is not watertight), which can
+        swap inside and outside along that one ray.
     """
 
     __slots__ = ("kind", "params", "_cloud", "_vertices", "_faces")
@@ -182,6 +184,8 @@ class Leaf(Node):
         local = np.eye(4)
         kind, prm = self.kind, self.params
         if kind == "box":
+            if np.any(prm["half_extents"] <= 0):
+                return _ray.P_BOX, p, local  # flat: zero volume, never entered
             return _ray.P_BOX, prm["half_extents"].copy(), local
         if kind == "mesh":
             return _ray.P_MESH, p, local

@@ -557,6 +557,11 @@ def _world_normal(lf, sub, t, entering, o, d, leaf_prim, leaf_param, leaf_inv, l
     if s > 0.0:
         for i in range(3):
             out[i] /= s
+    else:
+        # No tangent plane (a cone's apex): face the ray.
+        s = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        for i in range(3):
+            out[i] = -d[i] / s
     dot = out[0] * d[0] + out[1] * d[1] + out[2] * d[2]
     # Outward normal of the solid: against the ray at an entry, along it at an exit.
     if (entering and dot > 0.0) or ((not entering) and dot < 0.0):
