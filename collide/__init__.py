@@ -3,7 +3,7 @@
 The flat public surface; every name here is re-exported from the module that defines it.
 """
 
-from . import hull, shapes, volumes
+from . import csg, hull, shapes, volumes
 from .articulation import Articulation
 from .broadphase import BroadPhase
 from .pointcloud import PointCloud, difference, intersection, union
@@ -17,6 +17,7 @@ __all__ = [
     "OBB",
     "PointCloud",
     "Sphere",
+    "csg",
     "difference",
     "hull",
     "intersection",

@@ -315,6 +315,8 @@ def random_scene(seed: int, n_items: int = 10, spread: float = 1.5,
         grow = {"inter": 1, "diff": 1, "instances": 3, "recursive": 3, "share": 2}.get(op, 0)
         if total + (grow - 1) * size[id(a)] > max_leaves and grow > 1:
             op = "union"
+        if op in ("inter", "diff") and size[id(a)] > 6:
+            op = "union"  # a cut through a large group would leave little of the scene
         n = size[id(a)] * max(grow, 1) + (1 if op in ("inter", "diff") else 0)
         if op == "union":
             n += size[id(pool[-1])]
