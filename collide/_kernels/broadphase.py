@@ -418,7 +418,9 @@ def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bp, nb_, stats):
     T = 16
     while T < 2 * nvalid:
         T *= 2
-    cell = np.empty((kc, 3), np.int64)
+    # Cells as one int64 key (21 bits per axis: at most 1e6 cells per axis, see h above), counting
+    # sort by hash slot, then everything a query reads copied contiguously in slot order.
+    key = np.empty(kc, np.int64)
     slot = np.empty(kc, np.int64)
     cnt = np.zeros(T + 1, np.int64)
     for i in range(kc):
@@ -429,27 +431,47 @@ def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bp, nb_, stats):
         cx = np.int64((saabb[c, 0] - ox) / h)
         cy = np.int64((saabb[c, 1] - oy) / h)
         cz = np.int64((saabb[c, 2] - oz) / h)
-        cell[i, 0] = cx
-        cell[i, 1] = cy
-        cell[i, 2] = cz
+        key[i] = (cx << 42) | (cy << 21) | cz
         sl = ((cx * 73856093) ^ (cy * 19349663) ^ (cz * 83492791)) & (T - 1)
         slot[i] = sl
         cnt[sl + 1] += 1
     for t in range(T):
         cnt[t + 1] += cnt[t]
-    items = np.empty(kc, np.int64)
+    m = cnt[T]
+    skey = np.empty(m, np.int64)
+    sbox = np.empty((m, 6))
+    schild = np.empty(m, np.int64)
     fill = cnt[:T].copy()
     for i in range(kc):
-        if slot[i] >= 0:
-            items[fill[slot[i]]] = i
-            fill[slot[i]] += 1
-    for i in range(kc):
-        if slot[i] < 0:
-            continue
-        ci = children[off + i]
-        cx = cell[i, 0]
-        cy = cell[i, 1]
-        cz = cell[i, 2]
+        sl = slot[i]
+        if sl >= 0:
+            u = fill[sl]
+            fill[sl] += 1
+            c = children[off + i]
+            skey[u] = key[i]
+            schild[u] = c
+            for d in range(6):
+                sbox[u, d] = saabb[c, d]
+    ntest = 0
+    for u in range(m):
+        ci = schild[u]
+        k0 = skey[u]
+        cx = k0 >> 42
+        cy = (k0 >> 21) & 0x1FFFFF
+        cz = k0 & 0x1FFFFF
+        lo0 = sbox[u, 0]
+        lo1 = sbox[u, 1]
+        lo2 = sbox[u, 2]
+        hi0 = sbox[u, 3]
+        hi1 = sbox[u, 4]
+        hi2 = sbox[u, 5]
+        leaf_i = end[ci] == ci + 1
+        # Cells of the max corner: a box in the next cell along +x can only overlap this one if
+        # this box reaches that cell (the cell index is monotone in the coordinate, so this is
+        # exact under rounding); most boxes do not, and then 9 of the 13 neighbours are skipped.
+        hx = np.int64((hi0 - ox) / h)
+        hy = np.int64((hi1 - oy) / h)
+        hz = np.int64((hi2 - oz) / h)
         for f in range(-1, 13):
             if f < 0:
                 nx, ny, nz = cx, cy, cz
@@ -457,17 +479,27 @@ def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bp, nb_, stats):
                 nx = cx + _FWD[f, 0]
                 ny = cy + _FWD[f, 1]
                 nz = cz + _FWD[f, 2]
+                if nx < 0 or ny < 0 or nz < 0:
+                    continue
+                if (nx > hx) or (ny > cy and ny > hy) or (nz > cz and nz > hz):
+                    continue
+            nkey = (nx << 42) | (ny << 21) | nz
             sl = ((nx * 73856093) ^ (ny * 19349663) ^ (nz * 83492791)) & (T - 1)
-            for u in range(cnt[sl], cnt[sl + 1]):
-                j = items[u]
-                if cell[j, 0] != nx or cell[j, 1] != ny or cell[j, 2] != nz:
+            for v in range(cnt[sl], cnt[sl + 1]):
+                if skey[v] != nkey:
                     continue  # another cell hashed to this slot
-                if f < 0 and j <= i:
+                if f < 0 and v <= u:
                     continue  # own cell: each pair once
-                cj = children[off + j]
-                stats[ST_SUBTREE] += 1
-                if _aabb_hit(saabb, ci, saabb, cj):
-                    nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats)
+                ntest += 1
+                if (sbox[v, 0] <= hi0 and lo0 <= sbox[v, 3] and sbox[v, 1] <= hi1 and lo1 <= sbox[v, 4]
+                        and sbox[v, 2] <= hi2 and lo2 <= sbox[v, 5]):
+                    cj = schild[v]
+                    if leaf_i and end[cj] == cj + 1:
+                        if hasb[ci] and hasb[cj]:
+                            nb_ = _push(bp, nb_, ci, cj)
+                    else:
+                        nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats)
+    stats[ST_SUBTREE] += ntest
     # the oversized children against every child
     for i in range(kc):
         if ext[i] <= lim:
