@@ -510,21 +510,31 @@ def _bob(node, env, ctx: _Context):
     return out
 
 
-def leaves(node: Node) -> list[tuple[Leaf, np.ndarray]]:
+def leaves(node: Node, stop_at: tuple = ()) -> list[tuple[Node, np.ndarray]]:
     """Every leaf of the unrolled graph with its world matrix, in depth-first order.
 
     The position in this list is the leaf id that `raycast` reports.
 
+    Parameters
+    ----------
+    node : Node
+    stop_at : tuple of Node subclasses, optional
+        Node types reported as a whole instead of descended into (for example
+        ``(Intersection,)``: each intersection with its world matrix; its cloud in its own frame
+        is ``n.point_cloud()``, valid when it holds no `Ref` to an enclosing recursion). With
+        ``stop_at`` the positions are no longer leaf ids.
+
     Returns
     -------
-    list of (Leaf, (4, 4) float64)
+    list of (Leaf or stop_at node, (4, 4) float64)
     """
     _check_node(node, "node")
+    stop_at = tuple(stop_at)
     out = []
 
     def walk(n, env, w):
         n, env = _resolve(n, env)
-        if isinstance(n, Leaf):
+        if isinstance(n, Leaf) or (stop_at and isinstance(n, stop_at)):
             out.append((n, w))
         elif isinstance(n, Transform):
             walk(n.child, env, w @ n.matrix)
