@@ -21,6 +21,7 @@ configurations.
 from __future__ import annotations
 
 import argparse
+import os
 import platform
 import sys
 import time
@@ -116,7 +117,8 @@ def main(argv=None) -> int:
     print(f"# collide vs MuJoCo {mujoco.__version__}, broad phase per step, {args.steps} steps of "
           f"random controls per scene")
     print(f"# machine: {numba.config.NUMBA_NUM_THREADS} cores, Python "
-          f"{platform.python_version()}, {_cpu()}; {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
+          f"{platform.python_version()}, {_cpu()}; {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; "
+          f"load average at start {os.getloadavg()[0]:.1f} (machine shared with other processes)")
     print("# ours: BroadPhase.pairs(data), Python call included; MuJoCo: mjTIMER_COL_BROAD "
           "(body-level SAP + filters, ends in body pairs); medians over the steps")
     print("# candidates: geom pairs per step (mean); MuJoCo's = pairs its broad phase and "
