@@ -31,8 +31,8 @@ this install with small MJCF models (``tests/test_mujoco.py``):
 * planes are half-spaces (``z <= 0`` in the plane frame; the plane's size is visual only);
   meshes collide as the convex hull of their vertices (``mesh_vert``, already in the geom frame);
   height fields are bounded by their box ``[-x, x] x [-y, y] x [-base, top]``; SDF geoms by
-  MuJoCo's own ``geom_aabb`` box (the SDF is only known to its plugin: that box is what MuJoCo
-  itself culls with);
+  MuJoCo's own ``geom_aabb`` box, padded by `SDF_PAD` of its size (the SDF is only known to its
+  plugin; MuJoCo measures that box on a mesh sampled from it, which can fall short);
 * flexes, sleeping bodies and a user ``mjcb_contactfilter`` are not modelled: flex contacts are
   not geom pairs; sleeping and user filters only remove pairs, so our candidates stay a superset.
 
@@ -85,6 +85,10 @@ __all__ = [
 # Model -> Articulation
 # ----------------------------------------------------------------------------------------------
 
+# Relative padding of an SDF geom's box (MuJoCo's geom_aabb, measured on a sampled mesh).
+SDF_PAD = 0.02
+
+
 def _box_corners(lo: np.ndarray, hi: np.ndarray) -> PointCloud:
     return PointCloud(np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                                 for z in (lo[2], hi[2])]))
@@ -103,7 +107,7 @@ def geom_clouds(model: mujoco.MjModel) -> list:
         Primitives through `collide.shapes` (sphere and capsule exact; cylinder and ellipsoid
         as circumscribed polytopes); meshes as their vertices (MuJoCo collides with their convex
         hull); planes as ``shapes.plane()`` (the half-space ``z <= 0`` of the geom frame);
-        height fields as their box; SDF geoms as MuJoCo's ``geom_aabb`` box.
+        height fields as their box; SDF geoms as MuJoCo's ``geom_aabb`` box, padded.
     """
     clouds = []
     for g in range(model.ngeom):
@@ -130,8 +134,11 @@ def geom_clouds(model: mujoco.MjModel) -> list:
             sx, sy, top, base = model.hfield_size[int(model.geom_dataid[g])]
             clouds.append(_box_corners(np.array([-sx, -sy, -base]), np.array([sx, sy, top])))
         elif t == _GEOM.mjGEOM_SDF:
+            # MuJoCo's box comes from a mesh sampled from the SDF, which can fall short of the
+            # true surface (mujoco.sdf.torus 0.35/0.15: half extent 0.49995, not 0.5): pad it.
             c, h = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
-            clouds.append(_box_corners(c - h, c + h))
+            pad = SDF_PAD * float(np.max(h))
+            clouds.append(_box_corners(c - h - pad, c + h + pad))
         else:
             raise ValueError(f"geom {g} ({_geom_name(model, g)}): unsupported geom type {t}")
     return clouds

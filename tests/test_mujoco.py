@@ -258,6 +258,30 @@ def test_every_geom_type_touching():
         assert "hfield" not in pair or "floor" not in pair
 
 
+SDF = """<mujoco><extension><plugin plugin="mujoco.sdf.torus"><instance name="torus">
+    <config key="radius1" value="0.35"/><config key="radius2" value="0.15"/></instance></plugin>
+  </extension><asset><mesh name="torus"><plugin instance="torus"/></mesh></asset>
+  <option sdf_iterations="10" sdf_initpoints="20"/>
+  <worldbody><geom name="floor" type="plane" size="2 2 .1"/>
+    <body name="torus" pos="0 0 .149"><freejoint/>
+      <geom name="torus" type="sdf" mesh="torus"><plugin instance="torus"/></geom></body>
+    <body name="ball" pos=".35 0 .398"><freejoint/><geom name="ball" type="sphere" size=".1"/></body>
+    <body name="side" pos=".599 0 .149"><freejoint/><geom name="side" type="sphere" size=".1"/></body>
+  </worldbody></mujoco>"""
+
+
+def test_sdf_geom_is_bounded_by_its_padded_box():
+    # A torus (plugin SDF) resting on the floor, a ball on its top and one touching its outer
+    # rim (true extent 0.5; MuJoCo's own box stops at 0.49995).
+    try:
+        mj, ours, model = _both(SDF)
+    except ValueError as exc:  # a MuJoCo build without its SDF plugins
+        pytest.skip(f"mujoco.sdf.torus plugin not available: {exc}")
+    expected = _pairs("floor-torus", "ball-torus", "side-torus")
+    assert mj == expected
+    assert ours == expected
+
+
 def test_mesh_cloud_is_the_geom_frame_hull():
     # The mesh's vertices as MuJoCo stores them lie in the geom frame: its own geom_aabb holds
     # them, and the geom's world points from our cloud match MuJoCo's world AABB corners.
