@@ -168,6 +168,16 @@ class Leaf(Node):
         """The primitive's cloud in its own frame (from `collide.shapes`)."""
         return self._cloud
 
+    @property
+    def vertices(self) -> np.ndarray | None:
+        """``(n, 3) float64``: a mesh leaf's vertices (local frame); None for other kinds."""
+        return self._vertices
+
+    @property
+    def faces(self) -> np.ndarray | None:
+        """``(m, 3) int64``: a mesh leaf's triangles as vertex indices; None for other kinds."""
+        return self._faces
+
     def triangles(self) -> np.ndarray:
         """``(m, 3, 3) float64``: a mesh leaf's triangles (local frame); ``(0, 3, 3)`` otherwise."""
         if self._faces is None:

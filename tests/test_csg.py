@@ -92,6 +92,34 @@ def test_deep_recursion_is_fast_through_memoization():
     assert box.hi[2] == pytest.approx(2.5 - 2.0 * 0.6**39, abs=1e-9)
 
 
+def test_every_box_contains_true_surface_samples_under_affine_recursion():
+    # All primitive kinds in a spiral whose step is a general affine map (non-uniform scale):
+    # radii become points, ellipsoids fold into the leaf map; nothing may poke out of a box.
+    from collide.testing import sample_surface
+
+    rng = np.random.default_rng(3)
+    parts = [csg.box([0.3, 0.2, 0.1]), csg.sphere(0.3), csg.capsule(0.2, 0.3), csg.cylinder(0.25, 0.3),
+             csg.cone(0.3, 0.6), csg.ellipsoid([0.4, 0.2, 0.1]),
+             csg.mesh(trimesh.creation.torus(0.3, 0.1, major_sections=12, minor_sections=8))]
+    group = csg.Union(*[csg.Transform(move(0.8 * i) @ rot("x", 0.3 * i), p) for i, p in enumerate(parts)])
+    step = move(0.5, 0.2, 0.7) @ rot("z", 0.9) @ rot("y", 0.4) @ np.diag([0.9, 0.8, 1.1, 1.0])
+    node = csg.Recursive("g", csg.Union(group, csg.Transform(step, csg.Ref("g"))), 8)
+    samples = []
+    for leaf, w in csg.leaves(node):
+        params = dict(leaf.params)
+        if leaf.kind == "mesh":
+            params = {"vertices_or_trimesh": trimesh.Trimesh(leaf.vertices, leaf.faces)}
+        pts = sample_surface(leaf.kind, 60, rng, **params)
+        samples.append(pts @ w[:3, :3].T + w[:3, 3])
+    for method in ("pointcloud", "box_of_box"):
+        bvh = csg.build_bvh(node, method=method)
+        assert np.all(bvh.root_aabb().contains(np.concatenate(samples), rtol=1e-9))
+        for k in np.flatnonzero(bvh.node_kind == 0):
+            pts = samples[bvh.node_leaf[k]]
+            assert np.all(pts >= bvh.node_lo[k]) and np.all(pts <= bvh.node_hi[k])
+    assert np.all(node.point_cloud().aabb().contains(np.concatenate(samples), rtol=1e-9))
+
+
 def test_operators_follow_the_paper():
     a = csg.box([1.0, 1.0, 1.0])
     b = csg.Transform(move(1.0), csg.box([1.0, 1.0, 1.0]))
