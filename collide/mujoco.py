@@ -442,6 +442,8 @@ class BroadPhase:
         self._empty2 = np.zeros((0, 2), dtype=np.int32)
         self._empty3 = np.zeros((0, 3), dtype=np.int32)
         self._disabled = _contacts_disabled(model)
+        self._views_of = None
+        self._views = None
         # MuJoCo has no collision function for plane-hfield and hfield-hfield (mjCOLLISIONFUNC
         # is NULL there): such pairs never make contacts and are removed after the kernel.
         types = np.asarray(model.geom_type)
@@ -475,9 +477,14 @@ class BroadPhase:
         """
         if self._disabled:
             return self._empty2
-        xmat = data.xmat
+        if data is not self._views_of:
+            # The bindings build new numpy views at every attribute access (~0.3 us a call):
+            # keep the views of the last MjData (they stay valid while we hold it).
+            self._views = (data.xpos, data.xmat.reshape(-1, 3, 3))
+            self._views_of = data
+        xpos, xmat = self._views
         try:
-            out = self.broadphase.pairs(data.xpos, xmat.reshape(-1, 3, 3))
+            out = self.broadphase.pairs(xpos, xmat)
         except ValueError as exc:
             if not np.any(xmat):
                 raise ValueError("data: body poses are all zero; run mujoco.mj_kinematics, "

@@ -369,6 +369,22 @@ def test_kinematics_batch_matches_mj_kinematics(scene):
         np.testing.assert_allclose(rot[w], data.xmat.reshape(-1, 3, 3), rtol=0, atol=1e-12)
 
 
+def test_pairs_follows_the_data_it_is_given():
+    # Two MjData of one model, alternated: each call reads the poses of the data passed in.
+    xml = CLUSTER.format(_free_sphere("a", "0 0 0") + _free_sphere("b", ".15 0 0"))
+    model = mujoco.MjModel.from_xml_string(xml)
+    near, far = mujoco.MjData(model), mujoco.MjData(model)
+    far.qpos[7] += 5.0
+    for d in (near, far):
+        mujoco.mj_forward(model, d)
+    bp = cm.BroadPhase(model)
+    for _ in range(2):
+        assert len(bp.pairs(near)) == 1 and len(bp.pairs(far)) == 0
+    far.qpos[7] -= 5.0
+    mujoco.mj_forward(model, far)
+    assert len(bp.pairs(far)) == 1
+
+
 def test_data_before_kinematics_is_reported():
     model = mujoco.MjModel.from_xml_string(CHAIN.format(fp="enable"))
     with pytest.raises(ValueError, match="mj_kinematics"):
