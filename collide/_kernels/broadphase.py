@@ -516,16 +516,25 @@ def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bp, nb_, stats):
 
 
 @nb.njit(cache=True)
-def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, sap, bp, stats):
+def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, sap, bp, stats, filter_parent):
     """Candidate body pairs (world AABBs overlap) into ``bp``; returns their count (may exceed cap)."""
     nb_ = 0
     for n in range(L):
-        # body n against its descendants
+        # body n against its descendants; n + 1 is its first child, each sibling follows the
+        # previous one's range
         if hasb[n] and end[n] > n + 1:
-            nb_ = _body_vs_subtree(n, n + 1, end, baabb, saabb, hasb, bp, nb_, stats)
-            c = end[n + 1]  # n + 1 is the first child; its siblings follow its range
+            c = n + 1
             while c < end[n]:
-                nb_ = _body_vs_subtree(n, c, end, baabb, saabb, hasb, bp, nb_, stats)
+                if filter_parent and n != 0:
+                    # (n, c) is a parent pair, never reported: only c's subtrees are candidates
+                    stats[ST_SUBTREE] += 1
+                    if _aabb_hit(baabb, n, saabb, c):
+                        g = c + 1
+                        while g < end[c]:
+                            nb_ = _body_vs_subtree(n, g, end, baabb, saabb, hasb, bp, nb_, stats)
+                            g = end[g]
+                else:
+                    nb_ = _body_vs_subtree(n, c, end, baabb, saabb, hasb, bp, nb_, stats)
                 c = end[c]
         kc = nchild[n]
         if kc < 2:
@@ -659,7 +668,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
             if saabb[x, 3 + i] > saabb[q, 3 + i]:
                 saabb[q, 3 + i] = saabb[x, 3 + i]
     # 3. candidate body pairs down the tree.
-    nbp = _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, sap, bp, stats)
+    nbp = _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, sap, bp, stats, filter_parent)
     if nbp > bp.shape[0]:
         info[3] = nbp
         return 0
@@ -770,7 +779,18 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
             k = _emit(keys, k, g1, g2, G)
     stats[ST_OUT] = k
     if k <= keys.shape[0]:
-        keys[:k].sort()
+        if k <= 96:
+            # Small outputs come nearly sorted (positions follow ids in most models): insertion
+            # sort is linear then, and cheaper than a general sort's set-up.
+            for i in range(1, k):
+                v = keys[i]
+                j = i - 1
+                while j >= 0 and keys[j] > v:
+                    keys[j + 1] = keys[j]
+                    j -= 1
+                keys[j + 1] = v
+        else:
+            keys[:k].sort()
     return k
 
 
