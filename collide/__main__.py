@@ -1,5 +1,5 @@
-"""The command line: ``python -m collide compare [MODEL.xml] [--steps N] [--seed S] [--json FILE]
-[--plot FILE.png]``.
+"""The command line: ``python -m collide compare [MODEL.xml] [--steps N] [--seed S] [--hold H]
+[--json FILE] [--plot FILE.png]``.
 
 ``compare`` simulates a MuJoCo model with random controls and, every step, checks that every
 contact MuJoCo generated is among `collide`'s candidates, counts candidates on both sides and
@@ -26,6 +26,8 @@ def _parser() -> argparse.ArgumentParser:
     cmp_.add_argument("--steps", type=int, default=1000, help="simulation steps (default 1000)")
     cmp_.add_argument("--seed", type=int, default=0, help="seed of the random controls and "
                       "of the built-in scene (default 0)")
+    cmp_.add_argument("--hold", type=int, default=100, help="steps between random control "
+                      "changes (default 100)")
     cmp_.add_argument("--json", metavar="FILE", help="write the figures as JSON")
     cmp_.add_argument("--plot", metavar="FILE.png", help="write a per-step plot (matplotlib)")
     return parser
@@ -39,6 +41,9 @@ def compare_main(args: argparse.Namespace) -> int:
 
     if args.steps < 1:
         print("error: --steps must be >= 1", file=sys.stderr)
+        return 2
+    if args.hold < 1:
+        print("error: --hold must be >= 1", file=sys.stderr)
         return 2
     if args.seed < 0:
         print("error: --seed must be >= 0", file=sys.stderr)
@@ -57,7 +62,7 @@ def compare_main(args: argparse.Namespace) -> int:
     else:
         model = cm.default_scene(seed=args.seed)
         name = "built-in scene (figure falling on a pile)"
-    result = cm.compare(model, steps=args.steps, seed=args.seed, name=name)
+    result = cm.compare(model, steps=args.steps, seed=args.seed, name=name, hold=args.hold)
     print(cm.format_report(result))
     if args.json:
         Path(args.json).write_text(json.dumps(result, indent=1))

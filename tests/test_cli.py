@@ -68,7 +68,7 @@ def test_missed_pair_exits_1(monkeypatch, capsys):
 
 
 @pytest.mark.parametrize("argv", [["compare", "--steps", "0"], ["compare", "--seed", "-1"],
-                                  ["compare", "/no/such/model.xml"]])
+                                  ["compare", "--hold", "0"], ["compare", "/no/such/model.xml"]])
 def test_bad_usage_exits_2(argv, capsys):
     assert main(argv) == 2
     assert "error:" in capsys.readouterr().err
