@@ -121,3 +121,10 @@ def test_demo_world_obbs_contain_the_geoms():
             assert np.all(np.abs(local) <= h + 1e-9)
             checked += 1
     assert checked > 0
+
+
+def test_unloadable_model_exits_2(tmp_path, capsys):
+    bad = tmp_path / "bad.xml"
+    bad.write_text("<mujoco><worldbody><geom type='nonsense'/></worldbody></mujoco>")
+    assert main(["compare", str(bad)]) == 2
+    assert "cannot load" in capsys.readouterr().err
