@@ -70,6 +70,7 @@ __all__ = [
     "compare",
     "contact_pairs",
     "default_scene",
+    "exclusion_rules",
     "format_report",
     "geom_clouds",
     "geom_inflation",
@@ -223,12 +224,13 @@ def articulation(model: mujoco.MjModel) -> Articulation:
         Bodies as in the model (body 0 is the world), geoms placed by ``geom_pos`` /
         ``geom_quat``, clouds from `geom_clouds`, contype/conaffinity, inflation from
         `geom_inflation`, exclusions from ``<exclude>`` and `parent_excludes`, weld groups
-        from `weld_groups`, explicit pairs with `pair_inflation`. The parent filter is
-        passed as explicit exclusions (MuJoCo applies it to weld groups, not bodies).
+        from `weld_groups`, explicit pairs with `pair_inflation`. MuJoCo's parent filter (on
+        weld groups, not bodies) goes through `exclusion_rules`.
     """
     if not isinstance(model, mujoco.MjModel):
         raise ValueError(f"model: expected a mujoco.MjModel, got {type(model).__name__}")
-    excludes = np.concatenate([model_excludes(model), parent_excludes(model)]).astype(np.int64)
+    weld = weld_groups(model)
+    filter_parent, excludes = exclusion_rules(model, weld)
     pairs = np.stack([model.pair_geom1, model.pair_geom2], axis=1).astype(np.int64).reshape(-1, 2)
     return Articulation(
         body_parent=np.asarray(model.body_parentid, dtype=np.int64),
@@ -239,14 +241,47 @@ def articulation(model: mujoco.MjModel) -> Articulation:
         geom_contype=np.asarray(model.geom_contype, dtype=np.int64),
         geom_conaffinity=np.asarray(model.geom_conaffinity, dtype=np.int64),
         geom_margin=geom_inflation(model),
-        exclude=[tuple(int(v) for v in row) for row in excludes],
+        exclude=excludes,
         pairs=pairs,
-        filter_parent=False,
+        filter_parent=filter_parent,
         # MuJoCo's pair margin + gap is the contact distance; the articulation inflates each of
         # the two geoms by pair_margin, so each takes half.
         pair_margin=0.5 * pair_inflation(model),
-        body_weld=weld_groups(model),
+        body_weld=weld,
     )
+
+
+def exclusion_rules(model: mujoco.MjModel, weld: np.ndarray) -> tuple[bool, np.ndarray]:
+    """MuJoCo's body-pair exclusions as `Articulation`'s ``filter_parent`` plus explicit pairs.
+
+    MuJoCo's set is ``<exclude>`` plus `parent_excludes`. The articulation's own parent rule
+    (a body never pairs with its parent unless the parent is body 0) lets the broad phase skip
+    those tests while descending the tree, so it is used whenever every pair it removes is in
+    MuJoCo's set (or already in one weld group of ``weld``); MuJoCo's remaining pairs are
+    passed explicitly. Otherwise (say a static body, weld group 0, as a parent) the rule is off
+    and MuJoCo's whole set is explicit.
+
+    Returns
+    -------
+    filter_parent : bool
+    exclude : (E, 2) int64
+        Body pairs, lower id first.
+    """
+    mj = np.concatenate([model_excludes(model), parent_excludes(model)]).astype(np.int64)
+    mj = np.unique(np.sort(mj.reshape(-1, 2), axis=1), axis=0)
+    L = model.nbody
+    mj_keys = set((mj[:, 0] * L + mj[:, 1]).tolist())
+    parent = np.asarray(model.body_parentid, dtype=np.int64)
+    has_geom = np.asarray(model.body_geomnum) > 0
+    child = np.flatnonzero((np.arange(L) > 0) & (parent > 0))
+    rule = np.sort(np.stack([parent[child], child], axis=1), axis=1)
+    rule_keys = set((rule[:, 0] * L + rule[:, 1]).tolist())
+    for a, b in rule:
+        matters = has_geom[a] and has_geom[b] and weld[a] != weld[b]
+        if matters and int(a * L + b) not in mj_keys:
+            return False, mj
+    rest = [k for k in sorted(mj_keys) if k not in rule_keys]
+    return True, np.array([[k // L, k % L] for k in rest], dtype=np.int64).reshape(-1, 2)
 
 
 def weld_groups(model: mujoco.MjModel) -> np.ndarray:

@@ -111,6 +111,22 @@ def test_weld_groups():
     assert ours == expected
 
 
+def test_static_parent_is_not_filtered():
+    # A jointed body under a static body (weld group 0): MuJoCo exempts the world's group from
+    # the parent filter, so they pair, though the parent is not body 0. Our rule set must then
+    # fall back to explicit exclusions.
+    xml = """<mujoco><worldbody>
+      <body name="st" pos="0 0 1"><geom name="st" type="sphere" size=".1"/>
+        <body name="c" pos=".15 0 0"><joint type="hinge"/><geom name="c" type="sphere" size=".1"/>
+          <body name="g" pos=".15 0 0"><joint type="hinge"/><geom name="g" type="sphere" size=".1"/>
+          </body></body></body>
+    </worldbody></mujoco>"""
+    mj, ours, model = _both(xml)
+    assert mj == ours == _pairs("st-c")
+    filter_parent, _ = cm.exclusion_rules(model, cm.weld_groups(model))
+    assert not filter_parent
+
+
 def test_child_of_world_pairs_with_world_geoms():
     xml = """<mujoco><worldbody>
       <geom name="w1" type="box" size=".1 .1 .1"/>
