@@ -67,6 +67,7 @@ _TIMER_BROAD = int(mujoco.mjtTimer.mjTIMER_COL_BROAD)
 __all__ = [
     "BroadPhase",
     "articulation",
+    "candidate_counter",
     "compare",
     "contact_pairs",
     "default_scene",
@@ -75,6 +76,8 @@ __all__ = [
     "geom_clouds",
     "geom_inflation",
     "kinematics_batch",
+    "model_excludes",
+    "mujoco_timer",
     "pair_inflation",
     "parent_excludes",
     "plot_comparison",
