@@ -442,6 +442,7 @@ class _Context:
     exact: bool
     cache: dict
     bob: dict = field(default_factory=dict)
+    fits: dict = field(default_factory=dict)
 
 
 def _cloud(node, env, ctx: _Context) -> PointCloud:
@@ -564,11 +565,46 @@ def leaves(node: Node, stop_at: tuple = ()) -> list[tuple[Node, np.ndarray]]:
 # BVH: the unrolled tree in world coordinates (transforms folded into the leaves).
 
 class _P:
-    # A node of the unrolled world tree: kind, children, leaf id, world box.
-    __slots__ = ("kind", "kids", "leaf", "lo", "hi")
+    # A node of the unrolled world tree: kind, children, leaf id, world box, and the world OBB
+    # (centre, rotation, half extents) or sphere (centre, radius) when those are the volume.
+    __slots__ = ("kind", "kids", "leaf", "lo", "hi", "vol")
 
-    def __init__(self, kind, kids, leaf, lo, hi):
-        self.kind, self.kids, self.leaf, self.lo, self.hi = kind, kids, leaf, lo, hi
+    def __init__(self, kind, kids, leaf, lo, hi, vol=None):
+        self.kind, self.kids, self.leaf, self.lo, self.hi, self.vol = kind, kids, leaf, lo, hi, vol
+
+
+def _similarity_scale(linear: np.ndarray) -> float | None:
+    sv = np.linalg.svd(linear, compute_uv=False)
+    return float(sv[0]) if sv[0] - sv[-1] <= _pc.SIMILARITY_TOL * sv[0] else None
+
+
+def _world_volume(node, env, w, ctx, volume):
+    """World OBB ``(center, rotation, half)`` or sphere ``(center, radius)`` of a node's cloud.
+
+    Fitted once per shared subgraph in its own frame and moved by ``w`` when ``w`` is a
+    similarity (an OBB stays an OBB, a sphere a sphere); refitted from the moved cloud otherwise.
+    """
+    if volume == "aabb":
+        return None
+    key = (node, env, volume)
+    local = ctx.fits.get(key)
+    if local is None:
+        c = _cloud(node, env, ctx)
+        local = c.obb() if volume == "obb" else c.sphere()
+        ctx.fits[key] = local
+    lin, t = w[:3, :3], w[:3, 3]
+    s = _similarity_scale(lin)
+    if s is None:
+        moved = _cloud(node, env, ctx).transform(w)
+        fit = moved.obb() if volume == "obb" else moved.sphere()
+        center, s = fit.center, 1.0
+    else:
+        fit = local
+        center = lin @ local.center + t
+    if volume == "obb":
+        rot = fit.rotation if fit is not local else lin @ local.rotation / s
+        return center, rot, fit.half_extents * s
+    return center, fit.radius * s
 
 
 def _world_box(node, env, w, ctx, method):
@@ -584,19 +620,19 @@ def _world_box(node, env, w, ctx, method):
     return _box_under(*_bob(node, env, ctx), w)
 
 
-def _unroll(node, env, w, ctx, method, leaf_list):
+def _unroll(node, env, w, ctx, method, leaf_list, volume="aabb"):
     """World tree of ``node`` (None where empty); appends (Leaf, world) to ``leaf_list`` in DFS order."""
     node, env = _resolve(node, env)
     if isinstance(node, Transform):
-        return _unroll(node.child, env, w @ node.matrix, ctx, method, leaf_list)
+        return _unroll(node.child, env, w @ node.matrix, ctx, method, leaf_list, volume)
     if isinstance(node, Leaf):
         leaf_list.append((node, w))
         lo, hi = _world_box(node, env, w, ctx, method)
-        return _P(_ray.LEAF, [], len(leaf_list) - 1, lo, hi)
+        return _P(_ray.LEAF, [], len(leaf_list) - 1, lo, hi, _world_volume(node, env, w, ctx, volume))
     if isinstance(node, Instances):
-        kids = [_unroll(node.child, env, w @ m, ctx, method, leaf_list) for m in node.matrices]
+        kids = [_unroll(node.child, env, w @ m, ctx, method, leaf_list, volume) for m in node.matrices]
     else:
-        kids = [_unroll(c, env, w, ctx, method, leaf_list) for c in node.children()]
+        kids = [_unroll(c, env, w, ctx, method, leaf_list, volume) for c in node.children()]
     if isinstance(node, (Union, Instances)):
         kids = [k for k in kids if k is not None]
         if not kids:
@@ -615,7 +651,7 @@ def _unroll(node, env, w, ctx, method, leaf_list):
     lo, hi = _world_box(node, env, w, ctx, method)
     if np.any(lo > hi):
         return None  # e.g. an intersection whose operands' hulls are disjoint
-    return _P(kind, kids, -1, lo, hi)
+    return _P(kind, kids, -1, lo, hi, _world_volume(node, env, w, ctx, volume))
 
 
 def _clip(p: _P, lo, hi):
@@ -656,7 +692,14 @@ class BVH:
         Each node's children are ``node_child[node_first : node_first + node_count]``.
     node_child : (M,) int32
     node_lo, node_hi : (N, 3) float64
-        World boxes (after the top-down pass when ``tightened``).
+        World boxes (after the top-down pass when ``tightened``); for ``volume="obb"``,
+        ``node_hi`` holds the OBB half extents.
+    node_center : (N, 3) float64
+        OBB or sphere centres (``volume`` "obb" or "sphere"; zero for "aabb").
+    node_rot : (N, 3, 3) float64
+        OBB rotations, columns are the box axes (identity otherwise).
+    node_radius : (N,) float64
+        Sphere radii (``volume="sphere"``; zero otherwise).
     node_leaf : (N,) int32
         Leaf id of a leaf node, -1 otherwise.
     leaf_prim : (L,) int8
@@ -672,6 +715,8 @@ class BVH:
         The Leaf node of each unrolled leaf id.
     leaf_world : (L, 4, 4) float64
         Local -> world matrix of each leaf.
+    volume : str
+        ``"aabb"``, ``"obb"`` or ``"sphere"``.
     method : str
         ``"pointcloud"`` or ``"box_of_box"``.
     tightened : bool
@@ -685,6 +730,9 @@ class BVH:
     node_lo: np.ndarray
     node_hi: np.ndarray
     node_leaf: np.ndarray
+    node_center: np.ndarray
+    node_rot: np.ndarray
+    node_radius: np.ndarray
     leaf_prim: np.ndarray
     leaf_param: np.ndarray
     leaf_inv: np.ndarray
@@ -693,6 +741,7 @@ class BVH:
     tri: np.ndarray
     leaf_source: list
     leaf_world: np.ndarray
+    volume: str
     method: str
     tightened: bool
     root_unclipped: AABB
@@ -754,9 +803,10 @@ def build_bvh(node: Node, volume: str = "aabb", method: str = "pointcloud", tigh
     ----------
     node : Node
         The root; recursive parts are unrolled to their depth.
-    volume : {"aabb"}
-        The bounding volume of each node (world-axis boxes; the top-down clipping of §3.5 is
-        defined for boxes).
+    volume : {"aabb", "obb", "sphere"}
+        The bounding volume tested by the rays at each node: the world box, a near-minimal
+        oriented box or the minimal sphere of the node's cloud (``cloud.obb()``,
+        ``cloud.sphere()``; fitted once per shared subgraph and moved by similarity maps).
     method : {"pointcloud", "box_of_box"}
         ``"pointcloud"``: each node's box is the exact box of its cloud (memoized per shared
         subgraph, moved into the world frame). ``"box_of_box"``: each node's box comes from its
@@ -764,7 +814,8 @@ def build_bvh(node: Node, volume: str = "aabb", method: str = "pointcloud", tigh
     tighten : bool, default True
         Run the top-down pass: every child's box is clipped to its parent's clipped box (an
         intersection clips both operands, a difference its right one); an empty clip removes a
-        difference's right subtree, an intersection or a union child.
+        difference's right subtree, an intersection or a union child. With ``"obb"`` and
+        ``"sphere"`` the boxes still decide the removals; the tested volumes are not clipped.
     threshold, exact_intersection
         Passed to the cloud construction (see `Node.point_cloud`).
 
@@ -773,23 +824,26 @@ def build_bvh(node: Node, volume: str = "aabb", method: str = "pointcloud", tigh
     BVH
     """
     _check_node(node, "node")
-    if volume != "aabb":
-        raise ValueError(f"volume: only 'aabb' is supported (the top-down clipping is a box "
-                         f"operation), got {volume!r}")
+    if volume not in ("aabb", "obb", "sphere"):
+        raise ValueError(f"volume: expected 'aabb', 'obb' or 'sphere', got {volume!r}")
     if method not in ("pointcloud", "box_of_box"):
         raise ValueError(f"method: expected 'pointcloud' or 'box_of_box', got {method!r}")
+    if method == "box_of_box" and volume != "aabb":
+        raise ValueError("method: 'box_of_box' is the classical construction of axis-aligned "
+                         f"boxes; use volume='aabb' with it, got volume={volume!r}")
     ctx = _Context(as_count(threshold, "threshold", 1), bool(exact_intersection), {})
     leaf_list: list = []
     with _deep_recursion():
-        root = _unroll(node, (), np.eye(4), ctx, method, leaf_list)
+        root = _unroll(node, (), np.eye(4), ctx, method, leaf_list, volume)
         root_box = AABB(*_NO_BOX) if root is None else AABB(root.lo.copy(), root.hi.copy())
         if root is not None and tighten:
             root = _clip(root, root.lo, root.hi)
-        return _flatten(root, leaf_list, method, bool(tighten), root_box)
+        return _flatten(root, leaf_list, volume, method, bool(tighten), root_box)
 
 
-def _flatten(root, leaf_list, method, tightened, root_box) -> BVH:
+def _flatten(root, leaf_list, volume, method, tightened, root_box) -> BVH:
     kinds, firsts, counts, lows, highs, leafs, child = [], [], [], [], [], [], []
+    centers, rots, radii = [], [], []
     span_max, caps, heights = [], [], []
 
     # Pre-order numbering with an explicit stack; children lists filled when a node is numbered.
@@ -808,9 +862,27 @@ def _flatten(root, leaf_list, method, tightened, root_box) -> BVH:
             counts.append(len(p.kids))
             child.extend(ids[id(k)] for k in p.kids)
             scale = max(float(np.abs(p.lo).max()), float(np.abs(p.hi).max()), 1e-300)
-            lows.append(p.lo - BOX_PAD * scale)
-            highs.append(p.hi + BOX_PAD * scale)
             leafs.append(p.leaf)
+            if volume == "aabb":
+                lows.append(p.lo - BOX_PAD * scale)
+                highs.append(p.hi + BOX_PAD * scale)
+                centers.append(np.zeros(3))
+                rots.append(np.eye(3))
+                radii.append(0.0)
+            elif volume == "obb":
+                center, rot, half = p.vol
+                lows.append(-half)
+                highs.append(half + BOX_PAD * scale)
+                centers.append(center)
+                rots.append(rot)
+                radii.append(0.0)
+            else:
+                center, radius = p.vol
+                lows.append(p.lo)
+                highs.append(p.hi)
+                centers.append(center)
+                rots.append(np.eye(3))
+                radii.append(radius + BOX_PAD * scale)
     n = len(order)
     prim, param, inv, tfirst, tcount, tri = _leaf_arrays(leaf_list)
     # Span-buffer capacity: S(node) bounds a node's span count, W(node) the buffer an evaluation
@@ -834,11 +906,14 @@ def _flatten(root, leaf_list, method, tightened, root_box) -> BVH:
         node_count=np.array(counts, dtype=np.int32), node_child=np.array(child, dtype=np.int32),
         node_lo=np.array(lows, dtype=np.float64).reshape(n, 3),
         node_hi=np.array(highs, dtype=np.float64).reshape(n, 3),
-        node_leaf=np.array(leafs, dtype=np.int32), leaf_prim=prim, leaf_param=param, leaf_inv=inv,
+        node_leaf=np.array(leafs, dtype=np.int32),
+        node_center=np.array(centers, dtype=np.float64).reshape(n, 3),
+        node_rot=np.array(rots, dtype=np.float64).reshape(n, 3, 3),
+        node_radius=np.array(radii, dtype=np.float64), leaf_prim=prim, leaf_param=param, leaf_inv=inv,
         leaf_tri_first=tfirst, leaf_tri_count=tcount, tri=tri,
         leaf_source=[lf for lf, _ in leaf_list],
         leaf_world=np.array([w for _, w in leaf_list]).reshape(-1, 4, 4),
-        method=method, tightened=tightened, root_unclipped=root_box,
+        volume=volume, method=method, tightened=tightened, root_unclipped=root_box,
         span_capacity=int(2 * caps[0] + 4) if n else 4, height=int(heights[0]) if n else 1,
         max_children=max(counts, default=0), max_tri=int(tcount.max(initial=0)))
 
@@ -913,8 +988,10 @@ def raycast(bvh: BVH, origins, directions) -> RayHits:
     out_b = np.zeros(r, dtype=np.int64)
     out_p = np.zeros(r, dtype=np.int64)
     if bvh.n_nodes and r:
+        bound = {"aabb": 0, "obb": 1, "sphere": 2}[bvh.volume]
         _ray.raycast_kernel(o, d, bvh.node_kind, bvh.node_first, bvh.node_count, bvh.node_child,
-                            bvh.node_lo, bvh.node_hi, bvh.node_leaf, bvh.leaf_prim, bvh.leaf_param,
+                            bound, bvh.node_lo, bvh.node_hi, bvh.node_rot, bvh.node_center,
+                            bvh.node_radius, bvh.node_leaf, bvh.leaf_prim, bvh.leaf_param,
                             bvh.leaf_inv, bvh.leaf_tri_first, bvh.leaf_tri_count, bvh.tri,
                             bvh.span_capacity, bvh.height, bvh.max_children, bvh.max_tri,
                             out_t, out_leaf, out_n, out_b, out_p)

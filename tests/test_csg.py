@@ -118,6 +118,17 @@ def test_every_box_contains_true_surface_samples_under_affine_recursion():
             pts = samples[bvh.node_leaf[k]]
             assert np.all(pts >= bvh.node_lo[k]) and np.all(pts <= bvh.node_hi[k])
     assert np.all(node.point_cloud().aabb().contains(np.concatenate(samples), rtol=1e-9))
+    everything = np.concatenate(samples)
+    for volume in ("obb", "sphere"):
+        bvh = csg.build_bvh(node, volume=volume)
+        for k in [0] + list(np.flatnonzero(bvh.node_kind == 0)):
+            pts = everything if k == 0 else samples[bvh.node_leaf[k]]
+            if volume == "obb":
+                local = np.abs((pts - bvh.node_center[k]) @ bvh.node_rot[k])
+                assert np.all(local <= bvh.node_hi[k] * (1 + 1e-9))
+            else:
+                dist = np.linalg.norm(pts - bvh.node_center[k], axis=1)
+                assert np.all(dist <= bvh.node_radius[k] * (1 + 1e-9))
 
 
 def test_operators_follow_the_paper():
@@ -263,7 +274,9 @@ def test_bvh_raycast_equals_brute_force_on_128x128(seed):
     tight = csg.build_bvh(scene)
     loose = csg.build_bvh(scene, tighten=False)
     bob = csg.build_bvh(scene, method="box_of_box")
-    for bvh in (tight, loose, bob):
+    obb = csg.build_bvh(scene, volume="obb")
+    ball = csg.build_bvh(scene, volume="sphere")
+    for bvh in (tight, loose, bob, obb, ball):
         hits = csg.raycast(bvh, o, d)
         assert_same_hits(hits, dist, leaf)
         assert np.all(np.abs(np.linalg.norm(hits.normal[hits.hit], axis=1) - 1) < 1e-9)
@@ -284,8 +297,9 @@ def test_rays_from_inside_the_scene_equal_brute_force(seed):
     d = rng.standard_normal((3000, 3))
     dist, leaf = tcsg.brute_force_raycast(scene, o, d)
     assert (leaf >= 0).mean() > 0.3
-    hits = csg.raycast(csg.build_bvh(scene), o, d)
-    assert_same_hits(hits, dist, leaf)
+    for volume in ("aabb", "obb", "sphere"):
+        hits = csg.raycast(csg.build_bvh(scene, volume=volume), o, d)
+        assert_same_hits(hits, dist, leaf)
     # Some origins are inside the solid: their first hit is an exit, normal along the ray.
     exits = hits.hit & (np.sum(hits.normal * d, axis=1) > 0)
     assert exits.sum() > 20
@@ -357,7 +371,9 @@ def test_bad_input_raises_value_error():
         csg.mesh((np.zeros((3, 3)), [[0, 1, 7]]))
     bvh = csg.build_bvh(csg.sphere(1.0))
     with pytest.raises(ValueError, match="volume"):
-        csg.build_bvh(csg.sphere(1.0), volume="obb")
+        csg.build_bvh(csg.sphere(1.0), volume="kdop")
+    with pytest.raises(ValueError, match="box_of_box"):
+        csg.build_bvh(csg.sphere(1.0), volume="sphere", method="box_of_box")
     with pytest.raises(ValueError, match="directions"):
         csg.raycast(bvh, [[0, 0, 0]], [[0, 0, 0]])
     with pytest.raises(ValueError, match="origins"):

@@ -66,6 +66,56 @@ def _ray_box(o, d, lo, hi, tmax):
 
 
 @njit(cache=True)
+def _ray_bound(kind, n, o, d, tmax, node_lo, node_hi, node_rot, node_center, node_radius):
+    # Segment [0, tmax] against node n's bound: 0 world AABB [lo, hi]; 1 OBB (centre, rotation
+    # columns = axes, half extents in node_hi); 2 sphere (centre, radius). (hit, t_near).
+    if kind == 0:
+        return _ray_box(o, d, node_lo[n], node_hi[n], tmax)
+    c = node_center[n]
+    if kind == 1:
+        r = node_rot[n]
+        h = node_hi[n]
+        t0 = 0.0
+        t1 = tmax
+        for a in range(3):
+            oa = r[0, a] * (o[0] - c[0]) + r[1, a] * (o[1] - c[1]) + r[2, a] * (o[2] - c[2])
+            da = r[0, a] * d[0] + r[1, a] * d[1] + r[2, a] * d[2]
+            if da == 0.0:
+                if oa < -h[a] or oa > h[a]:
+                    return False, 0.0
+            else:
+                ta = (-h[a] - oa) / da
+                tb = (h[a] - oa) / da
+                if ta > tb:
+                    ta, tb = tb, ta
+                if ta > t0:
+                    t0 = ta
+                if tb < t1:
+                    t1 = tb
+                if t0 > t1:
+                    return False, 0.0
+        return True, t0
+    ox = o[0] - c[0]
+    oy = o[1] - c[1]
+    oz = o[2] - c[2]
+    rad = node_radius[n]
+    a = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+    b = ox * d[0] + oy * d[1] + oz * d[2]
+    cc = ox * ox + oy * oy + oz * oz - rad * rad
+    disc = b * b - a * cc
+    if disc < 0.0:
+        return False, 0.0
+    sq = np.sqrt(disc)
+    t0 = (-b - sq) / a
+    t1 = (-b + sq) / a
+    if t0 < 0.0:
+        t0 = 0.0
+    if t1 > tmax:
+        t1 = tmax
+    return t0 <= t1, t0
+
+
+@njit(cache=True)
 def _quad_interval(a, b, c):
     # {t : a t^2 + 2 b t + c <= 0} as up to two intervals (lo0, hi0, lo1, hi1, n); n = 0, 1 or 2.
     inf = np.inf
@@ -327,7 +377,8 @@ def _put(sp_t, sp_i, o, t0, l0, s0, t1, l1, s1):
 
 @njit(cache=True)
 def span_union(sp_t, sp_i, a, na, b, nb, out):
-    """Union of sorted disjoint span lists at ``a`` and ``b``, written at ``out``; returns the count."""
+    """Union of sorted disjoint span lists at ``a`` and ``b``,
+    written at ``out``; returns the count."""
     i = 0
     j = 0
     n = 0
@@ -428,8 +479,9 @@ def _combine(kind, sp_t, sp_i, base, na, cb, nb):
 
 
 @njit(cache=True)
-def _eval_node(root, base, o, d, tmax, node_kind, node_first, node_count, child, node_lo, node_hi,
-               node_leaf, leaf_prim, leaf_param, leaf_inv, leaf_tri_first, leaf_tri_count, tri,
+def _eval_node(root, base, o, d, tmax, node_kind, node_first, node_count, child, bound, node_lo,
+               node_hi, node_rot, node_center, node_radius, node_leaf, leaf_prim, leaf_param,
+               leaf_inv, leaf_tri_first, leaf_tri_count, tri,
                sp_t, sp_i, ht, hi, ol, dl, fr_node, fr_next, fr_base, fr_cnt, counts):
     """Spans of ``root`` (its box already tested) at ``sp[base:]``; returns their count.
 
@@ -465,13 +517,15 @@ def _eval_node(root, base, o, d, tmax, node_kind, node_first, node_count, child,
             if pa < 0:
                 fr_cnt[k] = res
             else:
-                fr_cnt[k] = _combine(node_kind[fr_node[k]], sp_t, sp_i, fr_base[k], pa, res_base, res)
+                fr_cnt[k] = _combine(node_kind[fr_node[k]], sp_t, sp_i, fr_base[k], pa, res_base,
+                res)
             continue
         c = child[node_first[n] + i]
         fr_next[k] = i + 1
         cb = fr_base[k] + (acc if acc > 0 else 0)
         counts[0] += 1
-        hit, tn = _ray_box(o, d, node_lo[c], node_hi[c], tmax)
+        hit, tn = _ray_bound(bound, c, o, d, tmax, node_lo, node_hi, node_rot, node_center,
+                             node_radius)
         if hit and node_kind[c] != LEAF:
             fr_node[depth] = c
             fr_next[depth] = 0
@@ -570,7 +624,8 @@ def _world_normal(lf, sub, t, entering, o, d, leaf_prim, leaf_param, leaf_inv, l
 
 
 @njit(cache=True)
-def _trace(o, d, use_bounds, node_kind, node_first, node_count, child, node_lo, node_hi, node_leaf,
+def _trace(o, d, use_bounds, node_kind, node_first, node_count, child, bound, node_lo, node_hi,
+           node_rot, node_center, node_radius, node_leaf,
            leaf_prim, leaf_param, leaf_inv, leaf_tri_first, leaf_tri_count, tri,
            sp_t, sp_i, ht, hi, ol, dl, fr_node, fr_next, fr_base, fr_cnt, st_node, st_t, tmp_node,
            tmp_t, counts):
@@ -582,7 +637,8 @@ def _trace(o, d, use_bounds, node_kind, node_first, node_count, child, node_lo, 
     inside = False
     nu = 0  # second pass: the union of all items so far, at sp[0:nu]
     counts[0] += 1
-    hit, tn = _ray_box(o, d, node_lo[0], node_hi[0], np.inf)
+    hit, tn = _ray_bound(bound, 0, o, d, np.inf, node_lo, node_hi, node_rot, node_center,
+                         node_radius)
     if not hit:
         return best_t, best_l, best_s, best_e, inside
     sp = 0
@@ -600,7 +656,8 @@ def _trace(o, d, use_bounds, node_kind, node_first, node_count, child, node_lo, 
             for i in range(node_count[n]):
                 c = child[node_first[n] + i]
                 counts[0] += 1
-                h, tc = _ray_box(o, d, node_lo[c], node_hi[c], tmax)
+                h, tc = _ray_bound(bound, c, o, d, tmax, node_lo, node_hi, node_rot, node_center,
+                                   node_radius)
                 if h:
                     # insertion into tmp sorted by decreasing t_near: nearest pushed last
                     q = m
@@ -616,8 +673,9 @@ def _trace(o, d, use_bounds, node_kind, node_first, node_count, child, node_lo, 
                 st_t[sp] = tmp_t[q]
                 sp += 1
             continue
-        cnt = _eval_node(n, nu, o, d, tmax, node_kind, node_first, node_count, child, node_lo,
-                         node_hi, node_leaf, leaf_prim, leaf_param, leaf_inv, leaf_tri_first,
+        cnt = _eval_node(n, nu, o, d, tmax, node_kind, node_first, node_count, child, bound,
+                         node_lo, node_hi, node_rot, node_center, node_radius, node_leaf,
+                         leaf_prim, leaf_param, leaf_inv, leaf_tri_first,
                          leaf_tri_count, tri, sp_t, sp_i, ht, hi, ol, dl, fr_node, fr_next,
                          fr_base, fr_cnt, counts)
         if use_bounds:
@@ -634,11 +692,16 @@ def _trace(o, d, use_bounds, node_kind, node_first, node_count, child, node_lo, 
 
 
 @njit(cache=True, parallel=True)
-def raycast_kernel(origins, directions, node_kind, node_first, node_count, child, node_lo, node_hi,
-                   node_leaf, leaf_prim, leaf_param, leaf_inv, leaf_tri_first, leaf_tri_count, tri,
+def raycast_kernel(origins, directions, node_kind, node_first, node_count, child, bound, node_lo,
+                   node_hi, node_rot, node_center, node_radius, node_leaf, leaf_prim, leaf_param,
+                   leaf_inv, leaf_tri_first, leaf_tri_count, tri,
                    span_capacity, height, max_children, max_tri,
                    out_t, out_leaf, out_normal, out_bound, out_prim):
     """First hits of rays ``origins (R, 3)``, ``directions (R, 3)`` through the flat tree.
+
+    ``bound`` selects the node bounds (see `_ray_bound`): 0 AABBs ``node_lo``/``node_hi``;
+    1 OBBs ``node_center``, ``node_rot (N, 3, 3)``, half extents ``node_hi``; 2 spheres
+    ``node_center``, ``node_radius (N,)``.
 
     Writes ``out_t (R,)`` (inf on a miss), ``out_leaf (R,) int32`` (-1 on a miss),
     ``out_normal (R, 3)`` (outward, unit; zero on a miss), ``out_bound``/``out_prim (R,) int64``
@@ -670,14 +733,16 @@ def raycast_kernel(origins, directions, node_kind, node_first, node_count, child
             counts[0] = 0
             counts[1] = 0
             t, lf, sb, ent, inside = _trace(
-                o, d, True, node_kind, node_first, node_count, child, node_lo, node_hi, node_leaf,
+                o, d, True, node_kind, node_first, node_count, child, bound, node_lo, node_hi,
+                node_rot, node_center, node_radius, node_leaf,
                 leaf_prim, leaf_param, leaf_inv, leaf_tri_first, leaf_tri_count, tri, sp_t, sp_i,
                 ht, hi, ol, dl, fr_node, fr_next, fr_base, fr_cnt, st_node, st_t, tmp_node, tmp_t,
                 counts)
             if inside:
                 t, lf, sb, ent, inside = _trace(
-                    o, d, False, node_kind, node_first, node_count, child, node_lo, node_hi,
-                    node_leaf, leaf_prim, leaf_param, leaf_inv, leaf_tri_first, leaf_tri_count, tri,
+                    o, d, False, node_kind, node_first, node_count, child, bound, node_lo, node_hi,
+                    node_rot, node_center, node_radius, node_leaf, leaf_prim, leaf_param,
+                    leaf_inv, leaf_tri_first, leaf_tri_count, tri,
                     sp_t, sp_i, ht, hi, ol, dl, fr_node, fr_next, fr_base, fr_cnt, st_node, st_t,
                     tmp_node, tmp_t, counts)
             out_t[r] = t
