@@ -436,3 +436,26 @@ def test_scene_recall_is_complete(scene, tmp_path):
     for key in ("steps", "recall", "missed", "contact_pairs_per_step", "candidates_per_step",
                 "mujoco_candidates_per_step", "time_ours_us", "time_mujoco_broad_us"):
         assert back[key] == result[key]
+
+
+@pytest.mark.skipif(not (MODELS / "humanoid" / "scene.xml").is_file(),
+                    reason=f"the humanoid test model is not present under {MODELS}")
+@pytest.mark.parametrize("variant", ["margin_gap", "override", "filterparent_off"])
+def test_humanoid_variants_recall(variant):
+    # The same real scene with the rules switched: margins and gaps on every geom, the global
+    # margin override, the parent filter off. Contacts must still all be among our candidates.
+    model = mujoco.MjModel.from_xml_path(str(MODELS / "humanoid" / "scene.xml"))
+    rng = np.random.default_rng(5)
+    if variant == "margin_gap":
+        model.geom_margin[:] = rng.uniform(0.0, 0.02, size=model.ngeom)
+        model.geom_gap[:] = rng.uniform(0.0, 0.01, size=model.ngeom)
+    elif variant == "override":
+        model.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_OVERRIDE
+        model.opt.o_margin = 0.03
+    else:
+        model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_FILTERPARENT
+    result = cm.compare(model, steps=1000, seed=1, name=variant)
+    assert result["missed"] == [], cm.format_report(result)
+    contacts = np.asarray(result["contact_pairs_per_step"])
+    assert contacts.sum() > 0
+    assert np.all(np.asarray(result["candidates_per_step"]) >= contacts)
