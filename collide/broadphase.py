@@ -2,7 +2,19 @@
 
 All per-step work is one numba kernel call (`collide._kernels.broadphase`); this module lays the
 `Articulation` out as flat arrays once, owns the workspaces, and turns the kernel's status codes
-into ``ValueError`` s. See the kernel module's docstring for the pipeline.
+into ``ValueError`` s. See the kernel module's docstring for the pipeline: validated poses ->
+world OBBs and spheres -> subtree AABBs -> culling down the kinematic tree (a hash grid or
+sweep-and-prune at nodes with many children) -> body sphere and OBB tests -> filter -> geoms.
+
+Example
+-------
+>>> bp = BroadPhase(articulation)
+>>> pairs = bp.pairs(data.xpos, data.xmat.reshape(-1, 3, 3))   # (K, 2) int32 geom ids
+
+Measured (tests/bench/broadphase.txt, 2 shared cores): random convex hulls, 1024 bodies ~0.5x
+MuJoCo 4.0's broad-phase time and 4096 bodies ~0.3x, with 6-7x fewer candidates; small scenes
+(16 bodies, a 64-link chain) are dominated by the fixed cost of a Python call into numba (a few
+microseconds) and take 2-3x MuJoCo's C broad phase.
 """
 
 from __future__ import annotations
@@ -200,6 +212,12 @@ class BroadPhase:
         ------
         ValueError
             As `pairs`, naming the first bad world and body.
+
+        Notes
+        -----
+        Worlds are cut into chunks handed to numba's threads one at a time. On a machine shared
+        with other work, set ``OMP_WAIT_POLICY=PASSIVE`` before numba starts its OpenMP runtime:
+        spinning waiters can stall each call by a scheduler time slice (measured: 30x slower).
         """
         if not isinstance(body_pos, np.ndarray) or body_pos.ndim != 3:
             raise ValueError(f"body_pos: expected shape (B, {self.body_count}, 3), got "
@@ -228,7 +246,7 @@ class BroadPhase:
             if len(bad):
                 w = int(bad[0])
                 self._raise(int(world_info[w, 0]), int(world_info[w, 1]), f"world {w}, ")
-            need_bp = int(world_info[:, 3].max())
+            need_bp = int(world_info[:, 3].max()) if B else 0
             need = int(chunk_total.max())
             if need_bp > 0:  # never drop a pair: grow and rerun
                 bp = self._batch[2] = np.empty((C, 2 * need_bp, 2), np.int64)

@@ -368,3 +368,14 @@ def test_gjk_distance_is_exact_on_known_answers():
     assert testing.gjk_distance(cube, cube + 0.5)[0] == 0.0
     seg = np.array([[-1.0, 0, 2], [1.0, 0, 2]])
     assert np.isclose(testing.gjk_distance(cube, seg)[0], 1.0)
+
+
+def test_batch_of_one_and_of_none():
+    sc = testing.chain(12, seed=3, planes=1)
+    bp = BroadPhase(sc.articulation)
+    pos, rot = sc.poses(np.random.default_rng(9), worlds=1)
+    got = bp.pairs_batch(pos, rot)
+    assert np.array_equal(got[:, 1:], bp.pairs(pos[0], rot[0])) and np.all(got[:, 0] == 0)
+    assert len(got) > 0
+    empty = bp.pairs_batch(pos[:0], rot[:0])
+    assert empty.shape == (0, 3) and empty.dtype == np.int32
