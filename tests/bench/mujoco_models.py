@@ -27,10 +27,14 @@ import sys
 import time
 from pathlib import Path
 
-import mujoco
-import numpy as np
+# Spinning OpenMP waiters stall threaded calls on a machine shared with other work (see
+# collide.BroadPhase.pairs_batch); must be set before numba starts its OpenMP runtime.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
-import collide.mujoco as cm
+import mujoco  # noqa: E402
+import numpy as np  # noqa: E402
+
+import collide.mujoco as cm  # noqa: E402
 
 MODELS = Path(__file__).resolve().parents[2] / ".." / "shared" / "models"
 
@@ -118,7 +122,8 @@ def main(argv=None) -> int:
           f"random controls per scene")
     print(f"# machine: {numba.config.NUMBA_NUM_THREADS} cores, Python "
           f"{platform.python_version()}, {_cpu()}; {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; "
-          f"load average at start {os.getloadavg()[0]:.1f} (machine shared with other processes)")
+          f"load average at start {os.getloadavg()[0]:.1f} (machine shared with other processes); "
+          f"OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}")
     print("# ours: BroadPhase.pairs(data), Python call included; MuJoCo: mjTIMER_COL_BROAD "
           "(body-level SAP + filters, ends in body pairs); medians over the steps")
     print("# candidates: geom pairs per step (mean); MuJoCo's = pairs its broad phase and "
