@@ -53,10 +53,11 @@ class BroadPhase:
     Attributes
     ----------
     stats : dict of str to int
-        After a call: bounds tests done at each level (``subtree_tests`` (AABB, tree culling and
-        sweep-and-prune), ``body_aabb_tests``, ``body_sphere_tests``, ``body_obb_tests``,
-        ``geom_sphere_tests``, ``geom_obb_tests``, ``plane_tests``) and ``pairs`` out; summed over
-        worlds after `pairs_batch`.
+        After a call: bounds tests done at each level (``subtree_tests``: AABB tests of tree
+        culling, sweep-and-prune and the grid, where two leaf bodies' test is their body test;
+        ``body_aabb_tests``: body against body in deeper subtrees; ``body_sphere_tests``,
+        ``body_obb_tests``, ``geom_sphere_tests``, ``geom_obb_tests``, ``plane_tests``) and
+        ``pairs`` out; summed over worlds after `pairs_batch`.
 
     Notes
     -----

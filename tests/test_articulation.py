@@ -126,3 +126,19 @@ def test_planes_are_halfspaces_in_the_body_frame():
     assert np.isclose(a.geom_plane[0, 3], 0.5 + n @ [1, 2, 3])
     assert a.geom_is_plane.tolist() == [True, False]
     assert not a.body_has_bounds[0] and a.body_has_bounds[1]
+
+
+def test_degenerate_geoms_work():
+    # a single point, duplicates, a segment, a flat polygon: valid shapes, tight bounds
+    from collide import BroadPhase
+    clouds = [PointCloud([[0.1, 0.2, 0.3]]), PointCloud([[0, 0, 0]] * 5, 0.1),
+              PointCloud([[0, 0, 0], [1, 1, 1], [0.5, 0.5, 0.5]]),
+              PointCloud([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]])]
+    a = Articulation([0, 0, 0, 0, 0], [1, 2, 3, 4], clouds)
+    assert np.all(np.isfinite(a.geom_obb_half)) and np.all(a.geom_obb_half >= 0)
+    assert a.geom_sphere_radius[0] < 1e-6 and np.isclose(a.geom_sphere_radius[1], 0.1, rtol=1e-6)
+    assert np.isclose(a.geom_sphere_radius[2], np.sqrt(3) / 2, rtol=1e-6)
+    pos = np.zeros((5, 3))
+    rot = np.tile(np.eye(3), (5, 1, 1))
+    got = BroadPhase(a).pairs(pos, rot)
+    assert {tuple(r) for r in got.tolist()} == {(1, 2), (1, 3), (2, 3)}  # the point at (0.1, 0.2, 0.3) touches none
