@@ -408,7 +408,9 @@ def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stat
     for i in range(kc):
         if ext[i] <= lim and ext[i] > h:
             h = ext[i]
-    scale = abs(saabb[n, 0]) + abs(saabb[n, 1]) + abs(saabb[n, 2]) + abs(saabb[n, 3]) + abs(saabb[n, 4]) + abs(saabb[n, 5])
+    scale = 0.0
+    for d in range(6):
+        scale += abs(saabb[n, d])
     span = max(saabb[n, 3] - saabb[n, 0], saabb[n, 4] - saabb[n, 1], saabb[n, 5] - saabb[n, 2])
     # The slack (1e-9 of a cell) must dwarf the rounding of (lo - origin) / h, ~1e-16 of the cell
     # index: at most 1e6 cells per axis keeps it so (a coarser grid is still correct).

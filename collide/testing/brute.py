@@ -340,7 +340,6 @@ def brute_force_pairs(art: Articulation, body_pos, body_rot, candidates=None) ->
     else:
         g1, g2 = (np.asarray(c, np.int64) for c in candidates)
         m1, m2 = art.geom_margin[g1], art.geom_margin[g2]
-    G = art.geom_count
     is_plane = art.geom_is_plane
     sizes = np.array([0 if c is None else len(c) for c in art.geom_local_cloud])
     pstart = np.r_[0, np.cumsum(sizes)].astype(np.int64)
@@ -362,5 +361,4 @@ def brute_force_pairs(art: Articulation, body_pos, body_rot, candidates=None) ->
         P = art.geom_local_cloud[gs].points @ body_rot[b].T + body_pos[b]
         low = float(np.min(P @ plane[gp, :3])) - crad[gs] - ms
         touch[k] = low <= plane[gp, 3] + mp
-    del G
     return _as_pairs(g1[touch], g2[touch])
