@@ -379,3 +379,21 @@ def test_batch_of_one_and_of_none():
     assert len(got) > 0
     empty = bp.pairs_batch(pos[:0], rot[:0])
     assert empty.shape == (0, 3) and empty.dtype == np.int32
+
+
+def test_far_from_the_origin():
+    # Rounding grows with the coordinates: the slack terms keep the bounds conservative.
+    sc = testing.many_robots(8, 5, seed=31, spread=0.7, planes=0)
+    a = sc.articulation
+    bp = BroadPhase(a)
+    rng = np.random.default_rng(5)
+    touching = 0
+    for _ in range(4):
+        pos, rot = sc.poses(rng)
+        pos = pos + np.array([3e5, -2e5, 1e5])
+        got = bp.pairs(pos, rot)
+        assert _rows(got) == _rows(testing.brute_force_bound_pairs(a, pos, rot))
+        exact = testing.brute_force_pairs(a, pos, rot)
+        assert not _rows(exact) - _rows(got)
+        touching += len(exact)
+    assert touching > 10
