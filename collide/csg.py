@@ -573,38 +573,30 @@ class _P:
         self.kind, self.kids, self.leaf, self.lo, self.hi, self.vol = kind, kids, leaf, lo, hi, vol
 
 
-def _similarity_scale(linear: np.ndarray) -> float | None:
-    sv = np.linalg.svd(linear, compute_uv=False)
-    return float(sv[0]) if sv[0] - sv[-1] <= _pc.SIMILARITY_TOL * sv[0] else None
-
-
 def _world_volume(node, env, w, ctx, volume):
     """World OBB ``(center, rotation, half)`` or sphere ``(center, radius)`` of a node's cloud.
 
-    Fitted once per shared subgraph in its own frame and moved by ``w`` when ``w`` is a
-    similarity (an OBB stays an OBB, a sphere a sphere); refitted from the moved cloud otherwise.
+    Fitted once per distinct cloud in its own frame, then moved by ``w``: a similarity keeps an
+    OBB an OBB and a sphere a sphere; a general affine map turns the OBB into a parallelepiped,
+    bounded by the box along its polar-decomposition axes, and the sphere into an ellipsoid,
+    bounded by the sphere of the largest singular value (no refit per instance).
     """
     if volume == "aabb":
         return None
-    key = (node, env, volume)
-    local = ctx.fits.get(key)
+    cloud = _cloud(node, env, ctx)
+    local = ctx.fits.get((id(cloud), volume))
     if local is None:
-        c = _cloud(node, env, ctx)
-        local = c.obb() if volume == "obb" else c.sphere()
-        ctx.fits[key] = local
-    lin, t = w[:3, :3], w[:3, 3]
-    s = _similarity_scale(lin)
-    if s is None:
-        moved = _cloud(node, env, ctx).transform(w)
-        fit = moved.obb() if volume == "obb" else moved.sphere()
-        center, s = fit.center, 1.0
-    else:
-        fit = local
-        center = lin @ local.center + t
-    if volume == "obb":
-        rot = fit.rotation if fit is not local else lin @ local.rotation / s
-        return center, rot, fit.half_extents * s
-    return center, fit.radius * s
+        local = cloud.obb() if volume == "obb" else cloud.sphere()
+        ctx.fits[(id(cloud), volume)] = local  # the cloud lives in ctx.cache: ids stay unique
+    lin = w[:3, :3]
+    center = lin @ local.center + w[:3, 3]
+    u, sv, vt = np.linalg.svd(lin @ local.rotation if volume == "obb" else lin)
+    if volume == "sphere":
+        return center, local.radius * float(sv[0])
+    m = lin @ local.rotation
+    rot = u @ vt  # the orthonormal factor of m (polar decomposition): m's own axes
+    half = np.abs(rot.T @ m) @ local.half_extents
+    return center, rot, half * (1.0 + 1e-12)
 
 
 def _world_box(node, env, w, ctx, method):
@@ -806,7 +798,8 @@ def build_bvh(node: Node, volume: str = "aabb", method: str = "pointcloud", tigh
     volume : {"aabb", "obb", "sphere"}
         The bounding volume tested by the rays at each node: the world box, a near-minimal
         oriented box or the minimal sphere of the node's cloud (``cloud.obb()``,
-        ``cloud.sphere()``; fitted once per shared subgraph and moved by similarity maps).
+        ``cloud.sphere()``), fitted once per shared subgraph in its own frame and moved into
+        the world (exact for similarity maps, conservatively enlarged by other affine maps).
     method : {"pointcloud", "box_of_box"}
         ``"pointcloud"``: each node's box is the exact box of its cloud (memoized per shared
         subgraph, moved into the world frame). ``"box_of_box"``: each node's box comes from its
