@@ -50,7 +50,7 @@ def scale(f: float) -> np.ndarray:
 
 
 def flower(levels: int = 4, petals: int = 40, branches: int = 3) -> tuple[csg.Node, dict]:
-    """The recursive plant. Returns the root and the leaf nodes by part (for colouring).
+    """The recursive plant: its root, and its leaf nodes by part name (for colouring).
 
     Parameters
     ----------
@@ -63,8 +63,9 @@ def flower(levels: int = 4, petals: int = 40, branches: int = 3) -> tuple[csg.No
     """
     # A petal is a lens, the intersection of two offset spheres, flattened: an intersection
     # node, whose operands' boxes the top-down pass clips to the lens's own box (§3.5).
-    lens = csg.Intersection(csg.Transform(move(y=0.6), csg.sphere(1.0)),
-                            csg.Transform(move(y=-0.6), csg.sphere(1.0)))
+    petal_ball = csg.sphere(1.0)
+    lens = csg.Intersection(csg.Transform(move(y=0.6), petal_ball),
+                            csg.Transform(move(y=-0.6), petal_ball))
     petal = csg.Transform(np.diag([1.1, 0.85, 0.08, 1.0]), lens)
     heart = csg.sphere(0.35)
     stem = csg.cylinder(0.12, 1.5)
@@ -87,15 +88,15 @@ def flower(levels: int = 4, petals: int = 40, branches: int = 3) -> tuple[csg.No
                       foliage))
     plant = csg.Recursive("plant", csg.Union(segment, csg.Instances(csg.Ref("plant"), tops)),
                           levels, base=head)
-    return plant, {"petal": lens.a.child, "petal ": lens.b.child, "heart": heart, "stem": stem,
-                   "foliage": foliage}
+    return plant, {"petal": petal_ball, "heart": heart, "stem": stem, "foliage": foliage}
 
 
-COLOURS = {"petal": (0.95, 0.45, 0.6), "petal ": (0.95, 0.45, 0.6), "heart": (1.0, 0.8, 0.15), "stem": (0.3, 0.6, 0.2),
+COLOURS = {"petal": (0.95, 0.45, 0.6), "heart": (1.0, 0.8, 0.15), "stem": (0.3, 0.6, 0.2),
            "foliage": (0.15, 0.5, 0.15)}
 
 
-def shade(hits: csg.RayHits, bvh: csg.BVH, directions: np.ndarray, parts: dict, size: int) -> np.ndarray:
+def shade(hits: csg.RayHits, bvh: csg.BVH, directions: np.ndarray, parts: dict,
+          size: int) -> np.ndarray:
     """A Lambert-shaded RGB image ``(size, size, 3) float64`` in [0, 1]."""
     by_leaf = {id(v): COLOURS[k] for k, v in parts.items()}
     leaf_rgb = np.array([by_leaf.get(id(lf), (0.7, 0.7, 0.7)) for lf in bvh.leaf_source])
@@ -127,7 +128,7 @@ def fmt_box(lo, hi) -> str:
 
 
 def run(size: int = 512, save: bool = True) -> dict:
-    """Build, render and time both hierarchies; print the paper-style report; return the figures."""
+    """Build, render and time each hierarchy; print the paper-style report; return the figures."""
     plant, parts = flower()
     n_leaves = len(csg.leaves(plant))
     lo, hi = exact_box(plant)
@@ -165,21 +166,24 @@ def run(size: int = 512, save: bool = True) -> dict:
     bob, pc = rows["box of boxes"], rows["point clouds"]
     hit = pc["hits"].hit
     same = all(np.array_equal(r["hits"].leaf, pc["hits"].leaf)
-               and np.allclose(r["hits"].distance[hit], pc["hits"].distance[hit]) for r in rows.values())
-    cpu = next((ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo") if ln.startswith("model name")),
-               platform.processor()) if os.path.exists("/proc/cpuinfo") else platform.processor()
+               and np.allclose(r["hits"].distance[hit], pc["hits"].distance[hit])
+               for r in rows.values())
+    cpu = platform.processor()
+    if os.path.exists("/proc/cpuinfo"):
+        cpu = next((ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo")
+                    if ln.startswith("model name")), cpu)
     print("Recursive CSG plant (Stürzlinger 1996, §4), ray traced at "
           f"{size} x {size}; machine: {os.cpu_count()} cores, Python {sys.version.split()[0]}, {cpu}")
     print(f"unrolled primitives: {n_leaves} (petal spheres, hearts, stem segments, leaves); "
           f"hierarchy nodes: {pc['bvh'].n_nodes}")
     print()
     print("root box                    [xmin, xmax; ymin, ymax; zmin, zmax]")
-    print(f"  box of boxes              {fmt_box(bob['bvh'].root_aabb().lo, bob['bvh'].root_aabb().hi)}")
-    print(f"  point clouds              {fmt_box(pc['bvh'].root_aabb().lo, pc['bvh'].root_aabb().hi)}")
+    bob_box, pc_box = bob["bvh"].root_aabb(), pc["bvh"].root_aabb()
+    print(f"  box of boxes              {fmt_box(bob_box.lo, bob_box.hi)}")
+    print(f"  point clouds              {fmt_box(pc_box.lo, pc_box.hi)}")
     print(f"  exact (all primitives)    {fmt_box(lo, hi)}")
-    vol = lambda b: float(np.prod(b.hi - b.lo))  # noqa: E731
-    dev = float(np.max(np.abs(np.concatenate([pc['bvh'].root_aabb().lo - lo, pc['bvh'].root_aabb().hi - hi]))))
-    print(f"  box-of-boxes volume / exact volume: {vol(bob['bvh'].root_aabb()) / float(np.prod(hi - lo)):.3g}; "
+    dev = float(np.max(np.abs(np.concatenate([pc_box.lo - lo, pc_box.hi - hi]))))
+    print(f"  box-of-boxes volume / exact volume: {bob_box.volume() / float(np.prod(hi - lo)):.3g}; "
           f"point-cloud box deviates from exact by {dev:.1e}")
     print()
     print(f"{'hierarchy':32s} {'set-up s':>9s} {'render s':>9s} {'bound tests':>13s} "
@@ -189,7 +193,8 @@ def run(size: int = 512, save: bool = True) -> dict:
               f"{r['peak'] / 2**20:9.1f}")
     print()
     print(f"box of boxes / point clouds: bound tests x{bob['bound'] / pc['bound']:.1f}, "
-          f"primitive tests x{bob['prim'] / pc['prim']:.1f}, render time x{bob['render'] / pc['render']:.1f}")
+          f"primitive tests x{bob['prim'] / pc['prim']:.1f}, "
+          f"render time x{bob['render'] / pc['render']:.1f}")
     print(f"all hierarchies give the same image (same leaf and distance on every ray): {same}; "
           f"pixels covered: {pc['hits'].hit.mean():.1%}")
     print("peak MiB: Python-side allocations of the set-up (tracemalloc, a second build); render "

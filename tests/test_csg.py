@@ -236,7 +236,8 @@ def camera_for(node, size=128):
     pos = np.array([w[:3, 3] for _, w in csg.leaves(node)])
     ctr = np.median(pos, axis=0)
     rad = np.percentile(np.linalg.norm(pos - ctr, axis=1), 80) + 1.0
-    return csg.pinhole_rays(ctr + np.array([2.0, 1.4, 1.1]) / 2.7 * 3.0 * rad, ctr, size, size, fov_deg=45.0)
+    eye = ctr + np.array([2.0, 1.4, 1.1]) / 2.7 * 3.0 * rad
+    return csg.pinhole_rays(eye, ctr, size, size, fov_deg=45.0)
 
 
 def assert_same_hits(hits, dist, leaf):
@@ -314,7 +315,8 @@ def test_top_down_pass_removes_and_clips():
     # An intersection clips both operands to its own box.
     lens = csg.Intersection(big, csg.Transform(move(2.5), csg.sphere(1.0)))
     bvh = csg.build_bvh(lens)
-    assert np.all(bvh.node_hi[1:, 0] <= 2.0 + 1e-6) and np.all(bvh.node_lo[1:, 0] >= 1.5 - 0.075)  # ball polytope: <= 7.1 % wider
+    assert np.all(bvh.node_hi[1:, 0] <= 2.0 + 1e-6)
+    assert np.all(bvh.node_lo[1:, 0] >= 1.5 - 0.075)  # the ball's polytope is <= 7.1 % wider
     # Operands whose hulls are disjoint: the intersection is empty, nothing is hit.
     none = csg.Intersection(big, csg.Transform(move(10.0), big))
     bvh = csg.build_bvh(none)
