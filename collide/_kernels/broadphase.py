@@ -192,7 +192,7 @@ def _sphere_hit(A, a, ma, B, b, mb, o=15):
     return dx * dx + dy * dy + dz * dz <= r * r
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def obb_hit(A, a, ma, B, b, mb):
     """Separating-axis test of OBB rows ``A[a]`` and ``B[b]`` inflated by ``ma``, ``mb`` (15 axes).
 
@@ -558,7 +558,11 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
                     cj = children[off + j]
                     stats[ST_SUBTREE] += 1
                     if _aabb_hit(saabb, ci, saabb, cj):
-                        nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats)
+                        if end[ci] == ci + 1 and end[cj] == cj + 1:  # two bodies: no call
+                            if hasb[ci] and hasb[cj]:
+                                nb_ = _push(bp, nb_, ci, cj)
+                        else:
+                            nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats)
             continue
         if kc > GRID_MIN:
             nb_ = _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stats)
@@ -602,7 +606,11 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
                     break
                 stats[ST_SUBTREE] += 1
                 if _aabb_hit(saabb, ci, saabb, cj):
-                    nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats)
+                    if end[ci] == ci + 1 and end[cj] == cj + 1:  # two bodies: no call
+                        if hasb[ci] and hasb[cj]:
+                            nb_ = _push(bp, nb_, ci, cj)
+                    else:
+                        nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats)
     return nb_
 
 
