@@ -425,6 +425,29 @@ def _resolve(node, env):
         return node, env
 
 
+def _free_refs(node, memo: dict) -> frozenset:
+    """Names of the `Ref` s in ``node`` that no `Recursive` inside ``node`` binds."""
+    got = memo.get(node)
+    if got is not None:
+        return got
+    if isinstance(node, Ref):
+        out = frozenset([node.name])
+    elif isinstance(node, Recursive):
+        out = _free_refs(node.body, memo) - {node.name}
+        if node.base is not None:
+            out |= _free_refs(node.base, memo)
+    else:
+        out = frozenset().union(*(_free_refs(c, memo) for c in node.children()))
+    memo[node] = out
+    return out
+
+
+def _key_env(node, env, ctx):
+    # A subgraph without free references is the same at every recursion level: drop the
+    # recursion state, so its cloud and boxes are computed once for all levels and instances.
+    return env if env and _free_refs(node, ctx.free) else ()
+
+
 class _deep_recursion:
     # Unrolling recurses once per graph level; deep recursive graphs need more than Python's
     # default 1000 frames.
@@ -443,10 +466,12 @@ class _Context:
     cache: dict
     bob: dict = field(default_factory=dict)
     fits: dict = field(default_factory=dict)
+    free: dict = field(default_factory=dict)
 
 
 def _cloud(node, env, ctx: _Context) -> PointCloud:
     node, env = _resolve(node, env)
+    env = _key_env(node, env, ctx)
     key = (node, env)
     got = ctx.cache.get(key)
     if got is not None:
@@ -490,6 +515,7 @@ _NO_BOX = (np.full(3, np.inf), np.full(3, -np.inf))
 def _bob(node, env, ctx: _Context):
     """Box-of-box bound in the node's own frame: (lo, hi), from its children's boxes only."""
     node, env = _resolve(node, env)
+    env = _key_env(node, env, ctx)
     key = (node, env)
     got = ctx.bob.get(key)
     if got is not None:

@@ -131,6 +131,18 @@ def test_every_box_contains_true_surface_samples_under_affine_recursion():
                 assert np.all(dist <= bvh.node_radius[k] * (1 + 1e-9))
 
 
+def test_shared_subgraph_without_references_is_computed_once():
+    # A lens (an exact hull intersection) placed at every level of a 25-level spiral: its cloud
+    # does not depend on the recursion level, so it is computed once and only moved.
+    lens = csg.Intersection(csg.Transform(move(y=0.5), csg.sphere(1.0)),
+                            csg.Transform(move(y=-0.5), csg.sphere(1.0)))
+    node = spiral(25, csg.Transform(rot("x", 0.3), lens))
+    cache = {}
+    node.point_cloud(cache=cache)
+    assert sum(1 for key in cache if key[0] is lens) == 1
+    assert sum(1 for key in cache if key[0] is node.body) == 25  # the recursive part: per level
+
+
 def test_operators_follow_the_paper():
     a = csg.box([1.0, 1.0, 1.0])
     b = csg.Transform(move(1.0), csg.box([1.0, 1.0, 1.0]))
