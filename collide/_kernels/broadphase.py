@@ -16,9 +16,11 @@ One step, for one world (`_world`):
 2. subtree AABBs by one reverse sweep over the positions (each body's AABB of its world OBB,
    merged into its parent's): the tree is a one-level bounding hierarchy, never boxes of boxes;
 3. every body pair exactly once, at its lowest common ancestor ``n``: body ``n`` against its own
-   subtree, and each pair of ``n``'s child subtrees (sweep-and-prune on one axis when ``n`` has many
-   children, all pairs otherwise); a subtree whose AABB misses is skipped whole (``q = end[q]``).
-   Surviving body pairs (AABBs overlap) go to a buffer: no deep call chain on the hot path;
+   subtree (straight to the grandchildren under the parent rule), and each pair of ``n``'s child
+   subtrees: all pairs for a few children, sweep-and-prune on one axis from ``SAP_MIN``, a hash
+   grid from ``GRID_MIN`` (3.6x fewer tests than the sweep at 1024 free bodies); a subtree whose
+   AABB misses is skipped whole (``q = end[q]``). Surviving body pairs go to a buffer: no deep
+   call chain on the hot path (each numba call with array arguments pays reference counting);
 4. body pair -> static filter -> sphere test -> OBB separating-axis test (15 axes, Ericson 2005,
    *Real-Time Collision Detection* §4.4.1) -> geom pairs, the same tests on the geoms' bounds;
 5. planes (halfspaces) down the tree, explicit pairs last; keys ``g1 * G + g2`` sorted.
