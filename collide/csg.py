@@ -410,14 +410,15 @@ def _resolve(node, env):
             if node.depth == 0:
                 node, env = (node.base or _EMPTY), env
                 continue
-            return node.body, ((node.name, node, node.depth, env),) + env
+            node, env = node.body, ((node.name, node, node.depth, env),) + env
+            continue
         if isinstance(node, Ref):
             for name, rec, level, outer in env:
                 if name == node.name:
                     if level - 1 == 0:
                         node, env = (rec.base or _EMPTY), outer
                     else:
-                        return rec.body, ((name, rec, level - 1, outer),) + outer
+                        node, env = rec.body, ((name, rec, level - 1, outer),) + outer
                     break
             else:
                 raise ValueError(f"Ref({node.name!r}) is not inside a Recursive named {node.name!r}")

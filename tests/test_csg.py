@@ -409,4 +409,8 @@ def test_degenerate_geometry_works():
     assert_same_hits(hits, dist, leaf)
     assert list(hits.leaf) == [-1, 4, -1]  # zero-volume solids are never entered
     assert csg.build_bvh(csg.Union()).n_nodes == 0
+    assert csg.build_bvh(csg.Instances(csg.sphere(1.0), np.zeros((0, 4, 4)))).n_nodes == 0
+    # Depth 0 is the base; a base ends the recursion at depth 1 too.
+    assert csg.build_bvh(csg.Recursive("r", csg.Ref("r"), 0, base=csg.sphere(1.0))).n_leaves == 1
+    assert csg.build_bvh(csg.Recursive("r", csg.Ref("r"), 1, base=csg.sphere(1.0))).n_leaves == 1
     assert not csg.raycast(csg.build_bvh(csg.Union()), o, d).hit.any()

@@ -1,8 +1,9 @@
 """Ray casting through a flattened CSG hierarchy (numba): exact primitive spans and span arithmetic.
 
-The tree is the one `collide.csg.build_bvh` flattens: every node has a world AABB (clipped by the
-top-down pass of Stürzlinger 1996, §3.5), transforms are folded into the leaves (each leaf keeps
-its world -> local affine map), unions are n-ary, intersections and differences binary.
+The tree is the one `collide.csg.build_bvh` flattens: every node has a world bound (an AABB
+clipped by the top-down pass of Stürzlinger 1996, §3.5, or an OBB, or a sphere), transforms are
+folded into the leaves (each leaf keeps its world -> local affine map), unions are n-ary,
+intersections and differences binary.
 
 Per ray, a *span list* is the sorted list of disjoint parameter intervals ``[t0, t1]`` where the
 line ``o + t d`` is inside a node's solid; each endpoint remembers the leaf and the surface part
@@ -10,12 +11,13 @@ line ``o + t d`` is inside a node's solid; each endpoint remembers the leaf and 
 difference of span lists give a CSG node's spans (Roth 1982, "Ray casting for modeling solids").
 
 Traversal (the exactness argument, for the tests and for whoever changes this):
-- every node box contains the node's *positive geometry* (union -> union, intersection ->
+- every node bound contains the node's *positive geometry* (union -> union, intersection ->
   intersection, difference -> left operand), hence everything a pruned evaluation can return;
-- the top-down pass clips a child's box to its parent's (clipped) box; a child skipped because the
-  ray segment ``[0, tmax]`` misses its box is replaced by the empty set;
+- the top-down pass clips a child's box to its parent's (clipped) box, which keeps it containing
+  the part of the positive geometry that can matter; a child skipped because the ray segment
+  ``[0, tmax]`` misses its bound is replaced by the empty set;
 - by induction, a node's computed spans equal its true spans at every ray point of ``[0, tmax]``
-  inside its clipped box. At the root the box is the whole solid, so the first boundary point in
+  inside its bound. The root's bound contains the whole solid, so the first boundary point in
   ``[0, tmax)`` is exact.
 The top of the tree (the nodes reached from the root through unions only) is traversed near-first
 with ``tmax`` = the best hit so far, the usual BVH pruning; each non-union node reached there (an
