@@ -699,7 +699,7 @@ def _clip(p: _P, lo, hi):
     return p
 
 
-@dataclass
+@dataclass(repr=False)
 class BVH:
     """A flattened CSG hierarchy ready for `raycast`; node 0 is the root.
 
@@ -782,6 +782,10 @@ class BVH:
     def root_aabb(self) -> AABB:
         """The root's box as constructed (before the top-down pass and the padding)."""
         return self.root_unclipped
+
+    def __repr__(self) -> str:
+        return (f"BVH({self.n_nodes} nodes, {self.n_leaves} leaves, volume={self.volume!r}, "
+                f"method={self.method!r}, tightened={self.tightened})")
 
 
 def _leaf_arrays(leaf_list):
