@@ -138,7 +138,10 @@ class Leaf(Node):
             else:
                 raise ValueError("mesh: expected a trimesh.Trimesh or a (vertices, faces) pair")
             v = as_points(verts, "vertices")
-            f = as_array(faces, "faces", (None, 3), dtype=np.int64)
+            raw = np.asarray(faces)
+            if raw.dtype.kind not in "iu" and not (raw.dtype.kind == "f" and np.all(raw == np.round(raw))):
+                raise ValueError(f"faces: expected integer vertex indices, got dtype {raw.dtype}")
+            f = as_array(raw, "faces", (None, 3), dtype=np.int64)
             if len(v) == 0 or len(f) == 0:
                 raise ValueError("mesh: the mesh is empty (no vertices or no faces)")
             if f.min() < 0 or f.max() >= len(v):

@@ -383,6 +383,8 @@ def test_bad_input_raises_value_error():
         csg.Recursive("r", csg.sphere(1.0), -1)
     with pytest.raises(ValueError, match="faces"):
         csg.mesh((np.zeros((3, 3)), [[0, 1, 7]]))
+    with pytest.raises(ValueError, match="faces"):
+        csg.mesh((np.zeros((3, 3)), [[0, 1, 1.5]]))
     bvh = csg.build_bvh(csg.sphere(1.0))
     with pytest.raises(ValueError, match="volume"):
         csg.build_bvh(csg.sphere(1.0), volume="kdop")
