@@ -821,30 +821,41 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
 
 @nb.njit(cache=True)
 def _radix_sort(keys, k):
-    # LSD radix sort of keys[:k] (non-negative int64), 12 bits per pass: linear, and ~3x faster
-    # than a comparison sort for the thousands of pairs a big scene gives (keys < G^2).
+    # LSD radix sort of keys[:k] (non-negative int64): linear, and ~3x faster than a comparison
+    # sort for the thousands of pairs a big scene gives (keys < G^2). The digit width adapts to
+    # the keys' bit length: as few passes as 12-bit digits need, each as narrow as that allows
+    # (clearing and scanning 4096 counters costs more than sorting a few hundred keys).
     top = 0
     for i in range(k):
         if keys[i] > top:
             top = keys[i]
+    bits = 0
+    while (top >> bits) > 0:
+        bits += 1
+    if bits == 0:
+        return
+    npass = (bits + 11) // 12
+    r = (bits + npass - 1) // npass
+    nb_ = 1 << r
+    mask = nb_ - 1
     src = keys[:k]
     dst = np.empty(k, np.int64)
-    cnt = np.empty(4097, np.int64)
+    cnt = np.empty(nb_ + 1, np.int64)
     shift = 0
     swapped = False
-    while (top >> shift) > 0:
+    for _ in range(npass):
         cnt[:] = 0
         for i in range(k):
-            cnt[((src[i] >> shift) & 4095) + 1] += 1
-        for d in range(4096):
+            cnt[((src[i] >> shift) & mask) + 1] += 1
+        for d in range(nb_):
             cnt[d + 1] += cnt[d]
         for i in range(k):
-            d = (src[i] >> shift) & 4095
+            d = (src[i] >> shift) & mask
             dst[cnt[d]] = src[i]
             cnt[d] += 1
         src, dst = dst, src
         swapped = not swapped
-        shift += 12
+        shift += r
     if swapped:
         for i in range(k):
             keys[i] = src[i]
