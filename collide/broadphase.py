@@ -29,7 +29,7 @@ _F64 = np.dtype(np.float64)
 _STRIDES_POS = (24, 8)
 _STRIDES_ROT = (72, 24, 8)
 _STAT_NAMES = ("subtree_tests", "body_aabb_tests", "body_sphere_tests", "body_obb_tests",
-               "geom_sphere_tests", "geom_obb_tests", "plane_tests", "pairs")
+               "geom_sphere_tests", "geom_obb_tests", "plane_tests", "pairs", "geom_aabb_tests")
 
 
 def _local_rows(center, rot, half, sc, sr) -> np.ndarray:
@@ -55,9 +55,10 @@ class BroadPhase:
     stats : dict of str to int
         After a call: bounds tests done at each level (``subtree_tests``: AABB tests of tree
         culling, sweep-and-prune and the grid, where two leaf bodies' test is their body test;
-        ``body_aabb_tests``: body against body in deeper subtrees; ``body_sphere_tests``,
-        ``body_obb_tests``, ``geom_sphere_tests``, ``geom_obb_tests``, ``plane_tests``) and
-        ``pairs`` out; summed over worlds after `pairs_batch`.
+        ``body_aabb_tests``: body against a non-leaf body in deeper subtrees; ``body_sphere_tests``,
+        ``body_obb_tests``, ``geom_aabb_tests``, ``geom_sphere_tests``, ``geom_obb_tests`` (geoms of
+        multi-geom bodies, AABB then sphere then OBB), ``plane_tests``) and ``pairs`` out; summed
+        over worlds after `pairs_batch`.
 
     Notes
     -----
@@ -99,7 +100,11 @@ class BroadPhase:
         pairflag = np.zeros(L, bool)
         if len(a.pairs):
             pairflag[pos_of[a.geom_body[a.pairs.ravel()]]] = True
-        excl = np.sort(a.exclude[:, 0] * L + a.exclude[:, 1]).astype(i64)
+        # Excluded partners per position, both directions (see `_k.pack`).
+        ex = pos_of[a.exclude].reshape(-1, 2)
+        ex = np.concatenate([ex, ex[:, ::-1]]).astype(i64)
+        ex = ex[np.lexsort((ex[:, 1], ex[:, 0]))]
+        ex_start = np.searchsorted(ex[:, 0], np.arange(L + 1)).astype(i64)
         planes = np.flatnonzero(a.geom_is_plane).astype(i64)
         blocal = _local_rows(a.body_obb_center, a.body_obb_rot, a.body_obb_half, a.body_sphere_center,
                              a.body_sphere_radius)[order]
@@ -108,7 +113,7 @@ class BroadPhase:
         pair_keys = (a.pairs[:, 0] * G + a.pairs[:, 1]).astype(i64)
         self._I, self._F = _k.pack(
             order, pos_of, end, parent_pos, a.body_weld[order], nchild, child_start, single, hasb, pairflag,
-            ctor, caor, children, gstart, pgeoms, excl, planes, pos_of[a.geom_body[planes]], a.geom_body,
+            ctor, caor, children, gstart, pgeoms, ex_start, ex[:, 1], planes, pos_of[a.geom_body[planes]], a.geom_body,
             a.geom_contype, a.geom_conaffinity, a.pairs, pair_keys, a.filter_parent, blocal, glocal,
             a.geom_plane, a.geom_margin, a.pair_margin)
         self._nW = _k.workspace_size(L, G, len(planes))

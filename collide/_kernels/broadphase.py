@@ -53,8 +53,9 @@ BAD_NONFINITE = 1
 BAD_ROTATION = 2
 
 # stats slots
-ST_SUBTREE, ST_BODY_AABB, ST_BODY_SPHERE, ST_BODY_OBB, ST_GEOM_SPHERE, ST_GEOM_OBB, ST_PLANE, ST_OUT = range(8)
-N_STATS = 8
+(ST_SUBTREE, ST_BODY_AABB, ST_BODY_SPHERE, ST_BODY_OBB, ST_GEOM_SPHERE, ST_GEOM_OBB, ST_PLANE, ST_OUT,
+ ST_GEOM_AABB) = range(9)
+N_STATS = 9
 
 # Header of I: counts
 H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP = range(7)
@@ -62,14 +63,19 @@ HEADER = 8
 
 
 def pack(order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor, caor,
-         children, gstart, pgeoms, excl, planes, plane_pos, geom_bid, gct, gca, pair_g, pair_keys,
+         children, gstart, pgeoms, ex_start, ex_other, planes, plane_pos, geom_bid, gct, gca, pair_g, pair_keys,
          filter_parent, blocal, glocal, gplane, gmargin, pair_m):
-    """Flatten the static model into ``I`` (int64) and ``F`` (float64); see `_views` for the order."""
-    L, G, Gs, Q, E, P = len(order), len(geom_bid), len(pgeoms), len(planes), len(excl), len(pair_keys)
+    """Flatten the static model into ``I`` (int64) and ``F`` (float64); see `_views` for the order.
+
+    Excluded body pairs travel as lists of partners per position (``ex_other[ex_start[x]:
+    ex_start[x + 1]]``, both directions): a body has none or a few, so a scan of its own list beats
+    a binary search of all (22 humanoids: 154 exclusions, a search per body pair and plane test).
+    """
+    L, G, Gs, Q, E, P = len(order), len(geom_bid), len(pgeoms), len(planes), len(ex_other), len(pair_keys)
     head = np.zeros(HEADER, np.int64)
     head[[H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP]] = L, G, Gs, Q, E, P, int(filter_parent)
     parts = [head, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
-             caor, children, gstart, pgeoms, excl, planes, plane_pos, geom_bid, gct, gca,
+             caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_pos, geom_bid, gct, gca,
              np.asarray(pair_g).reshape(-1), pair_keys]
     I = np.concatenate([np.asarray(p, np.int64).reshape(-1) for p in parts])
     F = np.concatenate([np.asarray(p, np.float64).reshape(-1) for p in (blocal, glocal, gplane, gmargin, pair_m)])
@@ -78,7 +84,7 @@ def pack(order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb
 
 def workspace_size(L: int, G: int, Q: int) -> int:
     """Length of the float64 workspace ``W`` of one world."""
-    return ROW * L + ROW * G + 12 * L + 4 * max(Q, 1) + 2 * ROW
+    return ROW * L + ROW * G + 12 * L + 4 * max(Q, 1) + 2 * ROW + 6 * G + L + 1
 
 
 @nb.njit(cache=True, inline="always")
@@ -120,7 +126,9 @@ def _views(I, F, W):
     o += L + 1
     pgeoms = I[o:o + Gs]
     o += Gs
-    excl = I[o:o + E]
+    ex_start = I[o:o + L + 1]
+    o += L + 1
+    ex_other = I[o:o + E]
     o += E
     planes = I[o:o + Q]
     o += Q
@@ -158,9 +166,14 @@ def _views(I, F, W):
     plw = W[w:w + 4 * Qm].reshape((Qm, 4))
     w += 4 * Qm
     tmp = W[w:w + 2 * ROW].reshape((2, ROW))
+    w += 2 * ROW
+    gaabb = W[w:w + 6 * G].reshape((G, 6))
+    w += 6 * G
+    gstamp = W[w:w + L + 1]  # gstamp[L]: the call counter
     return (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
-            caor, children, gstart, pgeoms, excl, planes, plane_pos, geom_bid, gct, gca, pair_g, pair_keys,
-            blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp)
+            caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_pos, geom_bid, gct, gca, pair_g,
+            pair_keys,
+            blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp)
 
 
 # ------------------------------------------------------------------------------- small tests
@@ -317,18 +330,15 @@ def _emit(keys, k, g1, g2, G):
 
 
 @nb.njit(cache=True, inline="always")
-def _rules(x, y, order, parent_pos, weld, filter_parent, excl, L):
+def _rules(x, y, parent_pos, weld, filter_parent, ex_start, ex_other):
     # Weld groups, the parent rule and excluded body pairs (positions x, y).
     if weld[x] == weld[y]:
         return False
     if filter_parent:
         if (parent_pos[x] == y and y != 0) or (parent_pos[y] == x and x != 0):
             return False
-    if excl.shape[0] > 0:
-        bx = order[x]
-        by = order[y]
-        key = bx * L + by if bx < by else by * L + bx
-        if _in_sorted(excl, key):
+    for i in range(ex_start[x], ex_start[x + 1]):
+        if ex_other[i] == y:
             return False
     return True
 
@@ -352,9 +362,12 @@ def _body_vs_subtree(a, root, end, baabb, saabb, hasb, bp, nb_, stats):
         stats[ST_SUBTREE] += 1
         if _aabb_hit(baabb, a, saabb, q):
             if hasb[q]:
-                stats[ST_BODY_AABB] += 1
-                if _aabb_hit(baabb, a, baabb, q):
+                if end[q] == q + 1:  # a leaf's subtree AABB is its body AABB: just tested
                     nb_ = _push(bp, nb_, a, q)
+                else:
+                    stats[ST_BODY_AABB] += 1
+                    if _aabb_hit(baabb, a, baabb, q):
+                        nb_ = _push(bp, nb_, a, q)
             q += 1
         else:
             q = end[q]
@@ -627,9 +640,14 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
     ``bp`` and reruns); keys beyond ``keys.shape[0]`` are counted but not written (likewise).
     """
     (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
-     caor, children, gstart, pgeoms, excl, planes, plane_pos, geom_bid, gct, gca, pair_g, pair_keys,
-     blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp) = _views(I, F, W)
+     caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_pos, geom_bid, gct, gca, pair_g,
+            pair_keys,
+     blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp) = _views(I, F, W)
     filter_parent = I[H_FP] != 0
+    # Geom rows of multi-geom bodies are computed on first use in this call (`_geom_rows`):
+    # most bodies never reach the geom level (kuka: 47 geoms, no body pair).
+    gstamp[L] += 1.0
+    stamp = gstamp[L]
     for s in range(N_STATS):
         stats[s] = 0
     info[3] = 0
@@ -667,10 +685,6 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
                      + abs(bw[x, 5 + 3 * i]) * bw[x, 14])
                 baabb[x, i] = bw[x, i] - h
                 baabb[x, 3 + i] = bw[x, i] + h
-            if not single[x]:
-                for ii in range(gstart[x], gstart[x + 1]):
-                    g = pgeoms[ii]
-                    _world_row(body_rot, body_pos, b, glocal, g, gw, g)
         else:
             for i in range(3):
                 baabb[x, i] = BIG
@@ -704,7 +718,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
             x = ~x
         if (ctor[x] & caor[y]) == 0 and (ctor[y] & caor[x]) == 0:
             continue
-        if not _rules(x, y, order, parent_pos, weld, filter_parent, excl, L):
+        if not _rules(x, y, parent_pos, weld, filter_parent, ex_start, ex_other):
             continue
         if not sphere_done:
             stats[ST_BODY_SPHERE] += 1
@@ -715,6 +729,10 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
             continue
         sx = single[x] != 0
         sy = single[y] != 0
+        if not sx:
+            _geom_rows(x, order, gstart, pgeoms, glocal, gmargin, body_pos, body_rot, gw, gaabb, gstamp, stamp)
+        if not sy:
+            _geom_rows(y, order, gstart, pgeoms, glocal, gmargin, body_pos, body_rot, gw, gaabb, gstamp, stamp)
         cp = check_pairs and pairflag[x] != 0 and pairflag[y] != 0
         for ii in range(gstart[x], gstart[x + 1]):
             g1 = pgeoms[ii]
@@ -734,6 +752,11 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
                     B = bw if sy else gw
                     b = y if sy else g2
                     mb = 0.0 if sy else gmargin[g2]
+                    # AABBs first: exact for the axis-aligned boxes multi-geom bodies are often
+                    # made of (walls, a bin), whose spheres reach far
+                    stats[ST_GEOM_AABB] += 1
+                    if not _aabb_hit(baabb if sx else gaabb, a, baabb if sy else gaabb, b):
+                        continue
                     stats[ST_GEOM_SPHERE] += 1
                     if not _sphere_hit(A, a, ma, B, b, mb):
                         continue
@@ -753,7 +776,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
                 x = end[x]
                 continue
             if (hasb[x] and x != qx and ((gct[qg] & caor[x]) != 0 or (ctor[x] & gca[qg]) != 0)
-                    and _rules(x, qx, order, parent_pos, weld, filter_parent, excl, L)):
+                    and _rules(x, qx, parent_pos, weld, filter_parent, ex_start, ex_other)):
                 stats[ST_PLANE] += 1
                 if _plane_hit(plw, i, mq, bw, x, 0.0):
                     for ii in range(gstart[x], gstart[x + 1]):
@@ -765,6 +788,8 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
                             if _in_sorted(pair_keys, key):
                                 continue
                         if single[x] == 0:
+                            _geom_rows(x, order, gstart, pgeoms, glocal, gmargin, body_pos, body_rot, gw, gaabb,
+                                       gstamp, stamp)
                             stats[ST_PLANE] += 1
                             if not _plane_hit(plw, i, mq, gw, g, gmargin[g]):
                                 continue
@@ -859,6 +884,29 @@ def _radix_sort(keys, k):
     if swapped:
         for i in range(k):
             keys[i] = src[i]
+
+
+@nb.njit(cache=True, inline="always")
+def _geom_rows(x, order, gstart, pgeoms, glocal, gmargin, body_pos, body_rot, gw, gaabb, gstamp, stamp):
+    # World rows and margin-inflated AABBs of the geoms of the multi-geom body at position x, once
+    # per call. The AABB gets the same slack as the OBB test: it only ever rejects pairs whose
+    # OBBs are apart.
+    if gstamp[x] == stamp:
+        return
+    gstamp[x] = stamp
+    b = order[x]
+    for ii in range(gstart[x], gstart[x + 1]):
+        g = pgeoms[ii]
+        _world_row(body_rot, body_pos, b, glocal, g, gw, g)
+        m = gmargin[g]
+        e0 = gw[g, 12] + m
+        e1 = gw[g, 13] + m
+        e2 = gw[g, 14] + m
+        tol = SLACK_REL * (e0 + e1 + e2) + SLACK_POS * (abs(gw[g, 0]) + abs(gw[g, 1]) + abs(gw[g, 2]))
+        for i in range(3):
+            h = abs(gw[g, 3 + 3 * i]) * e0 + abs(gw[g, 4 + 3 * i]) * e1 + abs(gw[g, 5 + 3 * i]) * e2 + tol
+            gaabb[g, i] = gw[g, i] - h
+            gaabb[g, 3 + i] = gw[g, i] + h
 
 
 @nb.njit(cache=True, inline="always")
