@@ -43,6 +43,7 @@ SLACK_REL = 1e-12
 SLACK_POS = 1e-13
 SAP_MIN = 8  # a node with more children than this sorts them (sweep-and-prune) ...
 GRID_MIN = 24  # ... or, with more than this, hashes them into a uniform grid
+GRID_SWEEP = 8.0  # ... when the children's widths along the sweep axis sum to more than this x its extent
 # Forward neighbour cells (lexicographically after (0, 0, 0)): each pair of adjacent cells once.
 _FWD = np.array([(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
                  if (dx, dy, dz) > (0, 0, 0)], np.int64)
@@ -579,9 +580,6 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
                         else:
                             nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats)
             continue
-        if kc > GRID_MIN:
-            nb_ = _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stats)
-            continue
         # Sweep and prune on the axis of the node's largest extent. The order persists between
         # calls (sap holds it), so insertion sort is ~linear under small motion; a big reshuffle
         # (a new world in a batch, an axis change) falls back to a full sort.
@@ -592,6 +590,22 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
             if e > best:
                 best = e
                 ax = d
+        if kc > GRID_MIN:
+            # Grid or sweep: k children of mean width w on an axis of extent E give the sweep
+            # ~k^2 w / E interval tests, the grid ~k cell probes of a few tests each. A scene
+            # filling a volume (free bodies in a box) goes to the grid; bodies spread over a floor
+            # (objects, robots, stones) overlap little along the sweep axis and the sweep, with
+            # its persistent order and no set-up, wins (measured: humanoid100 traversal 12.4 ->
+            # 8.4 us, stonehenge 5.3 -> 1.8; 64 free hulls 6.3 us on the grid, 9.9 swept).
+            sumw = 0.0
+            for i in range(kc):
+                c = children[off + i]
+                w = saabb[c, 3 + ax] - saabb[c, ax]
+                if w > 0.0:
+                    sumw += w
+            if sumw > GRID_SWEEP * best:
+                nb_ = _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stats)
+                continue
         swaps = 0
         limit = 16 * kc + 64
         for i in range(1, kc):
