@@ -1,0 +1,47 @@
+"""Regression tests for the reference implementations in `collide.testing` (adversarial review)."""
+
+import numpy as np
+import pytest
+from scipy.optimize import linprog
+
+from collide import testing
+
+
+def _lp_intersect(P, Q):
+    # hull(P) ∩ hull(Q) non-empty iff sum a_i p_i = sum b_j q_j with a, b convex weights.
+    n, m = len(P), len(Q)
+    A = np.zeros((5, n + m))
+    A[:3, :n], A[:3, n:] = P.T, -Q.T
+    A[3, :n] = 1
+    A[4, n:] = 1
+    res = linprog(np.zeros(n + m), A_eq=A, b_eq=[0, 0, 0, 1, 1], bounds=(0, None), method="highs")
+    return res.status == 0
+
+
+@pytest.mark.parametrize("scale, offset", [(1e-6, 0.0), (1e-6, 1e-3), (1e4, 0.0), (1.0, 1e5)])
+def test_gjk_distance_is_scale_free(scale, offset):
+    # Regression: on micrometre-sized shapes the simplex solver's singularity test (absolute)
+    # accepted a degenerate tetrahedron and reported distance 0 for hulls 0.08 of their size
+    # apart, so brute_force_pairs listed a non-touching pair as touching.
+    rng = np.random.default_rng(11)
+    cube = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+    d = testing.gjk_distance(cube * scale + offset, (cube + [3, 0, 0]) * scale + offset)[0]
+    assert np.isclose(d, 2.0 * scale, rtol=1e-9)
+    hits = misses = 0
+    for k in range(150):
+        P = testing.random_hull(rng, 1.0, int(rng.integers(1, 25))).points
+        Q = testing.random_hull(rng, 1.0, int(rng.integers(1, 25))).points
+        if k % 3 == 0:
+            Q = Q * [1, 1, 0]
+        Q = Q + rng.uniform(-0.8, 0.8, 3)
+        upper, lower = testing.gjk_distance(P * scale + offset, Q * scale + offset)
+        ref_upper, _ = testing.gjk_distance(P, Q)
+        assert upper == pytest.approx(ref_upper * scale, rel=1e-6, abs=1e-9 * scale)
+        touching = _lp_intersect(P, Q)
+        if upper > 1e-9 * scale:
+            assert not touching
+            misses += 1
+        else:
+            assert touching
+            hits += 1
+    assert hits > 10 and misses > 20
