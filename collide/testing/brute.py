@@ -259,6 +259,9 @@ def gjk_distance(P, Q):
     if s == 0.0:
         return 0.0, 0.0
     upper, lower = _gjk_unit((P - c) / s, (Q - c) / s)
+    if upper <= 8.0 * np.finfo(np.float64).eps:
+        # Rounding level of unit-size coordinates: the origin is inside (touching).
+        return 0.0, 0.0
     return upper * s, lower * s
 
 
@@ -336,6 +339,12 @@ def _pairs_touch(g1, g2, rad, pts, pstart, wrot, wpos, gbody, out):
         scale = 0.0
         for i in range(3):
             scale = max(scale, abs(wpos[gbody[a], i]), abs(wpos[gbody[b], i]))
+        for i in range(Pa.shape[0]):
+            for c in range(3):
+                scale = max(scale, abs(Pa[i, c]))
+        for i in range(Pb.shape[0]):
+            for c in range(3):
+                scale = max(scale, abs(Pb[i, c]))
         # Touching within rounding (far below the bounds' 1e-10 guard): decided on the upper bound.
         out[k] = upper <= rad[k] * (1 + 1e-13) + 1e-14 * scale
 
