@@ -1009,6 +1009,13 @@ def raycast(bvh: BVH, origins, directions) -> RayHits:
         raise ValueError(f"bvh: expected a BVH from build_bvh, got {type(bvh).__name__}")
     o, d = _rays(origins, directions)
     r = len(o)
+    # Directions of extreme length (|d|^2 under- or overflows in the kernel: a direction of
+    # length 1e-200 gave t = 2.4e200 instead of 4e200) are scaled by a power of two, exactly,
+    # and their distances scaled back; ordinary directions pass through bit for bit.
+    _, expo = np.frexp(np.abs(d).max(axis=1)) if r else (None, np.zeros(0, int))
+    expo = np.where(np.abs(expo) > 100, expo, 0)
+    if np.any(expo):
+        d = np.ldexp(d, -expo[:, None])
     out_t = np.full(r, np.inf)
     out_leaf = np.full(r, -1, dtype=np.int32)
     out_n = np.zeros((r, 3))
@@ -1022,6 +1029,8 @@ def raycast(bvh: BVH, origins, directions) -> RayHits:
                             bvh.leaf_inv, bvh.leaf_tri_first, bvh.leaf_tri_count, bvh.tri,
                             bvh.span_capacity, bvh.height, bvh.max_children, bvh.max_tri,
                             out_t, out_leaf, out_n, out_b, out_p)
+    if np.any(expo):
+        out_t = np.ldexp(out_t, -expo)
     return RayHits(out_t, out_leaf, out_n, out_b, out_p)
 
 

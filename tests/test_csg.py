@@ -416,3 +416,18 @@ def test_degenerate_geometry_works():
     assert csg.build_bvh(csg.Recursive("r", csg.Ref("r"), 0, base=csg.sphere(1.0))).n_leaves == 1
     assert csg.build_bvh(csg.Recursive("r", csg.Ref("r"), 1, base=csg.sphere(1.0))).n_leaves == 1
     assert not csg.raycast(csg.build_bvh(csg.Union()), o, d).hit.any()
+
+
+def test_raycast_directions_of_extreme_length():
+    # Regression: |d|^2 underflowed for a direction of length 1e-200 (t = 2.4e200, not 4e200).
+    bvh = csg.build_bvh(csg.Union(csg.box([1, 1, 1]), csg.sphere(1.0)))
+    o = np.array([[5.0, 0, 0]] * 4)
+    d = np.array([[-1.0, 0, 0], [-1e-200, 0, 0], [-1e200, 0, 0], [-3e-150, 0, 3e-151]])
+    hits = csg.raycast(bvh, o, d)
+    unit = csg.raycast(bvh, o, d / np.linalg.norm(d / np.abs(d).max(axis=1)[:, None], axis=1)[:, None]
+                       / np.abs(d).max(axis=1)[:, None])
+    assert np.all(hits.hit)
+    np.testing.assert_allclose(hits.distance[:3], [4.0, 4e200, 4e-200], rtol=1e-12)
+    lengths = np.abs(d).max(axis=1) * np.linalg.norm(d / np.abs(d).max(axis=1)[:, None], axis=1)
+    np.testing.assert_allclose(hits.distance * lengths, unit.distance, rtol=1e-12)
+    np.testing.assert_allclose(hits.normal, unit.normal, atol=1e-12)
