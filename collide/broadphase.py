@@ -110,7 +110,7 @@ class BroadPhase:
                              a.body_sphere_radius)[order]
         glocal = _local_rows(a.geom_obb_center, a.geom_obb_rot, a.geom_obb_half, a.geom_sphere_center,
                              a.geom_sphere_radius)
-        pair_keys = (a.pairs[:, 0] * G + a.pairs[:, 1]).astype(i64)
+        pair_keys = (a.pairs[:, 0].astype(i64) << _k.key_shift(G)) | a.pairs[:, 1]
         self._I, self._F = _k.pack(
             order, pos_of, end, parent_pos, a.body_weld[order], nchild, child_start, single, hasb, pairflag,
             ctor, caor, children, gstart, pgeoms, ex_start, ex[:, 1], planes, pos_of[a.geom_body[planes]], a.geom_body,
@@ -261,7 +261,7 @@ class BroadPhase:
             else:
                 break
         self._last_stats = stats[:, _k.N_STATS:].sum(axis=0)
-        return _k.gather_batch(keys, world_count, chunk_total, self.geom_count, C)
+        return _k.gather_batch(keys, world_count, chunk_total, _k.key_shift(self.geom_count), C)
 
     def __repr__(self) -> str:
         return f"BroadPhase({self.articulation!r})"

@@ -23,7 +23,8 @@ One step, for one world (`_world`):
    call chain on the hot path (each numba call with array arguments pays reference counting);
 4. body pair -> static filter -> sphere test -> OBB separating-axis test (15 axes, Ericson 2005,
    *Real-Time Collision Detection* §4.4.1) -> geom pairs, the same tests on the geoms' bounds;
-5. planes (halfspaces) down the tree, explicit pairs last; keys ``g1 * G + g2`` sorted.
+5. planes (halfspaces) down the tree, explicit pairs last; keys ``g1 << S | g2`` sorted (``S`` bits
+   hold any geom id: decoding is a shift and a mask, not an integer division per pair).
 """
 
 from __future__ import annotations
@@ -59,7 +60,7 @@ BAD_ROTATION = 2
 N_STATS = 9
 
 # Header of I: counts
-H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP = range(7)
+H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP, H_KS = range(8)
 HEADER = 8
 
 
@@ -74,13 +75,18 @@ def pack(order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb
     """
     L, G, Gs, Q, E, P = len(order), len(geom_bid), len(pgeoms), len(planes), len(ex_other), len(pair_keys)
     head = np.zeros(HEADER, np.int64)
-    head[[H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP]] = L, G, Gs, Q, E, P, int(filter_parent)
+    head[[H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP, H_KS]] = L, G, Gs, Q, E, P, int(filter_parent), key_shift(G)
     parts = [head, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
              caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_pos, geom_bid, gct, gca,
              np.asarray(pair_g).reshape(-1), pair_keys]
     I = np.concatenate([np.asarray(p, np.int64).reshape(-1) for p in parts])
     F = np.concatenate([np.asarray(p, np.float64).reshape(-1) for p in (blocal, glocal, gplane, gmargin, pair_m)])
     return I, F
+
+
+def key_shift(G: int) -> int:
+    """Bits ``S`` of the second geom id in a pair key ``g1 << S | g2`` (every id < 2**S)."""
+    return max(1, int(G - 1).bit_length())
 
 
 def workspace_size(L: int, G: int, Q: int) -> int:
@@ -324,9 +330,9 @@ def _in_sorted(keys, key):
 
 
 @nb.njit(cache=True, inline="always")
-def _emit(keys, k, g1, g2, G):
+def _emit(keys, k, g1, g2, S):
     if k < keys.shape[0]:
-        keys[k] = g1 * G + g2 if g1 < g2 else g2 * G + g1
+        keys[k] = (g1 << S) | g2 if g1 < g2 else (g2 << S) | g1
     return k + 1
 
 
@@ -658,6 +664,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
             pair_keys,
      blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp) = _views(I, F, W)
     filter_parent = I[H_FP] != 0
+    S = I[H_KS]
     # Geom rows of multi-geom bodies are computed on first use in this call (`_geom_rows`):
     # most bodies never reach the geom level (kuka: 47 geoms, no body pair).
     gstamp[L] += 1.0
@@ -755,7 +762,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
                 if (gct[g1] & gca[g2]) == 0 and (gct[g2] & gca[g1]) == 0:
                     continue
                 if cp:
-                    key = g1 * G + g2 if g1 < g2 else g2 * G + g1
+                    key = (g1 << S) | g2 if g1 < g2 else (g2 << S) | g1
                     if _in_sorted(pair_keys, key):
                         continue
                 if not (sx and sy):
@@ -777,7 +784,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
                     stats[ST_GEOM_OBB] += 1
                     if not obb_hit(A, a, ma, B, b, mb):
                         continue
-                k = _emit(keys, k, g1, g2, G)
+                k = _emit(keys, k, g1, g2, S)
     # 5a. planes down the tree (subtree AABB against the halfspace).
     for i in range(planes.shape[0]):
         qg = planes[i]
@@ -798,7 +805,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
                         if (gct[g] & gca[qg]) == 0 and (gct[qg] & gca[g]) == 0:
                             continue
                         if check_pairs:
-                            key = g * G + qg if g < qg else qg * G + g
+                            key = (g << S) | qg if g < qg else (qg << S) | g
                             if _in_sorted(pair_keys, key):
                                 continue
                         if single[x] == 0:
@@ -807,7 +814,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
                             stats[ST_PLANE] += 1
                             if not _plane_hit(plw, i, mq, gw, g, gmargin[g]):
                                 continue
-                        k = _emit(keys, k, g, qg, G)
+                        k = _emit(keys, k, g, qg, S)
             x += 1
     # 5b. explicit pairs: only the bounds test, with the pair's own inflation if given.
     for i in range(pair_g.shape[0]):
@@ -829,7 +836,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
             _world_row(body_rot, body_pos, b, glocal, gs, tmp, 1)
             stats[ST_PLANE] += 1
             if _plane_hit(tmp, 0, mp, tmp, 1, ms):
-                k = _emit(keys, k, g1, g2, G)
+                k = _emit(keys, k, g1, g2, S)
             continue
         b = geom_bid[g1]
         _world_row(body_rot, body_pos, b, glocal, g1, tmp, 0)
@@ -840,7 +847,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
             continue
         stats[ST_GEOM_OBB] += 1
         if obb_hit(tmp, 0, m1, tmp, 1, m2):
-            k = _emit(keys, k, g1, g2, G)
+            k = _emit(keys, k, g1, g2, S)
     stats[ST_OUT] = k
     if k <= keys.shape[0]:
         if k <= 96:
@@ -946,11 +953,12 @@ def step(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
     info[2] = k
     if k < 0 or k > keys.shape[0] or info[3] > 0:
         return np.empty((0, 2), np.int32)
-    G = I[H_G]
+    S = I[H_KS]
+    mask = (np.int64(1) << S) - 1
     out = np.empty((k, 2), np.int32)
     for i in range(k):
-        out[i, 0] = keys[i] // G
-        out[i, 1] = keys[i] % G
+        out[i, 0] = keys[i] >> S
+        out[i, 1] = keys[i] & mask
     return out
 
 
@@ -999,9 +1007,10 @@ def step_batch(body_pos, body_rot, I, F, W, sap, bp, keys, stats, world_count, w
 
 
 @nb.njit(cache=True)
-def gather_batch(keys, world_count, chunk_total, G, C):
+def gather_batch(keys, world_count, chunk_total, S, C):
     """Rows ``(world, g1, g2)`` int32 from the chunks' keys, world by world."""
     B = world_count.shape[0]
+    mask = (np.int64(1) << S) - 1
     K = 0
     for c in range(C):
         K += chunk_total[c]
@@ -1014,8 +1023,8 @@ def gather_batch(keys, world_count, chunk_total, G, C):
         for w in range(w0, w1):
             for _ in range(world_count[w]):
                 out[r, 0] = w
-                out[r, 1] = keys[c, i] // G
-                out[r, 2] = keys[c, i] % G
+                out[r, 1] = keys[c, i] >> S
+                out[r, 2] = keys[c, i] & mask
                 r += 1
                 i += 1
     return out
