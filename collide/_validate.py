@@ -9,6 +9,16 @@ from __future__ import annotations
 import numpy as np
 
 
+def _reject_complex(value, name: str) -> None:
+    # numpy casts complex to float with only a warning, dropping the imaginary part silently.
+    try:
+        is_complex = np.iscomplexobj(value)
+    except (TypeError, ValueError):
+        return  # not an array at all: the conversion that follows names the problem
+    if is_complex:
+        raise ValueError(f"{name}: complex values are not coordinates (got dtype {np.asarray(value).dtype})")
+
+
 def as_array(value, name: str, shape: tuple, dtype=np.float64) -> np.ndarray:
     """Convert ``value`` to a C-contiguous array of ``dtype`` and check its shape and finiteness.
 
@@ -28,6 +38,7 @@ def as_array(value, name: str, shape: tuple, dtype=np.float64) -> np.ndarray:
     array : ndarray
         A new or existing C-contiguous array of ``dtype``.
     """
+    _reject_complex(value, name)
     try:
         arr = np.ascontiguousarray(value, dtype=dtype)
     except (TypeError, ValueError) as exc:
@@ -43,6 +54,7 @@ def as_array(value, name: str, shape: tuple, dtype=np.float64) -> np.ndarray:
 
 def as_points(value, name: str = "points") -> np.ndarray:
     """Return ``value`` as finite ``(n, 3) float64`` points; an empty input gives ``(0, 3)``."""
+    _reject_complex(value, name)
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -98,12 +110,15 @@ def as_affine(matrix, translation=None, name: str = "matrix") -> tuple[np.ndarra
     linear : (3, 3) float64
     translation : (3,) float64
     """
-    m = np.asarray(matrix, dtype=np.float64) if not isinstance(matrix, tuple) else None
     if isinstance(matrix, tuple):
         if len(matrix) != 2 or translation is not None:
             raise ValueError(f"{name}: a tuple must be (rotation (3, 3), translation (3,))")
         matrix, translation = matrix
+    _reject_complex(matrix, name)
+    try:
         m = np.asarray(matrix, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: cannot be read as a float64 array ({exc})") from None
     if m.shape == (4, 4):
         if translation is not None:
             raise ValueError(f"{name}: give either a (4, 4) matrix or a (3, 3) linear part with a translation")

@@ -156,7 +156,13 @@ def union(clouds: Iterable[PointCloud], threshold: int = 256) -> PointCloud:
     PointCloud
     """
     threshold = as_count(threshold, "threshold", 1)
-    clouds = list(clouds)
+    if isinstance(clouds, PointCloud):
+        raise ValueError("clouds: expected an iterable of PointCloud, got a single PointCloud "
+                         "(write union([a, b]))")
+    try:
+        clouds = list(clouds)
+    except TypeError:
+        raise ValueError(f"clouds: expected an iterable of PointCloud, got {type(clouds).__name__}") from None
     for i, c in enumerate(clouds):
         if not isinstance(c, PointCloud):
             raise ValueError(f"clouds[{i}]: expected a PointCloud, got {type(c).__name__}")

@@ -228,3 +228,17 @@ def test_degenerate_clouds_work_everywhere(points):
 def test_bad_input_raises_a_clear_value_error(make, message):
     with pytest.raises(ValueError, match=message):
         make()
+
+
+def test_complex_points_and_single_cloud_union_raise_value_error():
+    # Regression: complex points were cast to float with only a warning (imaginary part
+    # dropped silently); union(cloud) crashed with a TypeError.
+    with pytest.raises(ValueError, match="complex"):
+        PointCloud(np.array([[1j, 0, 0]]))
+    cloud = PointCloud([[0, 0, 0]])
+    with pytest.raises(ValueError, match="complex"):
+        cloud.transform(np.eye(4, dtype=complex))
+    with pytest.raises(ValueError, match="single PointCloud"):
+        collide.union(cloud)
+    with pytest.raises(ValueError, match="iterable"):
+        collide.union(3)
