@@ -637,6 +637,12 @@ class Plane:
 
     def __post_init__(self):
         n = as_array(self.normal, "normal", (3,))
+        big = float(np.abs(n).max())
+        if big > 0.0 and not 1e-150 < float(np.linalg.norm(n)) < 1e150:
+            # Divide by the largest component first: |n| overflowed for (1e308, 1e308, 0) and
+            # the normal silently became zero.
+            n, d0 = n / big, float(self.offset) / big
+            object.__setattr__(self, "offset", d0)
         length = float(np.linalg.norm(n))
         if not length > 0.0:
             raise ValueError("normal: must be non-zero")
@@ -658,6 +664,22 @@ class Plane:
 
     def __hash__(self) -> int:
         return hash((tuple(self.normal.tolist()), self.offset))
+
+    def _unbounded(self, what: str):
+        raise ValueError(f"{what}: a Plane is an unbounded halfspace and has no bounding {what}; "
+                         "the broad phase handles planes itself (see shapes.plane)")
+
+    def aabb(self):
+        """Always raises ``ValueError``: a halfspace has no bounding box."""
+        self._unbounded("aabb")
+
+    def obb(self, method: str = "optimal"):
+        """Always raises ``ValueError``: a halfspace has no bounding box."""
+        self._unbounded("obb")
+
+    def sphere(self, method: str = "exact"):
+        """Always raises ``ValueError``: a halfspace has no bounding sphere."""
+        self._unbounded("sphere")
 
     def signed_distance(self, points) -> np.ndarray:
         """``(n,) float64``: ``normal . x - offset`` for ``points`` ``(n, 3)`` (<= 0 inside)."""

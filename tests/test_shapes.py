@@ -512,3 +512,17 @@ def test_containment_far_from_the_origin(kind):
         m = T.random_rigid(rng)
         m[:3, 3] = rng.uniform(-1e5, 1e5, 3)
         _assert_contained(cloud.transform(m), T.apply_affine(m, pts), f"{kind} far {params}")
+
+
+def test_plane_says_it_has_no_bounds_and_survives_huge_normals():
+    # Regression: plane.aabb() was an AttributeError; |normal| overflowed for (1e308, 1e308, 0)
+    # and the normal silently became zero.
+    p = shapes.plane((1e308, 1e308, 0), 1e308)
+    np.testing.assert_allclose(p.normal, [2 ** -0.5, 2 ** -0.5, 0], rtol=1e-15)
+    assert p.offset == pytest.approx(2 ** -0.5)
+    q = shapes.plane((0, 0, 2), 3)
+    np.testing.assert_allclose(q.normal, [0, 0, 1])
+    assert q.offset == pytest.approx(1.5)
+    for method in ("aabb", "obb", "sphere"):
+        with pytest.raises(ValueError, match="unbounded"):
+            getattr(p, method)()
