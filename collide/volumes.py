@@ -41,6 +41,16 @@ _ROUNDING_PAD = 8.0 * np.finfo(np.float64).eps
 ROTATION_TOL = 1e-6
 
 
+def _float_vec(value, name: str) -> np.ndarray:
+    # Any float array, infinities allowed (the empty box); complex and non-numbers rejected.
+    if np.iscomplexobj(value):
+        raise ValueError(f"{name}: complex values are not coordinates")
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: cannot be read as a float64 array ({exc})") from None
+
+
 def _vec3(value, name: str) -> np.ndarray:
     arr = as_array(value, name, (3,)).copy()
     arr.setflags(write=False)
@@ -73,8 +83,7 @@ class AABB:
     hi: np.ndarray
 
     def __post_init__(self):
-        lo = np.asarray(self.lo, dtype=np.float64)
-        hi = np.asarray(self.hi, dtype=np.float64)
+        lo, hi = _float_vec(self.lo, "lo"), _float_vec(self.hi, "hi")
         empty = lo.shape == hi.shape == (3,) and np.all(lo == np.inf) and np.all(hi == -np.inf)
         if not empty:
             lo, hi = _vec3(lo, "lo"), _vec3(hi, "hi")

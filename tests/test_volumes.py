@@ -586,3 +586,12 @@ def test_batched_overlaps_equal_the_pairwise_test():
     with pytest.raises(ValueError, match="half_a"):
         V.overlap_obbs(np.zeros((1, 3)), np.eye(3)[None], -np.ones((1, 3)),
                        np.zeros((1, 3)), np.eye(3)[None], np.ones((1, 3)))
+
+
+def test_aabb_rejects_complex_and_text_with_value_error():
+    # Regression: AABB([1j, 0, 0], ...) raised a TypeError from numpy.
+    with pytest.raises(ValueError, match="complex"):
+        V.AABB([1j, 0, 0], [1, 1, 1])
+    with pytest.raises(ValueError, match="lo"):
+        V.AABB(["a", 0, 0], [1, 1, 1])
+    assert V.AABB.empty().is_empty
