@@ -740,11 +740,26 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
             x = ~x
         if (ctor[x] & caor[y]) == 0 and (ctor[y] & caor[x]) == 0:
             continue
-        if not _rules(x, y, parent_pos, weld, filter_parent, ex_start, ex_other):
+        # _rules and _sphere_hit written out: array arguments of a call cost reference counting
+        if weld[x] == weld[y]:
+            continue
+        if filter_parent and ((parent_pos[x] == y and y != 0) or (parent_pos[y] == x and x != 0)):
+            continue
+        excluded = False
+        for e in range(ex_start[x], ex_start[x + 1]):
+            if ex_other[e] == y:
+                excluded = True
+        if excluded:
             continue
         if not sphere_done:
             stats[ST_BODY_SPHERE] += 1
-            if not _sphere_hit(bw, x, 0.0, bw, y, 0.0):
+            dx = bw[x, 15] - bw[y, 15]
+            dy = bw[x, 16] - bw[y, 16]
+            dz = bw[x, 17] - bw[y, 17]
+            r = bw[x, 18] + bw[y, 18]
+            r += SLACK_REL * r + SLACK_POS * (abs(bw[x, 15]) + abs(bw[x, 16]) + abs(bw[x, 17]) + abs(bw[y, 15])
+                                              + abs(bw[y, 16]) + abs(bw[y, 17]))
+            if not dx * dx + dy * dy + dz * dz <= r * r:
                 continue
         stats[ST_BODY_OBB] += 1
         if not obb_hit(bw, x, 0.0, bw, y, 0.0):
