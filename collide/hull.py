@@ -233,15 +233,28 @@ def clip_hull(points: np.ndarray, normals: np.ndarray, offsets: np.ndarray) -> n
     return pts
 
 
+def _solid(points: np.ndarray) -> bool:
+    # Full-dimensional and not thin: manifold3d's hull and boolean lose or misplace whole parts
+    # of hulls thinner than about 1e-6 of their width (measured: up to 1.6x the size for 1e-8),
+    # so anything thinner than 1e-4 goes to exact clipping instead.
+    center, axes, rank = affine_basis(points)
+    if rank < 3:
+        return False
+    widths = np.ptp((points - center) @ axes.T, axis=0)
+    return bool(widths[2] >= 1e-4 * widths[0])
+
+
 def intersect_hulls(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Vertices of ``hull(a) ∩ hull(b)``: manifold3d for solid hulls, exact clipping otherwise.
 
-    Both sets are first moved to their overlap's centre and scaled to unit size: manifold3d's
-    hulls lose volume far from the origin (a 0.01-wide pair of hulls at 6e4 intersected to
-    nothing). Flat, collinear or single-point inputs, hulls that only touch, and any case the
-    boolean drops as empty are clipped plane by plane (`clip_hull`) against halfspaces pushed
-    out by ``1e-12`` times the coordinate scale (conservative at rounding level), so touching
-    sets give a thin valid cloud; truly disjoint hulls give ``(0, 3)``.
+    Both sets are first moved to their overlap's centre (and, for manifold3d, scaled to unit
+    size): far from the origin manifold3d's hulls lost volume (a 0.01-wide pair of hulls at
+    6e4 intersected to nothing) and `affine_basis` took a 1e-5-wide set at 7e6 for a single
+    point. Flat, collinear, single-point and thin inputs (manifold3d misplaces hulls thinner
+    than about 1e-6 of their width), hulls that only touch, and any case the boolean drops as
+    empty are clipped plane by plane (`clip_hull`) against halfspaces pushed out by ``1e-12``
+    times the coordinate scale (conservative at rounding level), so touching sets give a thin
+    valid cloud; truly disjoint hulls give ``(0, 3)``.
 
     Parameters
     ----------
@@ -256,15 +269,16 @@ def intersect_hulls(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     hi = np.minimum(a.max(axis=0), b.max(axis=0))
     scale = max(float(np.abs(a).max()), float(np.abs(b).max()), float(np.ptp(a, axis=0).max()),
                 float(np.ptp(b, axis=0).max()), 1e-300)
+    # eps covers the rounding of the input coordinates and of the shift to the centre below.
     eps = 1e-12 * scale
     if np.any(lo > hi + 4 * eps):
         return np.zeros((0, 3))
-    a = hull_vertices(a)
-    b = hull_vertices(b)
     center = 0.5 * (np.minimum(lo, hi) + np.maximum(lo, hi))
+    a = hull_vertices(a - center)
+    b = hull_vertices(b - center)
     size = max(float(np.ptp(a, axis=0).max()), float(np.ptp(b, axis=0).max()))
-    if size > 0.0 and affine_basis(a)[2] == 3 and affine_basis(b)[2] == 3:
-        inter = _manifold_hull((a - center) / size) ^ _manifold_hull((b - center) / size)
+    if size > 0.0 and _solid(a) and _solid(b):
+        inter = _manifold_hull(a / size) ^ _manifold_hull(b / size)
         if not inter.is_empty():
             return np.array(inter.to_mesh64().vert_properties[:, :3], dtype=np.float64) * size + center
     try:
@@ -273,4 +287,5 @@ def intersect_hulls(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         # Qhull refused b's facets: clip by b's box instead (it contains hull(b)).
         normals = np.concatenate([np.eye(3), -np.eye(3)])
         offsets = np.concatenate([b.max(axis=0), -b.min(axis=0)]) + eps
-    return clip_hull(a, normals, offsets)
+    out = clip_hull(a, normals, offsets)
+    return out + center if len(out) else out
