@@ -41,8 +41,9 @@ def affine_basis(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     center = points.mean(axis=0)
     centred = points - center
     extent = float(np.abs(centred).max()) if len(points) > 1 else 0.0
-    # A spread at the rounding level of the coordinates themselves is a single point.
-    if extent <= FLAT_TOL * float(np.abs(center).max()) or extent == 0.0:
+    # A spread at the rounding level of the coordinates themselves is a single point. (It was
+    # 1e-12 * |centre|, thousands of ulps: a 1e-5-wide cloud at 7e6 became one point.)
+    if extent <= 64.0 * np.finfo(np.float64).eps * float(np.abs(center).max()) or extent == 0.0:
         return center, np.eye(3), 0
     # Reduced SVD: full_matrices=True would build an (n, n) matrix (out of memory at 1e5 points).
     _, s, vt = np.linalg.svd(centred, full_matrices=False)

@@ -175,3 +175,14 @@ def test_intersect_hulls_small_clouds_far_from_the_origin():
     dirs /= np.linalg.norm(dirs, axis=1)[:, None]
     # Tolerance: 1e-12 of the coordinates (7e-6 absolute here is far above; use 1e-8).
     assert np.all((samples @ dirs.T).max(axis=0) <= (out @ dirs.T).max(axis=0) + 1e-8)
+
+
+def test_small_cloud_far_from_the_origin_is_not_a_single_point():
+    # Regression: affine_basis called any spread below 1e-12 * |centre| a single point (7e-6 at
+    # 7e6, thousands of ulps), so reduced() collapsed a 1e-5-wide cloud to one point.
+    rng = np.random.default_rng(0)
+    pts = rng.normal(size=(20, 3)) * 3e-6 + [6.8e6, -2e6, 3e6]
+    assert hull.affine_basis(pts)[2] == 3
+    kept = hull.hull_vertices(pts)
+    np.testing.assert_allclose(kept.min(axis=0), pts.min(axis=0), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(kept.max(axis=0), pts.max(axis=0), rtol=0, atol=1e-9)
