@@ -11,10 +11,12 @@ Example
 >>> bp = BroadPhase(articulation)
 >>> pairs = bp.pairs(data.xpos, data.xmat.reshape(-1, 3, 3))   # (K, 2) int32 geom ids
 
-Measured (tests/bench/broadphase.txt, 2 shared cores): random convex hulls, 1024 bodies ~0.5x
-MuJoCo 4.0's broad-phase time and 4096 bodies ~0.3x, with 6-7x fewer candidates; small scenes
-(16 bodies, a 64-link chain) are dominated by the fixed cost of a Python call into numba (a few
-microseconds) and take 2-3x MuJoCo's C broad phase.
+Measured (tests/bench/broadphase.txt, 2 shared cores): random convex hulls, 1024 bodies ~0.45x
+MuJoCo 4.0's broad-phase time and 4096 bodies ~0.27x, with 6-7x fewer candidates; 1024 worlds of
+a 64-link chain in one batched call ~2.8 us per world (~0.8x MuJoCo's single world); small scenes
+(16 bodies, a 64-link chain) pay the fixed cost of a Python call into numba (~2.5 us with this
+wrapper, of which ~1 us is numba's argument unboxing and result boxing) and take ~2x MuJoCo's
+C broad phase.
 """
 
 from __future__ import annotations
