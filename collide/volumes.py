@@ -272,9 +272,19 @@ class OBB:
 # ----------------------------------------------------------------------------------------------
 # Fitting: AABB and OBB
 
-def _require_points(points: np.ndarray, what: str) -> None:
+# Largest coordinate (plus radius) the fitters accept: their squared distances and SVDs
+# overflow float64 beyond about 1e154 (1e300 gave "radius: must be finite, got inf" and "rotation:
+# not orthonormal", naming nothing the user passed).
+MAX_COORDINATE = 1e150
+
+
+def _require_points(points: np.ndarray, what: str, radius: float = 0.0) -> None:
     if len(points) == 0:
         raise ValueError(f"{what}: the cloud is empty and bounds nothing")
+    big = float(np.abs(points).max()) + radius
+    if not big <= MAX_COORDINATE:
+        raise ValueError(f"{what}: coordinates plus radius reach {big:.3g}, beyond {MAX_COORDINATE:g} "
+                         "(squared distances would overflow float64)")
 
 
 def fit_aabb(points: np.ndarray, radius: float = 0.0) -> AABB:
@@ -662,7 +672,7 @@ def fit_obb(points: np.ndarray, radius: float = 0.0, method: str = "optimal") ->
     """
     points = as_points(points, "points")
     radius = as_radius(radius, "radius")
-    _require_points(points, "obb")
+    _require_points(points, "obb", radius)
     if method not in ("optimal", "pca"):
         raise ValueError(f"method: expected 'optimal' or 'pca', got {method!r}")
     # Centre first: Qhull and the SVD lose precision on coordinates far from the origin.
@@ -873,7 +883,7 @@ def fit_sphere(points: np.ndarray, radius: float = 0.0, method: str = "exact") -
     """
     points = as_points(points, "points")
     radius = as_radius(radius, "radius")
-    _require_points(points, "sphere")
+    _require_points(points, "sphere", radius)
     if method == "exact":
         center = min_sphere_center(points)
     elif method == "ritter":
@@ -1019,7 +1029,7 @@ def fit_kdop(points: np.ndarray, radius: float = 0.0, k: int = 26) -> KDOP:
     """
     points = as_points(points, "points")
     radius = as_radius(radius, "radius")
-    _require_points(points, "kdop")
+    _require_points(points, "kdop", radius)
     d = _kdop_directions(k)
     proj = points @ d.T
     pad = _ROUNDING_PAD * float(np.abs(points).max())  # see fit_obb

@@ -595,3 +595,18 @@ def test_aabb_rejects_complex_and_text_with_value_error():
     with pytest.raises(ValueError, match="lo"):
         V.AABB(["a", 0, 0], [1, 1, 1])
     assert V.AABB.empty().is_empty
+
+
+def test_coordinates_that_overflow_squared_distances_are_named():
+    # Regression: a cloud at 1e300 raised "radius: must be finite, got inf" (sphere) and
+    # "rotation: not orthonormal" (OBB), naming nothing the user passed.
+    cloud = PointCloud([[1e300, 0, 0], [-1e300, 1, 0], [0, 1e300, 1]])
+    for fit in (cloud.sphere, cloud.obb, lambda: V.fit_kdop(cloud.points, 0.0, 14)):
+        with pytest.raises(ValueError, match="overflow"):
+            fit()
+    with pytest.raises(ValueError, match="coordinates plus radius"):
+        PointCloud([[0, 0, 0]], 1e200).sphere()
+    assert cloud.aabb().hi[0] == 1e300  # the AABB needs no squares
+    big = PointCloud([[1e100, 0, 0], [0, 1e100, 0], [0, 0, 1e100]], 1e99)
+    assert np.all(big.obb().contains(big.points, rtol=1e-9))
+    assert np.all(big.sphere().contains(big.points, rtol=1e-9))
