@@ -638,7 +638,7 @@ class Plane:
     def __post_init__(self):
         n = as_array(self.normal, "normal", (3,))
         big = float(np.abs(n).max())
-        if big > 0.0 and not 1e-150 < float(np.linalg.norm(n)) < 1e150:
+        if big > 0.0 and not 1e-150 < big < 1e150:
             # Divide by the largest component first: |n| overflowed for (1e308, 1e308, 0) and
             # the normal silently became zero.
             n, d0 = n / big, float(self.offset) / big
