@@ -197,6 +197,8 @@ def intersection(a: PointCloud, b: PointCloud, exact: bool = True) -> PointCloud
     for name, c in (("a", a), ("b", b)):
         if not isinstance(c, PointCloud):
             raise ValueError(f"{name}: expected a PointCloud, got {type(c).__name__}")
+    if not isinstance(exact, (bool, np.bool_)):
+        raise ValueError(f"exact: expected True or False, got {exact!r}")
     if a.is_empty or b.is_empty:
         return PointCloud.empty()
     if not exact:

@@ -242,3 +242,11 @@ def test_complex_points_and_single_cloud_union_raise_value_error():
         collide.union(cloud)
     with pytest.raises(ValueError, match="iterable"):
         collide.union(3)
+
+
+def test_intersection_exact_flag_must_be_a_bool():
+    # Regression: exact="no" was truthy and silently ran the exact path.
+    cloud = PointCloud([[0, 0, 0], [1, 1, 1]])
+    with pytest.raises(ValueError, match="exact"):
+        collide.intersection(cloud, cloud, exact="no")
+    assert len(collide.intersection(cloud, cloud, exact=np.bool_(False))) == 8
