@@ -357,29 +357,6 @@ def _push(bp, nb_, x, y):
     return nb_ + 1
 
 
-@nb.njit(cache=True, inline="always")
-def _body_vs_subtree(a, root, end, baabb, saabb, hasb, bp, nb_, stats):
-    # Body a against every body of the subtree at position root, skipping missed subtrees whole.
-    q = root
-    stop = end[root]
-    while q < stop:
-        stats[ST_SUBTREE] += 1
-        if (baabb[a, 0] <= saabb[q, 3] and saabb[q, 0] <= baabb[a, 3] and baabb[a, 1] <= saabb[q, 4]
-                and saabb[q, 1] <= baabb[a, 4] and baabb[a, 2] <= saabb[q, 5] and saabb[q, 2] <= baabb[a, 5]):
-            if hasb[q]:
-                if end[q] == q + 1:  # a leaf's subtree AABB is its body AABB: just tested
-                    nb_ = _push(bp, nb_, a, q)
-                else:
-                    stats[ST_BODY_AABB] += 1
-                    if (baabb[a, 0] <= baabb[q, 3] and baabb[q, 0] <= baabb[a, 3] and baabb[a, 1] <= baabb[q, 4]
-                            and baabb[q, 1] <= baabb[a, 4] and baabb[a, 2] <= baabb[q, 5] and baabb[q, 2] <= baabb[a, 5]):
-                        nb_ = _push(bp, nb_, a, q)
-            q += 1
-        else:
-            q = end[q]
-    return nb_
-
-
 @nb.njit(cache=True)
 def _subtree_pair(A, B, end, baabb, saabb, hasb, bp, nb_, stats):
     # Every body of subtree A against every body of subtree B (disjoint subtrees).
@@ -393,7 +370,29 @@ def _subtree_pair(A, B, end, baabb, saabb, hasb, bp, nb_, stats):
         if (saabb[a, 0] <= saabb[B, 3] and saabb[B, 0] <= saabb[a, 3] and saabb[a, 1] <= saabb[B, 4]
                 and saabb[B, 1] <= saabb[a, 4] and saabb[a, 2] <= saabb[B, 5] and saabb[B, 2] <= saabb[a, 5]):
             if hasb[a]:
-                nb_ = _body_vs_subtree(a, B, end, baabb, saabb, hasb, bp, nb_, stats)
+                # body a against subtree B (the walk of _traverse, written out: see _aabb_hit)
+                q = B
+                qs = end[B]
+                while q < qs:
+                    stats[ST_SUBTREE] += 1
+                    if (baabb[a, 0] <= saabb[q, 3] and saabb[q, 0] <= baabb[a, 3] and baabb[a, 1] <= saabb[q, 4]
+                            and saabb[q, 1] <= baabb[a, 4] and baabb[a, 2] <= saabb[q, 5]
+                            and saabb[q, 2] <= baabb[a, 5]):
+                        if hasb[q]:
+                            hit = end[q] == q + 1  # a leaf's subtree AABB is its body AABB
+                            if not hit:
+                                stats[ST_BODY_AABB] += 1
+                                hit = (baabb[a, 0] <= baabb[q, 3] and baabb[q, 0] <= baabb[a, 3]
+                                       and baabb[a, 1] <= baabb[q, 4] and baabb[q, 1] <= baabb[a, 4]
+                                       and baabb[a, 2] <= baabb[q, 5] and baabb[q, 2] <= baabb[a, 5])
+                            if hit:
+                                if nb_ < bp.shape[0]:
+                                    bp[nb_, 0] = a
+                                    bp[nb_, 1] = q
+                                nb_ += 1
+                        q += 1
+                    else:
+                        q = end[q]
             a += 1
         else:
             a = end[a]
@@ -557,20 +556,35 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
         # body n against its descendants; n + 1 is its first child, each sibling follows the
         # previous one's range
         if hasb[n] and end[n] > n + 1:
-            c = n + 1
-            while c < end[n]:
-                if filter_parent and n != 0:
-                    # (n, c) is a parent pair, never reported: only c's subtrees are candidates
-                    stats[ST_SUBTREE] += 1
-                    if (baabb[n, 0] <= saabb[c, 3] and saabb[c, 0] <= baabb[n, 3] and baabb[n, 1] <= saabb[c, 4]
-                            and saabb[c, 1] <= baabb[n, 4] and baabb[n, 2] <= saabb[c, 5] and saabb[c, 2] <= baabb[n, 5]):
-                        g = c + 1
-                        while g < end[c]:
-                            nb_ = _body_vs_subtree(n, g, end, baabb, saabb, hasb, bp, nb_, stats)
-                            g = end[g]
+            # One walk over the descendants [n + 1, end[n]) (every child's subtree in turn),
+            # skipping a missed subtree whole. Under the parent rule a direct child is a parent
+            # pair, never reported: its subtree AABB still culls, its body is not paired.
+            skip_child = filter_parent and n != 0
+            nxt = n + 1  # the next direct child
+            q = n + 1
+            stop = end[n]
+            while q < stop:
+                child = q == nxt
+                if child:
+                    nxt = end[q]
+                stats[ST_SUBTREE] += 1
+                if (baabb[n, 0] <= saabb[q, 3] and saabb[q, 0] <= baabb[n, 3] and baabb[n, 1] <= saabb[q, 4]
+                        and saabb[q, 1] <= baabb[n, 4] and baabb[n, 2] <= saabb[q, 5] and saabb[q, 2] <= baabb[n, 5]):
+                    if hasb[q] and not (child and skip_child):
+                        hit = end[q] == q + 1  # a leaf's subtree AABB is its body AABB: just tested
+                        if not hit:
+                            stats[ST_BODY_AABB] += 1
+                            hit = (baabb[n, 0] <= baabb[q, 3] and baabb[q, 0] <= baabb[n, 3]
+                                   and baabb[n, 1] <= baabb[q, 4] and baabb[q, 1] <= baabb[n, 4]
+                                   and baabb[n, 2] <= baabb[q, 5] and baabb[q, 2] <= baabb[n, 5])
+                        if hit:
+                            if nb_ < bp.shape[0]:
+                                bp[nb_, 0] = n
+                                bp[nb_, 1] = q
+                            nb_ += 1
+                    q += 1
                 else:
-                    nb_ = _body_vs_subtree(n, c, end, baabb, saabb, hasb, bp, nb_, stats)
-                c = end[c]
+                    q = end[q]
         kc = nchild[n]
         if kc < 2:
             continue
@@ -582,7 +596,8 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
                     cj = children[off + j]
                     stats[ST_SUBTREE] += 1
                     if (saabb[ci, 0] <= saabb[cj, 3] and saabb[cj, 0] <= saabb[ci, 3] and saabb[ci, 1] <= saabb[cj, 4]
-                            and saabb[cj, 1] <= saabb[ci, 4] and saabb[ci, 2] <= saabb[cj, 5] and saabb[cj, 2] <= saabb[ci, 5]):
+                            and saabb[cj, 1] <= saabb[ci, 4] and saabb[ci, 2] <= saabb[cj, 5]
+                            and saabb[cj, 2] <= saabb[ci, 5]):
                         if end[ci] == ci + 1 and end[cj] == cj + 1:  # two bodies: no call
                             if hasb[ci] and hasb[cj]:
                                 nb_ = _push(bp, nb_, ci, cj)
@@ -644,7 +659,8 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
                     break
                 stats[ST_SUBTREE] += 1
                 if (saabb[ci, 0] <= saabb[cj, 3] and saabb[cj, 0] <= saabb[ci, 3] and saabb[ci, 1] <= saabb[cj, 4]
-                        and saabb[cj, 1] <= saabb[ci, 4] and saabb[ci, 2] <= saabb[cj, 5] and saabb[cj, 2] <= saabb[ci, 5]):
+                        and saabb[cj, 1] <= saabb[ci, 4] and saabb[ci, 2] <= saabb[cj, 5]
+                        and saabb[cj, 2] <= saabb[ci, 5]):
                     if end[ci] == ci + 1 and end[cj] == cj + 1:  # two bodies: no call
                         if hasb[ci] and hasb[cj]:
                             nb_ = _push(bp, nb_, ci, cj)
