@@ -12,11 +12,12 @@ Example
 >>> pairs = bp.pairs(data.xpos, data.xmat.reshape(-1, 3, 3))   # (K, 2) int32 geom ids
 
 Measured (tests/bench/broadphase.txt, 2 shared cores): random convex hulls, 1024 bodies ~0.45x
-MuJoCo 4.0's broad-phase time and 4096 bodies ~0.27x, with 6-7x fewer candidates; 1024 worlds of
-a 64-link chain in one batched call ~2.8 us per world (~0.8x MuJoCo's single world); small scenes
+MuJoCo 4.0's broad-phase time and 4096 bodies ~0.3x, with 6-7x fewer candidates; 1024 worlds of
+a 64-link chain in one batched call ~2.2 us per world (~0.6x MuJoCo's single world); small scenes
 (16 bodies, a 64-link chain) pay the fixed cost of a Python call into numba (~2.5 us with this
-wrapper, of which ~1 us is numba's argument unboxing and result boxing) and take ~2x MuJoCo's
-C broad phase.
+wrapper, of which ~1.4 us is numba's argument unboxing and result boxing) and take ~1.7-2x
+MuJoCo's C broad phase (tests/bench/mujoco_models.txt: 1.1x on 22 humanoids, 1.8-3x on the
+small robot models).
 """
 
 from __future__ import annotations
