@@ -54,12 +54,24 @@ def fit_local_sphere(cloud: PointCloud) -> _volumes.Sphere:
     return cloud.sphere("exact")
 
 
+# Body rotations are accepted per step when |R^T R - I| <= POSE_ORTHO_TOL entrywise (float32
+# poses carry ~1e-7 of error). The kernel moves a local box by R and then treats its axes R a_i as
+# orthonormal; the true image is the parallelepiped spanned by h_i R a_i, whose support in any
+# direction differs from the box's by at most ~4 tol (h_0 + h_1 + h_2), and ||R|| <= 1 + 1.5 tol
+# grows spheres. Every local bound carries that slack (8 tol sum(h), and 2 tol r), so a pair that
+# a slightly scaled rotation brings into contact is never culled (found 2026-11-21: a 4.5e-7
+# scaled rotation missed touching boxes 4e-7 apart).
+POSE_ORTHO_TOL = 1e-6
+ROTATION_SLACK = 8.0 * POSE_ORTHO_TOL
+
+
 def _guarded(obb: _volumes.OBB, sphere: _volumes.Sphere):
     scale = max(float(np.abs(obb.center).max()), float(obb.half_extents.max()),
                 float(np.abs(sphere.center).max()), sphere.radius, 1e-300)
     pad = BOUND_GUARD * scale
-    return (obb.center.copy(), obb.rotation.copy(), obb.half_extents + pad,
-            sphere.center.copy(), sphere.radius + pad)
+    half = obb.half_extents + pad + ROTATION_SLACK * float(np.sum(obb.half_extents))
+    radius = (sphere.radius + pad) * (1.0 + 2.0 * POSE_ORTHO_TOL)
+    return obb.center.copy(), obb.rotation.copy(), half, sphere.center.copy(), radius
 
 
 def _box_corners(center: np.ndarray, rot: np.ndarray, half: np.ndarray) -> np.ndarray:

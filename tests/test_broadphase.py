@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.optimize import linprog
 
-from collide import Articulation, BroadPhase, PointCloud, testing
+from collide import Articulation, BroadPhase, PointCloud, shapes, testing
 
 BALL = PointCloud([[0, 0, 0]], 0.5)
 EYE = np.eye(3)
@@ -397,3 +397,25 @@ def test_far_from_the_origin():
         assert not _rows(exact) - _rows(got)
         touching += len(exact)
     assert touching > 10
+
+
+def test_slightly_scaled_rotations_never_lose_a_touching_pair():
+    # Rotations are accepted up to |R^T R - I| <= 1e-6 (float32 poses); the bounds carry the slack.
+    # Reproducer (2026-11-21): a rotation scaled by 1 + 4.5e-7 missed boxes 4e-7 apart.
+    from collide import articulation as art_mod
+    from collide._kernels import broadphase as kern
+
+    assert kern.ORTHO_TOL == art_mod.POSE_ORTHO_TOL
+    art = Articulation([0, 0, 0], [1, 2], [shapes.box([1, 1, 1]), shapes.box([1, 1, 1])])
+    bp = BroadPhase(art)
+    hits = 0
+    for gap in np.linspace(1e-7, 8e-7, 8):
+        for scale in (1 + 4.5e-7, 1 - 4.5e-7):
+            pos = np.array([[0, 0, 0], [0, 0, 0], [2 + gap, 0, 0]])
+            rot = np.stack([np.eye(3), np.eye(3) * scale, np.eye(3)])
+            truth = testing.brute_force_pairs(art, pos, rot)
+            ours = bp.pairs(pos, rot)
+            assert set(map(tuple, truth)) <= set(map(tuple, ours))
+            assert np.array_equal(ours, testing.brute_force_bound_pairs(art, pos, rot))
+            hits += len(truth)
+    assert hits > 0  # some of these poses really touch

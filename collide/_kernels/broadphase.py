@@ -38,7 +38,7 @@ import numpy as np
 
 ROW = 19
 BIG = 1e300  # empty AABB: lo = BIG, hi = -BIG (finite, so n . lo never meets inf - inf)
-ORTHO_TOL = 1e-6  # max |R^T R - I| accepted for a body rotation
+ORTHO_TOL = 1e-6  # max |R^T R - I| accepted for a body rotation (articulation.POSE_ORTHO_TOL: bounds carry the slack)
 # Conservative slack: rounding must never separate touching bounds. AbsR gets EPS_PAR (Ericson's
 # guard against near-parallel edge pairs, whose cross product is ~0); every comparison gets
 # SLACK_REL of the sizes involved plus SLACK_POS of the coordinates' magnitude (a difference of
