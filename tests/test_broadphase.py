@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-from scipy.optimize import linprog
 
 from collide import Articulation, BroadPhase, PointCloud, shapes, testing
 
@@ -325,17 +324,6 @@ def test_wrong_shapes_and_dtypes_raise(robot_bp):
 
 # --------------------------------------------------------------------------- the GJK twin
 
-def _lp_intersect(P, Q):
-    # hull(P) ∩ hull(Q) != ∅  <=>  exists l, m >= 0, sum l = sum m = 1, P^T l = Q^T m
-    n, m = len(P), len(Q)
-    A = np.zeros((5, n + m))
-    A[:3, :n], A[:3, n:] = P.T, -Q.T
-    A[3, :n] = 1
-    A[4, n:] = 1
-    res = linprog(np.zeros(n + m), A_eq=A, b_eq=[0, 0, 0, 1, 1], bounds=(0, None), method="highs")
-    return res.status == 0
-
-
 def test_gjk_agrees_with_linear_programming():
     rng = np.random.default_rng(8)
     agree = hits = 0
@@ -348,13 +336,13 @@ def test_gjk_agrees_with_linear_programming():
         upper, lower = testing.gjk_distance(P, Q)
         assert lower <= upper + 1e-12 and upper - lower <= 1e-6 * max(upper, 1e-9)
         if upper > 1e-9:
-            assert not _lp_intersect(P, Q)
+            assert not testing.hulls_intersect_lp(P, Q)
             # moving Q by the distance along the separating direction makes them meet
             d = upper
             c = (P.mean(0), Q.mean(0))
             assert d <= np.linalg.norm(c[0] - c[1])
         else:
-            assert _lp_intersect(P, Q)
+            assert testing.hulls_intersect_lp(P, Q)
             hits += 1
         agree += 1
     assert agree == 300 and 50 < hits < 250

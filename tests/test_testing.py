@@ -2,20 +2,8 @@
 
 import numpy as np
 import pytest
-from scipy.optimize import linprog
 
 from collide import testing
-
-
-def _lp_intersect(P, Q):
-    # hull(P) ∩ hull(Q) non-empty iff sum a_i p_i = sum b_j q_j with a, b convex weights.
-    n, m = len(P), len(Q)
-    A = np.zeros((5, n + m))
-    A[:3, :n], A[:3, n:] = P.T, -Q.T
-    A[3, :n] = 1
-    A[4, n:] = 1
-    res = linprog(np.zeros(n + m), A_eq=A, b_eq=[0, 0, 0, 1, 1], bounds=(0, None), method="highs")
-    return res.status == 0
 
 
 @pytest.mark.parametrize("scale, offset", [(1e-6, 0.0), (1e-6, 1e-3), (1e4, 0.0), (1.0, 1e5)])
@@ -37,7 +25,7 @@ def test_gjk_distance_is_scale_free(scale, offset):
         upper, lower = testing.gjk_distance(P * scale + offset, Q * scale + offset)
         ref_upper, _ = testing.gjk_distance(P, Q)
         assert upper == pytest.approx(ref_upper * scale, rel=1e-6, abs=1e-9 * scale)
-        touching = _lp_intersect(P, Q)
+        touching = testing.hulls_intersect_lp(P, Q)
         if upper > 1e-9 * scale:
             assert not touching
             misses += 1

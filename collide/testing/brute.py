@@ -397,3 +397,24 @@ def brute_force_pairs(art: Articulation, body_pos, body_rot, candidates=None) ->
         low = float(np.min(P @ plane[gp, :3])) - crad[gs] - ms
         touch[k] = low <= plane[gp, 3] + mp
     return _as_pairs(g1[touch], g2[touch])
+
+
+def hulls_intersect_lp(P: np.ndarray, Q: np.ndarray) -> bool:
+    """Whether ``hull(P)`` and ``hull(Q)`` intersect, by a feasibility linear program.
+
+    The slow, independent twin of `gjk_distance` (``== 0``): the hulls meet iff convex weights
+    ``a``, ``b`` exist with ``P^T a = Q^T b``.
+
+    Parameters
+    ----------
+    P, Q : (n, 3), (m, 3) float64
+    """
+    from scipy.optimize import linprog
+
+    n, m = len(P), len(Q)
+    A = np.zeros((5, n + m))
+    A[:3, :n], A[:3, n:] = np.asarray(P).T, -np.asarray(Q).T
+    A[3, :n] = 1
+    A[4, n:] = 1
+    res = linprog(np.zeros(n + m), A_eq=A, b_eq=[0, 0, 0, 1, 1], bounds=(0, None), method="highs")
+    return res.status == 0
