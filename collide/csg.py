@@ -88,6 +88,8 @@ class Node:
         -------
         PointCloud
         """
+        if not isinstance(exact_intersection, (bool, np.bool_)):
+            raise ValueError(f"exact_intersection: expected True or False, got {exact_intersection!r}")
         ctx = _Context(as_count(threshold, "threshold", 1), bool(exact_intersection),
                        {} if cache is None else cache)
         with _deep_recursion():

@@ -431,3 +431,10 @@ def test_raycast_directions_of_extreme_length():
     lengths = np.abs(d).max(axis=1) * np.linalg.norm(d / np.abs(d).max(axis=1)[:, None], axis=1)
     np.testing.assert_allclose(hits.distance * lengths, unit.distance, rtol=1e-12)
     np.testing.assert_allclose(hits.normal, unit.normal, atol=1e-12)
+
+
+def test_exact_intersection_flag_must_be_a_bool():
+    node = csg.box([1.0, 1.0, 1.0])
+    with pytest.raises(ValueError, match="exact_intersection"):
+        node.point_cloud(exact_intersection="no")
+    assert len(node.point_cloud(exact_intersection=False)) == 8
