@@ -295,30 +295,29 @@ class Union(Node):
         return f"Union({len(self.items)} children)"
 
 
-class Intersection(Node):
+class _Binary(Node):
+    """A node with two ordered operands ``a`` and ``b``."""
+
+    __slots__ = ("a", "b")
+
+    def __init__(self, a: Node, b: Node):
+        self.a = _check_node(a, "a")
+        self.b = _check_node(b, "b")
+
+    def children(self):
+        return (self.a, self.b)
+
+
+class Intersection(_Binary):
     """``a ∩ b``."""
 
-    __slots__ = ("a", "b")
-
-    def __init__(self, a: Node, b: Node):
-        self.a = _check_node(a, "a")
-        self.b = _check_node(b, "b")
-
-    def children(self):
-        return (self.a, self.b)
+    __slots__ = ()
 
 
-class Difference(Node):
+class Difference(_Binary):
     """``a \\ b``."""
 
-    __slots__ = ("a", "b")
-
-    def __init__(self, a: Node, b: Node):
-        self.a = _check_node(a, "a")
-        self.b = _check_node(b, "b")
-
-    def children(self):
-        return (self.a, self.b)
+    __slots__ = ()
 
 
 class Instances(Node):
