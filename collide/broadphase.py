@@ -123,13 +123,23 @@ class BroadPhase:
         self._sap_init = children.copy()
         self._W = np.zeros(self._nW)
         self._sap = children.copy()
-        self._bp = np.empty((4 * L + 64, 2), np.int64)
-        self._keys = np.empty(4 * G + 64, np.int64)
         self._stats = np.zeros(_k.N_STATS, np.int64)
         self._info = np.zeros(4, np.int64)
+        self._ctx = np.empty(_k.NCTX, np.int64)
+        self._step = _k.step_function()
+        self._set_buffers(4 * L + 64, 4 * G + 64)
         self._batch = None
-        self._last_stats = self._stats
         self._shape_pos, self._shape_rot = (L, 3), (L, 3, 3)
+        self._empty = np.zeros((0, 2), np.int32)
+        self._empty.flags.writeable = False
+
+    def _set_buffers(self, body_pairs: int, keys: int) -> None:
+        # The kernel reaches every buffer through self._ctx (addresses): replace a buffer only here.
+        self._bp = np.empty((max(1, body_pairs), 2), np.int64)
+        self._keys = np.empty(max(1, keys), np.int64)
+        self._out = self._keys.view(np.int32).reshape(-1, 2)  # the kernel writes the pairs here
+        _k.context(self._I, self._F, self._W, self._sap, self._bp, self._keys, self._stats, self._info,
+                   out=self._ctx)
 
     def _check(self, body_pos, body_rot, lead: tuple):
         L = self.body_count
@@ -175,33 +185,37 @@ class BroadPhase:
             Wrong shape or dtype, or a pose with a NaN/inf or a rotation that is not orthonormal
             (naming the first offending body); the broad phase stays usable.
         """
-        # Fast path: the exact layout the kernel was compiled for (anything else would make numba
-        # compile a new specialisation, or be wrong); checked in a few hundred nanoseconds.
-        if not (type(body_pos) is np.ndarray and type(body_rot) is np.ndarray
-                and body_pos.dtype is _F64 and body_rot.dtype is _F64
-                and body_pos.shape == self._shape_pos and body_rot.shape == self._shape_rot
-                and body_pos.strides == _STRIDES_POS and body_rot.strides == _STRIDES_ROT):
-            body_pos, body_rot = self._check(body_pos, body_rot, ())
-        out = _k.step(body_pos, body_rot, self._I, self._F, self._W, self._sap, self._bp, self._keys,
-                      self._stats, self._info)
-        if out.shape[0] == 0:  # no pair, a bad pose or a full buffer: the kernel says which in info
-            info = self._info
-            while info[0] != _k.OK or info[3] > 0 or info[2] > len(self._keys):
-                if info[0] != _k.OK:
-                    self._raise(int(info[0]), int(info[1]))
-                if info[3] > 0:  # never drop a pair: grow the buffer and rerun
-                    self._bp = np.empty((2 * int(info[3]), 2), np.int64)
-                else:
-                    self._keys = np.empty(2 * int(info[2]), np.int64)
-                out = _k.step(body_pos, body_rot, self._I, self._F, self._W, self._sap, self._bp, self._keys,
-                              self._stats, info)
-        self._last_stats = self._stats
-        return out
+        # Fast path: one call. The kernel checks the shapes; its dispatcher takes only C-contiguous
+        # float64 arrays and raises TypeError for anything else (no new compilation, ever).
+        try:
+            k = self._step(body_pos, body_rot, self._ctx)
+        except TypeError:
+            k = _k.RET_BAD_SHAPE
+        if k > 0:
+            return self._out[:k].copy()
+        if k == 0:
+            return self._empty
+        body_pos, body_rot = self._check(body_pos, body_rot, ())
+        k = self._rerun(body_pos, body_rot, self._step(body_pos, body_rot, self._ctx))
+        return self._out[:k].copy() if k > 0 else self._empty
+
+    def _rerun(self, body_pos, body_rot, k: int) -> int:
+        # A bad pose raises; a full buffer is grown and the step rerun (never drop a pair).
+        info = self._info
+        while k < 0:
+            if k == _k.RET_BAD_POSE:
+                self._raise(int(info[0]), int(info[1]))
+            if info[3] > 0:
+                self._set_buffers(2 * int(info[3]), len(self._keys))
+            else:
+                self._set_buffers(self._bp.shape[0], 2 * int(info[2]))
+            k = self._step(body_pos, body_rot, self._ctx)
+        return k
 
     @property
     def stats(self) -> dict:
         """Bounds tests at each level and pairs out, of the last call (see the class docstring)."""
-        return dict(zip(_STAT_NAMES, (int(v) for v in self._last_stats)))
+        return dict(zip(_STAT_NAMES, (int(v) for v in self._stats)))
 
     def pairs_batch(self, body_pos: np.ndarray, body_rot: np.ndarray) -> np.ndarray:
         """Geom pairs whose bounds may touch, for many worlds at once (threads over worlds).
@@ -237,20 +251,19 @@ class BroadPhase:
         # that the OS pauses does not hold up the whole call.
         C = max(1, min(4 * numba.get_num_threads(), B))
         per = (B + C - 1) // C
-        if self._batch is None or self._batch[0].shape[0] != C:
+        if self._batch is None or self._batch["ctx"].shape[0] != C:
             L, G = self.body_count, self.geom_count
-            self._batch = [np.zeros((C, self._nW)), np.tile(self._sap_init, (C, 1)),
-                           np.empty((C, 4 * L + 64, 2), np.int64), np.empty((C, max(256, 2 * G * per)), np.int64)]
-        W, sap, bp, keys = self._batch
-        stats = np.zeros((C, 2 * _k.N_STATS), np.int64)
+            self._batch = {"W": np.zeros((C, self._nW)), "sap": np.tile(self._sap_init, (C, 1)),
+                           "stats": np.zeros((C, _k.N_STATS), np.int64), "info": np.zeros((C, 4), np.int64),
+                           "ctx": np.empty((C, _k.NCTX), np.int64)}
+            self._set_batch_buffers(4 * L + 64, max(256, 2 * G * per))
+        bt = self._batch
         world_count = np.zeros(B, np.int64)
         world_info = np.zeros((B, 4), np.int64)
         chunk_total = np.zeros(C, np.int64)
         while True:
-            stats[:] = 0
             with numba.parallel_chunksize(1):
-                _k.step_batch(body_pos, body_rot, self._I, self._F, W, sap, bp, keys, stats, world_count,
-                              world_info, chunk_total)
+                _k.step_batch(body_pos, body_rot, bt["ctx"], world_count, world_info, chunk_total)
             bad = np.flatnonzero(world_count < 0)
             if len(bad):
                 w = int(bad[0])
@@ -258,13 +271,23 @@ class BroadPhase:
             need_bp = int(world_info[:, 3].max()) if B else 0
             need = int(chunk_total.max())
             if need_bp > 0:  # never drop a pair: grow and rerun
-                bp = self._batch[2] = np.empty((C, 2 * need_bp, 2), np.int64)
-            elif need > keys.shape[1]:
-                keys = self._batch[3] = np.empty((C, 2 * need), np.int64)
+                self._set_batch_buffers(2 * need_bp, bt["keys"].shape[1])
+            elif need > bt["keys"].shape[1]:
+                self._set_batch_buffers(bt["bp"].shape[1], 2 * need)
             else:
                 break
-        self._last_stats = stats[:, _k.N_STATS:].sum(axis=0)
-        return _k.gather_batch(keys, world_count, chunk_total, _k.key_shift(self.geom_count), C)
+        self._stats[:] = bt["stats"].sum(axis=0)  # `stats` reads this
+        return _k.gather_batch(bt["ctx"], world_count, chunk_total, _k.key_shift(self.geom_count))
+
+    def _set_batch_buffers(self, body_pairs: int, keys: int) -> None:
+        # Per chunk buffers and their context rows (the kernel reaches them through addresses).
+        bt = self._batch
+        C = bt["ctx"].shape[0]
+        bt["bp"] = np.empty((C, max(1, body_pairs), 2), np.int64)
+        bt["keys"] = np.empty((C, max(1, keys)), np.int64)
+        for c in range(C):
+            _k.context(self._I, self._F, bt["W"][c], bt["sap"][c], bt["bp"][c], bt["keys"][c], bt["stats"][c],
+                       bt["info"][c], out=bt["ctx"][c])
 
     def __repr__(self) -> str:
         return f"BroadPhase({self.articulation!r})"

@@ -115,8 +115,7 @@ def test_batch_grows_its_buffers_and_keeps_every_pair():
     bp = BroadPhase(sc.articulation)
     pos, rot = testing.hull_motion(sc, np.random.default_rng(0), 40, 0.02)
     want = bp.pairs_batch(pos, rot)
-    bp._batch[3] = np.empty((bp._batch[3].shape[0], 3), np.int64)  # tiny buffers: grown, rerun
-    bp._batch[2] = np.empty((bp._batch[2].shape[0], 1, 2), np.int64)
+    bp._set_batch_buffers(1, 3)  # tiny buffers: grown, rerun
     assert np.array_equal(bp.pairs_batch(pos, rot), want)
     assert len(want) > 40
 
@@ -126,8 +125,7 @@ def test_single_grows_its_buffer_and_keeps_every_pair():
     bp = BroadPhase(sc.articulation)
     pos, rot = testing.hull_motion(sc, np.random.default_rng(0), 1, 0.02)
     want = testing.brute_force_bound_pairs(sc.articulation, pos[0], rot[0])
-    bp._keys = np.empty(2, np.int64)  # tiny buffers: grown, rerun
-    bp._bp = np.empty((1, 2), np.int64)
+    bp._set_buffers(1, 2)  # tiny buffers: grown, rerun
     got = bp.pairs(pos[0], rot[0])
     assert len(got) > 20 and np.array_equal(got, want)
 

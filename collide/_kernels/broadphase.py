@@ -36,6 +36,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from ._ptr import f64_ptr, i32_ptr, i64_ptr
+
 ROW = 19
 BIG = 1e300  # empty AABB: lo = BIG, hi = -BIG (finite, so n . lo never meets inf - inf)
 ORTHO_TOL = 1e-6  # max |R^T R - I| accepted for a body rotation (articulation.POSE_ORTHO_TOL: bounds carry the slack)
@@ -151,34 +153,36 @@ def _views(I, F, W):
     o += G
     gca = I[o:o + G]
     o += G
-    pair_g = I[o:o + 2 * P].reshape((P, 2))
+    pair_g = nb.carray(i64_ptr(np.int64(I.ctypes.data) + 8 * o), (P, 2))
     o += 2 * P
     pair_keys = I[o:o + P]
+    fa = np.int64(F.ctypes.data)
+    wa = np.int64(W.ctypes.data)
     f = 0
-    blocal = F[f:f + ROW * L].reshape((L, ROW))
+    blocal = nb.carray(f64_ptr(fa + 8 * f), (L, ROW))
     f += ROW * L
-    glocal = F[f:f + ROW * G].reshape((G, ROW))
+    glocal = nb.carray(f64_ptr(fa + 8 * f), (G, ROW))
     f += ROW * G
-    gplane = F[f:f + 4 * G].reshape((G, 4))
+    gplane = nb.carray(f64_ptr(fa + 8 * f), (G, 4))
     f += 4 * G
     gmargin = F[f:f + G]
     f += G
     pair_m = F[f:f + P]
     w = 0
-    bw = W[w:w + ROW * L].reshape((L, ROW))
+    bw = nb.carray(f64_ptr(wa + 8 * w), (L, ROW))
     w += ROW * L
-    gw = W[w:w + ROW * G].reshape((G, ROW))
+    gw = nb.carray(f64_ptr(wa + 8 * w), (G, ROW))
     w += ROW * G
-    baabb = W[w:w + 6 * L].reshape((L, 6))
+    baabb = nb.carray(f64_ptr(wa + 8 * w), (L, 6))
     w += 6 * L
-    saabb = W[w:w + 6 * L].reshape((L, 6))
+    saabb = nb.carray(f64_ptr(wa + 8 * w), (L, 6))
     w += 6 * L
     Qm = max(Q, 1)
-    plw = W[w:w + 4 * Qm].reshape((Qm, 4))
+    plw = nb.carray(f64_ptr(wa + 8 * w), (Qm, 4))
     w += 4 * Qm
-    tmp = W[w:w + 2 * ROW].reshape((2, ROW))
+    tmp = nb.carray(f64_ptr(wa + 8 * w), (2, ROW))
     w += 2 * ROW
-    gaabb = W[w:w + 6 * G].reshape((G, 6))
+    gaabb = nb.carray(f64_ptr(wa + 8 * w), (G, 6))
     w += 6 * G
     gstamp = W[w:w + L + 1]  # gstamp[L]: the call counter
     return (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
@@ -998,73 +1002,137 @@ def _plane_world(g, body_pos, body_rot, geom_bid, gplane, out, o):
 
 # ------------------------------------------------------------------------------- entry points
 
-@nb.njit(cache=True)
-def step(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
-    """One world, one call: the ``(K, 2) int32`` pairs, or an empty array with ``info = (status,
-    body, K, body pairs)`` when a pose is bad (status > 0) or a buffer overflowed (K > keys'
-    capacity, or body pairs > bp's): the caller grows it and reruns."""
+# Context: one int64 array of buffer addresses and lengths (see `_ptr`); the owner keeps the
+# buffers alive and rebuilds the context when it replaces one.
+(C_I, C_NI, C_F, C_NF, C_W, C_NW, C_SAP, C_NSAP, C_BP, C_NBP, C_KEYS, C_NKEYS, C_STATS, C_INFO) = range(14)
+NCTX = 14
+
+# step() return codes below zero
+RET_BAD_POSE = -1
+RET_OVERFLOW = -2
+RET_BAD_SHAPE = -3
+
+
+def context(I, F, W, sap, bp, keys, stats, info, out=None) -> np.ndarray:
+    """The context of one world's buffers (written into ``out`` when given, for a batch row)."""
+    ctx = np.empty(NCTX, np.int64) if out is None else out
+    for arr, dt in ((I, np.int64), (F, np.float64), (W, np.float64), (sap, np.int64), (bp, np.int64),
+                    (keys, np.int64), (stats, np.int64), (info, np.int64)):
+        if arr.dtype != dt or not arr.flags.c_contiguous:
+            raise ValueError("context: buffers must be C-contiguous arrays of the kernel's dtypes")
+    ctx[:] = (I.ctypes.data, I.size, F.ctypes.data, F.size, W.ctypes.data, W.size, sap.ctypes.data, sap.size,
+              bp.ctypes.data, bp.shape[0], keys.ctypes.data, keys.size, stats.ctypes.data, info.ctypes.data)
+    return ctx
+
+
+@nb.njit(cache=True, inline="always")
+def _buffers(ctx):
+    I = nb.carray(i64_ptr(ctx[C_I]), ctx[C_NI])
+    F = nb.carray(f64_ptr(ctx[C_F]), ctx[C_NF])
+    W = nb.carray(f64_ptr(ctx[C_W]), ctx[C_NW])
+    sap = nb.carray(i64_ptr(ctx[C_SAP]), ctx[C_NSAP])
+    bp = nb.carray(i64_ptr(ctx[C_BP]), (ctx[C_NBP], 2))
+    stats = nb.carray(i64_ptr(ctx[C_STATS]), N_STATS)
+    info = nb.carray(i64_ptr(ctx[C_INFO]), 4)
+    return I, F, W, sap, bp, stats, info
+
+
+def _step(body_pos, body_rot, ctx):
+    """One world, one call; returns the pair count ``K``, or `RET_BAD_POSE` / `RET_OVERFLOW` /
+    `RET_BAD_SHAPE`.
+
+    The pairs are written as ``(K, 2) int32`` rows over the keys buffer's own memory (a key of
+    row ``i`` is read before its 8 bytes are rewritten). ``info`` = (status, body, keys needed,
+    body pairs needed): on `RET_OVERFLOW` the caller grows the buffer named there and reruns.
+    """
+    I, F, W, sap, bp, stats, info = _buffers(ctx)
+    L = I[H_L]
+    if (body_pos.shape[0] != L or body_pos.shape[1] != 3 or body_rot.shape[0] != L or body_rot.shape[1] != 3
+            or body_rot.shape[2] != 3):
+        return RET_BAD_SHAPE
+    keys = nb.carray(i64_ptr(ctx[C_KEYS]), ctx[C_NKEYS])
     info[0] = OK
     k = _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info)
     info[2] = k
-    if k < 0 or k > keys.shape[0] or info[3] > 0:
-        return np.empty((0, 2), np.int32)
+    if k < 0:
+        return RET_BAD_POSE
+    if k > keys.shape[0] or info[3] > 0:
+        return RET_OVERFLOW
     S = I[H_KS]
     mask = (np.int64(1) << S) - 1
-    out = np.empty((k, 2), np.int32)
+    out = nb.carray(i32_ptr(ctx[C_KEYS]), (k, 2))
     for i in range(k):
-        out[i, 0] = keys[i] >> S
-        out[i, 1] = keys[i] & mask
-    return out
+        v = keys[i]
+        out[i, 0] = v >> S
+        out[i, 1] = v & mask
+    return k
+
+
+# One signature, compiled on first use (not at import): any other argument type (float32, a
+# strided view, a list) makes the dispatcher raise TypeError instead of compiling a new
+# specialisation, so the caller needs no dtype or layout checks on its fast path.
+STEP_SIGNATURE = "int64(float64[:, ::1], float64[:, :, ::1], int64[::1])"
+_step_dispatcher = None
+
+
+def step_function():
+    """The compiled `_step` (``STEP_SIGNATURE`` only; loaded from numba's cache after the first run)."""
+    global _step_dispatcher
+    if _step_dispatcher is None:
+        _step_dispatcher = nb.njit(STEP_SIGNATURE, cache=True)(_step)
+    return _step_dispatcher
 
 
 @nb.njit(cache=True, parallel=True)
-def step_batch(body_pos, body_rot, I, F, W, sap, bp, keys, stats, world_count, world_info, chunk_total):
-    """Worlds split into ``C = W.shape[0]`` contiguous chunks, one per thread (prange), each with
-    its own workspace (leading axis C of W, sap, bp, keys, stats). World ``w``'s sorted keys follow
-    the previous worlds of its chunk in ``keys[c]``; ``world_count[w]`` is its pair count (-1 with
-    ``world_info[w]`` = (status, body, ...) on a bad pose); ``chunk_total[c]`` may exceed the keys'
-    capacity and ``world_info[w, 3]`` report a body-pair overflow (then the caller reruns)."""
+def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_total):
+    """Worlds split into ``C = ctxs.shape[0]`` contiguous chunks handed to numba's threads, each
+    chunk with its own buffers (a context row; the static ``I`` and ``F`` are shared, read only).
+    World ``w``'s sorted keys follow the previous worlds of its chunk in the chunk's keys;
+    ``world_count[w]`` is its pair count (-1 with ``world_info[w]`` = (status, body, ...) on a bad
+    pose); ``chunk_total[c]`` may exceed the keys' capacity and ``world_info[w, 3]`` report a
+    body-pair overflow (then the caller reruns). ``body_pos`` and ``body_rot`` must be C-contiguous.
+
+    Every view here is pointer-built (no reference count): views of a shared reference-counted
+    array would bump its counter atomically on every world, from both cores (measured: two
+    threads slower than one).
+    """
     B = body_pos.shape[0]
-    C = W.shape[0]
-    cap = keys.shape[1]
+    L = body_pos.shape[1]
+    C = ctxs.shape[0]
+    pos_all = nb.carray(f64_ptr(np.int64(body_pos.ctypes.data)), (B, L, 3))
+    rot_all = nb.carray(f64_ptr(np.int64(body_rot.ctypes.data)), (B, L, 3, 3))
     for c in nb.prange(C):
-        # Thread-private copies: every view numba takes of an array bumps the reference count of
-        # that array's allocation, atomically; shared by two threads, those counters bounce
-        # between the cores' caches on every world (measured: two threads slower than one).
-        Ic = I.copy()
-        Fc = F.copy()
-        Wc = W[c].copy()
-        sapc = sap[c].copy()
-        bpc = np.empty_like(bp[c])
+        ctx = nb.carray(i64_ptr(np.int64(ctxs.ctypes.data) + 8 * NCTX * c), NCTX)
+        I, F, W, sap, bp, stats, info = _buffers(ctx)
+        cap = ctx[C_NKEYS]
         st = np.zeros(2 * N_STATS, np.int64)
-        info = np.zeros(4, np.int64)
         w0 = (B * c) // C
         w1 = (B * (c + 1)) // C
         off = 0
         for w in range(w0, w1):
             # Beyond capacity, keep counting (on a zero-length tail) so the caller learns the size.
             start = off if off < cap else cap
+            keys = nb.carray(i64_ptr(ctx[C_KEYS] + 8 * start), cap - start)
             info[0] = OK
-            kw = _world(body_pos[w], body_rot[w], Ic, Fc, Wc, sapc, bpc, keys[c, start:], st, info)
+            kw = _world(pos_all[w], rot_all[w], I, F, W, sap, bp, keys, stats, info)
             for i in range(4):
                 world_info[w, i] = info[i]
             world_count[w] = kw
             if kw > 0:
                 off += kw
             for s in range(N_STATS):
-                st[N_STATS + s] += st[s]
-        for i in range(sapc.shape[0]):
-            sap[c, i] = sapc[i]
-        for s in range(2 * N_STATS):
-            stats[c, s] = st[s]
+                st[N_STATS + s] += stats[s]
+        for s in range(N_STATS):
+            stats[s] = st[N_STATS + s]
         chunk_total[c] = off
     return 0
 
 
 @nb.njit(cache=True)
-def gather_batch(keys, world_count, chunk_total, S, C):
+def gather_batch(ctxs, world_count, chunk_total, S):
     """Rows ``(world, g1, g2)`` int32 from the chunks' keys, world by world."""
     B = world_count.shape[0]
+    C = ctxs.shape[0]
     mask = (np.int64(1) << S) - 1
     K = 0
     for c in range(C):
@@ -1072,14 +1140,15 @@ def gather_batch(keys, world_count, chunk_total, S, C):
     out = np.empty((K, 3), np.int32)
     r = 0
     for c in range(C):
+        keys = nb.carray(i64_ptr(ctxs[c, C_KEYS]), ctxs[c, C_NKEYS])
         w0 = (B * c) // C
         w1 = (B * (c + 1)) // C
         i = 0
         for w in range(w0, w1):
             for _ in range(world_count[w]):
                 out[r, 0] = w
-                out[r, 1] = keys[c, i] >> S
-                out[r, 2] = keys[c, i] & mask
+                out[r, 1] = keys[i] >> S
+                out[r, 2] = keys[i] & mask
                 r += 1
                 i += 1
     return out

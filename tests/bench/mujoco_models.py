@@ -111,11 +111,13 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser()
     parser.add_argument("--steps", type=int, default=2000)
     parser.add_argument("--worlds", type=int, default=1024)
+    parser.add_argument("--scenes", nargs="*", help="only these scene folders (default: all)")
     args = parser.parse_args(argv)
     if not MODELS.is_dir():
         print(f"no models at {MODELS}", file=sys.stderr)
         return 1
-    scenes = sorted(p for p in MODELS.iterdir() if (p / "scene.xml").is_file())
+    scenes = sorted(p for p in MODELS.iterdir() if (p / "scene.xml").is_file()
+                    and (not args.scenes or p.name in args.scenes))
     import numba
 
     print(f"# collide vs MuJoCo {mujoco.__version__}, broad phase per step, {args.steps} steps of "
@@ -146,7 +148,7 @@ def main(argv=None) -> int:
               f"{r['ratio']:>11.2f}{100 * r['recall']:>7.1f}%{r['setup_s']:>9.2f}", flush=True)
     print()
     humanoid = MODELS / "humanoid" / "scene.xml"
-    if humanoid.is_file():
+    if humanoid.is_file() and args.worlds > 0:
         b = bench_batch(humanoid, args.worlds)
         print(f"# batched: humanoid, {b['worlds']} worlds in one pairs_batch call, "
               f"{b['pairs']} pairs out; per world, medians of 5 calls; MuJoCo single world "
