@@ -109,6 +109,9 @@ class BroadPhase:
         ex = ex[np.lexsort((ex[:, 1], ex[:, 0]))]
         ex_start = np.searchsorted(ex[:, 0], np.arange(L + 1)).astype(i64)
         planes = np.flatnonzero(a.geom_is_plane).astype(i64)
+        plane_ok = self._plane_filter(planes, pos_of[a.geom_body[planes]], a.body_weld[order], parent_pos, hasb,
+                                      ctor, caor, ex_start, ex[:, 1], a.geom_contype, a.geom_conaffinity,
+                                      a.filter_parent)
         blocal = _local_rows(a.body_obb_center, a.body_obb_rot, a.body_obb_half, a.body_sphere_center,
                              a.body_sphere_radius)[order]
         glocal = _local_rows(a.geom_obb_center, a.geom_obb_rot, a.geom_obb_half, a.geom_sphere_center,
@@ -116,7 +119,7 @@ class BroadPhase:
         pair_keys = (a.pairs[:, 0].astype(i64) << _k.key_shift(G)) | a.pairs[:, 1]
         self._I, self._F = _k.pack(
             order, pos_of, end, parent_pos, a.body_weld[order], nchild, child_start, single, hasb, pairflag,
-            ctor, caor, children, gstart, pgeoms, ex_start, ex[:, 1], planes, pos_of[a.geom_body[planes]], a.geom_body,
+            ctor, caor, children, gstart, pgeoms, ex_start, ex[:, 1], planes, plane_ok, a.geom_body,
             a.geom_contype, a.geom_conaffinity, a.pairs, pair_keys, a.filter_parent, blocal, glocal,
             a.geom_plane, a.geom_margin, a.pair_margin)
         self._nW = _k.workspace_size(L, G, len(planes))
@@ -132,6 +135,23 @@ class BroadPhase:
         self._shape_pos, self._shape_rot = (L, 3), (L, 3, 3)
         self._empty = np.zeros((0, 2), np.int32)
         self._empty.flags.writeable = False
+
+    @staticmethod
+    def _plane_filter(planes, plane_pos, weld, parent_pos, hasb, ctor, caor, ex_start, ex_other, gct, gca,
+                      filter_parent) -> np.ndarray:
+        # (Q, L) 0/1: may the body at position x pair with plane i at all (the static filter, once:
+        # the kernel tests each body against the planes while it makes the body's bounds).
+        L = len(weld)
+        x = np.arange(L)
+        ok = np.zeros((len(planes), L), np.int64)
+        for i, (qg, qx) in enumerate(zip(planes, plane_pos)):
+            m = (hasb != 0) & (x != qx) & (weld != weld[qx])
+            m &= ((gct[qg] & caor) != 0) | ((ctor & gca[qg]) != 0)
+            if filter_parent:
+                m &= ~(((parent_pos == qx) & (qx != 0)) | ((x == parent_pos[qx]) & (x != 0)))
+            m[ex_other[ex_start[qx]:ex_start[qx + 1]]] = False
+            ok[i] = m
+        return ok
 
     def _set_buffers(self, body_pairs: int, keys: int) -> None:
         # The kernel reaches every buffer through self._ctx (addresses): replace a buffer only here.

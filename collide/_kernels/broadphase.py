@@ -27,7 +27,8 @@ One step, for one world (`_world`):
    written out);
 4. body pair -> static filter -> sphere test -> OBB separating-axis test (15 axes, Ericson 2005,
    *Real-Time Collision Detection* §4.4.1) -> geom pairs, the same tests on the geoms' bounds;
-5. planes (halfspaces) down the tree, explicit pairs last; keys ``g1 << S | g2`` sorted (``S`` bits
+5. planes (halfspaces) down the tree, the static filter of every (plane, body) pair precomputed;
+   explicit pairs last; keys ``g1 << S | g2`` sorted (``S`` bits
    hold any geom id: decoding is a shift and a mask, not an integer division per pair).
 """
 
@@ -71,7 +72,7 @@ HEADER = 8
 
 
 def pack(order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor, caor,
-         children, gstart, pgeoms, ex_start, ex_other, planes, plane_pos, geom_bid, gct, gca, pair_g, pair_keys,
+         children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g, pair_keys,
          filter_parent, blocal, glocal, gplane, gmargin, pair_m):
     """Flatten the static model into ``I`` (int64) and ``F`` (float64); see `_views` for the order.
 
@@ -83,7 +84,7 @@ def pack(order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb
     head = np.zeros(HEADER, np.int64)
     head[[H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP, H_KS]] = L, G, Gs, Q, E, P, int(filter_parent), key_shift(G)
     parts = [head, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
-             caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_pos, geom_bid, gct, gca,
+             caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca,
              np.asarray(pair_g).reshape(-1), pair_keys]
     I = np.concatenate([np.asarray(p, np.int64).reshape(-1) for p in parts])
     F = np.concatenate([np.asarray(p, np.float64).reshape(-1) for p in (blocal, glocal, gplane, gmargin, pair_m)])
@@ -145,8 +146,8 @@ def _views(I, F, W):
     o += E
     planes = I[o:o + Q]
     o += Q
-    plane_pos = I[o:o + Q]
-    o += Q
+    plane_ok = nb.carray(i64_ptr(np.int64(I.ctypes.data) + 8 * o), (Q, L))
+    o += Q * L
     geom_bid = I[o:o + G]
     o += G
     gct = I[o:o + G]
@@ -186,7 +187,7 @@ def _views(I, F, W):
     w += 6 * G
     gstamp = W[w:w + L + 1]  # gstamp[L]: the call counter
     return (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
-            caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_pos, geom_bid, gct, gca, pair_g,
+            caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
             pair_keys,
             blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp)
 
@@ -685,7 +686,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
     ``bp`` and reruns); keys beyond ``keys.shape[0]`` are counted but not written (likewise).
     """
     (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
-     caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_pos, geom_bid, gct, gca, pair_g,
+     caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
             pair_keys,
      blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp) = _views(I, F, W)
     filter_parent = I[H_FP] != 0
@@ -697,6 +698,9 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
     for s in range(N_STATS):
         stats[s] = 0
     info[3] = 0
+    Q = planes.shape[0]
+    check_pairs = pair_keys.shape[0] > 0
+    k = 0
     # 1. poses -> world bounds of bodies, by body id so the first offender is named.
     for b in range(L):
         acc = 0.0
@@ -735,8 +739,6 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
             for i in range(3):
                 baabb[x, i] = BIG
                 baabb[x, 3 + i] = -BIG
-    for i in range(planes.shape[0]):
-        _plane_world(planes[i], body_pos, body_rot, geom_bid, gplane, plw, i)
     # 2. subtree AABBs: one reverse sweep, children before parents.
     for x in range(L):
         for i in range(6):
@@ -754,8 +756,6 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
         info[3] = nbp
         return 0
     # 4. body pairs -> filter -> sphere -> OBB -> geom pairs.
-    k = 0
-    check_pairs = pair_keys.shape[0] > 0
     for t in range(nbp):
         x = bp[t, 0]
         y = bp[t, 1]
@@ -826,12 +826,11 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
                         continue
                 k = _emit(keys, k, g1, g2, S)
     # 5a. planes down the tree (subtree AABB against the halfspace).
-    for i in range(planes.shape[0]):
+    for i in range(Q):
+        _plane_world(planes[i], body_pos, body_rot, geom_bid, gplane, plw, i)
         qg = planes[i]
-        qx = plane_pos[i]
         mq = gmargin[qg]
-        # The subtree AABB test and _rules written out (array arguments of a call cost reference
-        # counting, see _aabb_hit): the AABB corner deepest along -n against the halfspace.
+        # The subtree AABB test: the AABB corner deepest along -n against the halfspace.
         n0 = plw[i, 0]
         n1 = plw[i, 1]
         n2 = plw[i, 2]
@@ -847,16 +846,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
             if not v <= lim + SLACK_POS * (abs(v) + abs(pd)):
                 x = end[x]
                 continue
-            ok = hasb[x] != 0 and x != qx and ((gct[qg] & caor[x]) != 0 or (ctor[x] & gca[qg]) != 0)
-            if ok:
-                ok = weld[x] != weld[qx]
-            if ok and filter_parent:
-                ok = not ((parent_pos[x] == qx and qx != 0) or (parent_pos[qx] == x and x != 0))
-            if ok:
-                for e in range(ex_start[x], ex_start[x + 1]):
-                    if ex_other[e] == qx:
-                        ok = False
-            if ok:
+            if plane_ok[i, x] != 0:  # the static filter, precomputed per (plane, body)
                 stats[ST_PLANE] += 1
                 if _plane_hit(plw, i, mq, bw, x, 0.0):
                     for ii in range(gstart[x], gstart[x + 1]):
