@@ -54,6 +54,8 @@ import numba
 import numpy as np
 
 from . import shapes
+from ._kernels._ptr import f64_ptr as _f64_ptr
+from ._kernels._ptr import i64_ptr as _i64_ptr
 from ._validate import as_array, as_count
 from .articulation import Articulation
 from .broadphase import BroadPhase as _BroadPhase
@@ -336,22 +338,20 @@ def _normalize4(q):
         q[3] /= n
 
 
-# Serial on purpose: ~0.9 us per humanoid world on one core, while numba's OpenMP pool on this
-# 2-core machine, shared with other processes, measured 7.5 us per world with 2 threads
-# (2026-11-21); kinematics is a small share of a batched broad-phase call either way.
 @numba.njit(cache=True)
-def _kinematics_kernel(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum,
+def _kinematics_worlds(w0, w1, qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum,
                        jnt_type, jnt_qposadr, jnt_pos, jnt_axis, out_pos, out_rot):
-    B, L = out_pos.shape[0], out_pos.shape[1]
-    for w in range(B):
+    # Worlds [w0, w1); scratch allocated once per chunk, not per world.
+    L = out_pos.shape[1]
+    xquat = np.empty((L, 4))
+    pos = np.empty(3)
+    quat = np.empty(4)
+    qloc = np.empty(4)
+    qprev = np.empty(4)
+    tmp = np.empty(3)
+    anchor = np.empty(3)
+    for w in range(w0, w1):
         q = qpos[w]
-        xquat = np.empty((L, 4))
-        pos = np.empty(3)
-        quat = np.empty(4)
-        qloc = np.empty(4)
-        qprev = np.empty(4)
-        tmp = np.empty(3)
-        anchor = np.empty(3)
         xquat[0, 0], xquat[0, 1], xquat[0, 2], xquat[0, 3] = 1.0, 0.0, 0.0, 0.0
         for i in range(3):
             out_pos[w, 0, i] = 0.0
@@ -420,6 +420,34 @@ def _kinematics_kernel(qpos, qpos0, body_parent, body_pos, body_quat, body_jntad
             out_rot[w, b, 2, 1] = 2.0 * (q2 * q3 + q0 * q1)
 
 
+# Threads over chunks of worlds. Every array the threads share is viewed through a raw pointer
+# (collide._kernels._ptr): views of a reference-counted array would bump its counter atomically
+# on every world from both cores (measured before: 7.5 us per humanoid world with 2 threads, 0.9
+# with one).
+@numba.njit(cache=True, parallel=True)
+def _kinematics_kernel(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum,
+                       jnt_type, jnt_qposadr, jnt_pos, jnt_axis, out_pos, out_rot, chunks):
+    B, L = out_pos.shape[0], out_pos.shape[1]
+    nq = qpos0.shape[0]
+    nj = jnt_type.shape[0]
+    qp = numba.carray(_f64_ptr(np.int64(qpos.ctypes.data)), (B, nq))
+    q0 = numba.carray(_f64_ptr(np.int64(qpos0.ctypes.data)), nq)
+    par = numba.carray(_i64_ptr(np.int64(body_parent.ctypes.data)), L)
+    bpos = numba.carray(_f64_ptr(np.int64(body_pos.ctypes.data)), (L, 3))
+    bquat = numba.carray(_f64_ptr(np.int64(body_quat.ctypes.data)), (L, 4))
+    jadr = numba.carray(_i64_ptr(np.int64(body_jntadr.ctypes.data)), L)
+    jnum = numba.carray(_i64_ptr(np.int64(body_jntnum.ctypes.data)), L)
+    jtype = numba.carray(_i64_ptr(np.int64(jnt_type.ctypes.data)), nj)
+    jqadr = numba.carray(_i64_ptr(np.int64(jnt_qposadr.ctypes.data)), nj)
+    jpos = numba.carray(_f64_ptr(np.int64(jnt_pos.ctypes.data)), (nj, 3))
+    jaxis = numba.carray(_f64_ptr(np.int64(jnt_axis.ctypes.data)), (nj, 3))
+    opos = numba.carray(_f64_ptr(np.int64(out_pos.ctypes.data)), (B, L, 3))
+    orot = numba.carray(_f64_ptr(np.int64(out_rot.ctypes.data)), (B, L, 3, 3))
+    for c in numba.prange(chunks):
+        _kinematics_worlds((B * c) // chunks, (B * (c + 1)) // chunks, qp, q0, par, bpos, bquat, jadr, jnum,
+                           jtype, jqadr, jpos, jaxis, opos, orot)
+
+
 def kinematics_batch(model: mujoco.MjModel, qpos) -> tuple[np.ndarray, np.ndarray]:
     """Body poses of many configurations, as ``mj_kinematics`` computes them, in one numba call.
 
@@ -436,19 +464,20 @@ def kinematics_batch(model: mujoco.MjModel, qpos) -> tuple[np.ndarray, np.ndarra
         Equal to ``data.xpos`` / ``data.xmat`` after ``mj_kinematics`` up to rounding (the same
         formulas, engine_core_smooth.c; tested against MuJoCo on every test scene).
     """
-    q = as_array(qpos, "qpos", (None, model.nq))
+    q = np.ascontiguousarray(as_array(qpos, "qpos", (None, model.nq)), dtype=np.float64)
     b, n = len(q), model.nbody
     pos, rot = np.empty((b, n, 3)), np.empty((b, n, 3, 3))
-    _kinematics_kernel(q, np.asarray(model.qpos0, dtype=np.float64),
-                       np.asarray(model.body_parentid, dtype=np.int64),
-                       np.asarray(model.body_pos, dtype=np.float64),
-                       np.asarray(model.body_quat, dtype=np.float64),
-                       np.asarray(model.body_jntadr, dtype=np.int64),
-                       np.asarray(model.body_jntnum, dtype=np.int64),
-                       np.asarray(model.jnt_type, dtype=np.int64),
-                       np.asarray(model.jnt_qposadr, dtype=np.int64),
-                       np.asarray(model.jnt_pos, dtype=np.float64),
-                       np.asarray(model.jnt_axis, dtype=np.float64), pos, rot)
+
+    def c64(x, dt=np.float64):
+        return np.ascontiguousarray(x, dtype=dt)
+
+    chunks = max(1, min(4 * numba.get_num_threads(), b))
+    with numba.parallel_chunksize(1):
+        _kinematics_kernel(q, c64(model.qpos0), c64(model.body_parentid, np.int64), c64(model.body_pos),
+                           c64(model.body_quat), c64(model.body_jntadr, np.int64),
+                           c64(model.body_jntnum, np.int64), c64(model.jnt_type, np.int64),
+                           c64(model.jnt_qposadr, np.int64), c64(model.jnt_pos).reshape(-1, 3),
+                           c64(model.jnt_axis).reshape(-1, 3), pos, rot, chunks)
     return pos, rot
 
 
