@@ -11,13 +11,11 @@ Example
 >>> bp = BroadPhase(articulation)
 >>> pairs = bp.pairs(data.xpos, data.xmat.reshape(-1, 3, 3))   # (K, 2) int32 geom ids
 
-Measured (tests/bench/broadphase.txt, 2 shared cores): random convex hulls, 1024 bodies ~0.45x
-MuJoCo 4.0's broad-phase time and 4096 bodies ~0.3x, with 6-7x fewer candidates; 1024 worlds of
-a 64-link chain in one batched call ~2.2 us per world (~0.6x MuJoCo's single world); small scenes
-(16 bodies, a 64-link chain) pay the fixed cost of a Python call into numba (~2.5 us with this
-wrapper, of which ~1.4 us is numba's argument unboxing and result boxing) and take ~1.7-2x
-MuJoCo's C broad phase (tests/bench/mujoco_models.txt: 1.1x on 22 humanoids, 1.8-3x on the
-small robot models).
+Measured (tests/bench/broadphase.txt and mujoco_models.txt, 2 shared cores; see those files for
+the figures of the latest run): random convex hulls from 64 bodies take less time than MuJoCo
+4.0's broad phase (~0.3x at 4096 bodies) with 5-7x fewer candidates. Small scenes are dominated by
+fixed costs: the Python call into numba with the shape check and the copy of the result is
+~0.8 us, in a simulation loop more (the caches are cold after ``mj_step``).
 """
 
 from __future__ import annotations
@@ -29,6 +27,7 @@ from ._kernels import broadphase as _k
 from .articulation import Articulation
 
 _F64 = np.dtype(np.float64)
+LOOSE = 4.0  # see `single` in BroadPhase.__init__
 _STRIDES_POS = (24, 8)
 _STRIDES_ROT = (72, 24, 8)
 _STAT_NAMES = ("subtree_tests", "body_aabb_tests", "body_sphere_tests", "body_obb_tests",
@@ -94,7 +93,20 @@ class BroadPhase:
         pgeoms = solid[srt].astype(i64)
         gstart = np.searchsorted(gpos[srt], np.arange(L + 1)).astype(i64)
         gcount = np.diff(gstart)
-        single = gcount == 1
+        # 1: one geom (its bounds are the body's); 0: several; -1: several whose body OBB is more
+        # than LOOSE times the volume of their own OBBs, or the world's geoms (the kernel skips
+        # that body's body-level sphere and OBB tests, which it passes against nearly everything).
+        single = (gcount == 1).astype(i64)
+        multi = np.flatnonzero(gcount > 1)
+        if len(multi):
+            gvol = np.prod(2 * (a.geom_obb_half + a.geom_margin[:, None]), axis=1)
+            cs = np.concatenate([[0.0], np.cumsum(gvol[pgeoms])])
+            own = cs[gstart[multi + 1]] - cs[gstart[multi]]
+            bvol = np.prod(2 * a.body_obb_half[order[multi]], axis=1)
+            single[multi[bvol > LOOSE * own]] = -1
+            # The world's own geoms are static scenery (a floor's obstacles, a ring of walls): its
+            # body bounds enclose where everything else moves.
+            single[multi[multi == 0]] = -1
         hasb = a.body_has_bounds[order]
         ctor = np.zeros(L, i64)
         caor = np.zeros(L, i64)

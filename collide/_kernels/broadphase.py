@@ -6,8 +6,10 @@ their ids. A bounds record ("row") is 19 float64: OBB centre (3), OBB rotation (
 columns are the box axes), OBB half extents (3), sphere centre (3), sphere radius (1).
 
 The static model travels as two flat arrays (``I`` int64 with a header of counts, ``F`` float64)
-and the workspace as one (``W`` float64): a numba call pays ~0.1 us per array argument, so one
-step is a call with 9 arguments, not 40. `_views` slices them back into named arrays (no copy).
+and the workspace as one (``W`` float64); one step is a call with three arguments (the two pose
+arrays and a *context* of buffer addresses, see `_ptr` and `context`): a numba call pays ~0.1 us
+per array argument, and views built from pointers carry no reference count. `_views` cuts the
+buffers back into named arrays (no copy).
 
 One step, for one world (`_world`):
 1. validate each body's pose (finite, proper orthonormal rotation) and move its local bounds to
@@ -775,7 +777,11 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
                 excluded = True
         if excluded:
             continue
-        if not sphere_done:
+        # A multi-geom body whose bounds are mostly empty space (walls around an arena, the world's
+        # scattered static geoms: single < 0, see BroadPhase) passes every body-level test; go
+        # straight to its geoms' AABBs.
+        loose = single[x] < 0 or single[y] < 0
+        if not sphere_done and not loose:
             stats[ST_BODY_SPHERE] += 1
             dx = bw[x, 15] - bw[y, 15]
             dy = bw[x, 16] - bw[y, 16]
@@ -785,11 +791,12 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
                                               + abs(bw[y, 16]) + abs(bw[y, 17]))
             if not dx * dx + dy * dy + dz * dz <= r * r:
                 continue
-        stats[ST_BODY_OBB] += 1
-        if not obb_hit(bw, x, 0.0, bw, y, 0.0):
-            continue
-        sx = single[x] != 0
-        sy = single[y] != 0
+        if not loose:
+            stats[ST_BODY_OBB] += 1
+            if not obb_hit(bw, x, 0.0, bw, y, 0.0):
+                continue
+        sx = single[x] > 0
+        sy = single[y] > 0
         if not sx:
             _geom_rows(x, order, gstart, pgeoms, glocal, gmargin, body_pos, body_rot, gw, gaabb, gstamp, stamp)
         if not sy:
@@ -857,7 +864,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
                             key = (g << S) | qg if g < qg else (qg << S) | g
                             if _in_sorted(pair_keys, key):
                                 continue
-                        if single[x] == 0:
+                        if single[x] <= 0:
                             _geom_rows(x, order, gstart, pgeoms, glocal, gmargin, body_pos, body_rot, gw, gaabb,
                                        gstamp, stamp)
                             stats[ST_PLANE] += 1
