@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from collide import Articulation, BroadPhase, PointCloud, shapes, testing
+from collide._kernels import broadphase as _kern
 
 BALL = PointCloud([[0, 0, 0]], 0.5)
 EYE = np.eye(3)
@@ -318,6 +319,24 @@ def test_wrong_shapes_and_dtypes_raise(robot_bp):
     ref = bp.pairs(pos, rot)
     assert np.array_equal(bp.pairs(np.asfortranarray(pos), rot), ref)
     assert bp.pairs(pos.astype(np.float32), rot.astype(np.float32)).shape[1] == 2
+    # the kernel's own shape check (C-contiguous float64 of the wrong size passes the dispatcher)
+    with pytest.raises(ValueError, match="body_pos: expected shape"):
+        bp.pairs(np.zeros((L, 4)), rot)
+    with pytest.raises(ValueError, match="body_rot: expected shape"):
+        bp.pairs(pos, np.zeros((L + 1, 3, 3)))
+
+
+def test_results_are_not_overwritten_by_the_next_call(robot_bp):
+    # The kernel writes into a reused buffer; each call must hand out its own array.
+    sc, bp = robot_bp
+    rng = np.random.default_rng(4)
+    calls = [sc.poses(rng) for _ in range(6)]
+    kept = [bp.pairs(pos, rot) for pos, rot in calls]
+    again = [bp.pairs(pos, rot) for pos, rot in calls]
+    assert sum(len(k) for k in kept) > 0
+    assert len({len(k) for k in kept}) > 1  # the calls really differed
+    for a, b in zip(kept, again):
+        assert np.array_equal(a, b)
 
 
 # --------------------------------------------------------------------------- the GJK twin
@@ -405,3 +424,45 @@ def test_slightly_scaled_rotations_never_lose_a_touching_pair():
             assert np.array_equal(ours, testing.brute_force_bound_pairs(art, pos, rot))
             hits += len(truth)
     assert hits > 0  # some of these poses really touch
+
+
+def test_loose_multi_geom_bodies_skip_body_tests_and_lose_nothing():
+    # The world's static geoms (a ring of walls, scattered blocks) and dumbbells (two small
+    # geoms far apart) have body bounds that are mostly empty space: the kernel skips their
+    # body-level tests (BroadPhase's `single` < 0) and must still equal the bounds twin.
+    rng = np.random.default_rng(12)
+    walls = [((0, 3, 0), (3, 0.2, 0.5)), ((0, -3, 0), (3, 0.2, 0.5)), ((3, 0, 0), (0.2, 3, 0.5)),
+             ((-3, 0, 0), (0.2, 3, 0.5)), ((1, 1, 0), (0.3, 0.3, 0.3)), ((-1.5, 0.5, 0), (0.2, 0.2, 0.2))]
+    n_free = 30
+    parent = [0] + [0] * n_free
+    geom_body, clouds, gpos = [], [], []
+    for c, h in walls:
+        geom_body.append(0)
+        clouds.append(shapes.box(h))
+        gpos.append(c)
+    for b in range(1, n_free + 1):
+        if b % 3 == 0:  # a dumbbell: two spheres 2.4 apart
+            for off in (-1.2, 1.2):
+                geom_body.append(b)
+                clouds.append(shapes.sphere(0.15))
+                gpos.append((off, 0, 0))
+        else:
+            geom_body.append(b)
+            clouds.append(testing.scenes.random_shape(rng, 0.4))
+            gpos.append((0, 0, 0))
+    art = Articulation(parent, geom_body, clouds, geom_pos=np.array(gpos, float),
+                       geom_margin=rng.uniform(0, 0.02, len(geom_body)))
+    bp = BroadPhase(art)
+    loose = bp._I[_kern.HEADER + 7 * art.body_count:_kern.HEADER + 8 * art.body_count]
+    assert loose[0] == -1 and np.sum(loose < 0) >= 1 + n_free // 3
+    hits = touching = 0
+    for _ in range(40):
+        pos = np.concatenate([np.zeros((1, 3)), rng.uniform([-3.2, -3.2, -0.5], [3.2, 3.2, 0.5], (n_free, 3))])
+        rot = np.concatenate([np.eye(3)[None], testing.scenes.random_rotation(rng, n_free)])
+        got = bp.pairs(pos, rot)
+        assert _rows(got) == _rows(testing.brute_force_bound_pairs(art, pos, rot))
+        exact = testing.brute_force_pairs(art, pos, rot)
+        assert not _rows(exact) - _rows(got)
+        hits += int(np.sum(np.asarray(art.geom_body)[got[:, 0]] == 0))
+        touching += len(exact)
+    assert hits > 40 and touching > 40  # the walls and dumbbells really met the others
