@@ -341,20 +341,6 @@ def _emit(keys, k, g1, g2, S):
     return k + 1
 
 
-@nb.njit(cache=True, inline="always")
-def _rules(x, y, parent_pos, weld, filter_parent, ex_start, ex_other):
-    # Weld groups, the parent rule and excluded body pairs (positions x, y).
-    if weld[x] == weld[y]:
-        return False
-    if filter_parent:
-        if (parent_pos[x] == y and y != 0) or (parent_pos[y] == x and x != 0):
-            return False
-    for i in range(ex_start[x], ex_start[x + 1]):
-        if ex_other[i] == y:
-            return False
-    return True
-
-
 # ------------------------------------------------------------------------------- traversal
 
 @nb.njit(cache=True, inline="always")
@@ -766,7 +752,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
             x = ~x
         if (ctor[x] & caor[y]) == 0 and (ctor[y] & caor[x]) == 0:
             continue
-        # _rules and _sphere_hit written out: array arguments of a call cost reference counting
+        # the filter and the sphere test written out: array arguments of a call cost reference counting
         if weld[x] == weld[y]:
             continue
         if filter_parent and ((parent_pos[x] == y and y != 0) or (parent_pos[y] == x and x != 0)):
