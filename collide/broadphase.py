@@ -75,24 +75,37 @@ class BroadPhase:
         a = self.articulation = articulation
         L, G = a.body_count, a.geom_count
         self.body_count, self.geom_count = L, G
-        order, pos_of = a.body_dfs_order, a.body_dfs_pos
         i64 = np.int64
-        end = a.body_subtree_end[order].astype(i64)
+        # Positions: the bodies in depth-first order, except that when the world has several solid
+        # geoms (static scenery: a ring of walls, obstacles on the floor) each becomes a leaf of
+        # its own at positions 1..V, child of the world, posed by body 0. One box around all the
+        # scenery would meet every moving body; leaves are culled one by one by the sweep or the
+        # grid at the root (humanoid100: 916 geom AABB tests a step -> ~40).
+        solid = np.flatnonzero(~a.geom_is_plane)
+        world_geoms = solid[a.geom_body[solid] == 0]
+        V = len(world_geoms) if len(world_geoms) > 1 else 0
+        Lp = L + V
+        order = np.concatenate([[0], np.zeros(V, i64), a.body_dfs_order[1:]]).astype(i64)  # position -> body
+        pos_of = (a.body_dfs_pos + V).astype(i64)
+        pos_of[0] = 0
+        geom_pos = pos_of[a.geom_body].astype(i64)  # position of every geom (planes: their body's)
+        geom_pos[world_geoms[:V]] = np.arange(1, V + 1)
+        end = a.body_subtree_end[order].astype(i64) + V
+        end[1:V + 1] = np.arange(2, V + 2)
         parent_pos = pos_of[a.body_parent[order]].astype(i64)
         parent_pos[0] = 0
-        nchild = np.bincount(parent_pos[1:], minlength=L).astype(i64)
+        nchild = np.bincount(parent_pos[1:], minlength=Lp).astype(i64)
         # Children of each position, in position order (a parent's children are increasing).
         children = np.argsort(parent_pos[1:], kind="stable").astype(i64) + 1
         child_start = np.concatenate([[0], np.cumsum(nchild)[:-1]]).astype(i64)
-        solid = np.flatnonzero(~a.geom_is_plane)
-        gpos = pos_of[a.geom_body[solid]]
+        gpos = geom_pos[solid]
         srt = np.argsort(gpos, kind="stable")
         pgeoms = solid[srt].astype(i64)
-        gstart = np.searchsorted(gpos[srt], np.arange(L + 1)).astype(i64)
+        gstart = np.searchsorted(gpos[srt], np.arange(Lp + 1)).astype(i64)
         gcount = np.diff(gstart)
         # 1: one geom (its bounds are the body's); 0: several; -1: several whose body OBB is more
-        # than LOOSE times the volume of their own OBBs, or the world's geoms (the kernel skips
-        # that body's body-level sphere and OBB tests, which it passes against nearly everything).
+        # than LOOSE times the volume of their own OBBs (two geoms far apart): the kernel skips
+        # that body's body-level sphere and OBB tests, which it passes against nearly everything.
         single = (gcount == 1).astype(i64)
         multi = np.flatnonzero(gcount > 1)
         if len(multi):
@@ -101,38 +114,44 @@ class BroadPhase:
             own = cs[gstart[multi + 1]] - cs[gstart[multi]]
             bvol = np.prod(2 * a.body_obb_half[order[multi]], axis=1)
             single[multi[bvol > LOOSE * own]] = -1
-        if gcount[0] > 1:
-            # The world's own geoms are static scenery (a floor's obstacles, a ring of walls): its
-            # body bounds enclose where everything else moves.
-            single[0] = -1
-        hasb = a.body_has_bounds[order]
-        ctor = np.zeros(L, i64)
-        caor = np.zeros(L, i64)
+        hasb = (gcount > 0).astype(i64)
+        weld = a.body_weld[order].astype(i64)
+        ctor = np.zeros(Lp, i64)
+        caor = np.zeros(Lp, i64)
         np.bitwise_or.at(ctor, gpos, a.geom_contype[solid])
         np.bitwise_or.at(caor, gpos, a.geom_conaffinity[solid])
-        pairflag = np.zeros(L, bool)
+        pairflag = np.zeros(Lp, bool)
         if len(a.pairs):
-            pairflag[pos_of[a.geom_body[a.pairs.ravel()]]] = True
-        # Excluded partners per position, both directions (see `_k.pack`).
-        ex = pos_of[a.exclude].reshape(-1, 2)
+            pairflag[geom_pos[a.pairs.ravel()]] = True
+        # Excluded partners per position, both directions (see `_k.pack`); an exclusion of the
+        # world holds for each of its leaves.
+        world_at = np.arange(V + 1)
+        ex = [(x, y) for b1, b2 in a.exclude
+              for x in (world_at if b1 == 0 else (pos_of[b1],)) for y in (world_at if b2 == 0 else (pos_of[b2],))]
+        ex = np.array(ex, i64).reshape(-1, 2)
         ex = np.concatenate([ex, ex[:, ::-1]]).astype(i64)
         ex = ex[np.lexsort((ex[:, 1], ex[:, 0]))]
-        ex_start = np.searchsorted(ex[:, 0], np.arange(L + 1)).astype(i64)
+        ex_start = np.searchsorted(ex[:, 0], np.arange(Lp + 1)).astype(i64)
         planes = np.flatnonzero(a.geom_is_plane).astype(i64)
-        plane_ok = self._plane_filter(planes, pos_of[a.geom_body[planes]], a.body_weld[order], parent_pos, hasb,
-                                      ctor, caor, ex_start, ex[:, 1], a.geom_contype, a.geom_conaffinity,
-                                      a.filter_parent)
+        plane_ok = self._plane_filter(planes, geom_pos[planes], weld, parent_pos, hasb, ctor, caor, ex_start,
+                                      ex[:, 1], a.geom_contype, a.geom_conaffinity, a.filter_parent)
         blocal = _local_rows(a.body_obb_center, a.body_obb_rot, a.body_obb_half, a.body_sphere_center,
                              a.body_sphere_radius)[order]
         glocal = _local_rows(a.geom_obb_center, a.geom_obb_rot, a.geom_obb_half, a.geom_sphere_center,
                              a.geom_sphere_radius)
+        if V:
+            # A leaf's bounds are its geom's, inflated, as for any single-geom body.
+            blocal[1:V + 1] = glocal[world_geoms]
+            blocal[1:V + 1, 12:15] += a.geom_margin[world_geoms, None]
+            blocal[1:V + 1, 18] += a.geom_margin[world_geoms]
         pair_keys = (a.pairs[:, 0].astype(i64) << _k.key_shift(G)) | a.pairs[:, 1]
         self._I, self._F = _k.pack(
-            order, pos_of, end, parent_pos, a.body_weld[order], nchild, child_start, single, hasb, pairflag,
+            order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag,
             ctor, caor, children, gstart, pgeoms, ex_start, ex[:, 1], planes, plane_ok, a.geom_body,
             a.geom_contype, a.geom_conaffinity, a.pairs, pair_keys, a.filter_parent, blocal, glocal,
-            a.geom_plane, a.geom_margin, a.pair_margin)
-        self._nW = _k.workspace_size(L, G, len(planes))
+            a.geom_plane, a.geom_margin, a.pair_margin, n_virtual=V)
+        self.position_count = Lp
+        self._nW = _k.workspace_size(Lp, G, len(planes))
         self._sap_init = children.copy()
         self._W = np.zeros(self._nW)
         self._sap = children.copy()

@@ -427,9 +427,10 @@ def test_slightly_scaled_rotations_never_lose_a_touching_pair():
 
 
 def test_loose_multi_geom_bodies_skip_body_tests_and_lose_nothing():
-    # The world's static geoms (a ring of walls, scattered blocks) and dumbbells (two small
-    # geoms far apart) have body bounds that are mostly empty space: the kernel skips their
-    # body-level tests (BroadPhase's `single` < 0) and must still equal the bounds twin.
+    # The world's static geoms (a ring of walls, scattered blocks) become leaves of their own,
+    # and dumbbells (two small geoms far apart) have body bounds that are mostly empty space:
+    # the kernel skips their body-level tests (BroadPhase's `single` < 0). Both must still equal
+    # the bounds twin.
     rng = np.random.default_rng(12)
     walls = [((0, 3, 0), (3, 0.2, 0.5)), ((0, -3, 0), (3, 0.2, 0.5)), ((3, 0, 0), (0.2, 3, 0.5)),
              ((-3, 0, 0), (0.2, 3, 0.5)), ((1, 1, 0), (0.3, 0.3, 0.3)), ((-1.5, 0.5, 0), (0.2, 0.2, 0.2))]
@@ -450,12 +451,29 @@ def test_loose_multi_geom_bodies_skip_body_tests_and_lose_nothing():
             geom_body.append(b)
             clouds.append(testing.scenes.random_shape(rng, 0.4))
             gpos.append((0, 0, 0))
+    # A floor in the world too (never paired with the world's leaves: one weld group), wall 1
+    # on its own mask (pairs with nothing but its explicit pair with the first geom of body 2),
+    # and the world excluded with body 1: the leaves inherit the world's rules.
+    geom_body.append(0)
+    clouds.append(shapes.plane((0, 0, 1), -0.3))
+    gpos.append((0, 0, 0))
+    G = len(geom_body)
+    contype = np.ones(G, np.int64)
+    contype[1] = 2
+    g_b2 = geom_body.index(2)
     art = Articulation(parent, geom_body, clouds, geom_pos=np.array(gpos, float),
-                       geom_margin=rng.uniform(0, 0.02, len(geom_body)))
+                       geom_contype=contype, geom_conaffinity=contype,
+                       geom_margin=rng.uniform(0, 0.02, G), exclude=[(0, 1)], pairs=[(1, g_b2)])
     bp = BroadPhase(art)
-    loose = bp._I[_kern.HEADER + 7 * art.body_count:_kern.HEADER + 8 * art.body_count]
-    assert loose[0] == -1 and np.sum(loose < 0) >= 1 + n_free // 3
-    hits = touching = 0
+    # The world's 6 geoms became leaves of their own (positions 1..6); the dumbbells are loose.
+    I = bp._I
+    Lp, V = I[_kern.H_L], I[_kern.H_V]
+    assert V == len(walls) and Lp == art.body_count + V == bp.position_count
+    single = I[_kern.HEADER + art.body_count + 6 * Lp:][:Lp]
+    hasb = I[_kern.HEADER + art.body_count + 7 * Lp:][:Lp]
+    assert hasb[0] == 0 and np.all(single[1:V + 1] == 1)
+    assert np.sum(single < 0) == n_free // 3
+    hits = touching = explicit = 0
     for _ in range(40):
         pos = np.concatenate([np.zeros((1, 3)), rng.uniform([-3.2, -3.2, -0.5], [3.2, 3.2, 0.5], (n_free, 3))])
         rot = np.concatenate([np.eye(3)[None], testing.scenes.random_rotation(rng, n_free)])
@@ -465,4 +483,11 @@ def test_loose_multi_geom_bodies_skip_body_tests_and_lose_nothing():
         assert not _rows(exact) - _rows(got)
         hits += int(np.sum(np.asarray(art.geom_body)[got[:, 0]] == 0))
         touching += len(exact)
+        gb = np.asarray(art.geom_body)[got]
+        assert not np.any((gb[:, 0] == 0) & (gb[:, 1] == 0))  # never the world with itself
+        assert not np.any(((gb[:, 0] == 0) & (gb[:, 1] == 1)) | ((gb[:, 0] == 1) & (gb[:, 1] == 0)))
+        wall1 = got[(got[:, 0] == 1) | (got[:, 1] == 1)]
+        assert all(tuple(r) == (1, g_b2) for r in wall1)
+        explicit += len(wall1)
     assert hits > 40 and touching > 40  # the walls and dumbbells really met the others
+    assert explicit > 0  # the explicit pair of wall 1 did fire

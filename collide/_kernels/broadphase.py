@@ -68,14 +68,16 @@ BAD_ROTATION = 2
  ST_GEOM_AABB) = range(9)
 N_STATS = 9
 
-# Header of I: counts
-H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP, H_KS = range(8)
-HEADER = 8
+# Header of I: counts. Positions (``H_L``) are the bodies in depth-first order plus, when the world
+# has several solid geoms, one leaf per world geom (``H_V`` of them, at positions 1..V; see
+# BroadPhase): bodies (``H_NB``) index the pose arrays, positions everything else.
+H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP, H_KS, H_NB, H_V = range(10)
+HEADER = 10
 
 
 def pack(order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor, caor,
          children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g, pair_keys,
-         filter_parent, blocal, glocal, gplane, gmargin, pair_m):
+         filter_parent, blocal, glocal, gplane, gmargin, pair_m, n_virtual=0):
     """Flatten the static model into ``I`` (int64) and ``F`` (float64); see `_views` for the order.
 
     Excluded body pairs travel as lists of partners per position (``ex_other[ex_start[x]:
@@ -84,7 +86,8 @@ def pack(order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb
     """
     L, G, Gs, Q, E, P = len(order), len(geom_bid), len(pgeoms), len(planes), len(ex_other), len(pair_keys)
     head = np.zeros(HEADER, np.int64)
-    head[[H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP, H_KS]] = L, G, Gs, Q, E, P, int(filter_parent), key_shift(G)
+    head[[H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP, H_KS, H_NB, H_V]] = (L, G, Gs, Q, E, P, int(filter_parent), key_shift(G),
+                                                                  len(pos_of), n_virtual)
     parts = [head, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
              caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca,
              np.asarray(pair_g).reshape(-1), pair_keys]
@@ -99,7 +102,7 @@ def key_shift(G: int) -> int:
 
 
 def workspace_size(L: int, G: int, Q: int) -> int:
-    """Length of the float64 workspace ``W`` of one world."""
+    """Length of the float64 workspace ``W`` of one world (``L`` positions)."""
     return ROW * L + ROW * G + 12 * L + 4 * max(Q, 1) + 2 * ROW + 6 * G + L + 1
 
 
@@ -114,8 +117,8 @@ def _views(I, F, W):
     o = HEADER
     order = I[o:o + L]
     o += L
-    pos_of = I[o:o + L]
-    o += L
+    pos_of = I[o:o + I[H_NB]]
+    o += I[H_NB]
     end = I[o:o + L]
     o += L
     parent_pos = I[o:o + L]
@@ -211,6 +214,17 @@ def _world_row(rot, pos, b, src, s, dst, d):
     for j in range(12, 15):
         dst[d, j] = src[s, j]
     dst[d, 18] = src[s, 18]
+
+
+@nb.njit(cache=True, inline="always")
+def _place(body_rot, body_pos, b, blocal, x, bw, baabb):
+    # World row of position x (body b's pose) and its AABB: the AABB of the world OBB.
+    _world_row(body_rot, body_pos, b, blocal, x, bw, x)
+    for i in range(3):
+        h = (abs(bw[x, 3 + 3 * i]) * bw[x, 12] + abs(bw[x, 4 + 3 * i]) * bw[x, 13]
+             + abs(bw[x, 5 + 3 * i]) * bw[x, 14])
+        baabb[x, i] = bw[x, i] - h
+        baabb[x, 3 + i] = bw[x, i] + h
 
 
 @nb.njit(cache=True, inline="always")
@@ -690,7 +704,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
     check_pairs = pair_keys.shape[0] > 0
     k = 0
     # 1. poses -> world bounds of bodies, by body id so the first offender is named.
-    for b in range(L):
+    for b in range(I[H_NB]):
         acc = 0.0
         for i in range(3):
             acc += body_pos[b, i]
@@ -717,16 +731,13 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
             return -1
         x = pos_of[b]
         if hasb[x]:
-            _world_row(body_rot, body_pos, b, blocal, x, bw, x)
-            for i in range(3):
-                h = (abs(bw[x, 3 + 3 * i]) * bw[x, 12] + abs(bw[x, 4 + 3 * i]) * bw[x, 13]
-                     + abs(bw[x, 5 + 3 * i]) * bw[x, 14])
-                baabb[x, i] = bw[x, i] - h
-                baabb[x, 3 + i] = bw[x, i] + h
+            _place(body_rot, body_pos, b, blocal, x, bw, baabb)
         else:
             for i in range(3):
                 baabb[x, i] = BIG
                 baabb[x, 3 + i] = -BIG
+    for x in range(1, I[H_V] + 1):  # the world's geoms as leaves of their own
+        _place(body_rot, body_pos, 0, blocal, x, bw, baabb)
     # 2. subtree AABBs: one reverse sweep, children before parents.
     for x in range(L):
         for i in range(6):
@@ -1029,7 +1040,7 @@ def _step(body_pos, body_rot, ctx):
     body pairs needed): on `RET_OVERFLOW` the caller grows the buffer named there and reruns.
     """
     I, F, W, sap, bp, stats, info = _buffers(ctx)
-    L = I[H_L]
+    L = I[H_NB]
     if (body_pos.shape[0] != L or body_pos.shape[1] != 3 or body_rot.shape[0] != L or body_rot.shape[1] != 3
             or body_rot.shape[2] != 3):
         return RET_BAD_SHAPE
