@@ -334,6 +334,23 @@ def _plane_hit(pl, q, mq, B, b, mb):
 
 
 @nb.njit(cache=True, inline="always")
+def _plane_hit_local(n0, n1, n2, lim, scale, Lr, g, mg):
+    # _plane_hit in a body's frame: the halfspace {n . x <= lim} (n = R^T n_world, lim = d + mq -
+    # n_world . p) against the local row Lr[g] inflated by mg, so a multi-geom body's geoms need
+    # no world rows (anymal's legs: 4-5 geoms each, 3 on the floor). n . (R c + p) = (R^T n) . c
+    # + n . p exactly; the slack covers the rounding of the world coordinates (``scale``).
+    sc = n0 * Lr[g, 15] + n1 * Lr[g, 16] + n2 * Lr[g, 17]
+    r = Lr[g, 18] + mg
+    if sc - r > lim + SLACK_REL * r + SLACK_POS * scale:
+        return False
+    c = n0 * Lr[g, 0] + n1 * Lr[g, 1] + n2 * Lr[g, 2]
+    ext = 0.0
+    for i in range(3):
+        ext += abs(n0 * Lr[g, 3 + i] + n1 * Lr[g, 6 + i] + n2 * Lr[g, 9 + i]) * (Lr[g, 12 + i] + mg)
+    return c - ext <= lim + SLACK_REL * ext + SLACK_POS * scale
+
+
+@nb.njit(cache=True, inline="always")
 def _aabb_hit(X, x, Y, y):
     # The hot loops of the traversal write this test out instead of calling it: even inlined,
     # a call with array arguments keeps an incref/decref pair per array (measured: the chain's
@@ -853,6 +870,15 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
             if plane_ok[i, x] != 0:  # the static filter, precomputed per (plane, body)
                 stats[ST_PLANE] += 1
                 if _plane_hit(plw, i, mq, bw, x, 0.0):
+                    multi = single[x] <= 0
+                    if multi:
+                        # the plane in the body's frame, for its geoms' tests
+                        b = order[x]
+                        ln0 = body_rot[b, 0, 0] * n0 + body_rot[b, 1, 0] * n1 + body_rot[b, 2, 0] * n2
+                        ln1 = body_rot[b, 0, 1] * n0 + body_rot[b, 1, 1] * n1 + body_rot[b, 2, 1] * n2
+                        ln2 = body_rot[b, 0, 2] * n0 + body_rot[b, 1, 2] * n1 + body_rot[b, 2, 2] * n2
+                        llim = lim - (n0 * body_pos[b, 0] + n1 * body_pos[b, 1] + n2 * body_pos[b, 2])
+                        lscale = abs(body_pos[b, 0]) + abs(body_pos[b, 1]) + abs(body_pos[b, 2]) + abs(pd)
                     for ii in range(gstart[x], gstart[x + 1]):
                         g = pgeoms[ii]
                         if (gct[g] & gca[qg]) == 0 and (gct[qg] & gca[g]) == 0:
@@ -861,11 +887,10 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
                             key = (g << S) | qg if g < qg else (qg << S) | g
                             if _in_sorted(pair_keys, key):
                                 continue
-                        if single[x] <= 0:
-                            _geom_rows(x, order, gstart, pgeoms, glocal, gmargin, body_pos, body_rot, gw, gaabb,
-                                       gstamp, stamp)
+                        if multi:
                             stats[ST_PLANE] += 1
-                            if not _plane_hit(plw, i, mq, gw, g, gmargin[g]):
+                            if not _plane_hit_local(ln0, ln1, ln2, llim, lscale + abs(glocal[g, 0])
+                                                    + abs(glocal[g, 1]) + abs(glocal[g, 2]), glocal, g, gmargin[g]):
                                 continue
                         k = _emit(keys, k, g, qg, S)
             x += 1
