@@ -271,6 +271,8 @@ def robot_bp():
     ("inf_rot", "body 5: pose has a non-finite"),
     ("scaled_rot", "body 5: rotation is not a proper orthonormal"),
     ("reflection", "body 5: rotation is not a proper orthonormal"),
+    ("nan_rot", "body 5: pose has a non-finite"),
+    ("inf_pos", "body 5: pose has a non-finite"),
 ])
 def test_bad_poses_name_the_body_and_next_call_works(robot_bp, what, msg):
     sc, bp = robot_bp
@@ -282,6 +284,10 @@ def test_bad_poses_name_the_body_and_next_call_works(robot_bp, what, msg):
         bad_pos[9, 0] = np.nan
     elif what == "inf_rot":
         bad_rot[5, 2, 2] = np.inf
+    elif what == "nan_rot":
+        bad_rot[5, 0, 1] = np.nan
+    elif what == "inf_pos":
+        bad_pos[5, 2] = -np.inf
     elif what == "scaled_rot":
         bad_rot[5] *= 1.001
     else:
@@ -295,6 +301,16 @@ def test_bad_poses_name_the_body_and_next_call_works(robot_bp, what, msg):
     with pytest.raises(ValueError, match="world 2, " + msg):
         bp.pairs_batch(bpos, brot)
     assert len(bp.pairs_batch(np.repeat(pos[None], B, 0), np.repeat(rot[None], B, 0))) == B * len(good)
+
+
+def test_huge_finite_positions_are_valid(robot_bp):
+    # Far from the origin but finite: a pose, not an error (the validation must not overflow).
+    sc, bp = robot_bp
+    pos, rot = sc.poses(np.random.default_rng(1))
+    pos = pos + 1e300
+    pos[3] = [1.7e308, -1.7e308, 1.7e308]
+    got = bp.pairs(pos, rot)
+    assert got.dtype == np.int32 and got.shape[1] == 2
 
 
 def test_wrong_shapes_and_dtypes_raise(robot_bp):

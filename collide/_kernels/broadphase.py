@@ -722,28 +722,37 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
     k = 0
     # 1. poses -> world bounds of bodies, by body id so the first offender is named.
     for b in range(I[H_NB]):
-        acc = 0.0
-        for i in range(3):
-            acc += body_pos[b, i]
-            for j in range(3):
-                acc += body_rot[b, i, j]
-        if not np.isfinite(acc):  # NaN and inf propagate through the sum
-            info[0] = BAD_NONFINITE
-            info[1] = b
-            return -1
-        err = 0.0
-        for i in range(3):
-            for j in range(i, 3):
-                v = (body_rot[b, 0, i] * body_rot[b, 0, j] + body_rot[b, 1, i] * body_rot[b, 1, j]
-                     + body_rot[b, 2, i] * body_rot[b, 2, j] - (1.0 if i == j else 0.0))
-                err = max(err, abs(v))
+        # One test per body: R^T R = I within ORTHO_TOL, det > 0, a finite position. Comparisons
+        # with NaN are false, and an inf in R makes a product inf or NaN, so a non-finite pose
+        # fails too; only then is it told apart (the error names what is wrong).
+        r00 = body_rot[b, 0, 0]
+        r01 = body_rot[b, 0, 1]
+        r02 = body_rot[b, 0, 2]
+        r10 = body_rot[b, 1, 0]
+        r11 = body_rot[b, 1, 1]
+        r12 = body_rot[b, 1, 2]
+        r20 = body_rot[b, 2, 0]
+        r21 = body_rot[b, 2, 1]
+        r22 = body_rot[b, 2, 2]
         # det > 0 (no reflection): column 2 must agree with column 0 x column 1 in sign
-        c0 = body_rot[b, 1, 0] * body_rot[b, 2, 1] - body_rot[b, 2, 0] * body_rot[b, 1, 1]
-        c1 = body_rot[b, 2, 0] * body_rot[b, 0, 1] - body_rot[b, 0, 0] * body_rot[b, 2, 1]
-        c2 = body_rot[b, 0, 0] * body_rot[b, 1, 1] - body_rot[b, 1, 0] * body_rot[b, 0, 1]
-        det = c0 * body_rot[b, 0, 2] + c1 * body_rot[b, 1, 2] + c2 * body_rot[b, 2, 2]
-        if err > ORTHO_TOL or det <= 0.0:
+        det = ((r10 * r21 - r20 * r11) * r02 + (r20 * r01 - r00 * r21) * r12
+               + (r00 * r11 - r10 * r01) * r22)
+        ok = ((abs(r00 * r00 + r10 * r10 + r20 * r20 - 1.0) <= ORTHO_TOL)
+              & (abs(r01 * r01 + r11 * r11 + r21 * r21 - 1.0) <= ORTHO_TOL)
+              & (abs(r02 * r02 + r12 * r12 + r22 * r22 - 1.0) <= ORTHO_TOL)
+              & (abs(r00 * r01 + r10 * r11 + r20 * r21) <= ORTHO_TOL)
+              & (abs(r00 * r02 + r10 * r12 + r20 * r22) <= ORTHO_TOL)
+              & (abs(r01 * r02 + r11 * r12 + r21 * r22) <= ORTHO_TOL)
+              & (det > 0.0) & (abs(body_pos[b, 0]) < np.inf) & (abs(body_pos[b, 1]) < np.inf)
+              & (abs(body_pos[b, 2]) < np.inf))
+        if not ok:
             info[0] = BAD_ROTATION
+            for i in range(3):
+                if not np.isfinite(body_pos[b, i]):
+                    info[0] = BAD_NONFINITE
+                for j in range(3):
+                    if not np.isfinite(body_rot[b, i, j]):
+                        info[0] = BAD_NONFINITE
             info[1] = b
             return -1
         x = pos_of[b]
