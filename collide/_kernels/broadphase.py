@@ -2,7 +2,8 @@
 
 Layout (built by `collide.broadphase.BroadPhase` from an `Articulation`, see `pack`): bodies are
 addressed by depth-first *position* ``p`` (every subtree is the range ``[p, end[p])``), geoms by
-their ids. A bounds record ("row") is 19 float64: OBB centre (3), OBB rotation (9, row-major,
+their ids. When the world has several solid geoms, each is a leaf of its own at positions 1..V
+(posed by body 0, with the world's rules), so static scenery is culled geom by geom at the root. A bounds record ("row") is 19 float64: OBB centre (3), OBB rotation (9, row-major,
 columns are the box axes), OBB half extents (3), sphere centre (3), sphere radius (1).
 
 The static model travels as two flat arrays (``I`` int64 with a header of counts, ``F`` float64)
@@ -12,9 +13,9 @@ per array argument, and views built from pointers carry no reference count. `_vi
 buffers back into named arrays (no copy).
 
 One step, for one world (`_world`):
-1. validate each body's pose (finite, proper orthonormal rotation) and move its local bounds to
-   the world (one rotation per body; no point is touched), then the same for the geoms of bodies
-   with several geoms (a single-geom body's bounds *are* its geom's, inflated);
+1. validate each body's pose (finite, proper orthonormal rotation: one combined test) and move
+   its local bounds to the world (one rotation per body; no point is touched); the geoms of bodies
+   with several geoms follow on first use (a single-geom body's bounds *are* its geom's, inflated);
 2. subtree AABBs by one reverse sweep over the positions (each body's AABB of its world OBB,
    merged into its parent's): the tree is a one-level bounding hierarchy, never boxes of boxes;
 3. every body pair exactly once, at its lowest common ancestor ``n``: body ``n`` against its own
@@ -29,8 +30,8 @@ One step, for one world (`_world`):
    written out);
 4. body pair -> static filter -> sphere test -> OBB separating-axis test (15 axes, Ericson 2005,
    *Real-Time Collision Detection* §4.4.1) -> geom pairs, the same tests on the geoms' bounds;
-5. planes (halfspaces) down the tree, the static filter of every (plane, body) pair precomputed;
-   explicit pairs last; keys ``g1 << S | g2`` sorted (``S`` bits
+5. planes (halfspaces) down the tree, the static filter of every (plane, body) pair precomputed,
+   a multi-geom body's geoms tested in the body's frame; explicit pairs last; keys ``g1 << S | g2`` sorted (``S`` bits
    hold any geom id: decoding is a shift and a mask, not an integer division per pair).
 """
 
