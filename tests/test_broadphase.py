@@ -507,3 +507,21 @@ def test_loose_multi_geom_bodies_skip_body_tests_and_lose_nothing():
         explicit += len(wall1)
     assert hits > 40 and touching > 40  # the walls and dumbbells really met the others
     assert explicit > 0  # the explicit pair of wall 1 did fire
+
+
+@pytest.mark.parametrize("G, k", [(30, 85), (419, 226), (5000, 150), (70000, 3000)])
+def test_key_sorts_equal_numpy(G, k):
+    # The kernel's sorts of pair keys (g1 << S | g2) against np.sort: the counting sort on the
+    # first id (then insertion sort) and the radix sort the kernel picks between by G and k.
+    rng = np.random.default_rng(G + k)
+    S = _kern.key_shift(G)
+    g = np.sort(rng.integers(0, G, (k, 2)), axis=1)
+    keys = (g[:, 0].astype(np.int64) << S) | g[:, 1]
+    ref = np.sort(keys)
+    a = np.concatenate([keys, [-7, -7]])  # the tail beyond k must stay untouched
+    _kern._radix_sort(a, k)
+    assert np.array_equal(a[:k], ref) and np.all(a[k:] == -7)
+    b = np.concatenate([keys, [-7, -7]])
+    _kern._first_id_sort(b, k, S, G)
+    assert np.array_equal(b[:k] >> S, ref >> S) and np.all(b[k:] == -7)  # by first id, stable
+    assert np.array_equal(np.sort(b[:k]), ref)
