@@ -316,30 +316,12 @@ def obb_hit(A, a, ma, B, b, mb):
 
 
 @nb.njit(cache=True, inline="always")
-def _plane_hit(pl, q, mq, B, b, mb):
-    # Both of B[b]'s volumes, inflated by mb, reach the halfspace {n . x <= d + mq}.
-    n0 = pl[q, 0]
-    n1 = pl[q, 1]
-    n2 = pl[q, 2]
-    lim = pl[q, 3] + mq
-    pos = abs(B[b, 0]) + abs(B[b, 1]) + abs(B[b, 2]) + abs(pl[q, 3])
-    sc = n0 * B[b, 15] + n1 * B[b, 16] + n2 * B[b, 17]
-    r = B[b, 18] + mb
-    if sc - r > lim + SLACK_REL * r + SLACK_POS * pos:
-        return False
-    c = n0 * B[b, 0] + n1 * B[b, 1] + n2 * B[b, 2]
-    ext = 0.0
-    for i in range(3):
-        ext += abs(n0 * B[b, 3 + i] + n1 * B[b, 6 + i] + n2 * B[b, 9 + i]) * (B[b, 12 + i] + mb)
-    return c - ext <= lim + SLACK_REL * ext + SLACK_POS * pos
-
-
-@nb.njit(cache=True, inline="always")
 def _plane_hit_local(n0, n1, n2, lim, scale, Lr, g, mg):
-    # _plane_hit in a body's frame: the halfspace {n . x <= lim} (n = R^T n_world, lim = d + mq -
-    # n_world . p) against the local row Lr[g] inflated by mg, so a multi-geom body's geoms need
-    # no world rows (anymal's legs: 4-5 geoms each, 3 on the floor). n . (R c + p) = (R^T n) . c
-    # + n . p exactly; the slack covers the rounding of the world coordinates (``scale``).
+    # Both of Lr[g]'s volumes, inflated by mg, reach the halfspace {n . x <= lim}; ``scale`` is
+    # the magnitude of the world coordinates involved (the slack covers their rounding). Also in
+    # a body's frame (n = R^T n_world, lim = d + mq - n_world . p): a multi-geom body's geoms need
+    # no world rows then (anymal's legs: 4-5 geoms each, 3 on the floor), n . (R c + p) =
+    # (R^T n) . c + n . p.
     sc = n0 * Lr[g, 15] + n1 * Lr[g, 16] + n2 * Lr[g, 17]
     r = Lr[g, 18] + mg
     if sc - r > lim + SLACK_REL * r + SLACK_POS * scale:
@@ -349,6 +331,13 @@ def _plane_hit_local(n0, n1, n2, lim, scale, Lr, g, mg):
     for i in range(3):
         ext += abs(n0 * Lr[g, 3 + i] + n1 * Lr[g, 6 + i] + n2 * Lr[g, 9 + i]) * (Lr[g, 12 + i] + mg)
     return c - ext <= lim + SLACK_REL * ext + SLACK_POS * scale
+
+
+@nb.njit(cache=True, inline="always")
+def _plane_hit(pl, q, mq, B, b, mb):
+    # World row B[b], inflated by mb, against plane row pl[q] = (n, d) inflated by mq.
+    return _plane_hit_local(pl[q, 0], pl[q, 1], pl[q, 2], pl[q, 3] + mq,
+                            abs(B[b, 0]) + abs(B[b, 1]) + abs(B[b, 2]) + abs(pl[q, 3]), B, b, mb)
 
 
 @nb.njit(cache=True, inline="always")
