@@ -74,11 +74,6 @@ def _guarded(obb: _volumes.OBB, sphere: _volumes.Sphere):
     return obb.center.copy(), obb.rotation.copy(), half, sphere.center.copy(), radius
 
 
-def _box_corners(center: np.ndarray, rot: np.ndarray, half: np.ndarray) -> np.ndarray:
-    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
-    return center + (signs * half) @ rot.T
-
-
 def _depth_first(body_parent: np.ndarray):
     # Children lists in id order, then an explicit-stack DFS from the world: positions, ranges.
     L = len(body_parent)
@@ -347,7 +342,7 @@ class Articulation:
                 continue
             # The body's OBB must contain its geoms' inflated OBBs (the kernel culls with it
             # before the geom tests): fit to their corners, one level only.
-            corners = np.concatenate([_box_corners(self.geom_obb_center[g], self.geom_obb_rot[g],
+            corners = np.concatenate([_volumes.obb_corners(self.geom_obb_center[g], self.geom_obb_rot[g],
                                                    self.geom_obb_half[g] + m[i]) for i, g in enumerate(gs)])
             obb = fit_local_obb(PointCloud(corners))
             # Its sphere must contain the geoms' inflated spheres: try the body hull's centre and

@@ -38,7 +38,7 @@ from . import shapes as _shapes
 from ._kernels import ray as _ray
 from ._validate import as_affine, as_array, as_count, as_points, as_positive, as_radius
 from .pointcloud import PointCloud
-from .volumes import AABB
+from .volumes import AABB, aabb_corners
 
 __all__ = [
     "BVH", "Difference", "Instances", "Intersection", "Leaf", "Node", "RayHits", "Recursive", "Ref",
@@ -502,15 +502,11 @@ def _cloud(node, env, ctx: _Context) -> PointCloud:
     return out
 
 
-def _box_corners(lo, hi) -> np.ndarray:
-    return np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-
-
 def _box_under(lo, hi, m) -> tuple[np.ndarray, np.ndarray]:
     # The box of a transformed box (the box-of-box step that grows under rotation).
     if np.any(lo > hi):
         return lo, hi
-    c = _box_corners(lo, hi) @ m[:3, :3].T + m[:3, 3]
+    c = aabb_corners(lo, hi) @ m[:3, :3].T + m[:3, 3]
     return c.min(axis=0), c.max(axis=0)
 
 

@@ -60,6 +60,7 @@ from ._validate import as_array, as_count
 from .articulation import Articulation
 from .broadphase import BroadPhase as _BroadPhase
 from .pointcloud import PointCloud
+from .volumes import aabb_corners
 
 _GEOM = mujoco.mjtGeom
 _DSBL = mujoco.mjtDisableBit
@@ -93,11 +94,6 @@ __all__ = [
 
 # Relative padding of an SDF geom's box (MuJoCo's geom_aabb, measured on a sampled mesh).
 SDF_PAD = 0.02
-
-
-def _box_corners(lo: np.ndarray, hi: np.ndarray) -> PointCloud:
-    return PointCloud(np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
-                                for z in (lo[2], hi[2])]))
 
 
 def geom_clouds(model: mujoco.MjModel) -> list:
@@ -138,13 +134,13 @@ def geom_clouds(model: mujoco.MjModel) -> list:
             clouds.append(shapes.plane())
         elif t == _GEOM.mjGEOM_HFIELD:
             sx, sy, top, base = model.hfield_size[int(model.geom_dataid[g])]
-            clouds.append(_box_corners(np.array([-sx, -sy, -base]), np.array([sx, sy, top])))
+            clouds.append(PointCloud(aabb_corners(np.array([-sx, -sy, -base]), np.array([sx, sy, top]))))
         elif t == _GEOM.mjGEOM_SDF:
             # MuJoCo's box comes from a mesh sampled from the SDF, which can fall short of the
             # true surface (mujoco.sdf.torus 0.35/0.15: half extent 0.49995, not 0.5): pad it.
             c, h = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
             pad = SDF_PAD * float(np.max(h))
-            clouds.append(_box_corners(c - h - pad, c + h + pad))
+            clouds.append(PointCloud(aabb_corners(c - h - pad, c + h + pad)))
         else:
             raise ValueError(f"geom {g} ({_geom_name(model, g)}): unsupported geom type {t}")
     return clouds

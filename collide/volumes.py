@@ -41,6 +41,20 @@ _ROUNDING_PAD = 8.0 * np.finfo(np.float64).eps
 ROTATION_TOL = 1e-6
 
 
+# Corner signs of a box, x slowest: corner i = centre + signs[i] * half (in the box's axes).
+_CORNER_SIGNS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+
+
+def obb_corners(center: np.ndarray, rotation: np.ndarray, half_extents: np.ndarray) -> np.ndarray:
+    """The 8 corners ``(8, 3)`` of the box ``center`` + ``rotation`` @ [-h, h] (columns are axes)."""
+    return center + (_CORNER_SIGNS * half_extents) @ np.asarray(rotation).T
+
+
+def aabb_corners(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The 8 corners ``(8, 3)`` of ``[lo, hi]``, each coordinate exactly ``lo`` or ``hi``."""
+    return np.where(_CORNER_SIGNS < 0, lo, hi)
+
+
 def _float_vec(value, name: str) -> np.ndarray:
     # Any float array, infinities allowed (the empty box); complex and non-numbers rejected.
     if np.iscomplexobj(value):
@@ -235,8 +249,7 @@ class OBB:
 
     def corners(self) -> np.ndarray:
         """The 8 corners, ``(8, 3) float64``."""
-        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
-        return self.center + (signs * self.half_extents) @ self.rotation.T
+        return obb_corners(self.center, self.rotation, self.half_extents)
 
     def contains(self, points, rtol: float = 0.0) -> np.ndarray:
         """Which points lie in the box, widened by ``rtol`` times its size.

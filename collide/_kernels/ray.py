@@ -49,21 +49,11 @@ def _ray_box(o, d, lo, hi, tmax):
     t0 = 0.0
     t1 = tmax
     for a in range(3):
-        if d[a] == 0.0:
-            if o[a] < lo[a] or o[a] > hi[a]:
-                return False, 0.0
-        else:
-            inv = 1.0 / d[a]
-            ta = (lo[a] - o[a]) * inv
-            tb = (hi[a] - o[a]) * inv
-            if ta > tb:
-                ta, tb = tb, ta
-            if ta > t0:
-                t0 = ta
-            if tb < t1:
-                t1 = tb
-            if t0 > t1:
-                return False, 0.0
+        ta, tb, ok = _slab(o[a], d[a], lo[a], hi[a])
+        t0 = max(t0, ta)
+        t1 = min(t1, tb)
+        if not ok or t0 > t1:
+            return False, 0.0
     return True, t0
 
 
@@ -82,20 +72,11 @@ def _ray_bound(kind, n, o, d, tmax, node_lo, node_hi, node_rot, node_center, nod
         for a in range(3):
             oa = r[0, a] * (o[0] - c[0]) + r[1, a] * (o[1] - c[1]) + r[2, a] * (o[2] - c[2])
             da = r[0, a] * d[0] + r[1, a] * d[1] + r[2, a] * d[2]
-            if da == 0.0:
-                if oa < -h[a] or oa > h[a]:
-                    return False, 0.0
-            else:
-                ta = (-h[a] - oa) / da
-                tb = (h[a] - oa) / da
-                if ta > tb:
-                    ta, tb = tb, ta
-                if ta > t0:
-                    t0 = ta
-                if tb < t1:
-                    t1 = tb
-                if t0 > t1:
-                    return False, 0.0
+            ta, tb, ok = _slab(oa, da, -h[a], h[a])
+            t0 = max(t0, ta)
+            t1 = min(t1, tb)
+            if not ok or t0 > t1:
+                return False, 0.0
         return True, t0
     ox = o[0] - c[0]
     oy = o[1] - c[1]
