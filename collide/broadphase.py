@@ -159,8 +159,10 @@ class BroadPhase:
         self._sap = children.copy()
         self._stats = np.zeros(_k.N_STATS, np.int64)
         self._info = np.zeros(4, np.int64)
-        self._ctx = np.empty(_k.NCTX, np.int64)
+        self._ctx = np.zeros(_k.NCTX, np.int64)
         self._step = _k.step_function()
+        self._step_bound = None  # see bind
+        self._bound = None
         self._set_buffers(4 * L + 64, 4 * G + 64)
         self._batch = None
         self._empty = np.zeros((0, 2), np.int32)
@@ -187,9 +189,10 @@ class BroadPhase:
         # The kernel reaches every buffer through self._ctx (addresses): replace a buffer only here.
         self._bp = np.empty((max(1, body_pairs), 2), np.int64)
         self._keys = np.empty(max(1, keys), np.int64)
+        self._scr = np.empty(_k.scratch_size(self.geom_count, self._keys.size), np.int64)
         self._out = self._keys.view(np.int32).reshape(-1, 2)  # the kernel writes the pairs here
-        _k.context(self._I, self._F, self._W, self._sap, self._bp, self._keys, self._stats, self._info,
-                   out=self._ctx)
+        _k.context(self._I, self._F, self._W, self._sap, self._bp, self._keys, self._scr, self._stats,
+                   self._info, out=self._ctx)
 
     def _check(self, body_pos, body_rot, lead: tuple):
         L = self.body_count
@@ -214,13 +217,14 @@ class BroadPhase:
         raise ValueError(f"{where}body {body}: rotation is not a proper orthonormal matrix "
                          f"(|R^T R - I| > {_k.ORTHO_TOL:g} or det <= 0)")
 
-    def pairs(self, body_pos: np.ndarray, body_rot: np.ndarray) -> np.ndarray:
+    def pairs(self, body_pos: np.ndarray | None = None, body_rot: np.ndarray | None = None) -> np.ndarray:
         """Geom pairs whose bounds may touch, for one world.
 
         Parameters
         ----------
         body_pos : (L, 3) float64
-            Body positions in the world (float32 is accepted and converted).
+            Body positions in the world (float32 is accepted and converted). With neither
+            argument, the current values of the arrays given to `bind` are read.
         body_rot : (L, 3, 3) float64
             Body rotations in the world (body frame to world), proper orthonormal.
 
@@ -235,6 +239,8 @@ class BroadPhase:
             Wrong shape or dtype, or a pose with a NaN/inf or a rotation that is not orthonormal
             (naming the first offending body); the broad phase stays usable.
         """
+        if body_pos is None and body_rot is None:
+            return self._pairs_bound()
         # Fast path: one call. The kernel checks the shapes; its dispatcher takes only C-contiguous
         # float64 arrays and raises TypeError for anything else (no new compilation, ever).
         try:
@@ -247,6 +253,48 @@ class BroadPhase:
             return self._empty
         body_pos, body_rot = self._check(body_pos, body_rot, ())
         k = self._rerun(body_pos, body_rot, self._step(body_pos, body_rot, self._ctx))
+        return self._out[:k].copy() if k > 0 else self._empty
+
+    def bind(self, body_pos: np.ndarray, body_rot: np.ndarray) -> None:
+        """Read the poses from these arrays at every ``pairs()`` called without arguments.
+
+        For an engine that keeps its body poses in arrays that stay put and are updated in place
+        (a ``mujoco.MjData``'s ``xpos`` and ``xmat``, a simulator's preallocated state): the
+        kernel keeps their addresses, and each step is one call with one argument (~0.2 us less
+        than passing the arrays). They are held here, so they stay alive while bound.
+
+        Parameters
+        ----------
+        body_pos : (L, 3) float64, C-contiguous
+        body_rot : (L, 3, 3) float64, C-contiguous
+            No conversion is made: the kernel reads them where they are.
+
+        Raises
+        ------
+        ValueError
+            Wrong shape, dtype or layout.
+        """
+        for name, arr in (("body_pos", body_pos), ("body_rot", body_rot)):
+            if isinstance(arr, np.ndarray) and not (arr.dtype == np.float64 and arr.flags.c_contiguous):
+                raise ValueError(f"{name}: bind needs a C-contiguous float64 array, got dtype {arr.dtype}"
+                                 f"{'' if arr.flags.c_contiguous else ' (not C-contiguous)'}")
+        self._check(body_pos, body_rot, ())
+        if self._step_bound is None:
+            self._step_bound = _k.step_bound()
+        self._bound = (body_pos, body_rot)
+        self._ctx[_k.C_POS] = body_pos.ctypes.data
+        self._ctx[_k.C_ROT] = body_rot.ctypes.data
+
+    def _pairs_bound(self) -> np.ndarray:
+        # pairs() of the bound arrays' current values (see bind).
+        if self._bound is None:
+            raise ValueError("pairs: no pose arrays given and none bound (see BroadPhase.bind)")
+        k = self._step_bound(self._ctx)
+        if k > 0:
+            return self._out[:k].copy()
+        if k == 0:
+            return self._empty
+        k = self._rerun(*self._bound, k)
         return self._out[:k].copy() if k > 0 else self._empty
 
     def _rerun(self, body_pos, body_rot, k: int) -> int:
@@ -305,7 +353,7 @@ class BroadPhase:
             L, G = self.body_count, self.geom_count
             self._batch = {"W": np.zeros((C, self._nW)), "sap": np.tile(self._sap_init, (C, 1)),
                            "stats": np.zeros((C, _k.N_STATS), np.int64), "info": np.zeros((C, 4), np.int64),
-                           "ctx": np.empty((C, _k.NCTX), np.int64)}
+                           "ctx": np.zeros((C, _k.NCTX), np.int64)}
             self._set_batch_buffers(4 * L + 64, max(256, 2 * G * per))
         bt = self._batch
         world_count = np.zeros(B, np.int64)
@@ -335,9 +383,10 @@ class BroadPhase:
         C = bt["ctx"].shape[0]
         bt["bp"] = np.empty((C, max(1, body_pairs), 2), np.int64)
         bt["keys"] = np.empty((C, max(1, keys)), np.int64)
+        bt["scr"] = np.empty((C, _k.scratch_size(self.geom_count, bt["keys"].shape[1])), np.int64)
         for c in range(C):
-            _k.context(self._I, self._F, bt["W"][c], bt["sap"][c], bt["bp"][c], bt["keys"][c], bt["stats"][c],
-                       bt["info"][c], out=bt["ctx"][c])
+            _k.context(self._I, self._F, bt["W"][c], bt["sap"][c], bt["bp"][c], bt["keys"][c], bt["scr"][c],
+                       bt["stats"][c], bt["info"][c], out=bt["ctx"][c])
 
     def __repr__(self) -> str:
         return f"BroadPhase({self.articulation!r})"

@@ -506,7 +506,6 @@ class BroadPhase:
         self._empty3 = np.zeros((0, 3), dtype=np.int32)
         self._disabled = _contacts_disabled(model)
         self._views_of = None
-        self._views = None
         # MuJoCo has no collision function for plane-hfield and hfield-hfield (mjCOLLISIONFUNC
         # is NULL there): such pairs never make contacts and are removed after the kernel.
         types = np.asarray(model.geom_type)
@@ -538,21 +537,28 @@ class BroadPhase:
         pairs : (K, 2) int32
             Geom ids, lower first, rows sorted and unique.
         """
-        if self._disabled:
-            return self._empty2
         if data is not self._views_of:
-            # The bindings build new numpy views at every attribute access (~0.3 us a call):
-            # keep the views of the last MjData (they stay valid while we hold it).
-            self._views = (data.xpos, data.xmat.reshape(-1, 3, 3))
+            if self._disabled:
+                return self._empty2
+            # The bindings build new numpy views at every attribute access (~0.3 us a call), and
+            # an MjData's arrays never move: bind the last MjData's views to the kernel's context
+            # (held here, so they stay valid), and each step is a call with one argument.
+            self.broadphase.bind(data.xpos, data.xmat.reshape(-1, 3, 3))
             self._views_of = data
-        xpos, xmat = self._views
-        try:
-            out = self.broadphase.pairs(xpos, xmat)
-        except ValueError as exc:
-            if not np.any(xmat):
-                raise ValueError("data: body poses are all zero; run mujoco.mj_kinematics, "
-                                 "mj_forward or mj_step on it first") from exc
-            raise
+        # BroadPhase.pairs() on the bound arrays, written out (one Python call less on the fast path).
+        bp = self.broadphase
+        k = bp._step_bound(bp._ctx)
+        if k < 0:  # a bad pose raises; full buffers are grown and the step rerun
+            try:
+                k = bp._rerun(*bp._bound, k)
+            except ValueError as exc:
+                if not np.any(bp._bound[1]):
+                    raise ValueError("data: body poses are all zero; run mujoco.mj_kinematics, "
+                                     "mj_forward or mj_step on it first") from exc
+                raise
+        if k == 0:
+            return self._empty2
+        out = bp._out[:k].copy()
         return out if self._no_function is None else self._drop_null(out, 0)
 
     def pairs_batch(self, model: mujoco.MjModel, qpos) -> np.ndarray:

@@ -131,6 +131,42 @@ def test_single_grows_its_buffer_and_keeps_every_pair():
     assert len(got) > 20 and np.array_equal(got, want)
 
 
+def test_bound_arrays_are_read_in_place():
+    # bind(): the kernel reads the arrays where they are, at every pairs() without arguments.
+    sc = testing.free_hulls(64, seed=6)
+    bp = BroadPhase(sc.articulation)
+    L = sc.articulation.body_count
+    with pytest.raises(ValueError, match="none bound"):
+        bp.pairs()
+    pos_b, rot_b = np.zeros((L, 3)), np.zeros((L, 3, 3))
+    bp.bind(pos_b, rot_b)
+    rng = np.random.default_rng(3)
+    total = 0
+    for _ in range(4):
+        pos, rot = testing.hull_motion(sc, rng, 1, 0.05)
+        pos_b[:], rot_b[:] = pos[0], rot[0]  # updated in place, as an engine does
+        got = bp.pairs()
+        assert np.array_equal(got, testing.brute_force_bound_pairs(sc.articulation, pos[0], rot[0]))
+        total += len(got)
+    assert total > 50
+    want = bp.pairs()
+    bp._set_buffers(1, 2)  # tiny buffers: grown, rerun on the bound arrays
+    assert np.array_equal(bp.pairs(), want)
+    assert np.array_equal(bp.pairs(pos_b.copy(), rot_b.copy()), want)  # explicit arrays still work
+    rot_b[3] *= 1.01
+    with pytest.raises(ValueError, match="body 3: rotation is not a proper orthonormal"):
+        bp.pairs()
+    rot_b[3] /= 1.01
+    assert np.array_equal(bp.pairs(), want)
+    with pytest.raises(ValueError, match="body_pos: bind needs a C-contiguous float64 array, got dtype float32"):
+        bp.bind(pos_b.astype(np.float32), rot_b)
+    with pytest.raises(ValueError, match="body_pos: .*not C-contiguous"):
+        bp.bind(np.asfortranarray(pos_b), rot_b)
+    with pytest.raises(ValueError, match="body_rot: expected shape"):
+        bp.bind(pos_b, rot_b[:-1])
+    assert np.array_equal(bp.pairs(), want)  # a refused bind keeps the arrays bound before
+
+
 @pytest.mark.parametrize("n", [40, 125], ids=["sweep_and_prune", "grid"])
 def test_wide_nodes_survive_reshuffles(n):
     # Many children at the world: sweep-and-prune (its order persists between calls; unrelated
@@ -519,9 +555,11 @@ def test_key_sorts_equal_numpy(G, k):
     keys = (g[:, 0].astype(np.int64) << S) | g[:, 1]
     ref = np.sort(keys)
     a = np.concatenate([keys, [-7, -7]])  # the tail beyond k must stay untouched
-    _kern._radix_sort(a, k)
+    scr = np.full(_kern.scratch_size(G, k), -9, np.int64)  # garbage in: the sorts must clear it
+    _kern._radix_sort(a, k, scr)
     assert np.array_equal(a[:k], ref) and np.all(a[k:] == -7)
     b = np.concatenate([keys, [-7, -7]])
-    _kern._first_id_sort(b, k, S, G)
+    scr[:] = -9
+    _kern._first_id_sort(b, k, S, G, scr)
     assert np.array_equal(b[:k] >> S, ref >> S) and np.all(b[k:] == -7)  # by first id, stable
     assert np.array_equal(np.sort(b[:k]), ref)

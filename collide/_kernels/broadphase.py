@@ -687,10 +687,11 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
 # ------------------------------------------------------------------------------- one world
 
 @nb.njit(cache=True)
-def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
+def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
     """One world: validate poses, world bounds, tree culling, filters; returns the pair count.
 
-    On a bad pose, ``info[0]`` gets the status code, ``info[1]`` the body id, and -1 is returned.
+    ``scr`` is int64 scratch for the output sort (`scratch_size`). On a bad pose, ``info[0]`` gets
+    the status code, ``info[1]`` the body id, and -1 is returned.
     Body pairs beyond ``bp``'s capacity set ``info[3]`` to the count needed (the caller grows
     ``bp`` and reruns); keys beyond ``keys.shape[0]`` are counted but not written (likewise).
     """
@@ -932,9 +933,9 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
             # insertion sort below only reorders within a first id's few partners. Pairs of a
             # model whose positions do not follow ids (a grid, a sweep over many siblings) come
             # shuffled: insertion sort alone was quadratic there (cube_3x3x3: 85 keys, 0.9 us).
-            _first_id_sort(keys, k, S, G)
+            _first_id_sort(keys, k, S, G, scr)
         elif k > 96:
-            _radix_sort(keys, k)
+            _radix_sort(keys, k, scr)
         # Insertion sort: linear on nearly sorted keys (small outputs mostly are: positions
         # follow ids in most models), cheaper than any sort's set-up.
         for i in range(1, k):
@@ -947,23 +948,38 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info):
     return k
 
 
+SCRATCH_BINS = 4097  # counters of the radix sort's widest digit (12 bits), see `scratch_size`
+
+
+def scratch_size(G: int, keys: int) -> int:
+    """Length of the int64 scratch of the output sorts, for ``G`` geoms and a keys buffer of ``keys``."""
+    return max(G + 1, SCRATCH_BINS) + keys
+
+
 @nb.njit(cache=True)
-def _first_id_sort(keys, k, S, G):
-    # Stable counting sort of keys[:k] by key >> S (the first geom id, < G).
-    cnt = np.zeros(G + 1, np.int64)
+def _first_id_sort(keys, k, S, G, scr):
+    # Stable counting sort of keys[:k] by key >> S (the first geom id, < G), its counters and
+    # copy in the preallocated scratch (two allocations per call cost ~0.1 us: a third of the sort
+    # on the chain's ~60 keys).
+    cnt = scr[:G + 1]
+    tmp = scr[max(G + 1, SCRATCH_BINS):]
+    for d in range(G + 1):
+        cnt[d] = 0
     for i in range(k):
-        cnt[(keys[i] >> S) + 1] += 1
+        v = keys[i]
+        tmp[i] = v
+        cnt[(v >> S) + 1] += 1
     for d in range(G):
         cnt[d + 1] += cnt[d]
-    tmp = keys[:k].copy()
     for i in range(k):
-        d = tmp[i] >> S
-        keys[cnt[d]] = tmp[i]
+        v = tmp[i]
+        d = v >> S
+        keys[cnt[d]] = v
         cnt[d] += 1
 
 
 @nb.njit(cache=True)
-def _radix_sort(keys, k):
+def _radix_sort(keys, k, scr):
     # LSD radix sort of keys[:k] (non-negative int64): linear, and ~3x faster than a comparison
     # sort for the thousands of pairs a big scene gives (keys < G^2). The digit width adapts to
     # the keys' bit length: as few passes as 12-bit digits need, each as narrow as that allows
@@ -982,8 +998,8 @@ def _radix_sort(keys, k):
     nb_ = 1 << r
     mask = nb_ - 1
     src = keys[:k]
-    dst = np.empty(k, np.int64)
-    cnt = np.empty(nb_ + 1, np.int64)
+    cnt = scr[:nb_ + 1]
+    dst = scr[SCRATCH_BINS:SCRATCH_BINS + k]
     shift = 0
     swapped = False
     for _ in range(npass):
@@ -1041,9 +1057,11 @@ def _plane_world(g, body_pos, body_rot, geom_bid, gplane, out, o):
 # ------------------------------------------------------------------------------- entry points
 
 # Context: one int64 array of buffer addresses and lengths (see `_ptr`); the owner keeps the
-# buffers alive and rebuilds the context when it replaces one.
-(C_I, C_NI, C_F, C_NF, C_W, C_NW, C_SAP, C_NSAP, C_BP, C_NBP, C_KEYS, C_NKEYS, C_STATS, C_INFO) = range(14)
-NCTX = 14
+# buffers alive and rebuilds the context when it replaces one. The last two slots may hold the
+# addresses of pose arrays bound to it (for `step_bound`, see BroadPhase._bind); `context` leaves them.
+(C_I, C_NI, C_F, C_NF, C_W, C_NW, C_SAP, C_NSAP, C_BP, C_NBP, C_KEYS, C_NKEYS, C_SCR, C_NSCR, C_STATS,
+ C_INFO, C_POS, C_ROT) = range(18)
+NCTX = 18
 
 # step() return codes below zero
 RET_BAD_POSE = -1
@@ -1051,15 +1069,21 @@ RET_OVERFLOW = -2
 RET_BAD_SHAPE = -3
 
 
-def context(I, F, W, sap, bp, keys, stats, info, out=None) -> np.ndarray:
-    """The context of one world's buffers (written into ``out`` when given, for a batch row)."""
-    ctx = np.empty(NCTX, np.int64) if out is None else out
+def context(I, F, W, sap, bp, keys, scr, stats, info, out=None) -> np.ndarray:
+    """The context of one world's buffers (written into ``out`` when given, for a batch row).
+
+    ``scr`` must hold at least ``scratch_size(G, keys.size)`` entries.
+    """
+    ctx = np.zeros(NCTX, np.int64) if out is None else out
     for arr, dt in ((I, np.int64), (F, np.float64), (W, np.float64), (sap, np.int64), (bp, np.int64),
-                    (keys, np.int64), (stats, np.int64), (info, np.int64)):
+                    (keys, np.int64), (scr, np.int64), (stats, np.int64), (info, np.int64)):
         if arr.dtype != dt or not arr.flags.c_contiguous:
             raise ValueError("context: buffers must be C-contiguous arrays of the kernel's dtypes")
-    ctx[:] = (I.ctypes.data, I.size, F.ctypes.data, F.size, W.ctypes.data, W.size, sap.ctypes.data, sap.size,
-              bp.ctypes.data, bp.shape[0], keys.ctypes.data, keys.size, stats.ctypes.data, info.ctypes.data)
+    if scr.size < scratch_size(int(I[H_G]), keys.size):
+        raise ValueError("context: the sort scratch is shorter than scratch_size(G, keys)")
+    ctx[:C_POS] = (I.ctypes.data, I.size, F.ctypes.data, F.size, W.ctypes.data, W.size, sap.ctypes.data,
+                   sap.size, bp.ctypes.data, bp.shape[0], keys.ctypes.data, keys.size, scr.ctypes.data, scr.size,
+                   stats.ctypes.data, info.ctypes.data)
     return ctx
 
 
@@ -1070,9 +1094,10 @@ def _buffers(ctx):
     W = nb.carray(f64_ptr(ctx[C_W]), ctx[C_NW])
     sap = nb.carray(i64_ptr(ctx[C_SAP]), ctx[C_NSAP])
     bp = nb.carray(i64_ptr(ctx[C_BP]), (ctx[C_NBP], 2))
+    scr = nb.carray(i64_ptr(ctx[C_SCR]), ctx[C_NSCR])
     stats = nb.carray(i64_ptr(ctx[C_STATS]), N_STATS)
     info = nb.carray(i64_ptr(ctx[C_INFO]), 4)
-    return I, F, W, sap, bp, stats, info
+    return I, F, W, sap, bp, scr, stats, info
 
 
 def _step(body_pos, body_rot, ctx):
@@ -1083,14 +1108,28 @@ def _step(body_pos, body_rot, ctx):
     row ``i`` is read before its 8 bytes are rewritten). ``info`` = (status, body, keys needed,
     body pairs needed): on `RET_OVERFLOW` the caller grows the buffer named there and reruns.
     """
-    I, F, W, sap, bp, stats, info = _buffers(ctx)
-    L = I[H_NB]
+    L = nb.carray(i64_ptr(ctx[C_I]), ctx[C_NI])[H_NB]
     if (body_pos.shape[0] != L or body_pos.shape[1] != 3 or body_rot.shape[0] != L or body_rot.shape[1] != 3
             or body_rot.shape[2] != 3):
         return RET_BAD_SHAPE
+    return _step_impl(body_pos, body_rot, ctx)
+
+
+def _step_bound(ctx):
+    """`_step` on the pose arrays whose addresses ``ctx`` holds (``C_POS``, ``C_ROT``): one argument,
+    the cheapest call. The owner checked their shapes and dtypes when it bound them."""
+    L = nb.carray(i64_ptr(ctx[C_I]), ctx[C_NI])[H_NB]
+    body_pos = nb.carray(f64_ptr(ctx[C_POS]), (L, 3))
+    body_rot = nb.carray(f64_ptr(ctx[C_ROT]), (L, 3, 3))
+    return _step_impl(body_pos, body_rot, ctx)
+
+
+@nb.njit(cache=True, inline="always")
+def _step_impl(body_pos, body_rot, ctx):
+    I, F, W, sap, bp, scr, stats, info = _buffers(ctx)
     keys = nb.carray(i64_ptr(ctx[C_KEYS]), ctx[C_NKEYS])
     info[0] = OK
-    k = _world(body_pos, body_rot, I, F, W, sap, bp, keys, stats, info)
+    k = _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info)
     info[2] = k
     if k < 0:
         return RET_BAD_POSE
@@ -1111,6 +1150,7 @@ def _step(body_pos, body_rot, ctx):
 # specialisation, so the caller needs no dtype or layout checks on its fast path.
 STEP_SIGNATURE = "int64(float64[:, ::1], float64[:, :, ::1], int64[::1])"
 _step_dispatcher = None
+_bound_entry = None
 
 
 def step_function():
@@ -1119,6 +1159,24 @@ def step_function():
     if _step_dispatcher is None:
         _step_dispatcher = nb.njit(STEP_SIGNATURE, cache=True)(_step)
     return _step_dispatcher
+
+
+def step_bound():
+    """A callable ``f(ctx) -> K`` running `_step_bound`: the compiled function's own entry point.
+
+    The dispatcher checks every argument's type on each call (~0.1 us); its single argument here is
+    always the owner's int64 context array, so the entry point behind the check is called directly
+    (falling back to the dispatcher if this numba does not expose it).
+    """
+    global _bound_entry
+    if _bound_entry is None:
+        disp = nb.njit("int64(int64[::1])", cache=True)(_step_bound)
+        try:
+            entry = disp.overloads[disp.signatures[0]].entry_point
+        except (AttributeError, IndexError, KeyError):
+            entry = None
+        _bound_entry = entry if callable(entry) else disp
+    return _bound_entry
 
 
 @nb.njit(cache=True, parallel=True)
@@ -1141,7 +1199,7 @@ def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_total):
     rot_all = nb.carray(f64_ptr(np.int64(body_rot.ctypes.data)), (B, L, 3, 3))
     for c in nb.prange(C):
         ctx = nb.carray(i64_ptr(np.int64(ctxs.ctypes.data) + 8 * NCTX * c), NCTX)
-        I, F, W, sap, bp, stats, info = _buffers(ctx)
+        I, F, W, sap, bp, scr, stats, info = _buffers(ctx)
         cap = ctx[C_NKEYS]
         st = np.zeros(2 * N_STATS, np.int64)
         w0 = (B * c) // C
@@ -1152,7 +1210,7 @@ def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_total):
             start = off if off < cap else cap
             keys = nb.carray(i64_ptr(ctx[C_KEYS] + 8 * start), cap - start)
             info[0] = OK
-            kw = _world(pos_all[w], rot_all[w], I, F, W, sap, bp, keys, stats, info)
+            kw = _world(pos_all[w], rot_all[w], I, F, W, sap, bp, keys, scr, stats, info)
             for i in range(4):
                 world_info[w, i] = info[i]
             world_count[w] = kw
