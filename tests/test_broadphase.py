@@ -545,21 +545,32 @@ def test_loose_multi_geom_bodies_skip_body_tests_and_lose_nothing():
     assert explicit > 0  # the explicit pair of wall 1 did fire
 
 
-@pytest.mark.parametrize("G, k", [(30, 85), (419, 226), (5000, 150), (70000, 3000)])
-def test_key_sorts_equal_numpy(G, k):
-    # The kernel's sorts of pair keys (g1 << S | g2) against np.sort: the counting sort on the
-    # first id (then insertion sort) and the radix sort the kernel picks between by G and k.
+@pytest.mark.parametrize("order", ["shuffled", "runs", "sorted", "nearly", "reversed", "one_first_id"])
+@pytest.mark.parametrize("G, k", [(30, 85), (419, 226), (5000, 150), (70000, 3000), (7, 1), (7, 2)])
+def test_key_sort_equals_numpy(G, k, order):
+    # The kernel's output sort (insertion sort on a few runs, else two counting passes; two
+    # parts merged) against np.sort, on the orders the kernel produces and worse; the keys buffer's tail and
+    # everything outside the scratch stay untouched, and garbage in the scratch does no harm.
     rng = np.random.default_rng(G + k)
     S = _kern.key_shift(G)
     g = np.sort(rng.integers(0, G, (k, 2)), axis=1)
+    if order == "one_first_id":
+        g[:, 0] = 0
     keys = (g[:, 0].astype(np.int64) << S) | g[:, 1]
     ref = np.sort(keys)
-    a = np.concatenate([keys, [-7, -7]])  # the tail beyond k must stay untouched
-    scr = np.full(_kern.scratch_size(G, k), -9, np.int64)  # garbage in: the sorts must clear it
-    _kern._radix_sort(a, k, scr)
-    assert np.array_equal(a[:k], ref) and np.all(a[k:] == -7)
-    b = np.concatenate([keys, [-7, -7]])
-    scr[:] = -9
-    _kern._first_id_sort(b, k, S, G, scr)
-    assert np.array_equal(b[:k] >> S, ref >> S) and np.all(b[k:] == -7)  # by first id, stable
-    assert np.array_equal(np.sort(b[:k]), ref)
+    if order == "runs":  # a few ascending runs, as positions following ids give
+        keys = np.concatenate([np.sort(part) for part in np.array_split(rng.permutation(keys), 5)])
+    elif order == "sorted":
+        keys = ref.copy()
+    elif order == "nearly":  # a few neighbours swapped: insertion sort finishes within its budget
+        keys = ref.copy()
+        for i in range(0, k - 1, 7):
+            keys[i], keys[i + 1] = keys[i + 1], keys[i]
+    elif order == "reversed":
+        keys = ref[::-1].copy()
+    cap = k + 3
+    for k4 in sorted({0, k // 3, k}):  # body-level keys first, then plane keys: each part sorted apart
+        buf = np.concatenate([keys, [-7, -7, -7]])
+        scr = np.full(_kern.scratch_size(G, cap) + 2, -9, np.int64)
+        _kern._sort_keys(buf, k, k4, S, G, scr[:-2])
+        assert np.array_equal(buf[:k], ref) and np.all(buf[k:] == -7) and np.all(scr[-2:] == -9)

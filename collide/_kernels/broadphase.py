@@ -846,6 +846,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
                     if not obb_hit(A, a, ma, B, b, mb):
                         continue
                 k = _emit(keys, k, g1, g2, S)
+    k4 = min(k, keys.shape[0])  # the body-level keys end here (see _sort_keys)
     # 5a. planes down the tree (subtree AABB against the halfspace).
     for i in range(Q):
         _plane_world(planes[i], body_pos, body_rot, geom_bid, gplane, plw, i)
@@ -928,96 +929,107 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
             k = _emit(keys, k, g1, g2, S)
     stats[ST_OUT] = k
     if k <= keys.shape[0]:
-        if k > 24 and G <= 16 * k:
-            # Counting sort on the first geom id (G bins: no more than a few per key), then the
-            # insertion sort below only reorders within a first id's few partners. Pairs of a
-            # model whose positions do not follow ids (a grid, a sweep over many siblings) come
-            # shuffled: insertion sort alone was quadratic there (cube_3x3x3: 85 keys, 0.9 us).
-            _first_id_sort(keys, k, S, G, scr)
-        elif k > 96:
-            _radix_sort(keys, k, scr)
-        # Insertion sort: linear on nearly sorted keys (small outputs mostly are: positions
-        # follow ids in most models), cheaper than any sort's set-up.
-        for i in range(1, k):
-            v = keys[i]
-            j = i - 1
-            while j >= 0 and keys[j] > v:
-                keys[j + 1] = keys[j]
-                j -= 1
-            keys[j + 1] = v
+        _sort_keys(keys, k, k4, S, G, scr)
     return k
 
 
-SCRATCH_BINS = 4097  # counters of the radix sort's widest digit (12 bits), see `scratch_size`
-
-
 def scratch_size(G: int, keys: int) -> int:
-    """Length of the int64 scratch of the output sorts, for ``G`` geoms and a keys buffer of ``keys``."""
-    return max(G + 1, SCRATCH_BINS) + keys
+    """Length of the int64 scratch of `_sort_keys`, for ``G`` geoms and a keys buffer of ``keys``."""
+    return keys + G + 1
 
 
 @nb.njit(cache=True)
-def _first_id_sort(keys, k, S, G, scr):
-    # Stable counting sort of keys[:k] by key >> S (the first geom id, < G), its counters and
-    # copy in the preallocated scratch (two allocations per call cost ~0.1 us: a third of the sort
-    # on the chain's ~60 keys).
-    cnt = scr[:G + 1]
-    tmp = scr[max(G + 1, SCRATCH_BINS):]
+def _sort_keys(keys, k, k4, S, G, scr):
+    """Sort keys[:k] (pair keys ``g1 << S | g2``, ids < G): the body-level keys ``[:k4]`` and the
+    plane and explicit keys ``[k4:k]`` each on their own (`_sort_run`), then one merge.
+
+    Apart, each part is mostly in order already: pairs are found in position order, which
+    follows the ids in most models, and a plane's keys come in position order too; together they
+    are not (22 humanoids: 89 body keys, then 137 floor keys smaller than all of them). ``scr``
+    holds `scratch_size` int64.
+    """
+    n = keys.shape[0]
+    tmp = scr[:n]
+    cnt = scr[n:n + G + 1]
+    _sort_run(keys, 0, k4, S, G, tmp, cnt)
+    _sort_run(keys, k4, k, S, G, tmp, cnt)
+    if 0 < k4 < k and keys[k4 - 1] > keys[k4]:
+        # Merge from the front with the first part moved aside: the write position never passes
+        # the read position in the second part.
+        for i in range(k4):
+            tmp[i] = keys[i]
+        i = 0
+        j = k4
+        o = 0
+        while i < k4 and j < k:
+            if keys[j] < tmp[i]:
+                keys[o] = keys[j]
+                j += 1
+            else:
+                keys[o] = tmp[i]
+                i += 1
+            o += 1
+        while i < k4:
+            keys[o] = tmp[i]
+            i += 1
+            o += 1
+
+
+@nb.njit(cache=True)
+def _sort_run(keys, lo, hi, S, G, tmp, cnt):
+    # Sort keys[lo:hi]: nothing if sorted; insertion sort when it is a few ascending runs (linear
+    # on nearly sorted keys, no set-up), within a budget of moves; else, or past the budget, two
+    # stable counting passes (second id, then first id: an LSD radix sort on G bins, ~2 G + 4 m
+    # whatever the order). A sweep or a grid over many siblings shuffles the keys (cube_3x3x3: 85
+    # keys in 49 runs), and a few runs can still hide long moves, where insertion sort alone was
+    # quadratic.
+    m = hi - lo
+    if m < 2:
+        return
+    desc = 0
+    for i in range(lo + 1, hi):
+        if keys[i] < keys[i - 1]:
+            desc += 1
+    if desc == 0:
+        return
+    if 8 * desc <= m or m <= 16:
+        budget = 4 * m + 64
+        moves = 0
+        for i in range(lo + 1, hi):
+            v = keys[i]
+            j = i - 1
+            while j >= lo and keys[j] > v:
+                keys[j + 1] = keys[j]
+                j -= 1
+            keys[j + 1] = v
+            moves += i - 1 - j
+            if moves > budget:
+                break
+        if moves <= budget:
+            return
+    mask = (np.int64(1) << S) - 1
     for d in range(G + 1):
         cnt[d] = 0
-    for i in range(k):
-        v = keys[i]
-        tmp[i] = v
-        cnt[(v >> S) + 1] += 1
+    for i in range(lo, hi):
+        cnt[(keys[i] & mask) + 1] += 1
     for d in range(G):
         cnt[d + 1] += cnt[d]
-    for i in range(k):
+    for i in range(lo, hi):
+        v = keys[i]
+        d = v & mask
+        tmp[cnt[d]] = v
+        cnt[d] += 1
+    for d in range(G + 1):
+        cnt[d] = 0
+    for i in range(m):
+        cnt[(tmp[i] >> S) + 1] += 1
+    for d in range(G):
+        cnt[d + 1] += cnt[d]
+    for i in range(m):
         v = tmp[i]
         d = v >> S
-        keys[cnt[d]] = v
+        keys[lo + cnt[d]] = v
         cnt[d] += 1
-
-
-@nb.njit(cache=True)
-def _radix_sort(keys, k, scr):
-    # LSD radix sort of keys[:k] (non-negative int64): linear, and ~3x faster than a comparison
-    # sort for the thousands of pairs a big scene gives (keys < G^2). The digit width adapts to
-    # the keys' bit length: as few passes as 12-bit digits need, each as narrow as that allows
-    # (clearing and scanning 4096 counters costs more than sorting a few hundred keys).
-    top = 0
-    for i in range(k):
-        if keys[i] > top:
-            top = keys[i]
-    bits = 0
-    while (top >> bits) > 0:
-        bits += 1
-    if bits == 0:
-        return
-    npass = (bits + 11) // 12
-    r = (bits + npass - 1) // npass
-    nb_ = 1 << r
-    mask = nb_ - 1
-    src = keys[:k]
-    cnt = scr[:nb_ + 1]
-    dst = scr[SCRATCH_BINS:SCRATCH_BINS + k]
-    shift = 0
-    swapped = False
-    for _ in range(npass):
-        cnt[:] = 0
-        for i in range(k):
-            cnt[((src[i] >> shift) & mask) + 1] += 1
-        for d in range(nb_):
-            cnt[d + 1] += cnt[d]
-        for i in range(k):
-            d = (src[i] >> shift) & mask
-            dst[cnt[d]] = src[i]
-            cnt[d] += 1
-        src, dst = dst, src
-        swapped = not swapped
-        shift += r
-    if swapped:
-        for i in range(k):
-            keys[i] = src[i]
 
 
 @nb.njit(cache=True, inline="always")
