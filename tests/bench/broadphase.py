@@ -10,8 +10,10 @@ Scenes (issue 3):
   MuJoCo under random motor controls; we replay the visited states.
 - ``batch``: 1024 states of that chain in one `BroadPhase.pairs_batch` call (time per world).
 
-Per step, on the same poses: ours = ``BroadPhase.pairs(xpos, xmat)`` (Python call included,
-perf_counter_ns around it); MuJoCo = ``mjTIMER_COL_BROAD`` after ``mj_kinematics`` +
+Per step, on the same poses: ours = ``BroadPhase.pairs()`` on MjData's ``xpos`` and ``xmat``
+bound once with `BroadPhase.bind` (the simulation-loop path: Python call included,
+perf_counter_ns around it), and in a second pass over the same states ``pairs(xpos, xmat)`` with
+the arrays passed each call ("passed"); MuJoCo = ``mjTIMER_COL_BROAD`` after ``mj_kinematics`` +
 ``mj_collision`` (native clock callback from `collide.mujoco.mujoco_timer`, so no Python runs in
 MuJoCo's interval); fcl / coal = set every object's transform from Python, update the
 DynamicAABBTree manager and collect its pairs (no narrow phase). Medians over steps.
@@ -138,27 +140,35 @@ def articulation_of(model: mujoco.MjModel) -> Articulation:
 # ------------------------------------------------------------------------------- per-step runs
 
 def run_mujoco_and_ours(model, qpos_steps, bp: BroadPhase):
-    """Time MuJoCo's broad phase and ours on the same states; return both medians and our count."""
+    """Time MuJoCo's broad phase and ours on the same states; return the medians (ours bound, ours
+    with the arrays passed, MuJoCo's) and our count."""
     d = mujoco.MjData(model)
-    ours, theirs, ours_k = [], [], []
+    pos, rot = d.xpos, d.xmat.reshape(model.nbody, 3, 3)
+    bp.bind(pos, rot)
+    ours, passed, theirs, ours_k = [], [], [], []
     pc = time.perf_counter_ns
     gc.disable()
     try:
         with mujoco_timer():
-            for q in qpos_steps:
-                d.qpos[:] = q
-                mujoco.mj_kinematics(model, d)
-                before = d.timer[BROAD].duration
-                mujoco.mj_collision(model, d)
-                theirs.append((d.timer[BROAD].duration - before) * 1e3)  # us -> ns
-                pos, rot = d.xpos, d.xmat.reshape(model.nbody, 3, 3)
-                t0 = pc()
-                out = bp.pairs(pos, rot)
-                ours.append(pc() - t0)
-                ours_k.append(len(out))
+            for bound in (True, False):
+                for q in qpos_steps:
+                    d.qpos[:] = q
+                    mujoco.mj_kinematics(model, d)
+                    before = d.timer[BROAD].duration
+                    mujoco.mj_collision(model, d)
+                    if bound:
+                        theirs.append((d.timer[BROAD].duration - before) * 1e3)  # us -> ns
+                        t0 = pc()
+                        out = bp.pairs()
+                        ours.append(pc() - t0)
+                        ours_k.append(len(out))
+                    else:
+                        t0 = pc()
+                        bp.pairs(pos, rot)
+                        passed.append(pc() - t0)
     finally:
         gc.enable()
-    return _median_us(ours), _median_us(theirs), float(np.mean(ours_k))
+    return _median_us(ours), _median_us(passed), _median_us(theirs), float(np.mean(ours_k))
 
 
 def mujoco_candidates(model, qpos_steps) -> float:
@@ -313,8 +323,8 @@ def bench(name, model, qpos, fcl_steps) -> dict:
     setup = time.perf_counter() - t0
     poses = poses_of(model, qpos[:3])
     bp.pairs(*poses[0])  # compile / warm
-    ours, theirs, ours_k = run_mujoco_and_ours(model, qpos, bp)
-    row = dict(scene=name, bodies=model.nbody - 1, geoms=model.ngeom, ours=ours, mujoco=theirs,
+    ours, passed, theirs, ours_k = run_mujoco_and_ours(model, qpos, bp)
+    row = dict(scene=name, bodies=model.nbody - 1, geoms=model.ngeom, ours=ours, passed=passed, mujoco=theirs,
                ours_k=ours_k, mj_k=mujoco_candidates(model, qpos), setup=setup, stats=bp.stats)
     fposes = poses_of(model, qpos[:fcl_steps])
     row["fcl"], row["fcl_k"] = run_fcl(art, fposes, fcl_steps) if fcl else (np.nan, np.nan)
@@ -337,7 +347,8 @@ def main(argv=None):
     print(f"# collide broad phase benchmark, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
     print(f"# machine: {numba.get_num_threads()} cores, Python {platform.python_version()}, {_cpu()}; "
           f"mujoco {mujoco.__version__}, numba {numba.__version__}")
-    print("# per step, medians; ours = BroadPhase.pairs (Python call included); MuJoCo = mjTIMER_COL_BROAD;")
+    print("# per step, medians; ours = BroadPhase.pairs() on MjData's xpos/xmat bound once (Python call included),")
+    print("# passed = pairs(xpos, xmat) on the same states; MuJoCo = mjTIMER_COL_BROAD;")
     print("# fcl/coal = DynamicAABBTreeCollisionManager (transforms set from Python, update, collect pairs);")
     print("# candidates = pairs per step (MuJoCo: contact-filter callback, record and reject).")
     rows = []
@@ -371,17 +382,18 @@ def main(argv=None):
         reps.append(time.perf_counter_ns() - t0)
     per_world = float(np.median(reps)) / B / 1e3
     print()
-    head = (f"{'scene':<11}{'bodies':>7}{'ours us':>10}{'MuJoCo us':>11}{'ratio':>7}{'fcl us':>10}{'ratio':>7}"
+    head = (f"{'scene':<11}{'bodies':>7}{'ours us':>10}{'passed':>8}{'MuJoCo us':>11}{'ratio':>7}{'fcl us':>10}{'ratio':>7}"
             f"{'coal us':>10}{'ratio':>7}{'ours cand':>11}{'MuJoCo cand':>13}{'fcl cand':>10}{'coal cand':>10}")
     print(head)
     print("-" * len(head))
     for r in rows:
-        print(f"{r['scene']:<11}{r['bodies']:>7}{r['ours']:>10.1f}{r['mujoco']:>11.1f}{r['ours'] / r['mujoco']:>7.2f}"
+        print(f"{r['scene']:<11}{r['bodies']:>7}{r['ours']:>10.1f}{r['passed']:>8.1f}{r['mujoco']:>11.1f}"
+              f"{r['ours'] / r['mujoco']:>7.2f}"
               f"{r['fcl']:>10.1f}{r['fcl'] / r['mujoco']:>7.1f}{r['coal']:>10.1f}{r['coal'] / r['mujoco']:>7.1f}"
               f"{r['ours_k']:>11.1f}{r['mj_k']:>13.1f}{r['fcl_k']:>10.1f}{r['coal_k']:>10.1f}")
     mj_chain = rows[-1]["mujoco"]
-    print(f"{'batch ' + str(B):<11}{model.nbody - 1:>7}{per_world:>10.2f}{mj_chain:>11.1f}{per_world / mj_chain:>7.2f}"
-          f"{'':>34}{len(got) / B:>11.1f}    (time per world, {numba.get_num_threads()} threads)")
+    print(f"{'batch ' + str(B):<11}{model.nbody - 1:>7}{per_world:>10.2f}{'':>8}{mj_chain:>11.1f}"
+          f"{per_world / mj_chain:>7.2f}{'':>34}{len(got) / B:>11.1f}    (time per world, {numba.get_num_threads()} threads)")
     print()
     print("# targets: ratio <= 1.0 everywhere, <= 0.5 from 1024 bodies, batch <= 0.3; ours cand < MuJoCo cand")
 
