@@ -218,14 +218,19 @@ def _world_row(rot, pos, b, src, s, dst, d):
 
 
 @nb.njit(cache=True, inline="always")
-def _place(body_rot, body_pos, b, blocal, x, bw, baabb):
-    # World row of position x (body b's pose) and its AABB: the AABB of the world OBB.
+def _place(body_rot, body_pos, b, blocal, x, bw, baabb, saabb):
+    # World row of position x (body b's pose) and its AABB: the AABB of the world OBB, also the
+    # start of its subtree AABB (stage 2 merges the descendants in).
     _world_row(body_rot, body_pos, b, blocal, x, bw, x)
     for i in range(3):
         h = (abs(bw[x, 3 + 3 * i]) * bw[x, 12] + abs(bw[x, 4 + 3 * i]) * bw[x, 13]
              + abs(bw[x, 5 + 3 * i]) * bw[x, 14])
-        baabb[x, i] = bw[x, i] - h
-        baabb[x, 3 + i] = bw[x, i] + h
+        lo = bw[x, i] - h
+        hi = bw[x, i] + h
+        baabb[x, i] = lo
+        baabb[x, 3 + i] = hi
+        saabb[x, i] = lo
+        saabb[x, 3 + i] = hi
 
 
 @nb.njit(cache=True, inline="always")
@@ -748,17 +753,16 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
             return -1
         x = pos_of[b]
         if hasb[x]:
-            _place(body_rot, body_pos, b, blocal, x, bw, baabb)
+            _place(body_rot, body_pos, b, blocal, x, bw, baabb, saabb)
         else:
             for i in range(3):
                 baabb[x, i] = BIG
                 baabb[x, 3 + i] = -BIG
+                saabb[x, i] = BIG
+                saabb[x, 3 + i] = -BIG
     for x in range(1, I[H_V] + 1):  # the world's geoms as leaves of their own
-        _place(body_rot, body_pos, 0, blocal, x, bw, baabb)
-    # 2. subtree AABBs: one reverse sweep, children before parents.
-    for x in range(L):
-        for i in range(6):
-            saabb[x, i] = baabb[x, i]
+        _place(body_rot, body_pos, 0, blocal, x, bw, baabb, saabb)
+    # 2. subtree AABBs: one reverse sweep, children before parents (each started as its body's AABB).
     for x in range(L - 1, 0, -1):
         q = parent_pos[x]
         for i in range(3):
