@@ -506,6 +506,7 @@ class BroadPhase:
         self._empty3 = np.zeros((0, 3), dtype=np.int32)
         self._disabled = _contacts_disabled(model)
         self._views_of = None
+        self._views = None
         # MuJoCo has no collision function for plane-hfield and hfield-hfield (mjCOLLISIONFUNC
         # is NULL there): such pairs never make contacts and are removed after the kernel.
         types = np.asarray(model.geom_type)
@@ -537,16 +538,18 @@ class BroadPhase:
         pairs : (K, 2) int32
             Geom ids, lower first, rows sorted and unique.
         """
-        if data is not self._views_of:
+        bp = self.broadphase
+        if data is not self._views_of or bp._bound is not self._views:
             if self._disabled:
                 return self._empty2
             # The bindings build new numpy views at every attribute access (~0.3 us a call), and
             # an MjData's arrays never move: bind the last MjData's views to the kernel's context
-            # (held here, so they stay valid), and each step is a call with one argument.
-            self.broadphase.bind(data.xpos, data.xmat.reshape(-1, 3, 3))
+            # (held there, so they stay valid), and each step is a call with one argument. Bound
+            # again if someone bound other arrays to self.broadphase in between.
+            bp.bind(data.xpos, data.xmat.reshape(-1, 3, 3))
             self._views_of = data
+            self._views = bp._bound
         # BroadPhase.pairs() on the bound arrays, written out (one Python call less on the fast path).
-        bp = self.broadphase
         k = bp._step_bound(bp._ctx)
         if k < 0:  # a bad pose raises; full buffers are grown and the step rerun
             try:

@@ -399,6 +399,11 @@ def test_pairs_follows_the_data_it_is_given():
     far.qpos[7] -= 5.0
     mujoco.mj_forward(model, far)
     assert len(bp.pairs(far)) == 1
+    # other arrays bound to the core broad phase in between: the next call binds the data again
+    far.qpos[7] += 5.0
+    mujoco.mj_forward(model, far)
+    bp.broadphase.bind(near.xpos.copy(), near.xmat.reshape(-1, 3, 3).copy())
+    assert len(bp.pairs(far)) == 0
 
 
 def test_data_before_kinematics_is_reported():
