@@ -15,9 +15,10 @@ Measured (tests/bench/broadphase.txt and mujoco_models.txt, 2 shared cores; see 
 the figures of the latest run): random convex hulls from 64 bodies take less time than MuJoCo
 4.0's broad phase (~0.3x at 4096 bodies) with 5-7x fewer candidates. Small scenes are dominated by
 fixed costs: around the kernel's own work, the Python call into numba, the keys-to-rows conversion
-and the copy of the result add ~1 us (franka, hot: 0.9 us of work, 2.0 us per call), and in a
-simulation loop the first call after ``mj_step`` runs 1.3-1.6x slower than a repeat (caches and
-predictors left to MuJoCo's code and data).
+and the copy of the result add ~1 us (franka, hot: 0.9 us of work, 2.0 us per call with the
+arrays passed, 1.9 with them bound by `bind`), and in a simulation loop the first call after
+``mj_step`` runs 1.3-1.6x slower than a repeat (caches and predictors left to MuJoCo's code and
+data).
 """
 
 from __future__ import annotations

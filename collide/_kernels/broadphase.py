@@ -8,9 +8,10 @@ columns are the box axes), OBB half extents (3), sphere centre (3), sphere radiu
 
 The static model travels as two flat arrays (``I`` int64 with a header of counts, ``F`` float64)
 and the workspace as one (``W`` float64); one step is a call with three arguments (the two pose
-arrays and a *context* of buffer addresses, see `_ptr` and `context`): a numba call pays ~0.1 us
-per array argument, and views built from pointers carry no reference count. `_views` cuts the
-buffers back into named arrays (no copy).
+arrays and a *context* of buffer addresses, see `_ptr` and `context`), or with the context alone
+when it holds the pose arrays' addresses too (`step_bound`: arrays that stay put, as MuJoCo's):
+a numba call pays ~0.1 us per array argument, and views built from pointers carry no reference
+count. `_views` cuts the buffers back into named arrays (no copy).
 
 One step, for one world (`_world`):
 1. validate each body's pose (finite, proper orthonormal rotation: one combined test) and move
@@ -32,7 +33,8 @@ One step, for one world (`_world`):
    *Real-Time Collision Detection* §4.4.1) -> geom pairs, the same tests on the geoms' bounds;
 5. planes (halfspaces) down the tree, the static filter of every (plane, body) pair precomputed,
    a multi-geom body's geoms tested in the body's frame; explicit pairs last; keys ``g1 << S | g2`` sorted (``S`` bits
-   hold any geom id: decoding is a shift and a mask, not an integer division per pair).
+   hold any geom id: decoding is a shift and a mask, not an integer division per pair), the
+   body-level and the plane keys each on its own, then merged (`_sort_keys`).
 """
 
 from __future__ import annotations
