@@ -379,6 +379,38 @@ def _push(bp, nb_, x, y):
     return nb_ + 1
 
 
+@nb.njit(cache=True, inline="always")
+def _body_walk(a, q, stop, skip_child, end, baabb, saabb, hasb, bp, nb_, stats):
+    # Body a against every body of the positions [q, stop) (whole subtrees), skipping a subtree
+    # whose AABB misses a's whole (q = end[q]); with skip_child, the bodies at the top of those
+    # subtrees (a's direct children under the parent rule) cull but are not paired. The AABB
+    # tests are written out (see _aabb_hit).
+    nxt = q  # the next top-level subtree
+    while q < stop:
+        top = q == nxt
+        if top:
+            nxt = end[q]
+        stats[ST_SUBTREE] += 1
+        if (baabb[a, 0] <= saabb[q, 3] and saabb[q, 0] <= baabb[a, 3] and baabb[a, 1] <= saabb[q, 4]
+                and saabb[q, 1] <= baabb[a, 4] and baabb[a, 2] <= saabb[q, 5] and saabb[q, 2] <= baabb[a, 5]):
+            if hasb[q] and not (top and skip_child):
+                hit = end[q] == q + 1  # a leaf's subtree AABB is its body AABB: just tested
+                if not hit:
+                    stats[ST_BODY_AABB] += 1
+                    hit = (baabb[a, 0] <= baabb[q, 3] and baabb[q, 0] <= baabb[a, 3]
+                           and baabb[a, 1] <= baabb[q, 4] and baabb[q, 1] <= baabb[a, 4]
+                           and baabb[a, 2] <= baabb[q, 5] and baabb[q, 2] <= baabb[a, 5])
+                if hit:
+                    if nb_ < bp.shape[0]:
+                        bp[nb_, 0] = a
+                        bp[nb_, 1] = q
+                    nb_ += 1
+            q += 1
+        else:
+            q = end[q]
+    return nb_
+
+
 @nb.njit(cache=True)
 def _subtree_pair(A, B, end, baabb, saabb, hasb, bp, nb_, stats):
     # Every body of subtree A against every body of subtree B (disjoint subtrees).
@@ -392,29 +424,7 @@ def _subtree_pair(A, B, end, baabb, saabb, hasb, bp, nb_, stats):
         if (saabb[a, 0] <= saabb[B, 3] and saabb[B, 0] <= saabb[a, 3] and saabb[a, 1] <= saabb[B, 4]
                 and saabb[B, 1] <= saabb[a, 4] and saabb[a, 2] <= saabb[B, 5] and saabb[B, 2] <= saabb[a, 5]):
             if hasb[a]:
-                # body a against subtree B (the walk of _traverse, written out: see _aabb_hit)
-                q = B
-                qs = end[B]
-                while q < qs:
-                    stats[ST_SUBTREE] += 1
-                    if (baabb[a, 0] <= saabb[q, 3] and saabb[q, 0] <= baabb[a, 3] and baabb[a, 1] <= saabb[q, 4]
-                            and saabb[q, 1] <= baabb[a, 4] and baabb[a, 2] <= saabb[q, 5]
-                            and saabb[q, 2] <= baabb[a, 5]):
-                        if hasb[q]:
-                            hit = end[q] == q + 1  # a leaf's subtree AABB is its body AABB
-                            if not hit:
-                                stats[ST_BODY_AABB] += 1
-                                hit = (baabb[a, 0] <= baabb[q, 3] and baabb[q, 0] <= baabb[a, 3]
-                                       and baabb[a, 1] <= baabb[q, 4] and baabb[q, 1] <= baabb[a, 4]
-                                       and baabb[a, 2] <= baabb[q, 5] and baabb[q, 2] <= baabb[a, 5])
-                            if hit:
-                                if nb_ < bp.shape[0]:
-                                    bp[nb_, 0] = a
-                                    bp[nb_, 1] = q
-                                nb_ += 1
-                        q += 1
-                    else:
-                        q = end[q]
+                nb_ = _body_walk(a, B, end[B], False, end, baabb, saabb, hasb, bp, nb_, stats)
             a += 1
         else:
             a = end[a]
@@ -581,32 +591,7 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
             # One walk over the descendants [n + 1, end[n]) (every child's subtree in turn),
             # skipping a missed subtree whole. Under the parent rule a direct child is a parent
             # pair, never reported: its subtree AABB still culls, its body is not paired.
-            skip_child = filter_parent and n != 0
-            nxt = n + 1  # the next direct child
-            q = n + 1
-            stop = end[n]
-            while q < stop:
-                child = q == nxt
-                if child:
-                    nxt = end[q]
-                stats[ST_SUBTREE] += 1
-                if (baabb[n, 0] <= saabb[q, 3] and saabb[q, 0] <= baabb[n, 3] and baabb[n, 1] <= saabb[q, 4]
-                        and saabb[q, 1] <= baabb[n, 4] and baabb[n, 2] <= saabb[q, 5] and saabb[q, 2] <= baabb[n, 5]):
-                    if hasb[q] and not (child and skip_child):
-                        hit = end[q] == q + 1  # a leaf's subtree AABB is its body AABB: just tested
-                        if not hit:
-                            stats[ST_BODY_AABB] += 1
-                            hit = (baabb[n, 0] <= baabb[q, 3] and baabb[q, 0] <= baabb[n, 3]
-                                   and baabb[n, 1] <= baabb[q, 4] and baabb[q, 1] <= baabb[n, 4]
-                                   and baabb[n, 2] <= baabb[q, 5] and baabb[q, 2] <= baabb[n, 5])
-                        if hit:
-                            if nb_ < bp.shape[0]:
-                                bp[nb_, 0] = n
-                                bp[nb_, 1] = q
-                            nb_ += 1
-                    q += 1
-                else:
-                    q = end[q]
+            nb_ = _body_walk(n, n + 1, end[n], filter_parent and n != 0, end, baabb, saabb, hasb, bp, nb_, stats)
         kc = nchild[n]
         if kc < 2:
             continue
@@ -1014,27 +999,23 @@ def _sort_run(keys, lo, hi, S, G, tmp, cnt):
         if moves <= budget:
             return
     mask = (np.int64(1) << S) - 1
+    _counting_pass(keys, lo, tmp, 0, m, 0, mask, G, cnt)  # by the second id
+    _counting_pass(tmp, 0, keys, lo, m, S, mask, G, cnt)  # then, stably, by the first
+
+
+@nb.njit(cache=True, inline="always")
+def _counting_pass(src, s0, dst, d0, m, shift, mask, G, cnt):
+    # Stable scatter of src[s0:s0 + m] into dst[d0:d0 + m] by the id (key >> shift) & mask (< G).
     for d in range(G + 1):
         cnt[d] = 0
-    for i in range(lo, hi):
-        cnt[(keys[i] & mask) + 1] += 1
+    for i in range(s0, s0 + m):
+        cnt[((src[i] >> shift) & mask) + 1] += 1
     for d in range(G):
         cnt[d + 1] += cnt[d]
-    for i in range(lo, hi):
-        v = keys[i]
-        d = v & mask
-        tmp[cnt[d]] = v
-        cnt[d] += 1
-    for d in range(G + 1):
-        cnt[d] = 0
-    for i in range(m):
-        cnt[(tmp[i] >> S) + 1] += 1
-    for d in range(G):
-        cnt[d + 1] += cnt[d]
-    for i in range(m):
-        v = tmp[i]
-        d = v >> S
-        keys[lo + cnt[d]] = v
+    for i in range(s0, s0 + m):
+        v = src[i]
+        d = (v >> shift) & mask
+        dst[d0 + cnt[d]] = v
         cnt[d] += 1
 
 
@@ -1076,7 +1057,7 @@ def _plane_world(g, body_pos, body_rot, geom_bid, gplane, out, o):
 
 # Context: one int64 array of buffer addresses and lengths (see `_ptr`); the owner keeps the
 # buffers alive and rebuilds the context when it replaces one. The last two slots may hold the
-# addresses of pose arrays bound to it (for `step_bound`, see BroadPhase._bind); `context` leaves them.
+# addresses of pose arrays bound to it (for `step_bound`, see BroadPhase.bind); `context` leaves them.
 (C_I, C_NI, C_F, C_NF, C_W, C_NW, C_SAP, C_NSAP, C_BP, C_NBP, C_KEYS, C_NKEYS, C_SCR, C_NSCR, C_STATS,
  C_INFO, C_POS, C_ROT) = range(18)
 NCTX = 18
