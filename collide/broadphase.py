@@ -155,9 +155,9 @@ class BroadPhase:
             a.geom_plane, a.geom_margin, a.pair_margin, n_virtual=V)
         self.position_count = Lp
         self._nW = _k.workspace_size(Lp, G, len(planes))
-        self._sap_init = children.copy()
+        self._sap_init = _k.sap_state(children)
         self._W = np.zeros(self._nW)
-        self._sap = children.copy()
+        self._sap = self._sap_init.copy()
         self._stats = np.zeros(_k.N_STATS, np.int64)
         self._info = np.zeros(4, np.int64)
         self._ctx = np.zeros(_k.NCTX, np.int64)

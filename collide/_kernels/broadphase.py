@@ -352,8 +352,8 @@ def _aabb_hit(X, x, Y, y):
     # The hot loops of the traversal write this test out instead of calling it: even inlined,
     # a call with array arguments keeps an incref/decref pair per array (measured: the chain's
     # traversal 2.4 -> 1.7 us for its 128 tests).
-    return (X[x, 0] <= Y[y, 3] and Y[y, 0] <= X[x, 3] and X[x, 1] <= Y[y, 4] and Y[y, 1] <= X[x, 4]
-            and X[x, 2] <= Y[y, 5] and Y[y, 2] <= X[x, 5])
+    return ((X[x, 0] <= Y[y, 3]) & (Y[y, 0] <= X[x, 3]) & (X[x, 1] <= Y[y, 4]) & (Y[y, 1] <= X[x, 4])
+            & (X[x, 2] <= Y[y, 5]) & (Y[y, 2] <= X[x, 5]))
 
 
 @nb.njit(cache=True, inline="always")
@@ -391,8 +391,8 @@ def _body_walk(a, q, stop, skip_child, end, baabb, saabb, hasb, bp, nb_, stats):
         if top:
             nxt = end[q]
         stats[ST_SUBTREE] += 1
-        if (baabb[a, 0] <= saabb[q, 3] and saabb[q, 0] <= baabb[a, 3] and baabb[a, 1] <= saabb[q, 4]
-                and saabb[q, 1] <= baabb[a, 4] and baabb[a, 2] <= saabb[q, 5] and saabb[q, 2] <= baabb[a, 5]):
+        if ((baabb[a, 0] <= saabb[q, 3]) & (saabb[q, 0] <= baabb[a, 3]) & (baabb[a, 1] <= saabb[q, 4])
+                & (saabb[q, 1] <= baabb[a, 4]) & (baabb[a, 2] <= saabb[q, 5]) & (saabb[q, 2] <= baabb[a, 5])):
             if hasb[q] and not (top and skip_child):
                 hit = end[q] == q + 1  # a leaf's subtree AABB is its body AABB: just tested
                 if not hit:
@@ -411,28 +411,68 @@ def _body_walk(a, q, stop, skip_child, end, baabb, saabb, hasb, bp, nb_, stats):
     return nb_
 
 
-@nb.njit(cache=True)
-def _subtree_pair(A, B, end, baabb, saabb, hasb, bp, nb_, stats):
-    # Every body of subtree A against every body of subtree B (disjoint subtrees).
-    if end[A] == A + 1 and end[B] == B + 1:  # two leaves: their subtree AABBs were just tested
+FLAT_DESC = 16  # a body with at most this many descendants tests them all flat, else walks
+FLAT_MAX = 4096  # _subtree_pair: at most this many body x body tests flat, else the walk
+
+
+@nb.njit(cache=True, inline="always")
+def _subtree_pair(A, B, end, baabb, saabb, hasb, bp, nb_, stats, lst):
+    """Every body of subtree A against every body of subtree B (disjoint subtrees whose AABBs meet).
+
+    Flat and branch-free: the bodies of A whose AABB meets B's subtree AABB, those of B meeting
+    A's (``lst``: int64 scratch of at least ``end[A] - A + end[B] - B``), then all pairs of the
+    two lists. In a simulation loop the outcome of each test is data that the branch predictor,
+    retrained by the engine between steps, cannot foresee: a walk that branches on it costs a
+    misprediction per test (~7 ns each; measured after `mj_step` on 22 humanoids: the child
+    pairs of the traversal 14.6 us walked). Past ``FLAT_MAX`` pair tests (two big subtrees deep
+    in each other) the walk, whose culling then pays, runs instead.
+    """
+    ea = end[A]
+    eb = end[B]
+    if ea == A + 1 and eb == B + 1:  # two leaves: their subtree AABBs were just tested
         stats[ST_BODY_AABB] += 1
         return _push(bp, nb_, A, B) if hasb[A] and hasb[B] else nb_
-    a = A
-    stop = end[A]
-    while a < stop:
-        stats[ST_SUBTREE] += 1
-        if (saabb[a, 0] <= saabb[B, 3] and saabb[B, 0] <= saabb[a, 3] and saabb[a, 1] <= saabb[B, 4]
-                and saabb[B, 1] <= saabb[a, 4] and saabb[a, 2] <= saabb[B, 5] and saabb[B, 2] <= saabb[a, 5]):
-            if hasb[a]:
-                nb_ = _body_walk(a, B, end[B], False, end, baabb, saabb, hasb, bp, nb_, stats)
-            a += 1
-        else:
-            a = end[a]
+    na = 0
+    for a in range(A, ea):
+        lst[na] = a
+        na += np.int64((baabb[a, 0] <= saabb[B, 3]) & (saabb[B, 0] <= baabb[a, 3]) & (baabb[a, 1] <= saabb[B, 4])
+                       & (saabb[B, 1] <= baabb[a, 4]) & (baabb[a, 2] <= saabb[B, 5]) & (saabb[B, 2] <= baabb[a, 5]))
+    nbl = 0
+    for b in range(B, eb):
+        lst[na + nbl] = b
+        nbl += np.int64((baabb[b, 0] <= saabb[A, 3]) & (saabb[A, 0] <= baabb[b, 3]) & (baabb[b, 1] <= saabb[A, 4])
+                        & (saabb[A, 1] <= baabb[b, 4]) & (baabb[b, 2] <= saabb[A, 5]) & (saabb[A, 2] <= baabb[b, 5]))
+    stats[ST_SUBTREE] += ea - A + eb - B
+    if na * nbl > FLAT_MAX:
+        a = A
+        while a < ea:
+            stats[ST_SUBTREE] += 1
+            if ((saabb[a, 0] <= saabb[B, 3]) & (saabb[B, 0] <= saabb[a, 3]) & (saabb[a, 1] <= saabb[B, 4])
+                    & (saabb[B, 1] <= saabb[a, 4]) & (saabb[a, 2] <= saabb[B, 5]) & (saabb[B, 2] <= saabb[a, 5])):
+                if hasb[a]:
+                    nb_ = _body_walk(a, B, eb, False, end, baabb, saabb, hasb, bp, nb_, stats)
+                a += 1
+            else:
+                a = end[a]
+        return nb_
+    # Bodies without bounds have an empty AABB (lo > hi): never in a list.
+    cap = bp.shape[0]
+    for i in range(na):
+        a = lst[i]
+        for j in range(na, na + nbl):
+            b = lst[j]
+            if nb_ < cap:
+                bp[nb_, 0] = a
+                bp[nb_, 1] = b
+            nb_ += np.int64((baabb[a, 0] <= baabb[b, 3]) & (baabb[b, 0] <= baabb[a, 3]) & (baabb[a, 1] <= baabb[b, 4])
+                            & (baabb[b, 1] <= baabb[a, 4]) & (baabb[a, 2] <= baabb[b, 5])
+                            & (baabb[b, 2] <= baabb[a, 5]))
+    stats[ST_BODY_AABB] += na * nbl
     return nb_
 
 
 @nb.njit(cache=True)
-def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stats):
+def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stats, lst):
     """Pairs of overlapping child subtrees of a wide node through a uniform hash grid.
 
     A sweep on one axis tests O(k^(5/3)) pairs when k children fill a volume (a scene of free
@@ -550,8 +590,8 @@ def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stat
                 if f < 0 and v <= u:
                     continue  # own cell: each pair once
                 ntest += 1
-                if (sbox[v, 0] <= hi0 and lo0 <= sbox[v, 3] and sbox[v, 1] <= hi1 and lo1 <= sbox[v, 4]
-                        and sbox[v, 2] <= hi2 and lo2 <= sbox[v, 5]):
+                if ((sbox[v, 0] <= hi0) & (lo0 <= sbox[v, 3]) & (sbox[v, 1] <= hi1) & (lo1 <= sbox[v, 4])
+                        & (sbox[v, 2] <= hi2) & (lo2 <= sbox[v, 5])):
                     cj = schild[v]
                     if leaf_i and end[cj] == cj + 1:
                         if hasb[ci] and hasb[cj]:
@@ -561,7 +601,7 @@ def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stat
                             if _sphere_hit(sbox, u, 0.0, sbox, v, 0.0, 6):
                                 nb_ = _push(bp, nb_, ~ci, cj)
                     else:
-                        nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats)
+                        nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats, lst)
     stats[ST_SUBTREE] += ntest
     stats[ST_BODY_SPHERE] += nsph
     # the oversized children against every child
@@ -574,16 +614,20 @@ def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stat
                 continue
             cj = children[off + j]
             stats[ST_SUBTREE] += 1
-            if (saabb[ci, 0] <= saabb[cj, 3] and saabb[cj, 0] <= saabb[ci, 3] and saabb[ci, 1] <= saabb[cj, 4]
-                    and saabb[cj, 1] <= saabb[ci, 4] and saabb[ci, 2] <= saabb[cj, 5] and saabb[cj, 2] <= saabb[ci, 5]):
-                nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats)
+            if ((saabb[ci, 0] <= saabb[cj, 3]) & (saabb[cj, 0] <= saabb[ci, 3]) & (saabb[ci, 1] <= saabb[cj, 4])
+                    & (saabb[cj, 1] <= saabb[ci, 4]) & (saabb[ci, 2] <= saabb[cj, 5]) & (saabb[cj, 2] <= saabb[ci, 5])):
+                nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats, lst)
     return nb_
 
 
 @nb.njit(cache=True)
 def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap, bp, stats, filter_parent):
-    """Candidate body pairs (world AABBs overlap) into ``bp``; returns their count (may exceed cap)."""
+    """Candidate body pairs (world AABBs overlap) into ``bp``; returns their count (may exceed cap).
+
+    ``sap`` (`sap_state`): the sweep orders of the children lists, then scratch for `_subtree_pair`.
+    """
     nb_ = 0
+    lst = sap[L - 1:]
     for n in range(L):
         # body n against its descendants; n + 1 is its first child, each sibling follows the
         # previous one's range
@@ -591,7 +635,28 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
             # One walk over the descendants [n + 1, end[n]) (every child's subtree in turn),
             # skipping a missed subtree whole. Under the parent rule a direct child is a parent
             # pair, never reported: its subtree AABB still culls, its body is not paired.
-            nb_ = _body_walk(n, n + 1, end[n], filter_parent and n != 0, end, baabb, saabb, hasb, bp, nb_, stats)
+            skip = filter_parent and n != 0
+            if end[n] - n - 1 > FLAT_DESC or nchild[n] < 2:
+                nb_ = _body_walk(n, n + 1, end[n], skip, end, baabb, saabb, hasb, bp, nb_, stats)
+            else:
+                # A small branching subtree: every descendant's body AABB against n's, flat,
+                # independent tests (no subtree AABB steering a walk: fewer tests than the walk's
+                # two per inner body, and no branch on their outcomes; measured after mj_step on
+                # 22 humanoids: 7.0 -> 5.1 us). Below a single child (a chain) the walk stops
+                # after a few links, the flat loop would test them all. A body without bounds has
+                # an empty AABB: never a hit.
+                nxt = n + 1  # the next direct child
+                cap = bp.shape[0]
+                for q in range(n + 1, end[n]):
+                    top = q == nxt
+                    nxt = end[q] if top else nxt
+                    if nb_ < cap:
+                        bp[nb_, 0] = n
+                        bp[nb_, 1] = q
+                    nb_ += np.int64((baabb[n, 0] <= baabb[q, 3]) & (baabb[q, 0] <= baabb[n, 3])
+                                    & (baabb[n, 1] <= baabb[q, 4]) & (baabb[q, 1] <= baabb[n, 4])
+                                    & (baabb[n, 2] <= baabb[q, 5]) & (baabb[q, 2] <= baabb[n, 5]) & ~(top & skip))
+                stats[ST_BODY_AABB] += end[n] - n - 1
         kc = nchild[n]
         if kc < 2:
             continue
@@ -602,14 +667,14 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
                 for j in range(i + 1, kc):
                     cj = children[off + j]
                     stats[ST_SUBTREE] += 1
-                    if (saabb[ci, 0] <= saabb[cj, 3] and saabb[cj, 0] <= saabb[ci, 3] and saabb[ci, 1] <= saabb[cj, 4]
-                            and saabb[cj, 1] <= saabb[ci, 4] and saabb[ci, 2] <= saabb[cj, 5]
-                            and saabb[cj, 2] <= saabb[ci, 5]):
+                    if ((saabb[ci, 0] <= saabb[cj, 3]) & (saabb[cj, 0] <= saabb[ci, 3]) & (saabb[ci, 1] <= saabb[cj, 4])
+                            & (saabb[cj, 1] <= saabb[ci, 4]) & (saabb[ci, 2] <= saabb[cj, 5])
+                            & (saabb[cj, 2] <= saabb[ci, 5])):
                         if end[ci] == ci + 1 and end[cj] == cj + 1:  # two bodies: no call
                             if hasb[ci] and hasb[cj]:
                                 nb_ = _push(bp, nb_, ci, cj)
                         else:
-                            nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats)
+                            nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats, lst)
             continue
         # Sweep and prune on the axis of the node's largest extent. The order persists between
         # calls (sap holds it), so insertion sort is ~linear under small motion; a big reshuffle
@@ -635,7 +700,7 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
                 if w > 0.0:
                     sumw += w
             if sumw > GRID_SWEEP * best:
-                nb_ = _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stats)
+                nb_ = _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stats, lst)
                 continue
         swaps = 0
         limit = 16 * kc + 64
@@ -665,14 +730,14 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
                 if saabb[cj, ax] > hi:
                     break
                 stats[ST_SUBTREE] += 1
-                if (saabb[ci, 0] <= saabb[cj, 3] and saabb[cj, 0] <= saabb[ci, 3] and saabb[ci, 1] <= saabb[cj, 4]
-                        and saabb[cj, 1] <= saabb[ci, 4] and saabb[ci, 2] <= saabb[cj, 5]
-                        and saabb[cj, 2] <= saabb[ci, 5]):
+                if ((saabb[ci, 0] <= saabb[cj, 3]) & (saabb[cj, 0] <= saabb[ci, 3]) & (saabb[ci, 1] <= saabb[cj, 4])
+                        & (saabb[cj, 1] <= saabb[ci, 4]) & (saabb[ci, 2] <= saabb[cj, 5])
+                        & (saabb[cj, 2] <= saabb[ci, 5])):
                     if end[ci] == ci + 1 and end[cj] == cj + 1:  # two bodies: no call
                         if hasb[ci] and hasb[cj]:
                             nb_ = _push(bp, nb_, ci, cj)
                     else:
-                        nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats)
+                        nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats, lst)
     return nb_
 
 
@@ -753,10 +818,8 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
     for x in range(L - 1, 0, -1):
         q = parent_pos[x]
         for i in range(3):
-            if saabb[x, i] < saabb[q, i]:
-                saabb[q, i] = saabb[x, i]
-            if saabb[x, 3 + i] > saabb[q, 3 + i]:
-                saabb[q, 3 + i] = saabb[x, 3 + i]
+            saabb[q, i] = min(saabb[q, i], saabb[x, i])
+            saabb[q, 3 + i] = max(saabb[q, 3 + i], saabb[x, 3 + i])
     # 3. candidate body pairs down the tree.
     nbp = _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap, bp, stats, filter_parent)
     if nbp > bp.shape[0]:
@@ -922,6 +985,12 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
     if k <= keys.shape[0]:
         _sort_keys(keys, k, k4, S, G, scr)
     return k
+
+
+def sap_state(children: np.ndarray) -> np.ndarray:
+    """The traversal's int64 state for ``L`` positions (``children``: ``L - 1`` ids): the children
+    lists in their initial sweep order, then ``L`` of scratch (`_subtree_pair`)."""
+    return np.concatenate([children, np.zeros(len(children) + 1, np.int64)]).astype(np.int64)
 
 
 def scratch_size(G: int, keys: int) -> int:
