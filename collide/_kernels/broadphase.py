@@ -901,12 +901,13 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
                         continue
                 k = _emit(keys, k, g1, g2, S)
     k4 = min(k, keys.shape[0])  # the body-level keys end here (see _sort_keys)
-    # 5a. planes down the tree (subtree AABB against the halfspace).
+    lst = sap[L - 1:]  # scratch (sap_state)
+    # 5a. planes: each body's AABB against the halfspace, then its bounds and its geoms'.
     for i in range(Q):
         _plane_world(planes[i], body_pos, body_rot, geom_bid, gplane, plw, i)
         qg = planes[i]
         mq = gmargin[qg]
-        # The subtree AABB test: the AABB corner deepest along -n against the halfspace.
+        # The AABB corner deepest along -n against the halfspace.
         n0 = plw[i, 0]
         n1 = plw[i, 1]
         n2 = plw[i, 2]
@@ -915,40 +916,42 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
         k0 = 0 if n0 > 0 else 3
         k1 = 1 if n1 > 0 else 4
         k2 = 2 if n2 > 0 else 5
-        x = 0
-        while x < L:
+        # Flat and branch-free over the bodies (the body AABB's deepest corner, and the static
+        # filter): a walk down the tree branching on each outcome costs a misprediction per test
+        # in a simulation loop (see _subtree_pair). Then the candidates' own tests.
+        m = 0
+        for x in range(L):
+            lst[m] = x
+            v = n0 * baabb[x, k0] + n1 * baabb[x, k1] + n2 * baabb[x, k2]
+            m += np.int64((v <= lim + SLACK_POS * (abs(v) + abs(pd))) & (plane_ok[i, x] != 0))
+        stats[ST_PLANE] += L
+        for t in range(m):
+            x = lst[t]
             stats[ST_PLANE] += 1
-            v = n0 * saabb[x, k0] + n1 * saabb[x, k1] + n2 * saabb[x, k2]
-            if not v <= lim + SLACK_POS * (abs(v) + abs(pd)):
-                x = end[x]
-                continue
-            if plane_ok[i, x] != 0:  # the static filter, precomputed per (plane, body)
-                stats[ST_PLANE] += 1
-                if _plane_hit(plw, i, mq, bw, x, 0.0):
-                    multi = single[x] <= 0
-                    if multi:
-                        # the plane in the body's frame, for its geoms' tests
-                        b = order[x]
-                        ln0 = body_rot[b, 0, 0] * n0 + body_rot[b, 1, 0] * n1 + body_rot[b, 2, 0] * n2
-                        ln1 = body_rot[b, 0, 1] * n0 + body_rot[b, 1, 1] * n1 + body_rot[b, 2, 1] * n2
-                        ln2 = body_rot[b, 0, 2] * n0 + body_rot[b, 1, 2] * n1 + body_rot[b, 2, 2] * n2
-                        llim = lim - (n0 * body_pos[b, 0] + n1 * body_pos[b, 1] + n2 * body_pos[b, 2])
-                        lscale = abs(body_pos[b, 0]) + abs(body_pos[b, 1]) + abs(body_pos[b, 2]) + abs(pd)
-                    for ii in range(gstart[x], gstart[x + 1]):
-                        g = pgeoms[ii]
-                        if (gct[g] & gca[qg]) == 0 and (gct[qg] & gca[g]) == 0:
+            if _plane_hit(plw, i, mq, bw, x, 0.0):
+                multi = single[x] <= 0
+                if multi:
+                    # the plane in the body's frame, for its geoms' tests
+                    b = order[x]
+                    ln0 = body_rot[b, 0, 0] * n0 + body_rot[b, 1, 0] * n1 + body_rot[b, 2, 0] * n2
+                    ln1 = body_rot[b, 0, 1] * n0 + body_rot[b, 1, 1] * n1 + body_rot[b, 2, 1] * n2
+                    ln2 = body_rot[b, 0, 2] * n0 + body_rot[b, 1, 2] * n1 + body_rot[b, 2, 2] * n2
+                    llim = lim - (n0 * body_pos[b, 0] + n1 * body_pos[b, 1] + n2 * body_pos[b, 2])
+                    lscale = abs(body_pos[b, 0]) + abs(body_pos[b, 1]) + abs(body_pos[b, 2]) + abs(pd)
+                for ii in range(gstart[x], gstart[x + 1]):
+                    g = pgeoms[ii]
+                    if (gct[g] & gca[qg]) == 0 and (gct[qg] & gca[g]) == 0:
+                        continue
+                    if check_pairs:
+                        key = (g << S) | qg if g < qg else (qg << S) | g
+                        if _in_sorted(pair_keys, key):
                             continue
-                        if check_pairs:
-                            key = (g << S) | qg if g < qg else (qg << S) | g
-                            if _in_sorted(pair_keys, key):
-                                continue
-                        if multi:
-                            stats[ST_PLANE] += 1
-                            if not _plane_hit_local(ln0, ln1, ln2, llim, lscale + abs(glocal[g, 0])
-                                                    + abs(glocal[g, 1]) + abs(glocal[g, 2]), glocal, g, gmargin[g]):
-                                continue
-                        k = _emit(keys, k, g, qg, S)
-            x += 1
+                    if multi:
+                        stats[ST_PLANE] += 1
+                        if not _plane_hit_local(ln0, ln1, ln2, llim, lscale + abs(glocal[g, 0])
+                                                + abs(glocal[g, 1]) + abs(glocal[g, 2]), glocal, g, gmargin[g]):
+                            continue
+                    k = _emit(keys, k, g, qg, S)
     # 5b. explicit pairs: only the bounds test, with the pair's own inflation if given.
     for i in range(pair_g.shape[0]):
         g1 = pair_g[i, 0]
