@@ -415,7 +415,7 @@ FLAT_DESC = 16  # a body with at most this many descendants tests them all flat,
 FLAT_MAX = 4096  # _subtree_pair: at most this many body x body tests flat, else the walk
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _subtree_pair(A, B, end, baabb, saabb, hasb, bp, nb_, stats, lst):
     """Every body of subtree A against every body of subtree B (disjoint subtrees whose AABBs meet).
 
@@ -722,22 +722,36 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
             idx = np.argsort(lo)
             for i in range(kc):
                 sap[off + i] = children[off + idx[i]]
+        cap = bp.shape[0]
         for i in range(kc):
             ci = sap[off + i]
             hi = saabb[ci, 3 + ax]
+            leaf_i = end[ci] == ci + 1
+            # ci's box in locals: the stores into bp below would otherwise reload it every time
+            lo0 = saabb[ci, 0]
+            lo1 = saabb[ci, 1]
+            lo2 = saabb[ci, 2]
+            hi0 = saabb[ci, 3]
+            hi1 = saabb[ci, 4]
+            hi2 = saabb[ci, 5]
+            ntest = 0
             for j in range(i + 1, kc):
                 cj = sap[off + j]
                 if saabb[cj, ax] > hi:
                     break
-                stats[ST_SUBTREE] += 1
-                if ((saabb[ci, 0] <= saabb[cj, 3]) & (saabb[cj, 0] <= saabb[ci, 3]) & (saabb[ci, 1] <= saabb[cj, 4])
-                        & (saabb[cj, 1] <= saabb[ci, 4]) & (saabb[ci, 2] <= saabb[cj, 5])
-                        & (saabb[cj, 2] <= saabb[ci, 5])):
-                    if end[ci] == ci + 1 and end[cj] == cj + 1:  # two bodies: no call
-                        if hasb[ci] and hasb[cj]:
-                            nb_ = _push(bp, nb_, ci, cj)
-                    else:
-                        nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats, lst)
+                ntest += 1
+                hit = ((lo0 <= saabb[cj, 3]) & (saabb[cj, 0] <= hi0) & (lo1 <= saabb[cj, 4])
+                       & (saabb[cj, 1] <= hi1) & (lo2 <= saabb[cj, 5]) & (saabb[cj, 2] <= hi2))
+                if leaf_i and end[cj] == cj + 1:
+                    # Two bodies, the common case of a wide node: no branch on the outcome (see
+                    # _subtree_pair); a body without bounds has an empty AABB, never a hit.
+                    if nb_ < cap:
+                        bp[nb_, 0] = ci
+                        bp[nb_, 1] = cj
+                    nb_ += np.int64(hit)
+                elif hit:
+                    nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats, lst)
+            stats[ST_SUBTREE] += ntest
     return nb_
 
 
