@@ -574,3 +574,38 @@ def test_key_sort_equals_numpy(G, k, order):
         scr = np.full(_kern.scratch_size(G, cap) + 2, -9, np.int64)
         _kern._sort_keys(buf, k, k4, S, G, scr[:-2])
         assert np.array_equal(buf[:k], ref) and np.all(buf[k:] == -7) and np.all(scr[-2:] == -9)
+
+
+def test_traversal_paths_equal_bounds_twin():
+    """Each way the traversal finds body pairs agrees with the twin, on scenes that reach it.
+
+    Two 70-link chains coiled in one box: every body of each meets the other's subtree AABB, so
+    the pair of subtrees has more than `FLAT_MAX` body pairs and is walked, not listed. Small
+    branching robots: their pairs come from the static lists made at set-up (`flat_root`).
+    """
+    rng = np.random.default_rng(31)
+    n = 70
+    parent = np.r_[0, 0, np.arange(1, n), 0, np.arange(n + 1, 2 * n)]
+    a = Articulation(parent, np.arange(1, 2 * n + 1), [PointCloud([[0, 0, 0], [0.1, 0, 0]], 0.04)] * (2 * n))
+    bp = BroadPhase(a)
+    assert n * n > _kern.FLAT_MAX and not _kern._views(bp._I, bp._F, bp._W)[-3].any()
+    total = 0
+    for _ in range(5):
+        pos = rng.uniform(-1, 1, (2 * n + 1, 3))
+        rot = np.stack([testing.random_rotation(rng) for _ in range(2 * n + 1)])
+        got = bp.pairs(pos, rot)
+        assert np.array_equal(got, testing.brute_force_bound_pairs(a, pos, rot))
+        total += len(got)
+    assert total > 50  # the scenes had hits
+
+    sc = testing.many_robots(10, 6, seed=32, spread=0.5)
+    bp = BroadPhase(sc.articulation)
+    flat_root = _kern._views(bp._I, bp._F, bp._W)[-3]
+    assert flat_root.sum() >= 5
+    pos, rot = sc.poses(np.random.default_rng(33), worlds=6)
+    total = 0
+    for w in range(len(pos)):
+        got = bp.pairs(pos[w], rot[w])
+        assert np.array_equal(got, testing.brute_force_bound_pairs(sc.articulation, pos[w], rot[w]))
+        total += len(got)
+    assert total > 100

@@ -26,7 +26,11 @@ One step, for one world (`_world`):
    grid from ``GRID_MIN`` children when their widths along the sweep axis sum to more than
    ``GRID_SWEEP`` times its extent (a filled volume: 3.6x fewer tests than the sweep at 1024 free
    bodies; bodies spread over a floor sweep faster); a subtree whose AABB misses is skipped whole
-   (``q = end[q]``). Surviving body pairs go to a buffer: no deep call chain on the hot path (each
+   (``q = end[q]``). A small branching subtree (a robot, a hand: ``flat_root``) instead tests the
+   list of its statically passing body pairs made at set-up. Tests whose outcome is data keep no
+   branch on it where they can (the pair is written, the count advanced by the outcome): in a
+   simulation loop the engine retrains the branch predictor between steps, and every
+   misprediction costs ~7 ns. Surviving body pairs go to a buffer: no deep call chain on the hot path (each
    numba call with array arguments pays reference counting, even inlined: the hottest tests are
    written out);
 4. body pair -> static filter -> sphere test -> OBB separating-axis test (15 axes, Ericson 2005,
@@ -74,26 +78,28 @@ N_STATS = 9
 # Header of I: counts. Positions (``H_L``) are the bodies in depth-first order plus, when the world
 # has several solid geoms, one leaf per world geom (``H_V`` of them, at positions 1..V; see
 # BroadPhase): bodies (``H_NB``) index the pose arrays, positions everything else.
-H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP, H_KS, H_NB, H_V = range(10)
-HEADER = 10
+H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP, H_KS, H_NB, H_V, H_FL = range(11)
+HEADER = 11
 
 
 def pack(order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor, caor,
          children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g, pair_keys,
-         filter_parent, blocal, glocal, gplane, gmargin, pair_m, n_virtual=0):
+         filter_parent, blocal, glocal, gplane, gmargin, pair_m, flat_root, flat_start, flat_pairs, n_virtual=0):
     """Flatten the static model into ``I`` (int64) and ``F`` (float64); see `_views` for the order.
 
     Excluded body pairs travel as lists of partners per position (``ex_other[ex_start[x]:
     ex_start[x + 1]]``, both directions): a body has none or a few, so a scan of its own list beats
     a binary search of all (22 humanoids: 154 exclusions, a search per body pair and plane test).
+    ``flat_root`` (L) marks the subtrees whose body pairs are tested from the static list
+    ``flat_pairs[flat_start[x]:flat_start[x + 1]]`` (see `_traverse`).
     """
     L, G, Gs, Q, E, P = len(order), len(geom_bid), len(pgeoms), len(planes), len(ex_other), len(pair_keys)
     head = np.zeros(HEADER, np.int64)
-    head[[H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP, H_KS, H_NB, H_V]] = (L, G, Gs, Q, E, P, int(filter_parent), key_shift(G),
-                                                                  len(pos_of), n_virtual)
+    head[[H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP, H_KS, H_NB, H_V, H_FL]] = (
+        L, G, Gs, Q, E, P, int(filter_parent), key_shift(G), len(pos_of), n_virtual, len(flat_pairs))
     parts = [head, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
              caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca,
-             np.asarray(pair_g).reshape(-1), pair_keys]
+             np.asarray(pair_g).reshape(-1), pair_keys, flat_root, flat_start, np.asarray(flat_pairs).reshape(-1)]
     I = np.concatenate([np.asarray(p, np.int64).reshape(-1) for p in parts])
     F = np.concatenate([np.asarray(p, np.float64).reshape(-1) for p in (blocal, glocal, gplane, gmargin, pair_m)])
     return I, F
@@ -165,6 +171,12 @@ def _views(I, F, W):
     pair_g = nb.carray(i64_ptr(np.int64(I.ctypes.data) + 8 * o), (P, 2))
     o += 2 * P
     pair_keys = I[o:o + P]
+    o += P
+    flat_root = I[o:o + L]
+    o += L
+    flat_start = I[o:o + L + 1]
+    o += L + 1
+    flat_pairs = nb.carray(i64_ptr(np.int64(I.ctypes.data) + 8 * o), (I[H_FL], 2))
     fa = np.int64(F.ctypes.data)
     wa = np.int64(W.ctypes.data)
     f = 0
@@ -197,7 +209,8 @@ def _views(I, F, W):
     return (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
             caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
             pair_keys,
-            blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp)
+            blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp,
+            flat_root, flat_start, flat_pairs)
 
 
 # ------------------------------------------------------------------------------- small tests
@@ -621,14 +634,36 @@ def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stat
 
 
 @nb.njit(cache=True)
-def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap, bp, stats, filter_parent):
+def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap, bp, stats, filter_parent,
+              flat_root, flat_start, flat_pairs):
     """Candidate body pairs (world AABBs overlap) into ``bp``; returns their count (may exceed cap).
 
     ``sap`` (`sap_state`): the sweep orders of the children lists, then scratch for `_subtree_pair`.
     """
     nb_ = 0
     lst = sap[L - 1:]
+    cap = bp.shape[0]
+    skip_to = 0  # the end of the last flat subtree
     for n in range(L):
+        if n < skip_to:
+            continue
+        if flat_root[n]:
+            # A small subtree (a robot, a hand): its body pairs that pass the static filter, from
+            # a list made at set-up, each AABB test without a branch on the outcome (see
+            # _subtree_pair): no walk, no sibling pairs, no call (22 humanoids after mj_step:
+            # traversal 19.5 -> 15.4 us).
+            for t in range(flat_start[n], flat_start[n + 1]):
+                a = flat_pairs[t, 0]
+                q = flat_pairs[t, 1]
+                if nb_ < cap:
+                    bp[nb_, 0] = a
+                    bp[nb_, 1] = q
+                nb_ += np.int64((baabb[a, 0] <= baabb[q, 3]) & (baabb[q, 0] <= baabb[a, 3])
+                                & (baabb[a, 1] <= baabb[q, 4]) & (baabb[q, 1] <= baabb[a, 4])
+                                & (baabb[a, 2] <= baabb[q, 5]) & (baabb[q, 2] <= baabb[a, 5]))
+            stats[ST_BODY_AABB] += flat_start[n + 1] - flat_start[n]
+            skip_to = end[n]
+            continue
         # body n against its descendants; n + 1 is its first child, each sibling follows the
         # previous one's range
         if hasb[n] and end[n] > n + 1:
@@ -769,7 +804,8 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
     (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
      caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
             pair_keys,
-     blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp) = _views(I, F, W)
+     blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp,
+     flat_root, flat_start, flat_pairs) = _views(I, F, W)
     filter_parent = I[H_FP] != 0
     S = I[H_KS]
     # Geom rows of multi-geom bodies are computed on first use in this call (`_geom_rows`):
@@ -835,7 +871,8 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
             saabb[q, i] = min(saabb[q, i], saabb[x, i])
             saabb[q, 3 + i] = max(saabb[q, 3 + i], saabb[x, 3 + i])
     # 3. candidate body pairs down the tree.
-    nbp = _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap, bp, stats, filter_parent)
+    nbp = _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap, bp, stats, filter_parent,
+                    flat_root, flat_start, flat_pairs)
     if nbp > bp.shape[0]:
         info[3] = nbp
         return 0
