@@ -46,7 +46,7 @@ def _local_rows(center, rot, half, sc, sr) -> np.ndarray:
 
 
 FLAT_BODIES = 64  # see BroadPhase._flat_lists
-FLAT_PAIRS = 192
+FLAT_PAIRS = 128
 
 
 class BroadPhase:
@@ -152,8 +152,8 @@ class BroadPhase:
             blocal[1:V + 1, 12:15] += a.geom_margin[world_geoms, None]
             blocal[1:V + 1, 18] += a.geom_margin[world_geoms]
         pair_keys = (a.pairs[:, 0].astype(i64) << _k.key_shift(G)) | a.pairs[:, 1]
-        flat_root, flat_start, flat_pairs = self._flat_lists(end, parent_pos, hasb, weld, ctor, caor, ex_start, ex[:, 1],
-                                                             a.filter_parent)
+        flat_root, flat_start, flat_pairs = self._flat_lists(end, parent_pos, hasb, weld, ctor, caor, ex_start,
+                                                             ex[:, 1], a.filter_parent)
         self._I, self._F = _k.pack(
             order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag,
             ctor, caor, children, gstart, pgeoms, ex_start, ex[:, 1], planes, plane_ok, a.geom_body,

@@ -3,8 +3,9 @@
 Layout (built by `collide.broadphase.BroadPhase` from an `Articulation`, see `pack`): bodies are
 addressed by depth-first *position* ``p`` (every subtree is the range ``[p, end[p])``), geoms by
 their ids. When the world has several solid geoms, each is a leaf of its own at positions 1..V
-(posed by body 0, with the world's rules), so static scenery is culled geom by geom at the root. A bounds record ("row") is 19 float64: OBB centre (3), OBB rotation (9, row-major,
-columns are the box axes), OBB half extents (3), sphere centre (3), sphere radius (1).
+(posed by body 0, with the world's rules), so static scenery is culled geom by geom at the root.
+A bounds record ("row") is 19 float64: OBB centre (3), OBB rotation (9, row-major, columns are the
+box axes), OBB half extents (3), sphere centre (3), sphere radius (1).
 
 The static model travels as two flat arrays (``I`` int64 with a header of counts, ``F`` float64)
 and the workspace as one (``W`` float64); one step is a call with three arguments (the two pose
