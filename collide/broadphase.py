@@ -152,8 +152,8 @@ class BroadPhase:
             blocal[1:V + 1, 12:15] += a.geom_margin[world_geoms, None]
             blocal[1:V + 1, 18] += a.geom_margin[world_geoms]
         pair_keys = (a.pairs[:, 0].astype(i64) << _k.key_shift(G)) | a.pairs[:, 1]
-        flat_root, flat_start, flat_pairs = self._flat_lists(end, parent_pos, hasb, weld, ctor, caor, ex_start,
-                                                             ex[:, 1], a.filter_parent)
+        flat_root, flat_start, flat_pairs = self._flat_lists(end, parent_pos, nchild, hasb, weld, ctor, caor,
+                                                             ex_start, ex[:, 1], a.filter_parent)
         self._I, self._F = _k.pack(
             order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag,
             ctor, caor, children, gstart, pgeoms, ex_start, ex[:, 1], planes, plane_ok, a.geom_body,
@@ -176,7 +176,7 @@ class BroadPhase:
         self._empty.flags.writeable = False
 
     @staticmethod
-    def _flat_lists(end, parent_pos, hasb, weld, ctor, caor, ex_start, ex_other, filter_parent):
+    def _flat_lists(end, parent_pos, nchild, hasb, weld, ctor, caor, ex_start, ex_other, filter_parent):
         # Small subtrees hand the traversal a static list of their body pairs: every pair inside
         # that passes the static filter (bounds on both, masks, weld groups, the parent rule,
         # exclusions), each tested per step by its AABBs alone, with no branch on the outcome.
@@ -187,7 +187,6 @@ class BroadPhase:
         # Returns flat_root (L,) 0/1, flat_start (L + 1,), flat_pairs (F, 2), lower position first.
         L = len(end)
         flat_root = np.zeros(L, np.int64)
-        nchild = np.bincount(parent_pos[1:], minlength=L)
         lists = {}
         todo = [x for x in range(1, L) if parent_pos[x] == 0]
         while todo:

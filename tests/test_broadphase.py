@@ -596,6 +596,12 @@ def test_traversal_paths_equal_bounds_twin():
         got = bp.pairs(pos, rot)
         assert np.array_equal(got, testing.brute_force_bound_pairs(a, pos, rot))
         total += len(got)
+        # the two chains' lists (bodies meeting the other chain's subtree AABB) exceed FLAT_MAX
+        v = _kern._views(bp._I, bp._F, bp._W)
+        baabb, saabb = v[33], v[34]
+        meets = [((baabb[ch, :3] <= saabb[other, 3:]) & (saabb[other, :3] <= baabb[ch, 3:])).all(axis=1).sum()
+                 for ch, other in ((np.arange(1, n + 1), n + 1), (np.arange(n + 1, 2 * n + 1), 1))]
+        assert meets[0] * meets[1] > _kern.FLAT_MAX
     assert total > 50  # the scenes had hits
 
     sc = testing.many_robots(10, 6, seed=32, spread=0.5)
