@@ -47,6 +47,9 @@ def _local_rows(center, rot, half, sc, sr) -> np.ndarray:
 
 FLAT_BODIES = 64  # see BroadPhase._flat_lists
 FLAT_PAIRS = 128
+# Rows of a new output arena (32 KB: below malloc's mmap threshold, so arenas reuse freed heap
+# memory instead of faulting fresh pages in); see BroadPhase._new_arena.
+ARENA_ROWS = 4096
 
 
 class BroadPhase:
@@ -171,6 +174,7 @@ class BroadPhase:
         self._step_bound = None  # see bind
         self._bound = None
         self._set_buffers(4 * L + 64, 4 * G + 64)
+        self._new_arena(ARENA_ROWS)
         self._batch = None
         self._empty = np.zeros((0, 2), np.int32)
         self._empty.flags.writeable = False
@@ -276,7 +280,9 @@ class BroadPhase:
         Returns
         -------
         pairs : (K, 2) int32
-            Geom ids, lower id first, rows sorted and unique.
+            Geom ids, lower id first, rows sorted and unique. A view of rows that this broad phase
+            never writes again (later calls fill other rows), so it may be kept and modified like
+            a copy; its ``base`` is a larger arena, freed with the last view that holds it.
 
         Raises
         ------
@@ -293,12 +299,17 @@ class BroadPhase:
         except TypeError:
             k = _k.RET_BAD_SHAPE
         if k > 0:
-            return self._out[:k].copy()
+            o = self._arena_used  # `_take`, written out
+            e = o + k
+            if e <= self._arena_rows:
+                self._arena_used = e
+                return self._arena[o:e]
+            return self._take(k)
         if k == 0:
             return self._empty
         body_pos, body_rot = self._check(body_pos, body_rot, ())
         k = self._rerun(body_pos, body_rot, self._step(body_pos, body_rot, self._ctx))
-        return self._out[:k].copy() if k > 0 else self._empty
+        return self._take(k) if k > 0 else self._empty
 
     def bind(self, body_pos: np.ndarray, body_rot: np.ndarray) -> None:
         """Read the poses from these arrays at every ``pairs()`` called without arguments.
@@ -336,11 +347,37 @@ class BroadPhase:
             raise ValueError("pairs: no pose arrays given and none bound (see BroadPhase.bind)")
         k = self._step_bound(self._ctx)
         if k > 0:
-            return self._out[:k].copy()
+            return self._take(k)
         if k == 0:
             return self._empty
         k = self._rerun(*self._bound, k)
-        return self._out[:k].copy() if k > 0 else self._empty
+        return self._take(k) if k > 0 else self._empty
+
+    def _new_arena(self, rows: int) -> None:
+        # The (rows, 2) int32 output arena: each call's pairs are written by the kernel into the next
+        # free rows and handed out as a view. Rows are never written twice; a full arena is left
+        # to the views that hold it (freed with the last of them) and a new one started.
+        self._arena = np.empty((rows, 2), np.int32)
+        self._arena_rows = rows
+        self._arena_used = 0
+        self._ctx[_k.C_OUT] = self._arena.ctypes.data
+        self._ctx[_k.C_NOUT] = rows
+        self._ctx[_k.C_OFF] = 0
+
+    def _take(self, k: int) -> np.ndarray:
+        # The k > 0 pairs of the step just run, as fresh rows of the arena. The kernel wrote them
+        # there when they fitted (and advanced ctx[C_OFF] as this advances _arena_used), else
+        # over the keys buffer: then they are copied into a new arena.
+        o = self._arena_used
+        e = o + k
+        if e <= self._arena_rows:
+            self._arena_used = e
+            return self._arena[o:e]
+        self._new_arena(max(ARENA_ROWS, 4 * k))
+        self._arena[:k] = self._out[:k]
+        self._arena_used = k
+        self._ctx[_k.C_OFF] = k
+        return self._arena[:k]
 
     def _rerun(self, body_pos, body_rot, k: int) -> int:
         # A bad pose raises; a full buffer is grown and the step rerun (never drop a pair).

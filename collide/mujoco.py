@@ -561,7 +561,13 @@ class BroadPhase:
                 raise
         if k == 0:
             return self._empty2
-        out = bp._out[:k].copy()
+        o = bp._arena_used  # BroadPhase._take, written out
+        e = o + k
+        if e <= bp._arena_rows:
+            bp._arena_used = e
+            out = bp._arena[o:e]
+        else:
+            out = bp._take(k)
         return out if self._no_function is None else self._drop_null(out, 0)
 
     def pairs_batch(self, model: mujoco.MjModel, qpos) -> np.ndarray:

@@ -3,8 +3,10 @@
 import numpy as np
 import pytest
 
+import collide.broadphase
 from collide import Articulation, BroadPhase, PointCloud, shapes, testing
 from collide._kernels import broadphase as _kern
+from collide.broadphase import ARENA_ROWS
 
 BALL = PointCloud([[0, 0, 0]], 0.5)
 EYE = np.eye(3)
@@ -378,17 +380,30 @@ def test_wrong_shapes_and_dtypes_raise(robot_bp):
         bp.pairs(pos, np.zeros((L + 1, 3, 3)))
 
 
-def test_results_are_not_overwritten_by_the_next_call(robot_bp):
-    # The kernel writes into a reused buffer; each call must hand out its own array.
+def test_results_are_not_overwritten_by_the_next_call(robot_bp, monkeypatch):
+    # The kernel writes each call's pairs into fresh rows of an output arena and a full arena is
+    # replaced: every result must stay as it was through later calls, whatever the arena's size
+    # (7 rows: replaced every call or two; 1 row: every result is copied into a new one).
     sc, bp = robot_bp
     rng = np.random.default_rng(4)
-    calls = [sc.poses(rng) for _ in range(6)]
-    kept = [bp.pairs(pos, rot) for pos, rot in calls]
-    again = [bp.pairs(pos, rot) for pos, rot in calls]
-    assert sum(len(k) for k in kept) > 0
-    assert len({len(k) for k in kept}) > 1  # the calls really differed
-    for a, b in zip(kept, again):
-        assert np.array_equal(a, b)
+    calls = [sc.poses(rng) for _ in range(8)]
+    want = [testing.brute_force_bound_pairs(sc.articulation, pos, rot) for pos, rot in calls]
+    assert sum(len(w) for w in want) > 0
+    assert len({len(w) for w in want}) > 1  # the calls really differed
+    try:
+        for rows in (ARENA_ROWS, 7, 1):
+            monkeypatch.setattr(collide.broadphase, "ARENA_ROWS", rows)  # the size of new arenas
+            bp._new_arena(rows)
+            kept = [bp.pairs(pos, rot) for pos, rot in calls]
+            for pos, rot in calls:
+                bp.pairs(pos, rot)[:] = -1  # a caller writing into its own result
+            for a, w in zip(kept, want):
+                assert np.array_equal(a, w)
+            if rows < ARENA_ROWS:
+                assert len({id(a.base) for a in kept if len(a)}) > 1  # arenas were replaced
+    finally:
+        monkeypatch.undo()
+        bp._new_arena(ARENA_ROWS)
 
 
 # --------------------------------------------------------------------------- the GJK twin
