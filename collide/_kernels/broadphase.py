@@ -343,15 +343,16 @@ def _plane_hit_local(n0, n1, n2, lim, scale, Lr, g, mg):
     # a body's frame (n = R^T n_world, lim = d + mq - n_world . p): a multi-geom body's geoms need
     # no world rows then (anymal's legs: 4-5 geoms each, 3 on the floor), n . (R c + p) =
     # (R^T n) . c + n . p.
+    # Both tests always, no branch on the sphere's outcome (a misprediction costs more than the
+    # box's dozen flops; see _subtree_pair).
     sc = n0 * Lr[g, 15] + n1 * Lr[g, 16] + n2 * Lr[g, 17]
     r = Lr[g, 18] + mg
-    if sc - r > lim + SLACK_REL * r + SLACK_POS * scale:
-        return False
     c = n0 * Lr[g, 0] + n1 * Lr[g, 1] + n2 * Lr[g, 2]
     ext = 0.0
     for i in range(3):
         ext += abs(n0 * Lr[g, 3 + i] + n1 * Lr[g, 6 + i] + n2 * Lr[g, 9 + i]) * (Lr[g, 12 + i] + mg)
-    return c - ext <= lim + SLACK_REL * ext + SLACK_POS * scale
+    return ((sc - r <= lim + SLACK_REL * r + SLACK_POS * scale)
+            & (c - ext <= lim + SLACK_REL * ext + SLACK_POS * scale))
 
 
 @nb.njit(cache=True, inline="always")
@@ -977,10 +978,18 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
             v = n0 * baabb[x, k0] + n1 * baabb[x, k1] + n2 * baabb[x, k2]
             m += np.int64((v <= lim + SLACK_POS * (abs(v) + abs(pd))) & (plane_ok[i, x] != 0))
         stats[ST_PLANE] += L
+        stats[ST_PLANE] += m
         for t in range(m):
             x = lst[t]
-            stats[ST_PLANE] += 1
-            if _plane_hit(plw, i, mq, bw, x, 0.0):
+            hit = _plane_hit(plw, i, mq, bw, x, 0.0)
+            if single[x] > 0 and not (check_pairs and pairflag[x] != 0):
+                # One geom, its masks in plane_ok already: its key is written and counted by the
+                # outcome, no branch on it (a body lying on the floor, a chain, a pile).
+                g = pgeoms[gstart[x]]
+                if k < keys.shape[0]:
+                    keys[k] = (g << S) | qg if g < qg else (qg << S) | g
+                k += np.int64(hit)
+            elif hit:
                 multi = single[x] <= 0
                 if multi:
                     # the plane in the body's frame, for its geoms' tests
