@@ -659,7 +659,7 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
                 q = flat_pairs[t, 1]
                 if nb_ < cap:
                     bp[nb_, 0] = a
-                    bp[nb_, 1] = q
+                    bp[nb_, 1] = ~q  # ~q: the static filter passed (stage 4 skips it)
                 nb_ += np.int64((baabb[a, 0] <= baabb[q, 3]) & (baabb[q, 0] <= baabb[a, 3])
                                 & (baabb[a, 1] <= baabb[q, 4]) & (baabb[q, 1] <= baabb[a, 4])
                                 & (baabb[a, 2] <= baabb[q, 5]) & (baabb[q, 2] <= baabb[a, 5]))
@@ -885,19 +885,24 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
         sphere_done = x < 0  # the grid already ran the sphere test (~x marks it)
         if sphere_done:
             x = ~x
-        if (ctor[x] & caor[y]) == 0 and (ctor[y] & caor[x]) == 0:
-            continue
-        # the filter and the sphere test written out: array arguments of a call cost reference counting
-        if weld[x] == weld[y]:
-            continue
-        if filter_parent and ((parent_pos[x] == y and y != 0) or (parent_pos[y] == x and x != 0)):
-            continue
-        excluded = False
-        for e in range(ex_start[x], ex_start[x + 1]):
-            if ex_other[e] == y:
-                excluded = True
-        if excluded:
-            continue
+        listed = y < 0  # a pair of a static list (~y marks it): the static filter passed at set-up
+        if listed:
+            y = ~y
+        else:
+            if (ctor[x] & caor[y]) == 0 and (ctor[y] & caor[x]) == 0:
+                continue
+            # the filter and the sphere test written out: array arguments of a call cost reference
+            # counting
+            if weld[x] == weld[y]:
+                continue
+            if filter_parent and ((parent_pos[x] == y and y != 0) or (parent_pos[y] == x and x != 0)):
+                continue
+            excluded = False
+            for e in range(ex_start[x], ex_start[x + 1]):
+                if ex_other[e] == y:
+                    excluded = True
+            if excluded:
+                continue
         # A multi-geom body whose bounds are mostly empty space (walls around an arena, the world's
         # scattered static geoms: single < 0, see BroadPhase) passes every body-level test; go
         # straight to its geoms' AABBs.
