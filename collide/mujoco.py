@@ -536,7 +536,8 @@ class BroadPhase:
         Returns
         -------
         pairs : (K, 2) int32
-            Geom ids, lower first, rows sorted and unique.
+            Geom ids, lower first, rows sorted and unique; rows never written again, as in
+            `collide.BroadPhase.pairs`.
         """
         bp = self.broadphase
         if data is not self._views_of or bp._bound is not self._views:
