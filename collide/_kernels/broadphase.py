@@ -378,9 +378,15 @@ def _in_sorted(keys, key):
 
 
 @nb.njit(cache=True, inline="always")
+def _pair_key(g1, g2, S):
+    # The key of a geom pair, lower id first (scalars only: no reference counting when inlined).
+    return (g1 << S) | g2 if g1 < g2 else (g2 << S) | g1
+
+
+@nb.njit(cache=True, inline="always")
 def _emit(keys, k, g1, g2, S):
     if k < keys.shape[0]:
-        keys[k] = (g1 << S) | g2 if g1 < g2 else (g2 << S) | g1
+        keys[k] = _pair_key(g1, g2, S)
     return k + 1
 
 
@@ -935,7 +941,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
                 if (gct[g1] & gca[g2]) == 0 and (gct[g2] & gca[g1]) == 0:
                     continue
                 if cp:
-                    key = (g1 << S) | g2 if g1 < g2 else (g2 << S) | g1
+                    key = _pair_key(g1, g2, S)
                     if _in_sorted(pair_keys, key):
                         continue
                 if not (sx and sy):
@@ -982,8 +988,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
             lst[m] = x
             v = n0 * baabb[x, k0] + n1 * baabb[x, k1] + n2 * baabb[x, k2]
             m += np.int64((v <= lim + SLACK_POS * (abs(v) + abs(pd))) & (plane_ok[i, x] != 0))
-        stats[ST_PLANE] += L
-        stats[ST_PLANE] += m
+        stats[ST_PLANE] += L + m
         for t in range(m):
             x = lst[t]
             hit = _plane_hit(plw, i, mq, bw, x, 0.0)
@@ -992,7 +997,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
                 # outcome, no branch on it (a body lying on the floor, a chain, a pile).
                 g = pgeoms[gstart[x]]
                 if k < keys.shape[0]:
-                    keys[k] = (g << S) | qg if g < qg else (qg << S) | g
+                    keys[k] = _pair_key(g, qg, S)
                 k += np.int64(hit)
             elif hit:
                 multi = single[x] <= 0
@@ -1009,7 +1014,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
                     if (gct[g] & gca[qg]) == 0 and (gct[qg] & gca[g]) == 0:
                         continue
                     if check_pairs:
-                        key = (g << S) | qg if g < qg else (qg << S) | g
+                        key = _pair_key(g, qg, S)
                         if _in_sorted(pair_keys, key):
                             continue
                     if multi:
