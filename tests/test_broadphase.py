@@ -210,6 +210,49 @@ def test_grid_with_oversized_children():
         assert len(big) > 5 and len(got) > len(big) + 5
 
 
+def _world_child_of(a):
+    # (L,) the ancestor of each body that is a child of the world (0 for the world)
+    root = np.arange(a.body_count)
+    for _ in range(a.body_count):
+        up = a.body_parent[root]
+        root = np.where(up == 0, root, up)
+    return root
+
+
+def _root_subtree_spread(a, pos, rot):
+    """Children of the world and the sum of their subtree AABBs' widths along the scene's longest axis,
+    over that axis's extent: the kernel's grid-or-sweep criterion (`_traverse`), from the brute bounds."""
+    c, R, h, _, _, _ = testing.world_bounds(a, pos, rot)
+    half = np.einsum("gij,gj->gi", np.abs(R), h + a.geom_margin[:, None])
+    lo, hi = c - half, c + half
+    r = _world_child_of(a)[a.geom_body]
+    roots = np.unique(r)
+    width = np.array([hi[r == q].max(0) - lo[r == q].min(0) for q in roots])
+    ext = hi.max(0) - lo.min(0)
+    ax = np.argmax(ext)
+    return len(roots), width[:, ax].sum() / ext[ax]
+
+
+def test_grid_with_subtree_children():
+    # Small robots filling a volume: the world's children go to the hash grid, and the overlapping
+    # children are subtrees (a robot against a robot, `_subtree_pair`), not single bodies.
+    sc = testing.many_robots(100, 3, seed=5, spread=0.8, planes=0)
+    a = sc.articulation
+    bp = BroadPhase(a)
+    rng = np.random.default_rng(2)
+    root_of = _world_child_of(a)
+    deep = 0
+    for _ in range(3):
+        pos, rot = sc.poses(rng)
+        kc, spread = _root_subtree_spread(a, pos, rot)
+        assert kc > _kern.GRID_MIN and spread > 2 * _kern.GRID_SWEEP  # the grid's side of the rule
+        got = bp.pairs(pos, rot)
+        assert np.array_equal(got, testing.brute_force_bound_pairs(a, pos, rot))
+        b1, b2 = a.geom_body[got[:, 0]], a.geom_body[got[:, 1]]
+        deep += np.sum((root_of[b1] != root_of[b2]) & ((a.body_parent[b1] != 0) | (a.body_parent[b2] != 0)))
+    assert deep > 100  # pairs below the robots' roots, across robots
+
+
 # --------------------------------------------------------------------------- filter rules
 
 def _two_balls(**kw):
