@@ -155,13 +155,13 @@ class BroadPhase:
             blocal[1:V + 1, 12:15] += a.geom_margin[world_geoms, None]
             blocal[1:V + 1, 18] += a.geom_margin[world_geoms]
         pair_keys = (a.pairs[:, 0].astype(i64) << _k.key_shift(G)) | a.pairs[:, 1]
-        flat_root, flat_start, flat_pairs = self._flat_lists(end, parent_pos, nchild, hasb, weld, ctor, caor,
+        flat_root, flat_n, flat_mask = self._flat_lists(end, parent_pos, nchild, hasb, weld, ctor, caor,
                                                              ex_start, ex[:, 1], a.filter_parent)
         self._I, self._F = _k.pack(
             order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag,
             ctor, caor, children, gstart, pgeoms, ex_start, ex[:, 1], planes, plane_ok, a.geom_body,
             a.geom_contype, a.geom_conaffinity, a.pairs, pair_keys, a.filter_parent, blocal, glocal,
-            a.geom_plane, a.geom_margin, a.pair_margin, flat_root, flat_start, flat_pairs, n_virtual=V)
+            a.geom_plane, a.geom_margin, a.pair_margin, flat_root, flat_n, flat_mask, n_virtual=V)
         self.position_count = Lp
         self._nW = _k.workspace_size(Lp, G, len(planes))
         self._sap_init = _k.sap_state(children)
@@ -188,7 +188,8 @@ class BroadPhase:
         # positions whose list holds at most FLAT_PAIRS pairs is flat (a robot, a hand); else its
         # children are tried. A chain is never flat: the walk down it stops a few links below
         # each body (64-link chain after mj_step: 3.9 us walked, 5.0 with its last 20 links flat).
-        # Returns flat_root (L,) 0/1, flat_start (L + 1,), flat_pairs (F, 2), lower position first.
+        # Returns flat_root (L,) 0/1, flat_n (L,) the pair count of each flat root, and flat_mask
+        # (L,) int64: bit i of flat_mask[p] is the pair (p, r + i) of p's flat root r (p < r + i).
         L = len(end)
         flat_root = np.zeros(L, np.int64)
         lists = {}
@@ -212,10 +213,13 @@ class BroadPhase:
                     lists[r] = np.stack([p[ok], q[ok]], axis=1)
                     continue
             todo.extend(x for x in range(r + 1, end[r]) if parent_pos[x] == r)
-        counts = np.array([len(lists.get(x, ())) for x in range(L)], np.int64)
-        flat_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-        flat_pairs = np.concatenate([lists[x] for x in sorted(lists)] or [np.zeros((0, 2))]).astype(np.int64)
-        return flat_root, flat_start, flat_pairs.reshape(-1, 2)
+        flat_n = np.zeros(L, np.int64)
+        flat_mask = np.zeros(L, np.uint64)
+        for r, pq in lists.items():
+            flat_n[r] = len(pq)
+            for p, q in pq:
+                flat_mask[p] |= np.uint64(1) << np.uint64(q - r)
+        return flat_root, flat_n, flat_mask.view(np.int64)
 
     @staticmethod
     def _plane_filter(planes, plane_pos, weld, parent_pos, hasb, ctor, caor, ex_start, ex_other, gct, gca,

@@ -673,3 +673,31 @@ def test_traversal_paths_equal_bounds_twin():
         assert np.array_equal(got, testing.brute_force_bound_pairs(sc.articulation, pos[w], rot[w]))
         total += len(got)
     assert total > 100
+
+
+def test_flat_root_of_64_positions():
+    """A flat root spanning 64 positions: its last body is bit 63 of the static masks.
+
+    Body 1 forks into two 31- and 32-link chains (positions follow ids); only the first and last
+    eight bodies collide, so the root's list stays short enough to be flat, and the pairs reaching
+    position 64 (the sign bit of an int64 mask) must be found like any other.
+    """
+    n = 64
+    parent = np.r_[0, 0, np.arange(1, 32), 1, np.arange(33, n)]
+    coll = np.r_[np.ones(8), np.zeros(n - 16), np.ones(8)].astype(int)
+    cloud = PointCloud([[0, 0, 0], [0.3, 0, 0]], 0.1)
+    a = Articulation(parent, np.arange(1, n + 1), [cloud] * n, geom_contype=coll, geom_conaffinity=coll)
+    bp = BroadPhase(a)
+    v = _kern._views(bp._I, bp._F, bp._W)
+    flat_root, flat_mask = v[-3], v[-1]
+    assert flat_root[1] == 1 and flat_mask.min() < 0  # one flat root, a mask with bit 63 set
+    rng = np.random.default_rng(64)
+    total = last = 0
+    for _ in range(40):
+        pos = rng.uniform(-0.6, 0.6, (n + 1, 3))
+        rot = np.stack([testing.random_rotation(rng) for _ in range(n + 1)])
+        got = bp.pairs(pos, rot)
+        assert np.array_equal(got, testing.brute_force_bound_pairs(a, pos, rot))
+        total += len(got)
+        last += int((got[:, 1] == n - 1).sum())  # geom n - 1 is on body 64
+    assert total > 200 and last > 10
