@@ -48,6 +48,14 @@ def compare_main(args: argparse.Namespace) -> int:
     if args.seed < 0:
         print("error: --seed must be >= 0", file=sys.stderr)
         return 2
+    for out in (args.json, args.plot):
+        # Folders for the outputs now, not after the whole run (and exit status 1 means a miss).
+        if out:
+            try:
+                Path(out).parent.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                print(f"error: cannot create the folder of {out}: {exc}", file=sys.stderr)
+                return 2
     if args.model:
         path = Path(args.model)
         if not path.is_file():

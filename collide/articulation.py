@@ -37,11 +37,9 @@ ORTHO_TOL = 1e-6
 
 
 def _is_plane(obj) -> bool:
-    plane_cls = getattr(_shapes, "Plane", None)
-    if plane_cls is not None and isinstance(obj, plane_cls):
-        return True
-    # Duck typing until shapes.Plane lands: a frozen record with a normal and an offset.
-    return (not isinstance(obj, PointCloud)) and hasattr(obj, "normal") and hasattr(obj, "offset")
+    # shapes.Plane only: its constructor checks the normal and the offset (another object with a
+    # normal and an offset could carry a zero normal or a NaN, and the plane would never pair).
+    return isinstance(obj, _shapes.Plane)
 
 
 def fit_local_obb(cloud: PointCloud) -> _volumes.OBB:
@@ -195,7 +193,11 @@ class Articulation:
             bad = int(np.flatnonzero((gbody < 0) | (gbody >= L))[0])
             raise ValueError(f"geom_body: geom {bad} is on body {int(gbody[bad])}, which does not exist "
                              f"(bodies are 0..{L - 1})")
-        clouds = list(geom_cloud)
+        try:
+            clouds = list(geom_cloud)
+        except TypeError:
+            raise ValueError(f"geom_cloud: expected a list of PointCloud or shapes.Plane, got "
+                             f"{type(geom_cloud).__name__}") from None
         if len(clouds) != G:
             raise ValueError(f"geom_cloud: expected {G} shapes (one per geom), got {len(clouds)}")
         is_plane = np.zeros(G, bool)
@@ -222,6 +224,10 @@ class Articulation:
             raise ValueError(f"geom_margin: margin of geom {int(np.flatnonzero(margin < 0)[0])} is negative")
         weld = np.arange(L, dtype=np.int64) if body_weld is None else self._int_array(body_weld, "body_weld", (L,))
 
+        # Own copies: the caller's arrays may change after this (a broad phase built from this
+        # articulation packs its values once, and must agree with it).
+        parent, weld, gbody, ct, ca, gpos, grot, margin = (
+            np.array(v) for v in (parent, weld, gbody, ct, ca, gpos, grot, margin))
         self.body_count, self.geom_count = L, G
         self.body_parent, self.body_weld = parent, weld
         self.geom_body, self.geom_contype, self.geom_conaffinity = gbody, ct, ca

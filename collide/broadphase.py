@@ -257,10 +257,12 @@ class BroadPhase:
                 raise ValueError(f"{name}: expected shape {shape}, got {arr.shape}")
             if arr.dtype.kind != "f":
                 raise ValueError(f"{name}: expected a float array, got dtype {arr.dtype}")
-        if body_pos.dtype != np.float64 or not body_pos.flags.c_contiguous:
-            body_pos = np.ascontiguousarray(body_pos, np.float64)
-        if body_rot.dtype != np.float64 or not body_rot.flags.c_contiguous:
-            body_rot = np.ascontiguousarray(body_rot, np.float64)
+        # The kernel's signature takes writable arrays only: a read-only one (a memory map, a
+        # view of another framework's buffer) is copied, like a float32 or strided one.
+        if body_pos.dtype != np.float64 or not body_pos.flags.c_contiguous or not body_pos.flags.writeable:
+            body_pos = np.array(body_pos, np.float64, order="C")
+        if body_rot.dtype != np.float64 or not body_rot.flags.c_contiguous or not body_rot.flags.writeable:
+            body_rot = np.array(body_rot, np.float64, order="C")
         return body_pos, body_rot
 
     @staticmethod
@@ -466,6 +468,12 @@ class BroadPhase:
         for c in range(C):
             _k.context(self._I, self._F, bt["W"][c], bt["sap"][c], bt["bp"][c], bt["keys"][c], bt["scr"][c],
                        bt["stats"][c], bt["info"][c], out=bt["ctx"][c])
+
+    def __reduce__(self):
+        # The kernel's context holds raw addresses of this object's own buffers: a copy sharing or
+        # duplicating them would read another object's memory. Copies and pickles are rebuilt from
+        # the articulation instead (unbound; see bind).
+        return (BroadPhase, (self.articulation,))
 
     def __repr__(self) -> str:
         return f"BroadPhase({self.articulation!r})"

@@ -81,8 +81,8 @@ class Node:
             True: intersections are the exact hull intersections (manifold3d); False: the
             corners of the intersection of the two boxes.
         cache : dict, optional
-            Memo of clouds per (node, recursion state); pass the same dict to share the work
-            between calls (its size is the number of distinct clouds computed).
+            Memo of clouds per (node, recursion state, settings); pass the same dict to share the
+            work between calls (its size is the number of distinct clouds computed).
 
         Returns
         -------
@@ -477,7 +477,9 @@ class _Context:
 def _cloud(node, env, ctx: _Context) -> PointCloud:
     node, env = _resolve(node, env)
     env = _key_env(node, env, ctx)
-    key = (node, env)
+    # The settings are part of the key: a cache shared between calls with other settings must not
+    # hand back a cloud built with them.
+    key = (node, env, ctx.threshold, ctx.exact)
     got = ctx.cache.get(key)
     if got is not None:
         return got
@@ -1042,7 +1044,7 @@ def pinhole_rays(eye, target, width: int, height: int, fov_deg: float = 40.0,
     width, height : int
         Image size in pixels.
     fov_deg : float
-        Vertical field of view.
+        Vertical field of view, in (0, 180) degrees.
     up : (3,) array_like of float
         Approximate up direction (not parallel to ``target - eye``).
 
@@ -1057,6 +1059,8 @@ def pinhole_rays(eye, target, width: int, height: int, fov_deg: float = 40.0,
     w = as_count(width, "width", 1)
     h = as_count(height, "height", 1)
     fov = as_positive(fov_deg, "fov_deg")
+    if not fov < 180.0:
+        raise ValueError(f"fov_deg: a pinhole camera's field of view must be below 180 degrees, got {fov:g}")
     if not np.linalg.norm(fwd) > 0:
         raise ValueError("target: must differ from eye")
     fwd = fwd / np.linalg.norm(fwd)

@@ -482,6 +482,9 @@ def _contacts_disabled(model: mujoco.MjModel) -> bool:
     return bool(flags & (_DSBL.mjDSBL_CONTACT | _DSBL.mjDSBL_CONSTRAINT)) or model.nbody < 2
 
 
+_NOT_BOUND = object()
+
+
 class BroadPhase:
     """Our broad phase on a MuJoCo model: ``MjData`` in, candidate geom pairs out.
 
@@ -505,7 +508,7 @@ class BroadPhase:
         self._empty2 = np.zeros((0, 2), dtype=np.int32)
         self._empty3 = np.zeros((0, 3), dtype=np.int32)
         self._disabled = _contacts_disabled(model)
-        self._views_of = None
+        self._views_of = _NOT_BOUND  # the MjData whose arrays are bound (none yet; None is not an MjData)
         self._views = None
         # MuJoCo has no collision function for plane-hfield and hfield-hfield (mjCOLLISIONFUNC
         # is NULL there): such pairs never make contacts and are removed after the kernel.
@@ -513,6 +516,11 @@ class BroadPhase:
         self._no_function = None
         if np.any(types == _GEOM.mjGEOM_HFIELD):
             self._no_function = (types == _GEOM.mjGEOM_HFIELD) | (types == _GEOM.mjGEOM_PLANE)
+
+    def __reduce__(self):
+        # Rebuilt from the model (see collide.BroadPhase.__reduce__): the kernel's context holds
+        # raw addresses of this object's buffers and of the last MjData's arrays.
+        return (BroadPhase, (self.model,))
 
     def _drop_null(self, pairs: np.ndarray, first: int) -> np.ndarray:
         if self._no_function is None or len(pairs) == 0:
@@ -541,6 +549,11 @@ class BroadPhase:
         """
         bp = self.broadphase
         if data is not self._views_of or bp._bound is not self._views:
+            if not isinstance(data, mujoco.MjData):
+                raise ValueError(f"data: expected a mujoco.MjData, got {type(data).__name__}")
+            if data.xpos.shape[0] != self.model.nbody:
+                raise ValueError(f"data: made for a model with {data.xpos.shape[0]} bodies, this broad phase's "
+                                 f"has {self.model.nbody}")
             if self._disabled:
                 return self._empty2
             # The bindings build new numpy views at every attribute access (~0.3 us a call), and
@@ -586,6 +599,8 @@ class BroadPhase:
         pairs : (K, 3) int32
             ``(world, geom1, geom2)`` rows, sorted.
         """
+        if not isinstance(model, mujoco.MjModel):
+            raise ValueError(f"model: expected a mujoco.MjModel, got {type(model).__name__}")
         if model is not self.model and (model.nbody != self.model.nbody
                                          or model.ngeom != self.model.ngeom):
             raise ValueError("model: not the model this BroadPhase was built from")
@@ -871,7 +886,8 @@ def format_report(result: dict) -> str:
         "",
         f"median time per step: ours {result['time_ours_us']:.1f} us (Python call included), "
         f"MuJoCo broad phase {result['time_mujoco_broad_us']:.1f} us "
-        f"(mjTIMER_COL_BROAD), ratio {result['ratio']:.2f}x",
+        f"(mjTIMER_COL_BROAD), "
+        + (f"ratio {result['ratio']:.2f}x" if np.isfinite(result["ratio"]) else "ratio n/a (MuJoCo's timer read 0)"),
     ]
     if result.get("unstable_resets"):
         lines.append(f"note: MuJoCo reset an unstable simulation {result['unstable_resets']} time(s)")

@@ -637,6 +637,10 @@ class Plane:
 
     def __post_init__(self):
         n = as_array(self.normal, "normal", (3,))
+        try:
+            object.__setattr__(self, "offset", float(self.offset))
+        except (TypeError, ValueError):
+            raise ValueError(f"offset: expected a number, got {type(self.offset).__name__}") from None
         big = float(np.abs(n).max())
         if big > 0.0 and not 1e-150 < big < 1e150:
             # Divide by the largest component first: |n| overflowed for (1e308, 1e308, 0) and

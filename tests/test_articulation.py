@@ -73,6 +73,31 @@ def test_bad_geoms_and_arrays_raise():
         _art([0, 0], [1, 1], pairs=[[0, 1]], pair_margin=[0.1, 0.2])
     with pytest.raises(ValueError, match="body_weld"):
         _art([0, 0], [1], body_weld=[0])
+    with pytest.raises(ValueError, match="geom_cloud: expected a list"):
+        Articulation([0, 0], [1], 5)
+    # Only shapes.Plane is a plane: another object with a normal and an offset (here a zero
+    # normal, which shapes.Plane refuses) is not taken for one.
+    fake = type("FakePlane", (), {"normal": np.zeros(3), "offset": 0.0})()
+    with pytest.raises(ValueError, match=r"geom_cloud\[0\]: expected a PointCloud or shapes.Plane"):
+        Articulation([0, 0], [1, 1], [fake, BOX])
+
+
+def test_caller_arrays_are_copied():
+    # Changing the caller's arrays afterwards changes neither the articulation nor a broad phase
+    # built from it: both keep the values given.
+    from collide import BroadPhase
+    parent, gbody, margin = np.array([0, 0, 0]), np.array([1, 2]), np.zeros(2)
+    art = Articulation(parent, gbody, [BOX, BOX], geom_margin=margin)
+    margin[:] = 1.0
+    parent[2] = 1
+    gbody[:] = 0
+    assert np.all(art.geom_margin == 0) and list(art.body_parent) == [0, 0, 0] and list(art.geom_body) == [1, 2]
+    pos = np.array([[0, 0, 0], [0, 0, 0], [1.5, 0, 0.0]])
+    rot = np.tile(np.eye(3), (3, 1, 1))
+    assert len(BroadPhase(art).pairs(pos, rot)) == 0
+    assert len(testing.brute_force_bound_pairs(art, pos, rot)) == 0
+    pos[2, 0] = 0.2  # and the pair is found when the boxes do overlap
+    assert len(BroadPhase(art).pairs(pos, rot)) == 1
 
 
 def test_pairs_and_excludes_are_normalised():

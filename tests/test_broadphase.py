@@ -701,3 +701,42 @@ def test_flat_root_of_64_positions():
         total += len(got)
         last += int((got[:, 1] == n - 1).sum())  # geom n - 1 is on body 64
     assert total > 200 and last > 10
+
+
+def test_copies_and_pickles_are_rebuilt():
+    """copy, deepcopy and pickle give working broad phases, independent of the original.
+
+    The kernel's context holds raw addresses of the object's own buffers; a copy reusing them read
+    another object's memory (garbage pairs, then a crash once the original was freed).
+    """
+    import copy
+    import gc
+    import pickle
+
+    sc = testing.many_robots(4, 5, seed=41, spread=0.4)
+    pos, rot = sc.poses(np.random.default_rng(42), worlds=3)
+    bp = BroadPhase(sc.articulation)
+    want = [bp.pairs(pos[w], rot[w]) for w in range(3)]
+    assert sum(len(p) for p in want) > 10  # the scene had hits
+    copies = [copy.copy(bp), copy.deepcopy(bp), pickle.loads(pickle.dumps(bp))]
+    del bp
+    gc.collect()
+    for c in copies:
+        for w in range(3):
+            assert np.array_equal(c.pairs(pos[w], rot[w]), want[w])
+        assert np.array_equal(c.pairs_batch(pos, rot)[:, 1:], np.concatenate(want))
+
+
+def test_read_only_pose_arrays():
+    # A memory map or another framework's buffer arrives read-only: read, never written.
+    sc = testing.many_robots(3, 5, seed=43, spread=0.3)
+    pos, rot = sc.poses(np.random.default_rng(44), worlds=1)
+    bp = BroadPhase(sc.articulation)
+    want = bp.pairs(pos[0], rot[0])
+    assert len(want) > 0
+    p, r = pos[0].copy(), rot[0].copy()
+    p.flags.writeable = False
+    r.flags.writeable = False
+    assert np.array_equal(bp.pairs(p, r), want)
+    assert np.array_equal(bp.pairs(p, rot[0]), want)
+    assert np.array_equal(bp.pairs(pos[0], r), want)

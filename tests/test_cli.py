@@ -32,7 +32,7 @@ def test_compare_without_arguments_exits_0():
 
 
 def test_compare_writes_consistent_json_and_plot(tmp_path):
-    out, png = tmp_path / "r.json", tmp_path / "r.png"
+    out, png = tmp_path / "new" / "r.json", tmp_path / "plots" / "r.png"  # folders made by compare
     status = main(["compare", "--steps", "150", "--seed", "1", "--json", str(out),
                    "--plot", str(png)])
     assert status == 0

@@ -438,3 +438,27 @@ def test_exact_intersection_flag_must_be_a_bool():
     with pytest.raises(ValueError, match="exact_intersection"):
         node.point_cloud(exact_intersection="no")
     assert len(node.point_cloud(exact_intersection=False)) == 8
+
+
+def test_shared_cache_keeps_settings_apart():
+    # One cache over calls with other settings: each call gets the cloud its own settings make.
+    boxes = csg.Union(*[csg.Transform(move(0.3 * i, 0.1 * i), csg.box([0.5, 0.5, 0.5])) for i in range(10)])
+    ball = csg.Intersection(csg.box([1.0, 1.0, 1.0]), csg.sphere(1.2))
+    cache = {}
+    for node in (boxes, ball):
+        for kw in ({"threshold": 1000}, {"threshold": 8}, {"exact_intersection": False},
+                   {"exact_intersection": True}):
+            got = node.point_cloud(cache=cache, **kw)
+            fresh = node.point_cloud(**kw)
+            assert np.array_equal(got.points, fresh.points) and got.radius == fresh.radius
+    assert len(boxes.point_cloud(threshold=1000).points) > len(boxes.point_cloud(threshold=8).points)
+    assert len(ball.point_cloud(exact_intersection=False).points) == 8
+
+
+def test_pinhole_field_of_view_below_180():
+    with pytest.raises(ValueError, match="fov_deg.*below 180"):
+        csg.pinhole_rays([0, -5.0, 0], [0, 0, 0.0], 4, 4, fov_deg=180.0)
+    with pytest.raises(ValueError, match="fov_deg"):
+        csg.pinhole_rays([0, -5.0, 0], [0, 0, 0.0], 4, 4, fov_deg=270.0)
+    o, d = csg.pinhole_rays([0, -5.0, 0], [0, 0, 0.0], 4, 4, fov_deg=179.0)
+    assert np.all(np.isfinite(d)) and np.all(d[:, 1] > 0)  # every ray looks towards the target

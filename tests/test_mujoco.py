@@ -415,6 +415,38 @@ def test_data_before_kinematics_is_reported():
 def test_bad_model_argument():
     with pytest.raises(ValueError, match="model"):
         cm.articulation("not a model")
+    model = mujoco.MjModel.from_xml_string(CLUSTER.format(_free_sphere("a", "0 0 0") + _free_sphere("b", ".15 0 0")))
+    bp = cm.BroadPhase(model)
+    with pytest.raises(ValueError, match="data: expected a mujoco.MjData"):
+        bp.pairs(None)
+    with pytest.raises(ValueError, match="model: expected a mujoco.MjModel"):
+        bp.pairs_batch(None, np.zeros((1, model.nq)))
+    other = mujoco.MjModel.from_xml_string(CLUSTER.format(_free_sphere("a", "0 0 0")))
+    with pytest.raises(ValueError, match="data: made for a model with 2 bodies"):
+        bp.pairs(mujoco.MjData(other))
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    assert len(bp.pairs(data)) == 1  # still usable
+
+
+def test_copies_and_pickles_are_rebuilt():
+    # Rebuilt from the model: the kernel's context holds addresses of the original's buffers.
+    import copy
+    import gc
+    import pickle
+
+    xml = CLUSTER.format(_free_sphere("a", "0 0 0") + _free_sphere("b", ".15 0 0") + _free_sphere("c", "2 0 0"))
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    bp = cm.BroadPhase(model)
+    want = bp.pairs(data)
+    assert len(want) == 1
+    copies = [copy.copy(bp), copy.deepcopy(bp), pickle.loads(pickle.dumps(bp))]
+    del bp
+    gc.collect()
+    for c in copies:
+        assert np.array_equal(c.pairs(data), want)
 
 
 # ----------------------------------------------------------------------------------- real scenes

@@ -405,6 +405,7 @@ BAD = [
     (lambda: shapes.plane([0.0, np.nan, 1.0]), "normal.*non-finite"),
     (lambda: shapes.plane([0.0, 0.0, 1.0], np.inf), "offset.*finite"),
     (lambda: shapes.plane([0.0, 0.0, 1.0], "x"), "offset"),
+    (lambda: shapes.Plane([0.0, 0.0, 1.0], None), "offset: expected a number"),
 ]
 
 
