@@ -234,6 +234,8 @@ class Articulation:
         self.geom_pos, self.geom_rot, self.geom_margin = gpos, grot, margin
         self.geom_is_plane = is_plane
         self.geom_cloud = clouds
+        if not isinstance(filter_parent, (bool, np.bool_)):
+            raise ValueError(f"filter_parent: expected True or False, got {filter_parent!r}")
         self.filter_parent = bool(filter_parent)
         self.exclude = self._pair_list(exclude, "exclude", L, "body")
         self.pairs, self.pair_margin = self._explicit(pairs, pair_margin, G)

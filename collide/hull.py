@@ -16,6 +16,8 @@ from functools import lru_cache
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
+from ._validate import as_count, as_points, as_radius
+
 # Relative size of a singular value, against the largest, below which a direction is treated as
 # flat. 1e-12 keeps the neglected thickness at the level of float64 rounding of the coordinates.
 FLAT_TOL = 1e-12
@@ -76,6 +78,7 @@ def hull_indices(points: np.ndarray) -> np.ndarray:
         point one copy). If Qhull refuses even after dimension reduction, all indices of the
         unique points are returned (conservative).
     """
+    points = as_points(points)
     n = len(points)
     if n <= 1:
         return np.arange(n)
@@ -96,6 +99,7 @@ def hull_indices(points: np.ndarray) -> np.ndarray:
 
 def hull_vertices(points: np.ndarray) -> np.ndarray:
     """The points of ``points`` that span its convex hull, ``(m, 3) float64`` (see `hull_indices`)."""
+    points = as_points(points)
     return points[hull_indices(points)]
 
 
@@ -142,7 +146,7 @@ def ball_polytope(level: int = 1) -> np.ndarray:
     -------
     points : (m, 3) float64, read-only
     """
-    return _ball_polytope(int(level))
+    return _ball_polytope(as_count(level, "level", 0))
 
 
 def minkowski_ball(points: np.ndarray, radius: float, level: int = 1) -> np.ndarray:
@@ -160,6 +164,9 @@ def minkowski_ball(points: np.ndarray, radius: float, level: int = 1) -> np.ndar
     -------
     points : (m, 3) float64
     """
+    points = as_points(points)
+    radius = as_radius(radius)
+    level = as_count(level, "level", 0)
     if radius == 0.0 or len(points) == 0:
         return points
     base = hull_vertices(points)
@@ -266,6 +273,10 @@ def intersect_hulls(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     -------
     points : (k, 3) float64
     """
+    a = as_points(a, "a")
+    b = as_points(b, "b")
+    if len(a) == 0 or len(b) == 0:
+        raise ValueError(f"{'a' if len(a) == 0 else 'b'}: must be a non-empty point set")
     lo = np.maximum(a.min(axis=0), b.min(axis=0))
     hi = np.minimum(a.max(axis=0), b.max(axis=0))
     scale = max(float(np.abs(a).max()), float(np.abs(b).max()), float(np.ptp(a, axis=0).max()),

@@ -75,6 +75,8 @@ def test_bad_geoms_and_arrays_raise():
         _art([0, 0], [1], body_weld=[0])
     with pytest.raises(ValueError, match="geom_cloud: expected a list"):
         Articulation([0, 0], [1], 5)
+    with pytest.raises(ValueError, match="filter_parent: expected True or False"):
+        _art([0, 0], [1], filter_parent="no")
     # Only shapes.Plane is a plane: another object with a normal and an offset (here a zero
     # normal, which shapes.Plane refuses) is not taken for one.
     fake = type("FakePlane", (), {"normal": np.zeros(3), "offset": 0.0})()

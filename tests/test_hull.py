@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.optimize import linprog
 
-from collide import hull
+from collide import PointCloud, hull
 
 
 def _in_hull(points: np.ndarray, query: np.ndarray, tol: float = 1e-9) -> bool:
@@ -186,3 +186,22 @@ def test_small_cloud_far_from_the_origin_is_not_a_single_point():
     kept = hull.hull_vertices(pts)
     np.testing.assert_allclose(kept.min(axis=0), pts.min(axis=0), rtol=0, atol=1e-9)
     np.testing.assert_allclose(kept.max(axis=0), pts.max(axis=0), rtol=0, atol=1e-9)
+
+
+def test_public_routines_check_their_input():
+    # 2-D points were read as a single point, a negative radius shrank nothing, a negative level
+    # was level 0: each is now refused, naming the argument.
+    with pytest.raises(ValueError, match=r"points: expected shape \(n, 3\)"):
+        hull.hull_vertices(np.zeros((5, 2)))
+    with pytest.raises(ValueError, match="points"):
+        hull.hull_indices([[0.0, np.nan, 0.0]])
+    with pytest.raises(ValueError, match="radius: must be >= 0"):
+        hull.minkowski_ball(np.zeros((1, 3)), -1.0)
+    with pytest.raises(ValueError, match="level: must be >= 0"):
+        hull.ball_polytope(-1)
+    with pytest.raises(ValueError, match="b: must be a non-empty"):
+        hull.intersect_hulls(np.zeros((1, 3)), np.zeros((0, 3)))
+    with pytest.raises(ValueError, match="level"):
+        PointCloud([[0, 0, 0]], 1.0).with_radius_as_points(-1)
+    # lists are read like arrays
+    assert hull.hull_vertices([[0, 0, 0], [1, 0, 0], [0.5, 0, 0]]).shape == (2, 3)

@@ -51,3 +51,17 @@ def test_gjk_distance_box_against_flat_polygon_at_small_scale():
         small = testing.gjk_distance(P * s, Q * s)[0]
         unit = testing.gjk_distance(P, Q)[0]
         assert small == pytest.approx(unit * s, rel=1e-6, abs=1e-9 * s), k
+
+
+def test_twins_refuse_the_poses_the_broad_phase_refuses():
+    sc = testing.many_robots(2, 3, seed=5)
+    pos, rot = sc.poses(np.random.default_rng(6))
+    for twin in (testing.brute_force_bound_pairs, testing.brute_force_pairs):
+        p = pos.copy()
+        p[2, 1] = np.nan
+        with pytest.raises(ValueError, match="body 2: pose has a non-finite"):
+            twin(sc.articulation, p, rot)
+        r = rot.copy()
+        r[3] = -r[3]  # a reflection
+        with pytest.raises(ValueError, match="body 3: rotation is not a proper orthonormal"):
+            twin(sc.articulation, pos, r)
