@@ -156,7 +156,7 @@ class BroadPhase:
             blocal[1:V + 1, 18] += a.geom_margin[world_geoms]
         pair_keys = (a.pairs[:, 0].astype(i64) << _k.key_shift(G)) | a.pairs[:, 1]
         flat_root, flat_n, flat_mask = self._flat_lists(end, parent_pos, nchild, hasb, weld, ctor, caor,
-                                                             ex_start, ex[:, 1], a.filter_parent)
+                                                        ex_start, ex[:, 1], a.filter_parent)
         self._I, self._F = _k.pack(
             order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag,
             ctor, caor, children, gstart, pgeoms, ex_start, ex[:, 1], planes, plane_ok, a.geom_body,
