@@ -40,7 +40,11 @@ def as_array(value, name: str, shape: tuple, dtype=np.float64) -> np.ndarray:
     """
     _reject_complex(value, name)
     try:
-        arr = np.ascontiguousarray(value, dtype=dtype)
+        # asarray, then contiguity: ascontiguousarray alone turns a scalar into shape (1,), and a
+        # scalar would then pass for a one-element array.
+        arr = np.ascontiguousarray(np.asarray(value, dtype=dtype))
+        if np.ndim(value) == 0:
+            arr = arr.reshape(())
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name}: cannot be read as a {np.dtype(dtype).name} array ({exc})") from None
     if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
@@ -66,6 +70,8 @@ def as_points(value, name: str = "points") -> np.ndarray:
 
 def as_radius(value, name: str = "radius") -> float:
     """Return ``value`` as a finite float ``>= 0``."""
+    if isinstance(value, (str, bytes)):
+        raise ValueError(f"{name}: expected a number, got {value!r}")
     try:
         r = float(value)
     except (TypeError, ValueError):

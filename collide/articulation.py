@@ -246,8 +246,15 @@ class Articulation:
 
     # ----------------------------------------------------------------------------- validation
     @staticmethod
-    def _int_array(value, name, shape):
-        arr = np.asarray(value)
+    def _read(value, name):
+        try:
+            return np.asarray(value)
+        except ValueError as exc:  # ragged rows
+            raise ValueError(f"{name}: cannot be read as an integer array ({exc})") from None
+
+    @classmethod
+    def _int_array(cls, value, name, shape):
+        arr = cls._read(value, name)
         if arr.size == 0 and len(shape) == 1 and shape[0] in (None, 0):
             return np.zeros(0, np.int64)
         if arr.dtype.kind not in "iub":
@@ -257,7 +264,7 @@ class Articulation:
 
     @classmethod
     def _pair_list(cls, value, name, n, what):
-        arr = np.asarray(value)
+        arr = cls._read(value, name)
         if arr.size == 0:
             return np.zeros((0, 2), np.int64)
         arr = cls._int_array(arr, name, (None, 2))
@@ -269,7 +276,7 @@ class Articulation:
 
     @classmethod
     def _explicit(cls, pairs, pair_margin, G):
-        arr = np.asarray(pairs)
+        arr = cls._read(pairs, "pairs")
         if arr.size == 0:
             if pair_margin is not None and np.asarray(pair_margin).size:
                 raise ValueError("pair_margin: given without explicit pairs")

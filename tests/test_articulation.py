@@ -77,6 +77,12 @@ def test_bad_geoms_and_arrays_raise():
         Articulation([0, 0], [1], 5)
     with pytest.raises(ValueError, match="filter_parent: expected True or False"):
         _art([0, 0], [1], filter_parent="no")
+    with pytest.raises(ValueError, match=r"body_parent: expected shape \(n\), got \(\)"):
+        Articulation(0, [], [])  # a scalar is not a one-element array
+    with pytest.raises(ValueError, match="exclude: cannot be read as an integer array"):
+        _art([0, 0, 0], [1, 2], exclude=[[1, 2], [1]])
+    with pytest.raises(ValueError, match="pairs: cannot be read as an integer array"):
+        _art([0, 0, 0], [1, 2], pairs=[[0, 1], [1]])
     # Only shapes.Plane is a plane: another object with a normal and an offset (here a zero
     # normal, which shapes.Plane refuses) is not taken for one.
     fake = type("FakePlane", (), {"normal": np.zeros(3), "offset": 0.0})()

@@ -406,6 +406,8 @@ BAD = [
     (lambda: shapes.plane([0.0, 0.0, 1.0], np.inf), "offset.*finite"),
     (lambda: shapes.plane([0.0, 0.0, 1.0], "x"), "offset"),
     (lambda: shapes.Plane([0.0, 0.0, 1.0], None), "offset: expected a number"),
+    (lambda: PointCloud([[0.0, 0.0, 0.0]], "1"), "radius: expected a number"),
+    (lambda: shapes.box(1.0), r"half_extents: expected shape \(3\), got \(\)"),
 ]
 
 
