@@ -535,7 +535,9 @@ def superquadric_support(directions, e1: float, e2: float) -> np.ndarray:
     h : (n,) float64
         ``max_{x in hull} u . x`` for each direction ``u``.
     """
-    u = np.asarray(directions, dtype=np.float64)
+    u = as_array(directions, "directions", (None, 3))
+    e1 = as_positive(e1, "e1")
+    e2 = as_positive(e2, "e2")
     p_star = _dual_exponent(2.0 / min(e2, 2.0))
     q_star = _dual_exponent(2.0 / min(e1, 2.0))
     inner = _lp_norm(u[:, :2], p_star)

@@ -831,6 +831,9 @@ def min_sphere_center(points: np.ndarray) -> np.ndarray:
         The points are centred on their bounding-box middle and scaled to unit size first, so
         coordinates around 1e5 lose no more precision than the input carries.
     """
+    points = as_points(points)
+    if len(points) == 0:
+        raise ValueError("points: must be non-empty")
     offset = 0.5 * (points.min(axis=0) + points.max(axis=0))
     local = points - offset
     scale = float(np.abs(local).max())

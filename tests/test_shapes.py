@@ -408,6 +408,10 @@ BAD = [
     (lambda: shapes.Plane([0.0, 0.0, 1.0], None), "offset: expected a number"),
     (lambda: PointCloud([[0.0, 0.0, 0.0]], "1"), "radius: expected a number"),
     (lambda: shapes.box(1.0), r"half_extents: expected shape \(3\), got \(\)"),
+    (lambda: shapes.superquadric_support(np.zeros((2, 2)), 1.0, 1.0), r"directions: expected shape \(n, 3\)"),
+    (lambda: shapes.superquadric_support(np.ones((2, 3)), -1.0, 1.0), "e1: must be >= 0"),
+    (lambda: collide.volumes.min_sphere_center([[0.0, np.nan, 0.0]]), "points: non-finite"),
+    (lambda: collide.volumes.min_sphere_center(np.zeros((0, 3))), "points: must be non-empty"),
 ]
 
 
