@@ -181,9 +181,9 @@ class BroadPhase:
 
     @staticmethod
     def _flat_lists(end, parent_pos, nchild, hasb, weld, ctor, caor, ex_start, ex_other, filter_parent):
-        # Small subtrees hand the traversal a static list of their body pairs: every pair inside
-        # that passes the static filter (bounds on both, masks, weld groups, the parent rule,
-        # exclusions), each tested per step by its AABBs alone, with no branch on the outcome.
+        # Small subtrees hand the traversal their body pairs, as static bit masks: every pair
+        # inside that passes the static filter (bounds on both, masks, weld groups, the parent
+        # rule, exclusions), tested per step by its AABBs alone, a vectorised row at a time.
         # Top-down from the world's children: a branching subtree of at most FLAT_BODIES
         # positions whose list holds at most FLAT_PAIRS pairs is flat (a robot, a hand); else its
         # children are tried. A chain is never flat: the walk down it stops a few links below

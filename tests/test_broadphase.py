@@ -639,7 +639,7 @@ def test_traversal_paths_equal_bounds_twin():
 
     Two 70-link chains coiled in one box: every body of each meets the other's subtree AABB, so
     the pair of subtrees has more than `FLAT_MAX` body pairs and is walked, not listed. Small
-    branching robots: their pairs come from the static lists made at set-up (`flat_root`).
+    branching robots: their pairs come from the static masks made at set-up (`flat_root`).
     """
     rng = np.random.default_rng(31)
     n = 70

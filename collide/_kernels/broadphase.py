@@ -921,7 +921,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
         sphere_done = x < 0  # the grid already ran the sphere test (~x marks it)
         if sphere_done:
             x = ~x
-        listed = y < 0  # a pair of a static list (~y marks it): the static filter passed at set-up
+        listed = y < 0  # a flat root's pair (~y marks it): the static filter passed at set-up
         if listed:
             y = ~y
         else:
