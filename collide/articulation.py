@@ -259,6 +259,8 @@ class Articulation:
             return np.zeros(0, np.int64)
         if arr.dtype.kind not in "iub":
             raise ValueError(f"{name}: expected integers, got dtype {arr.dtype}")
+        if arr.dtype.kind == "u" and arr.size and int(arr.max()) > np.iinfo(np.int64).max:
+            raise ValueError(f"{name}: value {int(arr.max())} is out of range")  # would wrap to negative
         arr = as_array(arr, name, shape, np.int64)
         return arr
 
@@ -319,11 +321,14 @@ class Articulation:
                 self.geom_plane[g, :3] = n
                 self.geom_plane[g, 3] = float(c.offset) + float(n @ t)
                 continue
-            local = c.transform(R, t)
-            self.geom_local_cloud[g] = local
-            (self.geom_obb_center[g], self.geom_obb_rot[g], self.geom_obb_half[g],
-             self.geom_sphere_center[g], self.geom_sphere_radius[g]) = _guarded(
-                fit_local_obb(local), fit_local_sphere(local))
+            try:
+                local = c.transform(R, t)
+                self.geom_local_cloud[g] = local
+                (self.geom_obb_center[g], self.geom_obb_rot[g], self.geom_obb_half[g],
+                 self.geom_sphere_center[g], self.geom_sphere_radius[g]) = _guarded(
+                    fit_local_obb(local), fit_local_sphere(local))
+            except ValueError as exc:  # name the geom (a fit refusing coordinates beyond its range)
+                raise ValueError(f"geom_cloud[{g}]: {exc}") from None
 
     def _fit_bodies(self):
         L = self.body_count

@@ -79,6 +79,10 @@ def test_bad_geoms_and_arrays_raise():
         _art([0, 0], [1], filter_parent="no")
     with pytest.raises(ValueError, match=r"body_parent: expected shape \(n\), got \(\)"):
         Articulation(0, [], [])  # a scalar is not a one-element array
+    with pytest.raises(ValueError, match="body_parent: value 9223372036854775808 is out of range"):
+        _art(np.array([0, 2**63], np.uint64), [1])
+    with pytest.raises(ValueError, match=r"geom_cloud\[1\]: obb: coordinates"):
+        Articulation([0, 0], [1, 1], [BOX, PointCloud([[1e200, 0, 0]])])
     with pytest.raises(ValueError, match="exclude: cannot be read as an integer array"):
         _art([0, 0, 0], [1, 2], exclude=[[1, 2], [1]])
     with pytest.raises(ValueError, match="pairs: cannot be read as an integer array"):
