@@ -40,11 +40,11 @@ def as_array(value, name: str, shape: tuple, dtype=np.float64) -> np.ndarray:
     """
     _reject_complex(value, name)
     try:
-        # asarray, then contiguity: ascontiguousarray alone turns a scalar into shape (1,), and a
-        # scalar would then pass for a one-element array.
-        arr = np.ascontiguousarray(np.asarray(value, dtype=dtype))
-        if np.ndim(value) == 0:
-            arr = arr.reshape(())
+        # Not ascontiguousarray(value): it turns a scalar into shape (1,), which would then pass
+        # for a one-element array (a 0-d array is contiguous already).
+        arr = np.asarray(value, dtype=dtype)
+        if not arr.flags.c_contiguous:
+            arr = np.ascontiguousarray(arr)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name}: cannot be read as a {np.dtype(dtype).name} array ({exc})") from None
     if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape)):

@@ -28,12 +28,12 @@ One step, for one world (`_world`):
    ``GRID_SWEEP`` times its extent (a filled volume: 3.6x fewer tests than the sweep at 1024 free
    bodies; bodies spread over a floor sweep faster); a subtree whose AABB misses is skipped whole
    (``q = end[q]``). A small branching subtree (a robot, a hand: ``flat_root``) instead tests
-   its statically passing body pairs, bit masks made at set-up, a vectorised row at a time. Tests whose outcome is data keep no
-   branch on it where they can (the pair is written, the count advanced by the outcome): in a
-   simulation loop the engine retrains the branch predictor between steps, and every
-   misprediction costs ~7 ns. Surviving body pairs go to a buffer: no deep call chain on the hot path (each
-   numba call with array arguments pays reference counting, even inlined: the hottest tests are
-   written out);
+   its statically passing body pairs, bit masks made at set-up, a vectorised row at a time.
+   Tests whose outcome is data keep no branch on it where they can (the pair is written, the
+   count advanced by the outcome): in a simulation loop the engine retrains the branch predictor
+   between steps, and every misprediction costs ~7 ns. Surviving body pairs go to a buffer: no
+   deep call chain on the hot path (each numba call with array arguments pays reference
+   counting, even inlined: the hottest tests are written out);
 4. body pair -> static filter -> sphere test -> OBB separating-axis test (15 axes, Ericson 2005,
    *Real-Time Collision Detection* §4.4.1) -> geom pairs, the same tests on the geoms' bounds;
 5. planes (halfspaces) down the tree, the static filter of every (plane, body) pair precomputed,
