@@ -27,6 +27,7 @@ import numba
 import numpy as np
 
 from ._kernels import broadphase as _k
+from ._kernels import lanes as _lanes
 from .articulation import Articulation
 
 LOOSE = 4.0  # see `single` in BroadPhase.__init__
@@ -176,6 +177,9 @@ class BroadPhase:
         self._set_buffers(4 * L + 64, 4 * G + 64)
         self._new_arena(ARENA_ROWS)
         self._batch = None
+        self._J = self._lane_tables(end, parent_pos, hasb, weld, ctor, caor, ex_start, ex[:, 1], a.filter_parent,
+                                    gstart, pgeoms, planes, plane_ok, a.geom_contype, a.geom_conaffinity,
+                                    pair_keys, a.pairs, a.geom_is_plane, _k.key_shift(G))
         self._empty = np.zeros((0, 2), np.int32)
         self._empty.flags.writeable = False
 
@@ -220,6 +224,65 @@ class BroadPhase:
             for p, q in pq:
                 flat_mask[p] |= np.uint64(1) << np.uint64(q - r)
         return flat_root, flat_n, flat_mask.view(np.int64)
+
+    @staticmethod
+    def _lane_tables(end, parent_pos, hasb, weld, ctor, caor, ex_start, ex_other, filter_parent, gstart, pgeoms,
+                     planes, plane_ok, gct, gca, pair_keys, pairs, is_plane, S):
+        # The static candidates of `pairs_batch`'s lane kernel (`_kernels.lanes`): body pairs that
+        # pass the static filter with their geom pairs, (plane, body) pairs with their geoms, the
+        # explicit pairs, each geom pair with its rank among all keys. None when the model has
+        # more than lanes.MAX_BODY_PAIRS body pairs (the per-world kernel's tree culls better).
+        L = len(end)
+        if L * (L - 1) // 2 > 16 * _lanes.MAX_BODY_PAIRS:
+            return None
+        p, q = np.triu_indices(L, 1)
+        ok = (hasb[p] != 0) & (hasb[q] != 0) & (weld[p] != weld[q])
+        ok &= ((ctor[p] & caor[q]) != 0) | ((ctor[q] & caor[p]) != 0)
+        if filter_parent:
+            ok &= ~((parent_pos[q] == p) & (p != 0))  # p < q: only q can be p's child
+        for i in np.flatnonzero(ok):
+            if q[i] in ex_other[ex_start[p[i]]:ex_start[p[i] + 1]]:
+                ok[i] = False
+        if ok.sum() > _lanes.MAX_BODY_PAIRS:
+            return None
+        explicit = set(int(k) for k in pair_keys)
+
+        def key(g1, g2):
+            return (min(g1, g2) << S) | max(g1, g2)
+
+        def masks(g1, g2):
+            return (gct[g1] & gca[g2]) != 0 or (gct[g2] & gca[g1]) != 0
+
+        body_pairs, pair_geoms, pair_gstart = [], [], [0]
+        for x, y in zip(p[ok], q[ok]):
+            gp = [(g1, g2) for g1 in pgeoms[gstart[x]:gstart[x + 1]] for g2 in pgeoms[gstart[y]:gstart[y + 1]]
+                  if masks(g1, g2) and key(g1, g2) not in explicit]
+            if gp:
+                body_pairs.append((x, y))
+                pair_geoms.extend(gp)
+                pair_gstart.append(len(pair_geoms))
+        plane_pos, plane_start, plane_geoms, plane_gstart = [], [0], [], [0]
+        for i, qg in enumerate(planes):
+            for x in np.flatnonzero(plane_ok[i]):
+                gs = [g for g in pgeoms[gstart[x]:gstart[x + 1]] if masks(g, qg) and key(g, qg) not in explicit]
+                if gs:
+                    plane_pos.append(x)
+                    plane_geoms.extend((g, key(g, qg)) for g in gs)
+                    plane_gstart.append(len(plane_geoms))
+            plane_start.append(len(plane_pos))
+        explicit_keys = [key(g1, g2) if not (is_plane[g1] and is_plane[g2]) else -1 for g1, g2 in pairs]
+        rank_keys = np.unique(np.array([key(g1, g2) for g1, g2 in pair_geoms] + [k for _, k in plane_geoms]
+                                       + [k for k in explicit_keys if k >= 0], np.int64))
+
+        def rank(k):
+            return int(np.searchsorted(rank_keys, k)) if k >= 0 else -1
+
+        body_pairs = np.array(body_pairs, np.int64).reshape(-1, 2)
+        return _lanes.pack_lanes(body_pairs, np.searchsorted(body_pairs[:, 0], np.arange(L + 1)),
+                                 np.array([(g1, g2, rank(key(g1, g2))) for g1, g2 in pair_geoms], np.int64).reshape(-1, 3),
+                                 pair_gstart, plane_pos, plane_start,
+                                 np.array([(g, rank(k)) for g, k in plane_geoms], np.int64).reshape(-1, 2),
+                                 plane_gstart, [rank(k) for k in explicit_keys], rank_keys)
 
     @staticmethod
     def _plane_filter(planes, plane_pos, weld, parent_pos, hasb, ctor, caor, ex_start, ex_other, gct, gca,
@@ -428,13 +491,19 @@ class BroadPhase:
         body_pos, body_rot = self._check(body_pos, body_rot, (B,))
         # More chunks than threads, handed out one at a time (parallel_chunksize 1): a thread
         # that the OS pauses does not hold up the whole call.
-        C = max(1, min(4 * numba.get_num_threads(), B))
+        # The lane kernel takes worlds _lanes.LANES at a time: no chunk of fewer.
+        C = max(1, min(4 * numba.get_num_threads(), B if self._J is None else -(-B // _lanes.LANES)))
         per = (B + C - 1) // C
         if self._batch is None or self._batch["ctx"].shape[0] != C:
             L, G = self.body_count, self.geom_count
             self._batch = {"W": np.zeros((C, self._nW)), "sap": np.tile(self._sap_init, (C, 1)),
                            "stats": np.zeros((C, _k.N_STATS), np.int64), "info": np.zeros((C, 4), np.int64),
                            "ctx": np.zeros((C, _k.NCTX), np.int64)}
+            if self._J is not None:
+                self._batch["LW"] = np.zeros((C, _lanes.lane_workspace_size(
+                    self.body_count, self.position_count, G, int(self._I[_k.H_Q]))))
+                self._batch["LB"] = np.zeros((C, _lanes.lane_bits_size(self.position_count,
+                                                                        int(self._J[_lanes.J_NR]))), np.int64)
             self._set_batch_buffers(4 * L + 64, max(256, 2 * G * per))
         bt = self._batch
         world_count = np.zeros(B, np.int64)
@@ -442,7 +511,11 @@ class BroadPhase:
         chunk_total = np.zeros(C, np.int64)
         while True:
             with numba.parallel_chunksize(1):
-                _k.step_batch(body_pos, body_rot, bt["ctx"], world_count, world_info, chunk_total)
+                if self._J is None:
+                    _k.step_batch(body_pos, body_rot, bt["ctx"], world_count, world_info, chunk_total)
+                else:
+                    _lanes.step_lanes(body_pos, body_rot, bt["ctx"], self._J, bt["LW"], bt["LB"], world_count,
+                                      world_info, chunk_total)
             bad = np.flatnonzero(world_count < 0)
             if len(bad):
                 w = int(bad[0])

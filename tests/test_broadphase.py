@@ -113,6 +113,82 @@ def test_batch_equals_single_world_by_world():
     assert np.all(np.diff(got[:, 0]) >= 0)
 
 
+def _walls_scene(extras, filter_parent):
+    art, _, n_free, _ = _walls_and_dumbbells(np.random.default_rng(12), extras, filter_parent)
+
+    def poses(rng, worlds):
+        p = [_walls_poses(rng, n_free) for _ in range(worlds)]
+        return np.stack([a for a, _ in p]), np.stack([b for _, b in p])
+    return art, poses
+
+
+def _generated(sc):
+    return sc.articulation, sc.poses
+
+
+LANE_SCENES = [
+    ("chain", lambda: _generated(testing.chain(40, seed=41, planes=1, joint_range=1.6))),
+    ("tree", lambda: _generated(testing.branching_tree(40, seed=42, planes=2))),
+    ("robots", lambda: _generated(testing.many_robots(8, 5, seed=43, spread=0.6, planes=1))),
+    ("walls", lambda: _walls_scene(True, True)),
+    ("walls_no_parent_rule", lambda: _walls_scene(True, False)),
+]
+
+
+@pytest.mark.parametrize("make", [s[1] for s in LANE_SCENES], ids=[s[0] for s in LANE_SCENES])
+def test_lanes_equal_single_worlds(make):
+    """The batch of a small model runs eight worlds at a time in SIMD lanes (`_kernels.lanes`):
+    planes, multi-geom and loose bodies, the world's leaves, explicit pairs (a plane's, two
+    planes'), exclusions, masks and bare bodies must give the single-world answers, and a world
+    count that leaves a partial group of lanes too."""
+    art, poses = make()
+    bp = BroadPhase(art)
+    assert bp._J is not None  # the lane kernel runs these
+    pos, rot = poses(np.random.default_rng(44), 21)
+    got = bp.pairs_batch(pos, rot)
+    assert bp.stats["pairs"] == len(got)
+    total = 0
+    for w in range(len(pos)):
+        want = bp.pairs(pos[w], rot[w])
+        assert np.array_equal(got[got[:, 0] == w, 1:], want)
+        total += len(want)
+    assert len(got) == total > 40  # the scene had hits
+    planes = np.flatnonzero(art.geom_is_plane)
+    assert np.isin(got[:, 1:], planes).any()  # and plane pairs
+
+
+def test_lanes_keep_every_pair_of_each_world_and_name_a_bad_one():
+    art, poses = _walls_scene(True, True)
+    bp = BroadPhase(art)
+    pos, rot = poses(np.random.default_rng(45), 19)
+    want = bp.pairs_batch(pos, rot)
+    bp._set_batch_buffers(1, 3)  # tiny buffers: grown, rerun
+    assert np.array_equal(bp.pairs_batch(pos, rot), want)
+    J = bp._J
+    bp._J = None  # the per-world kernel on the same worlds
+    bp._batch = None
+    assert np.array_equal(bp.pairs_batch(pos, rot), want)
+    bp._J = J
+    bp._batch = None
+    pos[17, 5, 1] = np.nan  # in the last, partial group
+    with pytest.raises(ValueError, match="world 17, body 5"):
+        bp.pairs_batch(pos, rot)
+    pos[17, 5, 1] = 0.0
+    assert np.array_equal(bp.pairs_batch(pos, rot), want)
+
+
+def test_big_models_batch_world_by_world():
+    # More static body pairs than the lanes take: the per-world kernel runs the batch.
+    sc = testing.free_hulls(125, seed=46)
+    bp = BroadPhase(sc.articulation)
+    assert bp._J is None
+    pos, rot = testing.hull_motion(sc, np.random.default_rng(0), 3, 0.02)
+    got = bp.pairs_batch(pos, rot)
+    for w in range(len(pos)):
+        assert np.array_equal(got[got[:, 0] == w, 1:], bp.pairs(pos[w], rot[w]))
+    assert len(got) > 100
+
+
 def test_batch_grows_its_buffers_and_keeps_every_pair():
     sc = testing.free_hulls(27, seed=5)
     bp = BroadPhase(sc.articulation)
@@ -536,12 +612,13 @@ def test_slightly_scaled_rotations_never_lose_a_touching_pair():
     assert hits > 0  # some of these poses really touch
 
 
-def test_loose_multi_geom_bodies_skip_body_tests_and_lose_nothing():
+def _walls_and_dumbbells(rng, extras=False, filter_parent=True):
     # The world's static geoms (a ring of walls, scattered blocks) become leaves of their own,
-    # and dumbbells (two small geoms far apart) have body bounds that are mostly empty space:
-    # the kernel skips their body-level tests (BroadPhase's `single` < 0). Both must still equal
-    # the bounds twin.
-    rng = np.random.default_rng(12)
+    # and dumbbells (two small geoms far apart) have body bounds that are mostly empty space.
+    # A floor in the world too (never paired with the world's leaves: one weld group), wall 1
+    # on its own mask (pairs with nothing but its explicit pair with the first geom of body 2),
+    # and the world excluded with body 1: the leaves inherit the world's rules. With extras, a
+    # second plane and explicit pairs of a plane with a geom and of the two planes (never a pair).
     walls = [((0, 3, 0), (3, 0.2, 0.5)), ((0, -3, 0), (3, 0.2, 0.5)), ((3, 0, 0), (0.2, 3, 0.5)),
              ((-3, 0, 0), (0.2, 3, 0.5)), ((1, 1, 0), (0.3, 0.3, 0.3)), ((-1.5, 0.5, 0), (0.2, 0.2, 0.2))]
     n_free = 30
@@ -561,32 +638,49 @@ def test_loose_multi_geom_bodies_skip_body_tests_and_lose_nothing():
             geom_body.append(b)
             clouds.append(testing.scenes.random_shape(rng, 0.4))
             gpos.append((0, 0, 0))
-    # A floor in the world too (never paired with the world's leaves: one weld group), wall 1
-    # on its own mask (pairs with nothing but its explicit pair with the first geom of body 2),
-    # and the world excluded with body 1: the leaves inherit the world's rules.
     geom_body.append(0)
     clouds.append(shapes.plane((0, 0, 1), -0.3))
     gpos.append((0, 0, 0))
+    g_b2 = geom_body.index(2)
+    pairs = [(1, g_b2)]
+    if extras:
+        floor = len(geom_body) - 1
+        geom_body.append(0)
+        clouds.append(shapes.plane((1, 0, 0), -2.5))
+        gpos.append((0, 0, 0))
+        pairs += [(floor, floor + 1), (floor, geom_body.index(4)), (geom_body.index(5), floor + 1)]
     G = len(geom_body)
     contype = np.ones(G, np.int64)
     contype[1] = 2
-    g_b2 = geom_body.index(2)
     art = Articulation(parent, geom_body, clouds, geom_pos=np.array(gpos, float),
-                       geom_contype=contype, geom_conaffinity=contype,
-                       geom_margin=rng.uniform(0, 0.02, G), exclude=[(0, 1)], pairs=[(1, g_b2)])
+                       geom_contype=contype, geom_conaffinity=contype, geom_margin=rng.uniform(0, 0.02, G),
+                       exclude=[(0, 1)], pairs=pairs, filter_parent=filter_parent)
+    return art, len(walls), n_free, g_b2
+
+
+def _walls_poses(rng, n_free):
+    pos = np.concatenate([np.zeros((1, 3)), rng.uniform([-3.2, -3.2, -0.5], [3.2, 3.2, 0.5], (n_free, 3))])
+    rot = np.concatenate([np.eye(3)[None], testing.scenes.random_rotation(rng, n_free)])
+    return pos, rot
+
+
+def test_loose_multi_geom_bodies_skip_body_tests_and_lose_nothing():
+    # Both the world's leaves and the loose dumbbells (the kernel skips their body-level tests:
+    # BroadPhase's `single` < 0) must still equal the bounds twin.
+    rng = np.random.default_rng(12)
+    art, n_walls, n_free, g_b2 = _walls_and_dumbbells(rng)
     bp = BroadPhase(art)
     # The world's 6 geoms became leaves of their own (positions 1..6); the dumbbells are loose.
     I = bp._I
     Lp, V = I[_kern.H_L], I[_kern.H_V]
-    assert V == len(walls) and Lp == art.body_count + V == bp.position_count
+    assert V == n_walls and Lp == art.body_count + V == bp.position_count
     single = I[_kern.HEADER + art.body_count + 6 * Lp:][:Lp]
     hasb = I[_kern.HEADER + art.body_count + 7 * Lp:][:Lp]
     assert hasb[0] == 0 and np.all(single[1:V + 1] == 1)
     assert np.sum(single < 0) == n_free // 3
     hits = touching = explicit = 0
     for _ in range(40):
-        pos = np.concatenate([np.zeros((1, 3)), rng.uniform([-3.2, -3.2, -0.5], [3.2, 3.2, 0.5], (n_free, 3))])
-        rot = np.concatenate([np.eye(3)[None], testing.scenes.random_rotation(rng, n_free)])
+        pos, rot = _walls_poses(rng, n_free)
         got = bp.pairs(pos, rot)
         assert _rows(got) == _rows(testing.brute_force_bound_pairs(art, pos, rot))
         exact = testing.brute_force_pairs(art, pos, rot)

@@ -1055,36 +1055,8 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
                     k = _emit(keys, k, g, qg, S)
     # 5b. explicit pairs: only the bounds test, with the pair's own inflation if given.
     for i in range(pair_g.shape[0]):
-        g1 = pair_g[i, 0]
-        g2 = pair_g[i, 1]
-        m1 = gmargin[g1] if np.isnan(pair_m[i]) else pair_m[i]
-        m2 = gmargin[g2] if np.isnan(pair_m[i]) else pair_m[i]
-        p1 = gplane[g1, 0] != 0.0 or gplane[g1, 1] != 0.0 or gplane[g1, 2] != 0.0
-        p2 = gplane[g2, 0] != 0.0 or gplane[g2, 1] != 0.0 or gplane[g2, 2] != 0.0
-        if p1 and p2:
-            continue  # two halfspaces: never a pair
-        if p1 or p2:
-            gp = g1 if p1 else g2
-            gs = g2 if p1 else g1
-            mp = m1 if p1 else m2
-            ms = m2 if p1 else m1
-            _plane_world(gp, body_pos, body_rot, geom_bid, gplane, tmp, 0)
-            b = geom_bid[gs]
-            _world_row(body_rot, body_pos, b, glocal, gs, tmp, 1)
-            stats[ST_PLANE] += 1
-            if _plane_hit(tmp, 0, mp, tmp, 1, ms):
-                k = _emit(keys, k, g1, g2, S)
-            continue
-        b = geom_bid[g1]
-        _world_row(body_rot, body_pos, b, glocal, g1, tmp, 0)
-        b = geom_bid[g2]
-        _world_row(body_rot, body_pos, b, glocal, g2, tmp, 1)
-        stats[ST_GEOM_SPHERE] += 1
-        if not _sphere_hit(tmp, 0, m1, tmp, 1, m2):
-            continue
-        stats[ST_GEOM_OBB] += 1
-        if obb_hit(tmp, 0, m1, tmp, 1, m2):
-            k = _emit(keys, k, g1, g2, S)
+        if _explicit_hit(i, pair_g, pair_m, gmargin, gplane, geom_bid, glocal, body_pos, body_rot, tmp, stats):
+            k = _emit(keys, k, pair_g[i, 0], pair_g[i, 1], S)
     stats[ST_OUT] = k
     if k <= keys.shape[0]:
         _sort_keys(keys, k, k4, S, G, scr)
@@ -1224,6 +1196,36 @@ def _plane_world(g, body_pos, body_rot, geom_bid, gplane, out, o):
         out[o, i] = n
         d += n * body_pos[b, i]
     out[o, 3] = d
+
+
+@nb.njit(cache=True, inline="always")
+def _explicit_hit(i, pair_g, pair_m, gmargin, gplane, geom_bid, glocal, body_pos, body_rot, tmp, stats):
+    # Explicit pair i: its geoms' world bounds (rows 0 and 1 of tmp), inflated by the pair's own
+    # margin if given, else the geoms'; a plane against the other geom's bounds; never two planes.
+    g1 = pair_g[i, 0]
+    g2 = pair_g[i, 1]
+    m1 = gmargin[g1] if np.isnan(pair_m[i]) else pair_m[i]
+    m2 = gmargin[g2] if np.isnan(pair_m[i]) else pair_m[i]
+    p1 = gplane[g1, 0] != 0.0 or gplane[g1, 1] != 0.0 or gplane[g1, 2] != 0.0
+    p2 = gplane[g2, 0] != 0.0 or gplane[g2, 1] != 0.0 or gplane[g2, 2] != 0.0
+    if p1 and p2:
+        return False
+    if p1 or p2:
+        gp = g1 if p1 else g2
+        gs = g2 if p1 else g1
+        mp = m1 if p1 else m2
+        ms = m2 if p1 else m1
+        _plane_world(gp, body_pos, body_rot, geom_bid, gplane, tmp, 0)
+        _world_row(body_rot, body_pos, geom_bid[gs], glocal, gs, tmp, 1)
+        stats[ST_PLANE] += 1
+        return _plane_hit(tmp, 0, mp, tmp, 1, ms)
+    _world_row(body_rot, body_pos, geom_bid[g1], glocal, g1, tmp, 0)
+    _world_row(body_rot, body_pos, geom_bid[g2], glocal, g2, tmp, 1)
+    stats[ST_GEOM_SPHERE] += 1
+    if not _sphere_hit(tmp, 0, m1, tmp, 1, m2):
+        return False
+    stats[ST_GEOM_OBB] += 1
+    return obb_hit(tmp, 0, m1, tmp, 1, m2)
 
 
 # ------------------------------------------------------------------------------- entry points

@@ -1,0 +1,48 @@
+"""Lane-parallel tests written as LLVM vector IR, for the kernels' hottest loops.
+
+numba leaves vectorisation to LLVM, which turns a loop over eight lanes into vector code only
+when it sees the whole pattern: a bit mask built from eight comparisons, ``m |= c << l``, comes out
+as eight scalar tests, or as a vector compare followed by a shuffle-and-or reduction. Written as
+one ``<8 x i1>`` comparison bitcast to ``i8``, it is the canonical form every LLVM target lowers
+well (AVX-512: compares into a mask register and one ``kmov``; AVX2 and NEON: compares and a
+movemask or its equivalent). The comparisons are ``fcmp ole``: the same as numba's ``<=`` on floats
+(false on NaN), so the results are bit for bit the scalar code's.
+"""
+
+from __future__ import annotations
+
+from llvmlite import ir
+from numba.core import types
+from numba.extending import intrinsic
+
+LANES = 8
+
+
+@intrinsic
+def aabb_mask8(typingctx, px, py):
+    """Bit l set when the AABBs of lane l overlap (closed intervals on every axis).
+
+    ``px`` and ``py`` are addresses (int64) of two ``(6, 8)`` float64 blocks: lo x, lo y, lo z,
+    hi x, hi y, hi z, each over the eight lanes.
+    """
+    if not (isinstance(px, types.Integer) and isinstance(py, types.Integer)):
+        return None
+    sig = types.uint64(px, py)
+
+    def codegen(context, builder, signature, args):
+        vec = ir.VectorType(ir.DoubleType(), LANES)
+        ax = builder.inttoptr(args[0], vec.as_pointer())
+        ay = builder.inttoptr(args[1], vec.as_pointer())
+        i64 = ir.IntType(64)
+
+        def row(p, i):
+            return builder.load(builder.gep(p, [ir.Constant(i64, i)]), align=8)
+
+        m = None
+        for i in range(3):
+            c = builder.and_(builder.fcmp_ordered("<=", row(ax, i), row(ay, 3 + i)),
+                             builder.fcmp_ordered("<=", row(ay, i), row(ax, 3 + i)))
+            m = c if m is None else builder.and_(m, c)
+        return builder.zext(builder.bitcast(m, ir.IntType(LANES)), i64)
+
+    return sig, codegen

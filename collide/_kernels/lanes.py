@@ -1,0 +1,592 @@
+"""Batched broad phase, eight worlds at a time in SIMD lanes, for models of a few thousand body pairs.
+
+The per-world kernel (`broadphase._world`) branches on every outcome it can and walks the tree:
+right for one world, where most bodies are far apart. A batch of worlds of one small model (a
+robot, a creature: reinforcement learning, sampling-based planning) runs the same model many
+times; here every static candidate -- each body pair that passes the static filter, each (plane,
+body) pair, each explicit pair -- is tested in ``LANES`` worlds at once, every test a loop over the
+lanes without a branch (one vector instruction each on AVX-512, two on AVX2), and the outcomes kept
+as a lane bit mask. Only a pair that hits in some lane goes on to its next test.
+
+The answer is the per-world kernel's, bit for bit: the same tests (body AABBs, the static filter,
+body sphere and OBB, the geoms' AABB, sphere and OBB, the planes', explicit pairs) in the same
+floating-point operations, and every key a world may report has a *rank* (its place among all of
+them, sorted): a world's hits set bits of a bitset, which read in order give its sorted keys, no
+sort. A group holding a bad pose is run world by world by `broadphase._world` instead, which names
+the offender.
+
+Static tables (``J``, int64; `pack_lanes` builds them from the per-world model, see
+`collide.broadphase.BroadPhase`): the body pairs ``(x, y)`` (positions, x < y), each with its geom
+pairs ``(g1, g2, rank)``; the (plane, position) pairs, each with its geoms ``(g, rank)``; the rank of
+each explicit pair; the keys by rank.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+from numba.cpython.unsafe.numbers import trailing_zeros
+import numpy as np
+
+from ._ptr import f64_ptr, i64_ptr
+from ._simd import aabb_mask8
+from .broadphase import (BIG, C_KEYS, C_NKEYS, EPS_PAR, N_STATS, NCTX, OK, ORTHO_TOL, ROW, SLACK_POS, SLACK_REL,
+                         ST_BODY_OBB, ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_SUBTREE,
+                         ST_OUT, ST_PLANE, _buffers, _explicit_hit, _views, _world)
+
+LANES = 8
+MAX_BODY_PAIRS = 4096  # above this many static body pairs, the tree of the per-world kernel culls better
+
+# Header of J: counts.
+J_NP, J_NLG, J_NPL, J_NPLG, J_NR, J_P, J_NV = range(7)
+J_HEADER = 7
+
+
+def pack_lanes(body_pairs, row_start, pair_geoms, pair_gstart, plane_pos, plane_start, plane_geoms, plane_gstart,
+               explicit_rank, rank_keys) -> np.ndarray:
+    """Flatten the lane tables into one int64 array (see `_lane_views` for the order).
+
+    ``body_pairs`` (NP, 2) positions, sorted, position a's at ``row_start[a]:row_start[a + 1]``; ``pair_geoms`` (NLG, 3) ``(g1, g2, rank)`` with pair p's at
+    ``pair_gstart[p]:pair_gstart[p + 1]``; ``plane_pos`` (NPL,) positions, plane i's at
+    ``plane_start[i]:plane_start[i + 1]``; ``plane_geoms`` (NPLG, 2) ``(g, rank)``, entry e's at
+    ``plane_gstart[e]:plane_gstart[e + 1]``; ``explicit_rank`` (P,) (-1: never reported);
+    ``rank_keys`` (NR,) sorted keys.
+    """
+    head = np.array([len(body_pairs), len(pair_geoms), len(plane_pos), len(plane_geoms), len(rank_keys),
+                     len(explicit_rank), LANES], np.int64)
+    L = len(row_start) - 1
+    parts = [head, body_pairs, row_start, pair_gstart, pair_geoms, plane_start, plane_pos, plane_gstart, plane_geoms,
+             explicit_rank, rank_keys]
+    return np.concatenate([np.asarray(p, np.int64).reshape(-1) for p in parts])
+
+
+def lane_workspace_size(NB: int, L: int, G: int, Q: int) -> int:
+    """float64 workspace of one thread: poses, body and geom rows and AABBs, planes (all x LANES),
+    two scratch rows."""
+    return LANES * (12 * NB + (ROW + 12) * L + (ROW + 6) * G + 4 * max(Q, 1)) + 2 * ROW
+
+
+def lane_bits_size(L: int, NR: int) -> int:
+    """int64 scratch of one thread: the lanes' bitsets over the ranks, then a stamp per position."""
+    return LANES * ((NR + 63) // 64) + L
+
+
+@nb.njit(cache=True, inline="always")
+def _lane_views(J, L, Q, a):
+    NP = J[J_NP]
+    NLG = J[J_NLG]
+    NPL = J[J_NPL]
+    NPLG = J[J_NPLG]
+    NR = J[J_NR]
+    P = J[J_P]
+    o = J_HEADER
+    body_pairs = nb.carray(i64_ptr(a + 8 * o), (NP, 2))
+    o += 2 * NP
+    row_start = J[o:o + L + 1]
+    o += L + 1
+    pair_gstart = J[o:o + NP + 1]
+    o += NP + 1
+    pair_geoms = nb.carray(i64_ptr(a + 8 * o), (NLG, 3))
+    o += 3 * NLG
+    plane_start = J[o:o + Q + 1]
+    o += Q + 1
+    plane_pos = J[o:o + NPL]
+    o += NPL
+    plane_gstart = J[o:o + NPL + 1]
+    o += NPL + 1
+    plane_geoms = nb.carray(i64_ptr(a + 8 * o), (NPLG, 2))
+    o += 2 * NPLG
+    explicit_rank = J[o:o + P]
+    o += P
+    rank_keys = J[o:o + NR]
+    return body_pairs, row_start, pair_gstart, pair_geoms, plane_start, plane_pos, plane_gstart, plane_geoms, explicit_rank, rank_keys
+
+
+# ------------------------------------------------------------------------------- lane tests
+# Each is the per-world kernel's test (same operations, same order: the same bits) written as a
+# loop over the lanes, the lane index innermost.
+
+@nb.njit(cache=True, inline="always")
+def _lane_row(ps, b, src, s, dst, d, nv):
+    # dst[d] = world rows (ROW, LANES) of local row src[s] under body b's poses (`_world_row`).
+    for i in range(3):
+        for l in range(nv):
+            r0 = ps[b, 3 + 3 * i, l]
+            r1 = ps[b, 4 + 3 * i, l]
+            r2 = ps[b, 5 + 3 * i, l]
+            dst[d, i, l] = ps[b, i, l] + r0 * src[s, 0] + r1 * src[s, 1] + r2 * src[s, 2]
+            dst[d, 15 + i, l] = ps[b, i, l] + r0 * src[s, 15] + r1 * src[s, 16] + r2 * src[s, 17]
+            for j in range(3):
+                dst[d, 3 + 3 * i + j, l] = r0 * src[s, 3 + j] + r1 * src[s, 6 + j] + r2 * src[s, 9 + j]
+    for l in range(nv):
+        for j in range(12, 15):
+            dst[d, j, l] = src[s, j]
+        dst[d, 18, l] = src[s, 18]
+
+
+@nb.njit(cache=True, inline="always")
+def _lane_bounds(A, a, ma, B, b, mb, nv):
+    """Lane mask: rows A[a] and B[b] ((ROW, LANES)) inflated by ma, mb overlap, sphere
+    (`broadphase._sphere_hit`) and OBB (`broadphase.obb_hit`), every axis evaluated."""
+    m = np.uint64(0)
+    for l in range(nv):
+        dx = A[a, 15, l] - B[b, 15, l]
+        dy = A[a, 16, l] - B[b, 16, l]
+        dz = A[a, 17, l] - B[b, 17, l]
+        r = A[a, 18, l] + ma + B[b, 18, l] + mb
+        pos = (abs(A[a, 15, l]) + abs(A[a, 16, l]) + abs(A[a, 17, l]) + abs(B[b, 15, l]) + abs(B[b, 16, l])
+               + abs(B[b, 17, l]))
+        r += SLACK_REL * r + SLACK_POS * pos
+        ok = dx * dx + dy * dy + dz * dz <= r * r
+        ea0 = A[a, 12, l] + ma
+        ea1 = A[a, 13, l] + ma
+        ea2 = A[a, 14, l] + ma
+        eb0 = B[b, 12, l] + mb
+        eb1 = B[b, 13, l] + mb
+        eb2 = B[b, 14, l] + mb
+        r00 = A[a, 3, l] * B[b, 3, l] + A[a, 6, l] * B[b, 6, l] + A[a, 9, l] * B[b, 9, l]
+        r01 = A[a, 3, l] * B[b, 4, l] + A[a, 6, l] * B[b, 7, l] + A[a, 9, l] * B[b, 10, l]
+        r02 = A[a, 3, l] * B[b, 5, l] + A[a, 6, l] * B[b, 8, l] + A[a, 9, l] * B[b, 11, l]
+        r10 = A[a, 4, l] * B[b, 3, l] + A[a, 7, l] * B[b, 6, l] + A[a, 10, l] * B[b, 9, l]
+        r11 = A[a, 4, l] * B[b, 4, l] + A[a, 7, l] * B[b, 7, l] + A[a, 10, l] * B[b, 10, l]
+        r12 = A[a, 4, l] * B[b, 5, l] + A[a, 7, l] * B[b, 8, l] + A[a, 10, l] * B[b, 11, l]
+        r20 = A[a, 5, l] * B[b, 3, l] + A[a, 8, l] * B[b, 6, l] + A[a, 11, l] * B[b, 9, l]
+        r21 = A[a, 5, l] * B[b, 4, l] + A[a, 8, l] * B[b, 7, l] + A[a, 11, l] * B[b, 10, l]
+        r22 = A[a, 5, l] * B[b, 5, l] + A[a, 8, l] * B[b, 8, l] + A[a, 11, l] * B[b, 11, l]
+        a00 = abs(r00) + EPS_PAR
+        a01 = abs(r01) + EPS_PAR
+        a02 = abs(r02) + EPS_PAR
+        a10 = abs(r10) + EPS_PAR
+        a11 = abs(r11) + EPS_PAR
+        a12 = abs(r12) + EPS_PAR
+        a20 = abs(r20) + EPS_PAR
+        a21 = abs(r21) + EPS_PAR
+        a22 = abs(r22) + EPS_PAR
+        d0 = B[b, 0, l] - A[a, 0, l]
+        d1 = B[b, 1, l] - A[a, 1, l]
+        d2 = B[b, 2, l] - A[a, 2, l]
+        t0 = d0 * A[a, 3, l] + d1 * A[a, 6, l] + d2 * A[a, 9, l]
+        t1 = d0 * A[a, 4, l] + d1 * A[a, 7, l] + d2 * A[a, 10, l]
+        t2 = d0 * A[a, 5, l] + d1 * A[a, 8, l] + d2 * A[a, 11, l]
+        pos = abs(A[a, 0, l]) + abs(A[a, 1, l]) + abs(A[a, 2, l]) + abs(B[b, 0, l]) + abs(B[b, 1, l]) + abs(B[b, 2, l])
+        tol = SLACK_REL * (ea0 + ea1 + ea2 + eb0 + eb1 + eb2) + SLACK_POS * pos
+        ok &= abs(t0) <= ea0 + eb0 * a00 + eb1 * a01 + eb2 * a02 + tol
+        ok &= abs(t1) <= ea1 + eb0 * a10 + eb1 * a11 + eb2 * a12 + tol
+        ok &= abs(t2) <= ea2 + eb0 * a20 + eb1 * a21 + eb2 * a22 + tol
+        ok &= abs(t0 * r00 + t1 * r10 + t2 * r20) <= ea0 * a00 + ea1 * a10 + ea2 * a20 + eb0 + tol
+        ok &= abs(t0 * r01 + t1 * r11 + t2 * r21) <= ea0 * a01 + ea1 * a11 + ea2 * a21 + eb1 + tol
+        ok &= abs(t0 * r02 + t1 * r12 + t2 * r22) <= ea0 * a02 + ea1 * a12 + ea2 * a22 + eb2 + tol
+        ok &= abs(t2 * r10 - t1 * r20) <= ea1 * a20 + ea2 * a10 + eb1 * a02 + eb2 * a01 + tol
+        ok &= abs(t2 * r11 - t1 * r21) <= ea1 * a21 + ea2 * a11 + eb0 * a02 + eb2 * a00 + tol
+        ok &= abs(t2 * r12 - t1 * r22) <= ea1 * a22 + ea2 * a12 + eb0 * a01 + eb1 * a00 + tol
+        ok &= abs(t0 * r20 - t2 * r00) <= ea0 * a20 + ea2 * a00 + eb1 * a12 + eb2 * a11 + tol
+        ok &= abs(t0 * r21 - t2 * r01) <= ea0 * a21 + ea2 * a01 + eb0 * a12 + eb2 * a10 + tol
+        ok &= abs(t0 * r22 - t2 * r02) <= ea0 * a22 + ea2 * a02 + eb0 * a11 + eb1 * a10 + tol
+        ok &= abs(t1 * r00 - t0 * r10) <= ea0 * a10 + ea1 * a00 + eb1 * a22 + eb2 * a21 + tol
+        ok &= abs(t1 * r01 - t0 * r11) <= ea0 * a11 + ea1 * a01 + eb0 * a22 + eb2 * a20 + tol
+        ok &= abs(t1 * r02 - t0 * r12) <= ea0 * a12 + ea1 * a02 + eb0 * a21 + eb1 * a20 + tol
+        m |= np.uint64(ok) << np.uint64(l)
+    return m
+
+
+@nb.njit(cache=True, inline="always")
+def _lane_plane(n, i, lim, scale, Lr, g, mg, l):
+    # `broadphase._plane_hit_local` in lane l: n[i] (4, LANES) the normal, lim and scale scalars of
+    # the lane, Lr[g] a local row (no lanes).
+    n0 = n[i, 0, l]
+    n1 = n[i, 1, l]
+    n2 = n[i, 2, l]
+    sc = n0 * Lr[g, 15] + n1 * Lr[g, 16] + n2 * Lr[g, 17]
+    r = Lr[g, 18] + mg
+    c = n0 * Lr[g, 0] + n1 * Lr[g, 1] + n2 * Lr[g, 2]
+    ext = 0.0
+    for j in range(3):
+        ext += abs(n0 * Lr[g, 3 + j] + n1 * Lr[g, 6 + j] + n2 * Lr[g, 9 + j]) * (Lr[g, 12 + j] + mg)
+    return ((sc - r <= lim + SLACK_REL * r + SLACK_POS * scale)
+            & (c - ext <= lim + SLACK_REL * ext + SLACK_POS * scale))
+
+
+@nb.njit(cache=True, inline="always")
+def _set_bits(bits, r, m, nv):
+    # Rank r in the bitset of every lane in mask m.
+    wi = r >> 6
+    bit = np.uint64(1) << np.uint64(r & 63)
+    for l in range(nv):
+        bits[wi, l] |= np.int64(bit * ((m >> np.uint64(l)) & np.uint64(1)))
+
+
+@nb.njit(cache=True, inline="always")
+def _lane_pair(p, m, x, y, single, wb, wa_at, stamp, order, gstart, pgeoms, glocal, gmargin, ps, gwl, gal, gal_at,
+               pair_gstart, pair_geoms, bits, stats, nv):
+    # Static body pair p = (x, y), whose AABBs meet in the lanes of m: body sphere and OBB, then
+    # its geom pairs (`_world`, stage 4), the hits into the lanes' bitsets.
+    sx = single[x] > 0
+    sy = single[y] > 0
+    if single[x] >= 0 and single[y] >= 0:  # a loose body skips its body-level tests (see _world)
+        n = _popcount(m)
+        stats[ST_BODY_SPHERE] += n
+        stats[ST_BODY_OBB] += n
+        m &= _lane_bounds(wb, x, 0.0, wb, y, 0.0, nv)
+        if m == 0:
+            return
+    if not sx:
+        _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gmargin, ps, gwl, gal, nv)
+    if not sy:
+        _lane_geoms(y, stamp, order, gstart, pgeoms, glocal, gmargin, ps, gwl, gal, nv)
+    for e in range(pair_gstart[p], pair_gstart[p + 1]):
+        g1 = pair_geoms[e, 0]
+        g2 = pair_geoms[e, 1]
+        mm = m
+        if not (sx and sy):
+            n = _popcount(m)
+            stats[ST_GEOM_AABB] += n
+            stats[ST_GEOM_SPHERE] += n
+            stats[ST_GEOM_OBB] += n
+            mm &= aabb_mask8(wa_at + 384 * x if sx else gal_at + 384 * g1, wa_at + 384 * y if sy else gal_at + 384 * g2)
+            mm &= _lane_bounds(wb if sx else gwl, x if sx else g1, 0.0 if sx else gmargin[g1],
+                               wb if sy else gwl, y if sy else g2, 0.0 if sy else gmargin[g2], nv)
+        _set_bits(bits, pair_geoms[e, 2], mm, nv)
+
+
+# ------------------------------------------------------------------------------- one group
+
+@nb.njit(cache=True)
+def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats):
+    """Worlds ``w0 .. w0 + nl - 1`` (nl <= LANES) into the bitsets ``LB[:LANES * NWd]``; returns
+    False (nothing written) when a pose is bad."""
+    (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
+     caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
+     pair_keys,
+     blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp, baabb_t,
+     flat_root, flat_n, flat_mask) = _views(I, F, W)
+    Q = planes.shape[0]
+    (body_pairs, row_start, pair_gstart, pair_geoms, plane_start, plane_pos, plane_gstart, plane_geoms,
+     explicit_rank, rank_keys) = _lane_views(J, L, Q, np.int64(J.ctypes.data))
+    NB = pos_all.shape[1]
+    NR = rank_keys.shape[0]
+    NWd = (NR + 63) // 64
+    la = np.int64(LW.ctypes.data)
+    o = 0
+    ps = nb.carray(f64_ptr(la + 8 * o), (NB, 12, LANES))
+    o += 12 * LANES * NB
+    wb = nb.carray(f64_ptr(la + 8 * o), (L, ROW, LANES))
+    o += ROW * LANES * L
+    wa = nb.carray(f64_ptr(la + 8 * o), (L, 6, LANES))
+    wa_at = la + 8 * o  # (6, LANES) blocks of 384 bytes, for aabb_mask8
+    o += 6 * LANES * L
+    gwl = nb.carray(f64_ptr(la + 8 * o), (G, ROW, LANES))
+    o += ROW * LANES * G
+    gal = nb.carray(f64_ptr(la + 8 * o), (G, 6, LANES))
+    gal_at = la + 8 * o
+    o += 6 * LANES * G
+    sa = nb.carray(f64_ptr(la + 8 * o), (L, 6, LANES))
+    sa_at = la + 8 * o
+    o += 6 * LANES * L
+    pln = nb.carray(f64_ptr(la + 8 * o), (max(Q, 1), 4, LANES))
+    lb = np.int64(LB.ctypes.data)
+    bits = nb.carray(i64_ptr(lb), (NWd, LANES))
+    stamp = nb.carray(i64_ptr(lb + 8 * LANES * NWd), L)
+    valid = (np.uint64(1) << np.uint64(nl)) - np.uint64(1)  # nl <= LANES < 64
+    nv = J[J_NV]  # LANES, unknown to the compiler
+
+    # 1. poses into lanes (lanes past nl repeat world w0: valid poses, results ignored), checked
+    # as `_world` checks them, and the bounds of every position.
+    for b in range(NB):
+        for l in range(nv):
+            w = w0 + l if l < nl else w0
+            for i in range(3):
+                ps[b, i, l] = pos_all[w, b, i]
+                for j in range(3):
+                    ps[b, 3 + 3 * i + j, l] = rot_all[w, b, i, j]
+    bad = False
+    for b in range(NB):
+        for l in range(nv):
+            r00 = ps[b, 3, l]
+            r01 = ps[b, 4, l]
+            r02 = ps[b, 5, l]
+            r10 = ps[b, 6, l]
+            r11 = ps[b, 7, l]
+            r12 = ps[b, 8, l]
+            r20 = ps[b, 9, l]
+            r21 = ps[b, 10, l]
+            r22 = ps[b, 11, l]
+            det = ((r10 * r21 - r20 * r11) * r02 + (r20 * r01 - r00 * r21) * r12
+                   + (r00 * r11 - r10 * r01) * r22)
+            ok = ((abs(r00 * r00 + r10 * r10 + r20 * r20 - 1.0) <= ORTHO_TOL)
+                  & (abs(r01 * r01 + r11 * r11 + r21 * r21 - 1.0) <= ORTHO_TOL)
+                  & (abs(r02 * r02 + r12 * r12 + r22 * r22 - 1.0) <= ORTHO_TOL)
+                  & (abs(r00 * r01 + r10 * r11 + r20 * r21) <= ORTHO_TOL)
+                  & (abs(r00 * r02 + r10 * r12 + r20 * r22) <= ORTHO_TOL)
+                  & (abs(r01 * r02 + r11 * r12 + r21 * r22) <= ORTHO_TOL)
+                  & (det > 0.0) & (abs(ps[b, 0, l]) < np.inf) & (abs(ps[b, 1, l]) < np.inf)
+                  & (abs(ps[b, 2, l]) < np.inf))
+            bad |= not ok
+    if bad:
+        return False
+    for x in range(L):
+        stamp[x] = 0
+        if hasb[x]:
+            _lane_row(ps, order[x], blocal, x, wb, x, nv)
+            for i in range(3):
+                for l in range(nv):
+                    h = (abs(wb[x, 3 + 3 * i, l]) * wb[x, 12, l] + abs(wb[x, 4 + 3 * i, l]) * wb[x, 13, l]
+                         + abs(wb[x, 5 + 3 * i, l]) * wb[x, 14, l])
+                    lo = wb[x, i, l] - h
+                    hi = wb[x, i, l] + h
+                    wa[x, i, l] = lo
+                    wa[x, 3 + i, l] = hi
+                    sa[x, i, l] = lo
+                    sa[x, 3 + i, l] = hi
+        else:
+            for i in range(3):
+                for l in range(nv):
+                    wa[x, i, l] = BIG
+                    wa[x, 3 + i, l] = -BIG
+                    sa[x, i, l] = BIG
+                    sa[x, 3 + i, l] = -BIG
+    # subtree AABBs in every lane (`_world`, stage 2)
+    for x in range(L - 1, 0, -1):
+        q = parent_pos[x]
+        for i in range(3):
+            for l in range(nv):
+                sa[q, i, l] = min(sa[q, i, l], sa[x, i, l])
+                sa[q, 3 + i, l] = max(sa[q, 3 + i, l], sa[x, 3 + i, l])
+    for wi in range(NWd):
+        for l in range(nv):
+            bits[wi, l] = 0
+    nlanes = np.int64(nl)
+
+    # 2. body pairs: each position a against the positions after it in depth-first order (every
+    # later subtree whole), a subtree missed in every lane skipped (as `_body_walk` in one world:
+    # a 64-link chain tests a few links below each body, not all 2000 pairs); a body hit in some
+    # lane that is a's static partner (the next in a's sorted row) goes on to sphere and OBB, then
+    # its geom pairs.
+    ntest = 0
+    for a in range(L):
+        ptr = row_start[a]
+        pend = row_start[a + 1]
+        if ptr == pend:
+            continue
+        last = body_pairs[pend - 1, 1]
+        pa = wa_at + 384 * a
+        q = a + 1
+        while q <= last:
+            ntest += 1
+            m = aabb_mask8(pa, sa_at + 384 * q) & valid
+            if m == 0:
+                q = end[q]
+                continue
+            while body_pairs[ptr, 1] < q:
+                ptr += 1
+            if body_pairs[ptr, 1] == q:
+                if end[q] != q + 1:  # a leaf's subtree AABB is its body's
+                    ntest += 1
+                    m &= aabb_mask8(pa, wa_at + 384 * q)
+                if m != 0:
+                    _lane_pair(ptr, m, a, q, single, wb, wa_at, stamp, order, gstart, pgeoms, glocal, gmargin, ps, gwl,
+                               gal, gal_at, pair_gstart, pair_geoms, bits, stats, nv)
+            q += 1
+    stats[ST_SUBTREE] += ntest * nlanes
+
+    # 3. planes: each (plane, position) pair that passes the static filter.
+    for i in range(Q):
+        qg = planes[i]
+        b = geom_bid[qg]
+        mq = gmargin[qg]
+        for l in range(nv):
+            d = gplane[qg, 3]
+            for c in range(3):
+                nc = ps[b, 3 + 3 * c, l] * gplane[qg, 0] + ps[b, 4 + 3 * c, l] * gplane[qg, 1] + ps[b, 5 + 3 * c, l] * gplane[qg, 2]
+                pln[i, c, l] = nc
+                d += nc * ps[b, c, l]
+            pln[i, 3, l] = d
+        stats[ST_PLANE] += (plane_start[i + 1] - plane_start[i]) * nlanes
+        for e in range(plane_start[i], plane_start[i + 1]):
+            x = plane_pos[e]
+            # the AABB corner deepest along -n, then the bounds (`_world`, stage 5a)
+            m = np.uint64(0)
+            for l in range(nv):
+                n0 = pln[i, 0, l]
+                n1 = pln[i, 1, l]
+                n2 = pln[i, 2, l]
+                pd = pln[i, 3, l]
+                lim = pd + mq
+                v = (n0 * (wa[x, 0, l] if n0 > 0 else wa[x, 3, l]) + n1 * (wa[x, 1, l] if n1 > 0 else wa[x, 4, l])
+                     + n2 * (wa[x, 2, l] if n2 > 0 else wa[x, 5, l]))
+                m |= np.uint64(v <= lim + SLACK_POS * (abs(v) + abs(pd))) << np.uint64(l)
+            m &= valid
+            if m == 0:
+                continue
+            h = np.uint64(0)
+            for l in range(nv):
+                pd = pln[i, 3, l]
+                # `_plane_hit` on the body's world row
+                n0 = pln[i, 0, l]
+                n1 = pln[i, 1, l]
+                n2 = pln[i, 2, l]
+                lim = pd + mq
+                scale = abs(wb[x, 0, l]) + abs(wb[x, 1, l]) + abs(wb[x, 2, l]) + abs(pd)
+                sc = n0 * wb[x, 15, l] + n1 * wb[x, 16, l] + n2 * wb[x, 17, l]
+                r = wb[x, 18, l] + 0.0
+                c0 = n0 * wb[x, 0, l] + n1 * wb[x, 1, l] + n2 * wb[x, 2, l]
+                ext = 0.0
+                for j in range(3):
+                    ext += (abs(n0 * wb[x, 3 + j, l] + n1 * wb[x, 6 + j, l] + n2 * wb[x, 9 + j, l])
+                            * (wb[x, 12 + j, l] + 0.0))
+                h |= np.uint64((sc - r <= lim + SLACK_REL * r + SLACK_POS * scale)
+                               & (c0 - ext <= lim + SLACK_REL * ext + SLACK_POS * scale)) << np.uint64(l)
+            stats[ST_PLANE] += _popcount(m)
+            m &= h
+            if m == 0:
+                continue
+            if single[x] > 0:
+                for f in range(plane_gstart[e], plane_gstart[e + 1]):
+                    _set_bits(bits, plane_geoms[f, 1], m, nv)
+                continue
+            # several geoms: each tested in the body's frame, as `_world` does
+            bb = order[x]
+            for f in range(plane_gstart[e], plane_gstart[e + 1]):
+                g = plane_geoms[f, 0]
+                stats[ST_PLANE] += _popcount(m)
+                mg = np.uint64(0)
+                for l in range(nv):
+                    n0 = pln[i, 0, l]
+                    n1 = pln[i, 1, l]
+                    n2 = pln[i, 2, l]
+                    pd = pln[i, 3, l]
+                    lim = pd + mq
+                    ln0 = ps[bb, 3, l] * n0 + ps[bb, 6, l] * n1 + ps[bb, 9, l] * n2
+                    ln1 = ps[bb, 4, l] * n0 + ps[bb, 7, l] * n1 + ps[bb, 10, l] * n2
+                    ln2 = ps[bb, 5, l] * n0 + ps[bb, 8, l] * n1 + ps[bb, 11, l] * n2
+                    llim = lim - (n0 * ps[bb, 0, l] + n1 * ps[bb, 1, l] + n2 * ps[bb, 2, l])
+                    lscale = abs(ps[bb, 0, l]) + abs(ps[bb, 1, l]) + abs(ps[bb, 2, l]) + abs(pd)
+                    mg |= np.uint64(_plane_local(ln0, ln1, ln2, llim, lscale + abs(glocal[g, 0]) + abs(glocal[g, 1])
+                                                 + abs(glocal[g, 2]), glocal, g, gmargin[g])) << np.uint64(l)
+                _set_bits(bits, plane_geoms[f, 1], m & mg, nv)
+
+    # 4. explicit pairs, lane by lane on the worlds' own pose arrays (`_world`, stage 5b).
+    for i in range(pair_g.shape[0]):
+        r = explicit_rank[i]
+        if r < 0:
+            continue
+        for l in range(nl):
+            if _explicit_hit(i, pair_g, pair_m, gmargin, gplane, geom_bid, glocal, pos_all[w0 + l],
+                             rot_all[w0 + l], tmp, stats):
+                _set_bits(bits, r, np.uint64(1) << np.uint64(l), nv)
+    return True
+
+
+@nb.njit(cache=True, inline="always")
+def _plane_local(n0, n1, n2, lim, scale, Lr, g, mg):
+    # `broadphase._plane_hit_local` (scalars and a local row; the same operations)
+    sc = n0 * Lr[g, 15] + n1 * Lr[g, 16] + n2 * Lr[g, 17]
+    r = Lr[g, 18] + mg
+    c = n0 * Lr[g, 0] + n1 * Lr[g, 1] + n2 * Lr[g, 2]
+    ext = 0.0
+    for i in range(3):
+        ext += abs(n0 * Lr[g, 3 + i] + n1 * Lr[g, 6 + i] + n2 * Lr[g, 9 + i]) * (Lr[g, 12 + i] + mg)
+    return ((sc - r <= lim + SLACK_REL * r + SLACK_POS * scale)
+            & (c - ext <= lim + SLACK_REL * ext + SLACK_POS * scale))
+
+
+@nb.njit(cache=True, inline="always")
+def _popcount(m):
+    n = 0
+    while m != 0:
+        n += 1
+        m &= m - np.uint64(1)
+    return n
+
+
+@nb.njit(cache=True, inline="always")
+def _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gmargin, ps, gwl, gal, nv):
+    # World rows and margin-inflated AABBs of the geoms of the multi-geom body at position x in
+    # every lane, once per group (`broadphase._geom_rows`).
+    if stamp[x] != 0:
+        return
+    stamp[x] = 1
+    b = order[x]
+    for ii in range(gstart[x], gstart[x + 1]):
+        g = pgeoms[ii]
+        _lane_row(ps, b, glocal, g, gwl, g, nv)
+        m = gmargin[g]
+        for l in range(nv):
+            e0 = gwl[g, 12, l] + m
+            e1 = gwl[g, 13, l] + m
+            e2 = gwl[g, 14, l] + m
+            tol = SLACK_REL * (e0 + e1 + e2) + SLACK_POS * (abs(gwl[g, 0, l]) + abs(gwl[g, 1, l]) + abs(gwl[g, 2, l]))
+            for i in range(3):
+                h = (abs(gwl[g, 3 + 3 * i, l]) * e0 + abs(gwl[g, 4 + 3 * i, l]) * e1
+                     + abs(gwl[g, 5 + 3 * i, l]) * e2 + tol)
+                gal[g, i, l] = gwl[g, i, l] - h
+                gal[g, 3 + i, l] = gwl[g, i, l] + h
+
+
+# ------------------------------------------------------------------------------- entry point
+
+@nb.njit(cache=True, parallel=True)
+def step_lanes(body_pos, body_rot, ctxs, J, LWs, LBs, world_count, world_info, chunk_total):
+    """`broadphase.step_batch` through the lanes: each chunk's worlds ``LANES`` at a time, each
+    world's sorted keys after the previous worlds' in its chunk's keys. A group with a bad pose
+    runs world by world through `broadphase._world` (which reports the offender, and whose
+    answers are the same)."""
+    B = body_pos.shape[0]
+    NB = body_pos.shape[1]
+    C = ctxs.shape[0]
+    pos_all = nb.carray(f64_ptr(np.int64(body_pos.ctypes.data)), (B, NB, 3))
+    rot_all = nb.carray(f64_ptr(np.int64(body_rot.ctypes.data)), (B, NB, 3, 3))
+    Jv = nb.carray(i64_ptr(np.int64(J.ctypes.data)), J.shape[0])
+    NR = Jv[J_NR]
+    NWd = (NR + 63) // 64
+    for c in nb.prange(C):
+        ctx = nb.carray(i64_ptr(np.int64(ctxs.ctypes.data) + 8 * NCTX * c), NCTX)
+        I, F, W, sap, bp, scr, stats, info = _buffers(ctx)
+        LW = nb.carray(f64_ptr(np.int64(LWs.ctypes.data) + 8 * LWs.shape[1] * c), LWs.shape[1])
+        LB = nb.carray(i64_ptr(np.int64(LBs.ctypes.data) + 8 * LBs.shape[1] * c), LBs.shape[1])
+        bits = nb.carray(i64_ptr(np.int64(LB.ctypes.data)), (NWd, LANES))
+        rank_keys = Jv[Jv.shape[0] - NR:]
+        cap = ctx[C_NKEYS]
+        kp = ctx[C_KEYS]
+        keys_all = nb.carray(i64_ptr(kp), cap)
+        st = np.zeros(N_STATS, np.int64)
+        w0 = (B * c) // C
+        w1 = (B * (c + 1)) // C
+        off = 0
+        for g0 in range(w0, w1, LANES):
+            nl = min(LANES, w1 - g0)
+            for s in range(N_STATS):
+                stats[s] = 0
+            if _group(pos_all, rot_all, g0, nl, I, F, W, Jv, LW, LB, stats):
+                for s in range(N_STATS):
+                    st[s] += stats[s]
+                for l in range(nl):
+                    w = g0 + l
+                    k = 0
+                    for wi in range(NWd):
+                        word = np.uint64(bits[wi, l])
+                        while word != 0:
+                            if off + k < cap:
+                                keys_all[off + k] = rank_keys[wi * 64 + np.int64(trailing_zeros(word))]
+                            k += 1
+                            word &= word - np.uint64(1)
+                    world_count[w] = k
+                    for i in range(4):
+                        world_info[w, i] = 0
+                    off += k
+                    st[ST_OUT] += k
+                continue
+            for w in range(g0, g0 + nl):
+                start = off if off < cap else cap
+                keys = nb.carray(i64_ptr(kp + 8 * start), cap - start)
+                info[0] = OK
+                kw = _world(pos_all[w], rot_all[w], I, F, W, sap, bp, keys, scr, stats, info)
+                for i in range(4):
+                    world_info[w, i] = info[i]
+                world_count[w] = kw
+                if kw > 0:
+                    off += kw
+                for s in range(N_STATS):
+                    st[s] += stats[s]
+        for s in range(N_STATS):
+            stats[s] = st[s]
+        chunk_total[c] = off
+    return 0
