@@ -114,7 +114,7 @@ def key_shift(G: int) -> int:
 
 def workspace_size(L: int, G: int, Q: int) -> int:
     """Length of the float64 workspace ``W`` of one world (``L`` positions)."""
-    return ROW * L + ROW * G + 18 * L + 4 * max(Q, 1) + 2 * ROW + 6 * G + L + 1
+    return ROW * L + ROW * G + 18 * L + 4 * max(Q, 1) + 2 * ROW + 6 * G + L + 1 + 2 * ROW * 64
 
 
 @nb.njit(cache=True, inline="always")
@@ -210,11 +210,15 @@ def _views(I, F, W):
     gaabb = nb.carray(f64_ptr(wa + 8 * w), (G, 6))
     w += 6 * G
     gstamp = W[w:w + L + 1]  # gstamp[L]: the call counter
+    w += L + 1
+    sa = nb.carray(f64_ptr(wa + 8 * w), (1, ROW, 64))  # stage 4's body rows as columns
+    w += ROW * 64
+    sb = nb.carray(f64_ptr(wa + 8 * w), (1, ROW, 64))
     return (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
             caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
             pair_keys,
             blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp, baabb_t,
-            flat_root, flat_n, flat_mask)
+            sa, sb, flat_root, flat_n, flat_mask)
 
 
 # ------------------------------------------------------------------------------- small tests
@@ -339,6 +343,75 @@ def obb_hit(A, a, ma, B, b, mb):
     if abs(t1 * r02 - t0 * r12) > ea0 * a12 + ea1 * a02 + eb0 * a21 + eb1 * a20 + tol:
         return False
     return True
+
+
+@nb.njit(cache=True, inline="always")
+def bounds_mask(A, a, ma, B, b, mb, n):
+    """Bit l set when the bounds in column l of ``A[a]`` and ``B[b]`` (``(ROW, n)`` blocks: rows as
+    columns, one pair per column, n <= 64), inflated by ``ma``, ``mb``, overlap: sphere and OBB.
+
+    `_sphere_hit` and `obb_hit` in the same operations (the same bits), with every axis evaluated
+    and the outcomes combined without a branch, so that the loop over the columns vectorises.
+    """
+    m = np.uint64(0)
+    for l in range(n):
+        dx = A[a, 15, l] - B[b, 15, l]
+        dy = A[a, 16, l] - B[b, 16, l]
+        dz = A[a, 17, l] - B[b, 17, l]
+        r = A[a, 18, l] + ma + B[b, 18, l] + mb
+        pos = (abs(A[a, 15, l]) + abs(A[a, 16, l]) + abs(A[a, 17, l]) + abs(B[b, 15, l]) + abs(B[b, 16, l])
+               + abs(B[b, 17, l]))
+        r += SLACK_REL * r + SLACK_POS * pos
+        ok = dx * dx + dy * dy + dz * dz <= r * r
+        ea0 = A[a, 12, l] + ma
+        ea1 = A[a, 13, l] + ma
+        ea2 = A[a, 14, l] + ma
+        eb0 = B[b, 12, l] + mb
+        eb1 = B[b, 13, l] + mb
+        eb2 = B[b, 14, l] + mb
+        r00 = A[a, 3, l] * B[b, 3, l] + A[a, 6, l] * B[b, 6, l] + A[a, 9, l] * B[b, 9, l]
+        r01 = A[a, 3, l] * B[b, 4, l] + A[a, 6, l] * B[b, 7, l] + A[a, 9, l] * B[b, 10, l]
+        r02 = A[a, 3, l] * B[b, 5, l] + A[a, 6, l] * B[b, 8, l] + A[a, 9, l] * B[b, 11, l]
+        r10 = A[a, 4, l] * B[b, 3, l] + A[a, 7, l] * B[b, 6, l] + A[a, 10, l] * B[b, 9, l]
+        r11 = A[a, 4, l] * B[b, 4, l] + A[a, 7, l] * B[b, 7, l] + A[a, 10, l] * B[b, 10, l]
+        r12 = A[a, 4, l] * B[b, 5, l] + A[a, 7, l] * B[b, 8, l] + A[a, 10, l] * B[b, 11, l]
+        r20 = A[a, 5, l] * B[b, 3, l] + A[a, 8, l] * B[b, 6, l] + A[a, 11, l] * B[b, 9, l]
+        r21 = A[a, 5, l] * B[b, 4, l] + A[a, 8, l] * B[b, 7, l] + A[a, 11, l] * B[b, 10, l]
+        r22 = A[a, 5, l] * B[b, 5, l] + A[a, 8, l] * B[b, 8, l] + A[a, 11, l] * B[b, 11, l]
+        a00 = abs(r00) + EPS_PAR
+        a01 = abs(r01) + EPS_PAR
+        a02 = abs(r02) + EPS_PAR
+        a10 = abs(r10) + EPS_PAR
+        a11 = abs(r11) + EPS_PAR
+        a12 = abs(r12) + EPS_PAR
+        a20 = abs(r20) + EPS_PAR
+        a21 = abs(r21) + EPS_PAR
+        a22 = abs(r22) + EPS_PAR
+        d0 = B[b, 0, l] - A[a, 0, l]
+        d1 = B[b, 1, l] - A[a, 1, l]
+        d2 = B[b, 2, l] - A[a, 2, l]
+        t0 = d0 * A[a, 3, l] + d1 * A[a, 6, l] + d2 * A[a, 9, l]
+        t1 = d0 * A[a, 4, l] + d1 * A[a, 7, l] + d2 * A[a, 10, l]
+        t2 = d0 * A[a, 5, l] + d1 * A[a, 8, l] + d2 * A[a, 11, l]
+        pos = abs(A[a, 0, l]) + abs(A[a, 1, l]) + abs(A[a, 2, l]) + abs(B[b, 0, l]) + abs(B[b, 1, l]) + abs(B[b, 2, l])
+        tol = SLACK_REL * (ea0 + ea1 + ea2 + eb0 + eb1 + eb2) + SLACK_POS * pos
+        ok &= abs(t0) <= ea0 + eb0 * a00 + eb1 * a01 + eb2 * a02 + tol
+        ok &= abs(t1) <= ea1 + eb0 * a10 + eb1 * a11 + eb2 * a12 + tol
+        ok &= abs(t2) <= ea2 + eb0 * a20 + eb1 * a21 + eb2 * a22 + tol
+        ok &= abs(t0 * r00 + t1 * r10 + t2 * r20) <= ea0 * a00 + ea1 * a10 + ea2 * a20 + eb0 + tol
+        ok &= abs(t0 * r01 + t1 * r11 + t2 * r21) <= ea0 * a01 + ea1 * a11 + ea2 * a21 + eb1 + tol
+        ok &= abs(t0 * r02 + t1 * r12 + t2 * r22) <= ea0 * a02 + ea1 * a12 + ea2 * a22 + eb2 + tol
+        ok &= abs(t2 * r10 - t1 * r20) <= ea1 * a20 + ea2 * a10 + eb1 * a02 + eb2 * a01 + tol
+        ok &= abs(t2 * r11 - t1 * r21) <= ea1 * a21 + ea2 * a11 + eb0 * a02 + eb2 * a00 + tol
+        ok &= abs(t2 * r12 - t1 * r22) <= ea1 * a22 + ea2 * a12 + eb0 * a01 + eb1 * a00 + tol
+        ok &= abs(t0 * r20 - t2 * r00) <= ea0 * a20 + ea2 * a00 + eb1 * a12 + eb2 * a11 + tol
+        ok &= abs(t0 * r21 - t2 * r01) <= ea0 * a21 + ea2 * a01 + eb0 * a12 + eb2 * a10 + tol
+        ok &= abs(t0 * r22 - t2 * r02) <= ea0 * a22 + ea2 * a02 + eb0 * a11 + eb1 * a10 + tol
+        ok &= abs(t1 * r00 - t0 * r10) <= ea0 * a10 + ea1 * a00 + eb1 * a22 + eb2 * a21 + tol
+        ok &= abs(t1 * r01 - t0 * r11) <= ea0 * a11 + ea1 * a01 + eb0 * a22 + eb2 * a20 + tol
+        ok &= abs(t1 * r02 - t0 * r12) <= ea0 * a12 + ea1 * a02 + eb0 * a21 + eb1 * a20 + tol
+        m |= np.uint64(ok) << np.uint64(l)
+    return m
 
 
 @nb.njit(cache=True, inline="always")
@@ -840,7 +913,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
     (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
      caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
             pair_keys,
-     blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp, baabb_t,
+     blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp, baabb_t, sa, sb,
      flat_root, flat_n, flat_mask) = _views(I, F, W)
     filter_parent = I[H_FP] != 0
     S = I[H_KS]
@@ -914,21 +987,19 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
     if nbp > bp.shape[0]:
         info[3] = nbp
         return 0
-    # 4. body pairs -> filter -> sphere -> OBB -> geom pairs.
+    # 4. body pairs -> filter -> sphere and OBB (64 pairs at a time, vectorised) -> geom pairs.
+    # 4a. the static filter, compacting bp in place; a loose pair (see below) is marked ~y.
+    m = 0
     for t in range(nbp):
         x = bp[t, 0]
         y = bp[t, 1]
-        sphere_done = x < 0  # the grid already ran the sphere test (~x marks it)
-        if sphere_done:
-            x = ~x
-        listed = y < 0  # a flat root's pair (~y marks it): the static filter passed at set-up
-        if listed:
-            y = ~y
+        if x < 0:
+            x = ~x  # the grid's sphere test mark: redone below with the OBB test, at no cost
+        if y < 0:
+            y = ~y  # a flat root's pair: the static filter passed at set-up
         else:
             if (ctor[x] & caor[y]) == 0 and (ctor[y] & caor[x]) == 0:
                 continue
-            # the filter and the sphere test written out: array arguments of a call cost reference
-            # counting
             if weld[x] == weld[y]:
                 continue
             if filter_parent and ((parent_pos[x] == y and y != 0) or (parent_pos[y] == x and x != 0)):
@@ -940,60 +1011,77 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
             if excluded:
                 continue
         # A multi-geom body whose bounds are mostly empty space (walls around an arena, the world's
-        # scattered static geoms: single < 0, see BroadPhase) passes every body-level test; go
-        # straight to its geoms' AABBs.
-        loose = single[x] < 0 or single[y] < 0
-        if not sphere_done and not loose:
-            stats[ST_BODY_SPHERE] += 1
-            dx = bw[x, 15] - bw[y, 15]
-            dy = bw[x, 16] - bw[y, 16]
-            dz = bw[x, 17] - bw[y, 17]
-            r = bw[x, 18] + bw[y, 18]
-            r += SLACK_REL * r + SLACK_POS * (abs(bw[x, 15]) + abs(bw[x, 16]) + abs(bw[x, 17]) + abs(bw[y, 15])
-                                              + abs(bw[y, 16]) + abs(bw[y, 17]))
-            if not dx * dx + dy * dy + dz * dz <= r * r:
-                continue
-        if not loose:
-            stats[ST_BODY_OBB] += 1
-            if not obb_hit(bw, x, 0.0, bw, y, 0.0):
-                continue
-        sx = single[x] > 0
-        sy = single[y] > 0
-        if not sx:
-            _geom_rows(x, order, gstart, pgeoms, glocal, gmargin, body_pos, body_rot, gw, gaabb, gstamp, stamp)
-        if not sy:
-            _geom_rows(y, order, gstart, pgeoms, glocal, gmargin, body_pos, body_rot, gw, gaabb, gstamp, stamp)
-        cp = check_pairs and pairflag[x] != 0 and pairflag[y] != 0
-        for ii in range(gstart[x], gstart[x + 1]):
-            g1 = pgeoms[ii]
-            for jj in range(gstart[y], gstart[y + 1]):
-                g2 = pgeoms[jj]
-                if (gct[g1] & gca[g2]) == 0 and (gct[g2] & gca[g1]) == 0:
-                    continue
-                if cp:
-                    key = _pair_key(g1, g2, S)
-                    if _in_sorted(pair_keys, key):
+        # scattered static geoms: single < 0, see BroadPhase) passes every body-level test; its
+        # pairs go straight to its geoms' AABBs.
+        bp[m, 0] = x
+        bp[m, 1] = ~y if (single[x] < 0 or single[y] < 0) else y
+        m += 1
+    # 4b. sphere and OBB tests of the body bounds, 64 pairs at a time: both rows copied into
+    # columns (sa, sb), then one loop without a branch, which the compiler vectorises, into a bit
+    # mask.
+    for c0 in range(0, m, 64):
+        cnt = min(64, m - c0)
+        force = np.uint64(0)
+        for i in range(cnt):
+            x = bp[c0 + i, 0]
+            y = bp[c0 + i, 1]
+            loose = y < 0
+            y = y ^ (y >> 63)  # ~y when marked
+            force |= np.uint64(loose) << np.uint64(i)
+            for c in range(ROW):
+                sa[0, c, i] = bw[x, c]
+                sb[0, c, i] = bw[y, c]
+        hits = bounds_mask(sa, 0, 0.0, sb, 0, 0.0, cnt) | force
+        nl = 0
+        f = force
+        while f != 0:
+            nl += 1
+            f &= f - np.uint64(1)
+        stats[ST_BODY_SPHERE] += cnt - nl
+        stats[ST_BODY_OBB] += cnt - nl
+        while hits != 0:
+            t = c0 + np.int64(trailing_zeros(hits))
+            hits &= hits - np.uint64(1)
+            x = bp[t, 0]
+            y = bp[t, 1]
+            y = y ^ (y >> 63)
+            sx = single[x] > 0
+            sy = single[y] > 0
+            if not sx:
+                _geom_rows(x, order, gstart, pgeoms, glocal, gmargin, body_pos, body_rot, gw, gaabb, gstamp, stamp)
+            if not sy:
+                _geom_rows(y, order, gstart, pgeoms, glocal, gmargin, body_pos, body_rot, gw, gaabb, gstamp, stamp)
+            cp = check_pairs and pairflag[x] != 0 and pairflag[y] != 0
+            for ii in range(gstart[x], gstart[x + 1]):
+                g1 = pgeoms[ii]
+                for jj in range(gstart[y], gstart[y + 1]):
+                    g2 = pgeoms[jj]
+                    if (gct[g1] & gca[g2]) == 0 and (gct[g2] & gca[g1]) == 0:
                         continue
-                if not (sx and sy):
-                    # A single-geom body's row is its geom's, already inflated.
-                    A = bw if sx else gw
-                    a = x if sx else g1
-                    ma = 0.0 if sx else gmargin[g1]
-                    B = bw if sy else gw
-                    b = y if sy else g2
-                    mb = 0.0 if sy else gmargin[g2]
-                    # AABBs first: exact for the axis-aligned boxes multi-geom bodies are often
-                    # made of (walls, a bin), whose spheres reach far
-                    stats[ST_GEOM_AABB] += 1
-                    if not _aabb_hit(baabb if sx else gaabb, a, baabb if sy else gaabb, b):
-                        continue
-                    stats[ST_GEOM_SPHERE] += 1
-                    if not _sphere_hit(A, a, ma, B, b, mb):
-                        continue
-                    stats[ST_GEOM_OBB] += 1
-                    if not obb_hit(A, a, ma, B, b, mb):
-                        continue
-                k = _emit(keys, k, g1, g2, S)
+                    if cp:
+                        key = _pair_key(g1, g2, S)
+                        if _in_sorted(pair_keys, key):
+                            continue
+                    if not (sx and sy):
+                        # A single-geom body's row is its geom's, already inflated.
+                        A = bw if sx else gw
+                        a = x if sx else g1
+                        ma = 0.0 if sx else gmargin[g1]
+                        B = bw if sy else gw
+                        b = y if sy else g2
+                        mb = 0.0 if sy else gmargin[g2]
+                        # AABBs first: exact for the axis-aligned boxes multi-geom bodies are often
+                        # made of (walls, a bin), whose spheres reach far
+                        stats[ST_GEOM_AABB] += 1
+                        if not _aabb_hit(baabb if sx else gaabb, a, baabb if sy else gaabb, b):
+                            continue
+                        stats[ST_GEOM_SPHERE] += 1
+                        if not _sphere_hit(A, a, ma, B, b, mb):
+                            continue
+                        stats[ST_GEOM_OBB] += 1
+                        if not obb_hit(A, a, ma, B, b, mb):
+                            continue
+                    k = _emit(keys, k, g1, g2, S)
     k4 = min(k, keys.shape[0])  # the body-level keys end here (see _sort_keys)
     lst = sap[L - 1:]  # scratch (sap_state)
     # 5a. planes: each body's AABB against the halfspace, then its bounds and its geoms'.

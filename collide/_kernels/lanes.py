@@ -29,9 +29,10 @@ import numpy as np
 
 from ._ptr import f64_ptr, i64_ptr
 from ._simd import aabb_mask8
-from .broadphase import (BIG, C_KEYS, C_NKEYS, EPS_PAR, N_STATS, NCTX, OK, ORTHO_TOL, ROW, SLACK_POS, SLACK_REL,
+from .broadphase import (BIG, C_KEYS, C_NKEYS, N_STATS, NCTX, OK, ORTHO_TOL, ROW, SLACK_POS, SLACK_REL,
                          ST_BODY_OBB, ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_SUBTREE,
-                         ST_OUT, ST_PLANE, _buffers, _explicit_hit, _views, _world)
+                         ST_OUT, ST_PLANE, _buffers, _explicit_hit, _plane_hit_local, _views,
+                         _world, bounds_mask)
 
 LANES = 8
 MAX_BODY_PAIRS = 4096  # above this many static body pairs, the tree of the per-world kernel culls better
@@ -124,88 +125,6 @@ def _lane_row(ps, b, src, s, dst, d, nv):
 
 
 @nb.njit(cache=True, inline="always")
-def _lane_bounds(A, a, ma, B, b, mb, nv):
-    """Lane mask: rows A[a] and B[b] ((ROW, LANES)) inflated by ma, mb overlap, sphere
-    (`broadphase._sphere_hit`) and OBB (`broadphase.obb_hit`), every axis evaluated."""
-    m = np.uint64(0)
-    for l in range(nv):
-        dx = A[a, 15, l] - B[b, 15, l]
-        dy = A[a, 16, l] - B[b, 16, l]
-        dz = A[a, 17, l] - B[b, 17, l]
-        r = A[a, 18, l] + ma + B[b, 18, l] + mb
-        pos = (abs(A[a, 15, l]) + abs(A[a, 16, l]) + abs(A[a, 17, l]) + abs(B[b, 15, l]) + abs(B[b, 16, l])
-               + abs(B[b, 17, l]))
-        r += SLACK_REL * r + SLACK_POS * pos
-        ok = dx * dx + dy * dy + dz * dz <= r * r
-        ea0 = A[a, 12, l] + ma
-        ea1 = A[a, 13, l] + ma
-        ea2 = A[a, 14, l] + ma
-        eb0 = B[b, 12, l] + mb
-        eb1 = B[b, 13, l] + mb
-        eb2 = B[b, 14, l] + mb
-        r00 = A[a, 3, l] * B[b, 3, l] + A[a, 6, l] * B[b, 6, l] + A[a, 9, l] * B[b, 9, l]
-        r01 = A[a, 3, l] * B[b, 4, l] + A[a, 6, l] * B[b, 7, l] + A[a, 9, l] * B[b, 10, l]
-        r02 = A[a, 3, l] * B[b, 5, l] + A[a, 6, l] * B[b, 8, l] + A[a, 9, l] * B[b, 11, l]
-        r10 = A[a, 4, l] * B[b, 3, l] + A[a, 7, l] * B[b, 6, l] + A[a, 10, l] * B[b, 9, l]
-        r11 = A[a, 4, l] * B[b, 4, l] + A[a, 7, l] * B[b, 7, l] + A[a, 10, l] * B[b, 10, l]
-        r12 = A[a, 4, l] * B[b, 5, l] + A[a, 7, l] * B[b, 8, l] + A[a, 10, l] * B[b, 11, l]
-        r20 = A[a, 5, l] * B[b, 3, l] + A[a, 8, l] * B[b, 6, l] + A[a, 11, l] * B[b, 9, l]
-        r21 = A[a, 5, l] * B[b, 4, l] + A[a, 8, l] * B[b, 7, l] + A[a, 11, l] * B[b, 10, l]
-        r22 = A[a, 5, l] * B[b, 5, l] + A[a, 8, l] * B[b, 8, l] + A[a, 11, l] * B[b, 11, l]
-        a00 = abs(r00) + EPS_PAR
-        a01 = abs(r01) + EPS_PAR
-        a02 = abs(r02) + EPS_PAR
-        a10 = abs(r10) + EPS_PAR
-        a11 = abs(r11) + EPS_PAR
-        a12 = abs(r12) + EPS_PAR
-        a20 = abs(r20) + EPS_PAR
-        a21 = abs(r21) + EPS_PAR
-        a22 = abs(r22) + EPS_PAR
-        d0 = B[b, 0, l] - A[a, 0, l]
-        d1 = B[b, 1, l] - A[a, 1, l]
-        d2 = B[b, 2, l] - A[a, 2, l]
-        t0 = d0 * A[a, 3, l] + d1 * A[a, 6, l] + d2 * A[a, 9, l]
-        t1 = d0 * A[a, 4, l] + d1 * A[a, 7, l] + d2 * A[a, 10, l]
-        t2 = d0 * A[a, 5, l] + d1 * A[a, 8, l] + d2 * A[a, 11, l]
-        pos = abs(A[a, 0, l]) + abs(A[a, 1, l]) + abs(A[a, 2, l]) + abs(B[b, 0, l]) + abs(B[b, 1, l]) + abs(B[b, 2, l])
-        tol = SLACK_REL * (ea0 + ea1 + ea2 + eb0 + eb1 + eb2) + SLACK_POS * pos
-        ok &= abs(t0) <= ea0 + eb0 * a00 + eb1 * a01 + eb2 * a02 + tol
-        ok &= abs(t1) <= ea1 + eb0 * a10 + eb1 * a11 + eb2 * a12 + tol
-        ok &= abs(t2) <= ea2 + eb0 * a20 + eb1 * a21 + eb2 * a22 + tol
-        ok &= abs(t0 * r00 + t1 * r10 + t2 * r20) <= ea0 * a00 + ea1 * a10 + ea2 * a20 + eb0 + tol
-        ok &= abs(t0 * r01 + t1 * r11 + t2 * r21) <= ea0 * a01 + ea1 * a11 + ea2 * a21 + eb1 + tol
-        ok &= abs(t0 * r02 + t1 * r12 + t2 * r22) <= ea0 * a02 + ea1 * a12 + ea2 * a22 + eb2 + tol
-        ok &= abs(t2 * r10 - t1 * r20) <= ea1 * a20 + ea2 * a10 + eb1 * a02 + eb2 * a01 + tol
-        ok &= abs(t2 * r11 - t1 * r21) <= ea1 * a21 + ea2 * a11 + eb0 * a02 + eb2 * a00 + tol
-        ok &= abs(t2 * r12 - t1 * r22) <= ea1 * a22 + ea2 * a12 + eb0 * a01 + eb1 * a00 + tol
-        ok &= abs(t0 * r20 - t2 * r00) <= ea0 * a20 + ea2 * a00 + eb1 * a12 + eb2 * a11 + tol
-        ok &= abs(t0 * r21 - t2 * r01) <= ea0 * a21 + ea2 * a01 + eb0 * a12 + eb2 * a10 + tol
-        ok &= abs(t0 * r22 - t2 * r02) <= ea0 * a22 + ea2 * a02 + eb0 * a11 + eb1 * a10 + tol
-        ok &= abs(t1 * r00 - t0 * r10) <= ea0 * a10 + ea1 * a00 + eb1 * a22 + eb2 * a21 + tol
-        ok &= abs(t1 * r01 - t0 * r11) <= ea0 * a11 + ea1 * a01 + eb0 * a22 + eb2 * a20 + tol
-        ok &= abs(t1 * r02 - t0 * r12) <= ea0 * a12 + ea1 * a02 + eb0 * a21 + eb1 * a20 + tol
-        m |= np.uint64(ok) << np.uint64(l)
-    return m
-
-
-@nb.njit(cache=True, inline="always")
-def _lane_plane(n, i, lim, scale, Lr, g, mg, l):
-    # `broadphase._plane_hit_local` in lane l: n[i] (4, LANES) the normal, lim and scale scalars of
-    # the lane, Lr[g] a local row (no lanes).
-    n0 = n[i, 0, l]
-    n1 = n[i, 1, l]
-    n2 = n[i, 2, l]
-    sc = n0 * Lr[g, 15] + n1 * Lr[g, 16] + n2 * Lr[g, 17]
-    r = Lr[g, 18] + mg
-    c = n0 * Lr[g, 0] + n1 * Lr[g, 1] + n2 * Lr[g, 2]
-    ext = 0.0
-    for j in range(3):
-        ext += abs(n0 * Lr[g, 3 + j] + n1 * Lr[g, 6 + j] + n2 * Lr[g, 9 + j]) * (Lr[g, 12 + j] + mg)
-    return ((sc - r <= lim + SLACK_REL * r + SLACK_POS * scale)
-            & (c - ext <= lim + SLACK_REL * ext + SLACK_POS * scale))
-
-
-@nb.njit(cache=True, inline="always")
 def _set_bits(bits, r, m, nv):
     # Rank r in the bitset of every lane in mask m.
     wi = r >> 6
@@ -225,7 +144,7 @@ def _lane_pair(p, m, x, y, single, wb, wa_at, stamp, order, gstart, pgeoms, gloc
         n = _popcount(m)
         stats[ST_BODY_SPHERE] += n
         stats[ST_BODY_OBB] += n
-        m &= _lane_bounds(wb, x, 0.0, wb, y, 0.0, nv)
+        m &= bounds_mask(wb, x, 0.0, wb, y, 0.0, nv)
         if m == 0:
             return
     if not sx:
@@ -242,7 +161,7 @@ def _lane_pair(p, m, x, y, single, wb, wa_at, stamp, order, gstart, pgeoms, gloc
             stats[ST_GEOM_SPHERE] += n
             stats[ST_GEOM_OBB] += n
             mm &= aabb_mask8(wa_at + 384 * x if sx else gal_at + 384 * g1, wa_at + 384 * y if sy else gal_at + 384 * g2)
-            mm &= _lane_bounds(wb if sx else gwl, x if sx else g1, 0.0 if sx else gmargin[g1],
+            mm &= bounds_mask(wb if sx else gwl, x if sx else g1, 0.0 if sx else gmargin[g1],
                                wb if sy else gwl, y if sy else g2, 0.0 if sy else gmargin[g2], nv)
         _set_bits(bits, pair_geoms[e, 2], mm, nv)
 
@@ -256,7 +175,7 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats):
     (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
      caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
      pair_keys,
-     blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp, baabb_t,
+     blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp, baabb_t, sa_, sb_,
      flat_root, flat_n, flat_mask) = _views(I, F, W)
     Q = planes.shape[0]
     (body_pairs, row_start, pair_gstart, pair_geoms, plane_start, plane_pos, plane_gstart, plane_geoms,
@@ -459,7 +378,7 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats):
                     ln2 = ps[bb, 5, l] * n0 + ps[bb, 8, l] * n1 + ps[bb, 11, l] * n2
                     llim = lim - (n0 * ps[bb, 0, l] + n1 * ps[bb, 1, l] + n2 * ps[bb, 2, l])
                     lscale = abs(ps[bb, 0, l]) + abs(ps[bb, 1, l]) + abs(ps[bb, 2, l]) + abs(pd)
-                    mg |= np.uint64(_plane_local(ln0, ln1, ln2, llim, lscale + abs(glocal[g, 0]) + abs(glocal[g, 1])
+                    mg |= np.uint64(_plane_hit_local(ln0, ln1, ln2, llim, lscale + abs(glocal[g, 0]) + abs(glocal[g, 1])
                                                  + abs(glocal[g, 2]), glocal, g, gmargin[g])) << np.uint64(l)
                 _set_bits(bits, plane_geoms[f, 1], m & mg, nv)
 
@@ -473,19 +392,6 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats):
                              rot_all[w0 + l], tmp, stats):
                 _set_bits(bits, r, np.uint64(1) << np.uint64(l), nv)
     return True
-
-
-@nb.njit(cache=True, inline="always")
-def _plane_local(n0, n1, n2, lim, scale, Lr, g, mg):
-    # `broadphase._plane_hit_local` (scalars and a local row; the same operations)
-    sc = n0 * Lr[g, 15] + n1 * Lr[g, 16] + n2 * Lr[g, 17]
-    r = Lr[g, 18] + mg
-    c = n0 * Lr[g, 0] + n1 * Lr[g, 1] + n2 * Lr[g, 2]
-    ext = 0.0
-    for i in range(3):
-        ext += abs(n0 * Lr[g, 3 + i] + n1 * Lr[g, 6 + i] + n2 * Lr[g, 9 + i]) * (Lr[g, 12 + i] + mg)
-    return ((sc - r <= lim + SLACK_REL * r + SLACK_POS * scale)
-            & (c - ext <= lim + SLACK_REL * ext + SLACK_POS * scale))
 
 
 @nb.njit(cache=True, inline="always")
