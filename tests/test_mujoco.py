@@ -475,6 +475,48 @@ def test_scene_recall_is_complete(scene, tmp_path):
         assert back[key] == result[key]
 
 
+@pytest.mark.skipif(not SCENES, reason=f"the test models are not present at {MODELS} "
+                    "(the team's shared checkout); nothing to compare against")
+@pytest.mark.parametrize("scene", SCENES)
+def test_scene_batch_equals_single_worlds(scene):
+    # Real models through pairs_batch: the small ones run in SIMD lanes, the big ones (22
+    # humanoids) world by world; either way each world's rows are the single-world answer.
+    model = mujoco.MjModel.from_xml_path(str(MODELS / scene / "scene.xml"))
+    bp = cm.BroadPhase(model)
+    data = mujoco.MjData(model)
+    rng = np.random.default_rng(6)
+    lo, hi = cm._control_range(model)
+    qpos, count = [], []
+    for _ in range(300):
+        data.ctrl[:] = rng.uniform(lo, hi)
+        mujoco.mj_step(model, data)
+        qpos.append(data.qpos.copy())
+        count.append(len(bp.pairs(data)))
+    # and random configurations of the hinge and slide joints (an arm that never meets itself
+    # under random controls folds onto itself here)
+    hinge = np.flatnonzero(np.isin(model.jnt_type, [mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE]))
+    adr = model.jnt_qposadr[hinge]
+    rlo = np.where(model.jnt_limited[hinge], model.jnt_range[hinge, 0], -np.pi)
+    rhi = np.where(model.jnt_limited[hinge], model.jnt_range[hinge, 1], np.pi)
+    for _ in range(300):
+        data.qpos[:] = model.qpos0
+        data.qpos[adr] = rng.uniform(rlo, rhi)
+        mujoco.mj_kinematics(model, data)
+        qpos.append(data.qpos.copy())
+        count.append(len(bp.pairs(data)))
+    # 11 worlds (a full group of lanes and a partial one): the states with the most pairs
+    qpos = np.array(qpos)[np.sort(np.argsort(count, kind="stable")[-11:])]
+    batch = bp.pairs_batch(model, qpos)
+    total = 0
+    for w in range(len(qpos)):
+        data.qpos[:] = qpos[w]
+        mujoco.mj_kinematics(model, data)
+        single = bp.pairs(data)
+        np.testing.assert_array_equal(batch[batch[:, 0] == w, 1:], single)
+        total += len(single)
+    assert total > 0 and len(batch) == total
+
+
 @pytest.mark.skipif(not (MODELS / "humanoid" / "scene.xml").is_file(),
                     reason=f"the humanoid test model is not present under {MODELS}")
 @pytest.mark.parametrize("variant", ["margin_gap", "override", "filterparent_off"])

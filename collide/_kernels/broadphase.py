@@ -34,8 +34,10 @@ One step, for one world (`_world`):
    between steps, and every misprediction costs ~7 ns. Surviving body pairs go to a buffer: no
    deep call chain on the hot path (each numba call with array arguments pays reference
    counting, even inlined: the hottest tests are written out);
-4. body pair -> static filter -> sphere test -> OBB separating-axis test (15 axes, Ericson 2005,
-   *Real-Time Collision Detection* §4.4.1) -> geom pairs, the same tests on the geoms' bounds;
+4. body pair -> static filter -> sphere and OBB separating-axis tests (15 axes, Ericson 2005,
+   *Real-Time Collision Detection* §4.4.1), 64 body pairs at a time with every axis evaluated
+   (`bounds_mask`: one loop without a branch, vectorised) -> geom pairs, the same tests one by
+   one on the geoms' bounds;
 5. planes (halfspaces) down the tree, the static filter of every (plane, body) pair precomputed,
    a multi-geom body's geoms tested in the body's frame; explicit pairs last; keys ``g1 << S | g2`` sorted (``S`` bits
    hold any geom id: decoding is a shift and a mask, not an integer division per pair), the
