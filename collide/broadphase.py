@@ -279,7 +279,8 @@ class BroadPhase:
 
         body_pairs = np.array(body_pairs, np.int64).reshape(-1, 2)
         return _lanes.pack_lanes(body_pairs, np.searchsorted(body_pairs[:, 0], np.arange(L + 1)),
-                                 np.array([(g1, g2, rank(key(g1, g2))) for g1, g2 in pair_geoms], np.int64).reshape(-1, 3),
+                                 np.array([(g1, g2, rank(key(g1, g2))) for g1, g2 in pair_geoms],
+                                          np.int64).reshape(-1, 3),
                                  pair_gstart, plane_pos, plane_start,
                                  np.array([(g, rank(k)) for g, k in plane_geoms], np.int64).reshape(-1, 2),
                                  plane_gstart, [rank(k) for k in explicit_keys], rank_keys)

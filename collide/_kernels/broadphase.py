@@ -243,6 +243,23 @@ def _world_row(rot, pos, b, src, s, dst, d):
 
 
 @nb.njit(cache=True, inline="always")
+def _pose_ok(r00, r01, r02, r10, r11, r12, r20, r21, r22, p0, p1, p2):
+    # One test per body: R^T R = I within ORTHO_TOL, det > 0, a finite position. Comparisons
+    # with NaN are false, and an inf in R makes a product inf or NaN, so a non-finite pose
+    # fails too (the caller tells which afterwards). det > 0 (no reflection): column 2 must
+    # agree with column 0 x column 1 in sign.
+    det = ((r10 * r21 - r20 * r11) * r02 + (r20 * r01 - r00 * r21) * r12
+           + (r00 * r11 - r10 * r01) * r22)
+    return ((abs(r00 * r00 + r10 * r10 + r20 * r20 - 1.0) <= ORTHO_TOL)
+            & (abs(r01 * r01 + r11 * r11 + r21 * r21 - 1.0) <= ORTHO_TOL)
+            & (abs(r02 * r02 + r12 * r12 + r22 * r22 - 1.0) <= ORTHO_TOL)
+            & (abs(r00 * r01 + r10 * r11 + r20 * r21) <= ORTHO_TOL)
+            & (abs(r00 * r02 + r10 * r12 + r20 * r22) <= ORTHO_TOL)
+            & (abs(r01 * r02 + r11 * r12 + r21 * r22) <= ORTHO_TOL)
+            & (det > 0.0) & (abs(p0) < np.inf) & (abs(p1) < np.inf) & (abs(p2) < np.inf))
+
+
+@nb.njit(cache=True, inline="always")
 def _place(body_rot, body_pos, b, blocal, x, bw, baabb, saabb, baabb_t):
     # World row of position x (body b's pose) and its AABB: the AABB of the world OBB, also the
     # start of its subtree AABB (stage 2 merges the descendants in).
@@ -931,29 +948,11 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
     k = 0
     # 1. poses -> world bounds of bodies, by body id so the first offender is named.
     for b in range(I[H_NB]):
-        # One test per body: R^T R = I within ORTHO_TOL, det > 0, a finite position. Comparisons
-        # with NaN are false, and an inf in R makes a product inf or NaN, so a non-finite pose
-        # fails too; only then is it told apart (the error names what is wrong).
-        r00 = body_rot[b, 0, 0]
-        r01 = body_rot[b, 0, 1]
-        r02 = body_rot[b, 0, 2]
-        r10 = body_rot[b, 1, 0]
-        r11 = body_rot[b, 1, 1]
-        r12 = body_rot[b, 1, 2]
-        r20 = body_rot[b, 2, 0]
-        r21 = body_rot[b, 2, 1]
-        r22 = body_rot[b, 2, 2]
-        # det > 0 (no reflection): column 2 must agree with column 0 x column 1 in sign
-        det = ((r10 * r21 - r20 * r11) * r02 + (r20 * r01 - r00 * r21) * r12
-               + (r00 * r11 - r10 * r01) * r22)
-        ok = ((abs(r00 * r00 + r10 * r10 + r20 * r20 - 1.0) <= ORTHO_TOL)
-              & (abs(r01 * r01 + r11 * r11 + r21 * r21 - 1.0) <= ORTHO_TOL)
-              & (abs(r02 * r02 + r12 * r12 + r22 * r22 - 1.0) <= ORTHO_TOL)
-              & (abs(r00 * r01 + r10 * r11 + r20 * r21) <= ORTHO_TOL)
-              & (abs(r00 * r02 + r10 * r12 + r20 * r22) <= ORTHO_TOL)
-              & (abs(r01 * r02 + r11 * r12 + r21 * r22) <= ORTHO_TOL)
-              & (det > 0.0) & (abs(body_pos[b, 0]) < np.inf) & (abs(body_pos[b, 1]) < np.inf)
-              & (abs(body_pos[b, 2]) < np.inf))
+        # One combined test per body; only a failing pose is told apart (the error names what is
+        # wrong).
+        ok = _pose_ok(body_rot[b, 0, 0], body_rot[b, 0, 1], body_rot[b, 0, 2], body_rot[b, 1, 0], body_rot[b, 1, 1],
+                      body_rot[b, 1, 2], body_rot[b, 2, 0], body_rot[b, 2, 1], body_rot[b, 2, 2], body_pos[b, 0],
+                      body_pos[b, 1], body_pos[b, 2])
         if not ok:
             info[0] = BAD_ROTATION
             for i in range(3):

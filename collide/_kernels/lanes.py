@@ -29,9 +29,9 @@ import numpy as np
 
 from ._ptr import f64_ptr, i64_ptr
 from ._simd import aabb_mask8
-from .broadphase import (BIG, C_KEYS, C_NKEYS, N_STATS, NCTX, OK, ORTHO_TOL, ROW, SLACK_POS, SLACK_REL,
+from .broadphase import (BIG, C_KEYS, C_NKEYS, N_STATS, NCTX, OK, ROW, SLACK_POS, SLACK_REL,
                          ST_BODY_OBB, ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_SUBTREE,
-                         ST_OUT, ST_PLANE, _buffers, _explicit_hit, _plane_hit_local, _views,
+                         ST_OUT, ST_PLANE, _buffers, _explicit_hit, _plane_hit_local, _pose_ok, _views,
                          _world, bounds_mask)
 
 LANES = 8
@@ -46,15 +46,14 @@ def pack_lanes(body_pairs, row_start, pair_geoms, pair_gstart, plane_pos, plane_
                explicit_rank, rank_keys) -> np.ndarray:
     """Flatten the lane tables into one int64 array (see `_lane_views` for the order).
 
-    ``body_pairs`` (NP, 2) positions, sorted, position a's at ``row_start[a]:row_start[a + 1]``; ``pair_geoms`` (NLG, 3) ``(g1, g2, rank)`` with pair p's at
-    ``pair_gstart[p]:pair_gstart[p + 1]``; ``plane_pos`` (NPL,) positions, plane i's at
-    ``plane_start[i]:plane_start[i + 1]``; ``plane_geoms`` (NPLG, 2) ``(g, rank)``, entry e's at
-    ``plane_gstart[e]:plane_gstart[e + 1]``; ``explicit_rank`` (P,) (-1: never reported);
+    ``body_pairs`` (NP, 2) positions, sorted, position a's at ``row_start[a]:row_start[a + 1]``;
+    ``pair_geoms`` (NLG, 3) ``(g1, g2, rank)`` with pair p's at ``pair_gstart[p]:pair_gstart[p + 1]``;
+    ``plane_pos`` (NPL,) positions, plane i's at ``plane_start[i]:plane_start[i + 1]``;
+    ``plane_geoms`` (NPLG, 2) ``(g, rank)``, entry e's at ``plane_gstart[e]:plane_gstart[e + 1]``; ``explicit_rank`` (P,) (-1: never reported);
     ``rank_keys`` (NR,) sorted keys.
     """
     head = np.array([len(body_pairs), len(pair_geoms), len(plane_pos), len(plane_geoms), len(rank_keys),
                      len(explicit_rank), LANES], np.int64)
-    L = len(row_start) - 1
     parts = [head, body_pairs, row_start, pair_gstart, pair_geoms, plane_start, plane_pos, plane_gstart, plane_geoms,
              explicit_rank, rank_keys]
     return np.concatenate([np.asarray(p, np.int64).reshape(-1) for p in parts])
@@ -99,7 +98,8 @@ def _lane_views(J, L, Q, a):
     explicit_rank = J[o:o + P]
     o += P
     rank_keys = J[o:o + NR]
-    return body_pairs, row_start, pair_gstart, pair_geoms, plane_start, plane_pos, plane_gstart, plane_geoms, explicit_rank, rank_keys
+    return (body_pairs, row_start, pair_gstart, pair_geoms, plane_start, plane_pos, plane_gstart, plane_geoms,
+            explicit_rank, rank_keys)
 
 
 # ------------------------------------------------------------------------------- lane tests
@@ -219,26 +219,8 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats):
     bad = False
     for b in range(NB):
         for l in range(nv):
-            r00 = ps[b, 3, l]
-            r01 = ps[b, 4, l]
-            r02 = ps[b, 5, l]
-            r10 = ps[b, 6, l]
-            r11 = ps[b, 7, l]
-            r12 = ps[b, 8, l]
-            r20 = ps[b, 9, l]
-            r21 = ps[b, 10, l]
-            r22 = ps[b, 11, l]
-            det = ((r10 * r21 - r20 * r11) * r02 + (r20 * r01 - r00 * r21) * r12
-                   + (r00 * r11 - r10 * r01) * r22)
-            ok = ((abs(r00 * r00 + r10 * r10 + r20 * r20 - 1.0) <= ORTHO_TOL)
-                  & (abs(r01 * r01 + r11 * r11 + r21 * r21 - 1.0) <= ORTHO_TOL)
-                  & (abs(r02 * r02 + r12 * r12 + r22 * r22 - 1.0) <= ORTHO_TOL)
-                  & (abs(r00 * r01 + r10 * r11 + r20 * r21) <= ORTHO_TOL)
-                  & (abs(r00 * r02 + r10 * r12 + r20 * r22) <= ORTHO_TOL)
-                  & (abs(r01 * r02 + r11 * r12 + r21 * r22) <= ORTHO_TOL)
-                  & (det > 0.0) & (abs(ps[b, 0, l]) < np.inf) & (abs(ps[b, 1, l]) < np.inf)
-                  & (abs(ps[b, 2, l]) < np.inf))
-            bad |= not ok
+            bad |= not _pose_ok(ps[b, 3, l], ps[b, 4, l], ps[b, 5, l], ps[b, 6, l], ps[b, 7, l], ps[b, 8, l],
+                                ps[b, 9, l], ps[b, 10, l], ps[b, 11, l], ps[b, 0, l], ps[b, 1, l], ps[b, 2, l])
     if bad:
         return False
     for x in range(L):
@@ -314,7 +296,8 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats):
         for l in range(nv):
             d = gplane[qg, 3]
             for c in range(3):
-                nc = ps[b, 3 + 3 * c, l] * gplane[qg, 0] + ps[b, 4 + 3 * c, l] * gplane[qg, 1] + ps[b, 5 + 3 * c, l] * gplane[qg, 2]
+                nc = (ps[b, 3 + 3 * c, l] * gplane[qg, 0] + ps[b, 4 + 3 * c, l] * gplane[qg, 1]
+                      + ps[b, 5 + 3 * c, l] * gplane[qg, 2])
                 pln[i, c, l] = nc
                 d += nc * ps[b, c, l]
             pln[i, 3, l] = d
@@ -329,8 +312,15 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats):
                 n2 = pln[i, 2, l]
                 pd = pln[i, 3, l]
                 lim = pd + mq
-                v = (n0 * (wa[x, 0, l] if n0 > 0 else wa[x, 3, l]) + n1 * (wa[x, 1, l] if n1 > 0 else wa[x, 4, l])
-                     + n2 * (wa[x, 2, l] if n2 > 0 else wa[x, 5, l]))
+                # both corners loaded, one selected by value (a load under a condition keeps the
+                # loop from vectorising)
+                lo0 = wa[x, 0, l]
+                lo1 = wa[x, 1, l]
+                lo2 = wa[x, 2, l]
+                hi0 = wa[x, 3, l]
+                hi1 = wa[x, 4, l]
+                hi2 = wa[x, 5, l]
+                v = n0 * (lo0 if n0 > 0 else hi0) + n1 * (lo1 if n1 > 0 else hi1) + n2 * (lo2 if n2 > 0 else hi2)
                 m |= np.uint64(v <= lim + SLACK_POS * (abs(v) + abs(pd))) << np.uint64(l)
             m &= valid
             if m == 0:
@@ -396,11 +386,11 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats):
 
 @nb.njit(cache=True, inline="always")
 def _popcount(m):
-    n = 0
-    while m != 0:
-        n += 1
-        m &= m - np.uint64(1)
-    return n
+    # Set bits of a lane mask (< 2**LANES), without a loop: a data-dependent trip count would
+    # cost a mispredicted branch per call.
+    m = m - ((m >> np.uint64(1)) & np.uint64(0x55))
+    m = (m & np.uint64(0x33)) + ((m >> np.uint64(2)) & np.uint64(0x33))
+    return np.int64((m + (m >> np.uint64(4))) & np.uint64(0x0F))
 
 
 @nb.njit(cache=True, inline="always")
