@@ -49,8 +49,8 @@ def pack_lanes(body_pairs, row_start, pair_geoms, pair_gstart, plane_pos, plane_
     ``body_pairs`` (NP, 2) positions, sorted, position a's at ``row_start[a]:row_start[a + 1]``;
     ``pair_geoms`` (NLG, 3) ``(g1, g2, rank)`` with pair p's at ``pair_gstart[p]:pair_gstart[p + 1]``;
     ``plane_pos`` (NPL,) positions, plane i's at ``plane_start[i]:plane_start[i + 1]``;
-    ``plane_geoms`` (NPLG, 2) ``(g, rank)``, entry e's at ``plane_gstart[e]:plane_gstart[e + 1]``; ``explicit_rank`` (P,) (-1: never reported);
-    ``rank_keys`` (NR,) sorted keys.
+    ``plane_geoms`` (NPLG, 2) ``(g, rank)``, entry e's at ``plane_gstart[e]:plane_gstart[e + 1]``;
+    ``explicit_rank`` (P,) (-1: never reported); ``rank_keys`` (NR,) sorted keys.
     """
     head = np.array([len(body_pairs), len(pair_geoms), len(plane_pos), len(plane_geoms), len(rank_keys),
                      len(explicit_rank), LANES], np.int64)
