@@ -18,7 +18,9 @@ fixed costs: around the kernel's own work, the Python call into numba, the keys-
 and the copy of the result add ~1 us (franka, hot: 0.9 us of work, 2.0 us per call with the
 arrays passed, 1.9 with them bound by `bind`), and in a simulation loop the first call after
 ``mj_step`` runs 1.3-1.6x slower than a repeat (caches and predictors left to MuJoCo's code and
-data).
+data). Batches of a small model (`pairs_batch`) run eight worlds at a time in SIMD lanes
+(`_kernels.lanes`): per world, about a third of MuJoCo's single-world broad-phase time on one
+core.
 """
 
 from __future__ import annotations
