@@ -242,6 +242,8 @@ class BroadPhase:
         ok &= ((ctor[p] & caor[q]) != 0) | ((ctor[q] & caor[p]) != 0)
         if filter_parent:
             ok &= ~((parent_pos[q] == p) & (p != 0))  # p < q: only q can be p's child
+        if ok.sum() - len(ex_other) // 2 > _lanes.MAX_BODY_PAIRS:  # too many even if every exclusion hits
+            return None
         for i in np.flatnonzero(ok):
             if q[i] in ex_other[ex_start[p[i]]:ex_start[p[i] + 1]]:
                 ok[i] = False
