@@ -321,13 +321,8 @@ def test_inflation_values():
     np.testing.assert_allclose(cm.pair_inflation(model), [0.07])
 
 
-def test_pairs_batch_equals_single_worlds():
-    model = mujoco.MjModel.from_xml_string(CHAIN.format(fp="enable"))
-    bp = cm.BroadPhase(model)
-    rng = np.random.default_rng(3)
-    qpos = np.tile(model.qpos0, (6, 1))
-    qpos[:, :3] += rng.uniform(-0.3, 0.3, size=(6, 3))
-    qpos[:, 7:] = rng.uniform(-2, 2, size=(6, model.nq - 7))
+def _batch_equals_single_worlds(bp, model, qpos) -> int:
+    # pairs_batch(model, qpos) row by row against pairs(data) after mj_kinematics; the pair count.
     batch = bp.pairs_batch(model, qpos)
     data = mujoco.MjData(model)
     total = 0
@@ -337,7 +332,18 @@ def test_pairs_batch_equals_single_worlds():
         single = bp.pairs(data)
         np.testing.assert_array_equal(batch[batch[:, 0] == w, 1:], single)
         total += len(single)
-    assert total > 0
+    assert len(batch) == total
+    return total
+
+
+def test_pairs_batch_equals_single_worlds():
+    model = mujoco.MjModel.from_xml_string(CHAIN.format(fp="enable"))
+    bp = cm.BroadPhase(model)
+    rng = np.random.default_rng(3)
+    qpos = np.tile(model.qpos0, (6, 1))
+    qpos[:, :3] += rng.uniform(-0.3, 0.3, size=(6, 3))
+    qpos[:, 7:] = rng.uniform(-2, 2, size=(6, model.nq - 7))
+    assert _batch_equals_single_worlds(bp, model, qpos) > 0
     with pytest.raises(ValueError, match="qpos"):
         bp.pairs_batch(model, np.zeros((2, model.nq + 1)))
 
@@ -506,15 +512,7 @@ def test_scene_batch_equals_single_worlds(scene):
         count.append(len(bp.pairs(data)))
     # 11 worlds (a full group of lanes and a partial one): the states with the most pairs
     qpos = np.array(qpos)[np.sort(np.argsort(count, kind="stable")[-11:])]
-    batch = bp.pairs_batch(model, qpos)
-    total = 0
-    for w in range(len(qpos)):
-        data.qpos[:] = qpos[w]
-        mujoco.mj_kinematics(model, data)
-        single = bp.pairs(data)
-        np.testing.assert_array_equal(batch[batch[:, 0] == w, 1:], single)
-        total += len(single)
-    assert total > 0 and len(batch) == total
+    assert _batch_equals_single_worlds(bp, model, qpos) > 0
 
 
 @pytest.mark.skipif(not (MODELS / "humanoid" / "scene.xml").is_file(),

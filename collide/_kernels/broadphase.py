@@ -1452,6 +1452,25 @@ def step_bound():
     return _bound_entry
 
 
+@nb.njit(cache=True, inline="always")
+def _batch_world(w, pos_all, rot_all, I, F, W, sap, bp, kp, cap, off, scr, stats, info, world_info, world_count,
+                 st, so):
+    # World w of a batch through `_world`, its sorted keys at offset off of the chunk's keys (at
+    # address kp, capacity cap), its count, status and stats (into st[so:]) recorded; returns the
+    # next offset. Beyond capacity it keeps counting (on a zero-length tail) so the caller learns
+    # the size.
+    start = off if off < cap else cap
+    keys = nb.carray(i64_ptr(kp + 8 * start), cap - start)
+    info[0] = OK
+    kw = _world(pos_all[w], rot_all[w], I, F, W, sap, bp, keys, scr, stats, info)
+    for i in range(4):
+        world_info[w, i] = info[i]
+    world_count[w] = kw
+    for s in range(N_STATS):
+        st[so + s] += stats[s]
+    return off + kw if kw > 0 else off
+
+
 @nb.njit(cache=True, parallel=True)
 def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_total):
     """Worlds split into ``C = ctxs.shape[0]`` contiguous chunks handed to numba's threads, each
@@ -1479,18 +1498,8 @@ def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_total):
         w1 = (B * (c + 1)) // C
         off = 0
         for w in range(w0, w1):
-            # Beyond capacity, keep counting (on a zero-length tail) so the caller learns the size.
-            start = off if off < cap else cap
-            keys = nb.carray(i64_ptr(ctx[C_KEYS] + 8 * start), cap - start)
-            info[0] = OK
-            kw = _world(pos_all[w], rot_all[w], I, F, W, sap, bp, keys, scr, stats, info)
-            for i in range(4):
-                world_info[w, i] = info[i]
-            world_count[w] = kw
-            if kw > 0:
-                off += kw
-            for s in range(N_STATS):
-                st[N_STATS + s] += stats[s]
+            off = _batch_world(w, pos_all, rot_all, I, F, W, sap, bp, ctx[C_KEYS], cap, off, scr, stats, info,
+                               world_info, world_count, st, N_STATS)
         for s in range(N_STATS):
             stats[s] = st[N_STATS + s]
         chunk_total[c] = off

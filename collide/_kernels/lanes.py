@@ -29,10 +29,9 @@ import numpy as np
 
 from ._ptr import f64_ptr, i64_ptr
 from ._simd import aabb_mask8
-from .broadphase import (BIG, C_KEYS, C_NKEYS, N_STATS, NCTX, OK, ROW, SLACK_POS, SLACK_REL,
-                         ST_BODY_OBB, ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_SUBTREE,
-                         ST_OUT, ST_PLANE, _buffers, _explicit_hit, _plane_hit_local, _pose_ok, _views,
-                         _world, bounds_mask)
+from .broadphase import (BIG, C_KEYS, C_NKEYS, N_STATS, NCTX, ROW, SLACK_POS, SLACK_REL, ST_BODY_OBB,
+                         ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT, ST_PLANE, ST_SUBTREE,
+                         _batch_world, _buffers, _explicit_hit, _plane_hit_local, _pose_ok, _views, bounds_mask)
 
 LANES = 8
 MAX_BODY_PAIRS = 4096  # above this many static body pairs, the tree of the per-world kernel culls better
@@ -471,17 +470,8 @@ def step_lanes(body_pos, body_rot, ctxs, J, LWs, LBs, world_count, world_info, c
                     st[ST_OUT] += k
                 continue
             for w in range(g0, g0 + nl):
-                start = off if off < cap else cap
-                keys = nb.carray(i64_ptr(kp + 8 * start), cap - start)
-                info[0] = OK
-                kw = _world(pos_all[w], rot_all[w], I, F, W, sap, bp, keys, scr, stats, info)
-                for i in range(4):
-                    world_info[w, i] = info[i]
-                world_count[w] = kw
-                if kw > 0:
-                    off += kw
-                for s in range(N_STATS):
-                    st[s] += stats[s]
+                off = _batch_world(w, pos_all, rot_all, I, F, W, sap, bp, kp, cap, off, scr, stats, info,
+                                   world_info, world_count, st, 0)
         for s in range(N_STATS):
             stats[s] = st[s]
         chunk_total[c] = off
