@@ -471,6 +471,10 @@ def test_scene_recall_is_complete(scene, tmp_path):
     assert contacts.sum() > 0, f"{scene}: no contact in 2000 steps, the test would test nothing"
     assert np.all(ours >= contacts)
     assert len(result["mujoco_candidates_per_step"]) == 2000
+    # MuJoCo's candidates come from a second run; it must have simulated the same states.
+    assert result["mujoco_count_replayed"] is True
+    mj = np.asarray(result["mujoco_candidates_per_step"])
+    assert np.all(mj[contacts > 0] > 0), "MuJoCo counted no candidate on a step with contacts"
     assert result["time_ours_us"] > 0 and result["time_mujoco_broad_us"] > 0
     # The JSON round trip keeps every figure.
     path = tmp_path / "r.json"
