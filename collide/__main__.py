@@ -33,6 +33,15 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _plot_formats() -> set[str] | None:
+    # The file types matplotlib can write here; None without matplotlib (the run then says so).
+    try:
+        from matplotlib.backend_bases import FigureCanvasBase
+    except ImportError:
+        return None
+    return set(FigureCanvasBase.get_supported_filetypes())
+
+
 def compare_main(args: argparse.Namespace) -> int:
     """Run ``compare``; returns the exit status."""
     import mujoco
@@ -48,9 +57,21 @@ def compare_main(args: argparse.Namespace) -> int:
     if args.seed < 0:
         print("error: --seed must be >= 0", file=sys.stderr)
         return 2
-    for out in (args.json, args.plot):
-        # Folders for the outputs now, not after the whole run (and exit status 1 means a miss).
+    if args.plot and not Path(args.plot).suffix:
+        args.plot += ".png"  # what matplotlib would write; said so, not guessed
+    if args.plot:
+        fmt = Path(args.plot).suffix[1:].lower()
+        supported = _plot_formats()
+        if supported is not None and fmt not in supported:
+            print(f"error: --plot: matplotlib cannot write '.{fmt}' files (use one of: "
+                  f"{', '.join(sorted(supported))})", file=sys.stderr)
+            return 2
+    for flag, out in (("--json", args.json), ("--plot", args.plot)):
+        # The outputs are checked now, not after the whole run (and exit status 1 means a miss).
         if out:
+            if Path(out).is_dir():
+                print(f"error: {flag}: {out} is a folder; give a file name", file=sys.stderr)
+                return 2
             try:
                 Path(out).parent.mkdir(parents=True, exist_ok=True)
             except OSError as exc:

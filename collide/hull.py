@@ -58,9 +58,14 @@ def affine_basis(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
         s = np.concatenate([s, np.zeros(3 - len(s))])
     # Thickness below the rounding noise of the coordinates (a flat set rotated far from the
     # origin picks up ~eps * |x| of it per point) or below FLAT_TOL of the spread is flatness.
-    noise = 64.0 * np.finfo(np.float64).eps * float(np.abs(points).max()) * np.sqrt(len(points))
-    rank = int(np.sum(s > max(FLAT_TOL * s[0], noise)))
+    rank = int(np.sum(s > max(FLAT_TOL * s[0], _noise(points))))
     return center, vt, rank
+
+
+def _noise(points: np.ndarray) -> float:
+    # Rounding noise of a spread measured on these coordinates (a singular value of the centred
+    # points below it is rounding, not shape).
+    return 64.0 * np.finfo(np.float64).eps * float(np.abs(points).max()) * np.sqrt(len(points))
 
 
 def hull_indices(points: np.ndarray) -> np.ndarray:
@@ -85,11 +90,20 @@ def hull_indices(points: np.ndarray) -> np.ndarray:
     center, axes, rank = affine_basis(points)
     if rank == 0:
         return np.array([0])
-    local = (points - center) @ axes[:rank].T
+    local = (points - center) @ axes.T
+    # Reduction keeps every dimension above the rounding noise, not only those above FLAT_TOL of
+    # the spread: a plate 1e-13 as thick as it is wide is flat for affine_basis, but keeping one
+    # face's corners would lose its thickness, thousands of ulps (review, 2026-11-21). The hull is
+    # taken on whitened coordinates (each principal spread scaled to one): the same vertices,
+    # and Qhull sees a well-conditioned set however thin the input.
+    spread = np.ptp(local, axis=0)
+    keep = int(np.sum(spread > _noise(points) / np.sqrt(n)))
+    rank = max(rank, keep)
     if rank == 1:
         return np.unique([int(np.argmin(local[:, 0])), int(np.argmax(local[:, 0]))])
     if n <= rank + 1:
         return np.arange(n)
+    local = local[:, :rank] / spread[:rank]
     try:
         return np.sort(ConvexHull(local).vertices)
     except (QhullError, ValueError):

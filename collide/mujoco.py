@@ -24,6 +24,10 @@ this install with small MJCF models (``tests/test_mujoco.py``):
   - a contact is generated when the distance is below ``margin1 + margin2 + gap1 + gap2``
     (MuJoCo >= 3.9: geoms in the gap produce contacts flagged ``exclude``; with
     ``mjENBL_OVERRIDE`` the margin sum is ``opt.o_margin``; the gaps stay);
+* the convex narrow phase (GJK/EPA) reports contacts for geoms up to ~``opt.ccd_tolerance``
+  apart: every bound is inflated by it as well (`geom_inflation`);
+* geoms the compiler snapped to their body's or inertial frame (``geom_sameframe``) are placed
+  there, as ``mj_kinematics`` places them, whatever their ``geom_pos`` says (`geom_frames`);
 * explicit ``<pair>``s bypass all the above filters and use their own ``margin + gap``; a dynamic
   pair with the same two geoms is dropped in favour of the explicit one;
 * pairs without a collision function in ``mjCOLLISIONFUNC`` never make contacts: plane-plane,
@@ -77,6 +81,7 @@ __all__ = [
     "exclusion_rules",
     "format_report",
     "geom_clouds",
+    "geom_frames",
     "geom_inflation",
     "kinematics_batch",
     "model_excludes",
@@ -147,26 +152,88 @@ def geom_clouds(model: mujoco.MjModel) -> list:
 
 
 def geom_inflation(model: mujoco.MjModel) -> np.ndarray:
-    """``(G,) float64``: how far each geom's bound is inflated: ``margin + gap``.
+    """``(G,) float64``: how far each geom's bound is inflated: ``margin + gap + ccd_tolerance``.
 
     MuJoCo generates a contact below ``margin1 + margin2 + gap1 + gap2`` (``getMargin`` +
     ``getGap`` in engine_collision_driver.c); with ``mjENBL_OVERRIDE`` the margin sum becomes
-    ``opt.o_margin``, so each geom takes half of it.
+    ``opt.o_margin``, so each geom takes half of it. Its convex-convex narrow phase (GJK/EPA,
+    ``opt.ccd_tolerance``) also reports contacts for geoms a little apart: measured on this
+    install (cylinders, boxes, ellipsoids, meshes, 3000 random poses per pair and tolerance
+    1e-3 to 5e-2), true gaps of up to 0.77 x ``ccd_tolerance``. Each geom adds the whole
+    tolerance, so a pair is inflated by twice it (1e-6 by default: no visible cost).
     """
     if model.opt.enableflags & _ENBL.mjENBL_OVERRIDE:
         margin = np.full(model.ngeom, 0.5 * float(model.opt.o_margin))
     else:
         margin = np.asarray(model.geom_margin, dtype=np.float64)
-    return np.maximum(margin + np.asarray(model.geom_gap, dtype=np.float64), 0.0)
+    return (np.maximum(margin + np.asarray(model.geom_gap, dtype=np.float64), 0.0)
+            + _ccd_slack(model))
 
 
 def pair_inflation(model: mujoco.MjModel) -> np.ndarray:
-    """``(P,) float64``: contact distance of each explicit ``<pair>``: ``margin + gap``."""
+    """``(P,) float64``: contact distance of each explicit ``<pair>``: ``margin + gap``, plus
+    twice ``opt.ccd_tolerance`` (see `geom_inflation`)."""
     if model.opt.enableflags & _ENBL.mjENBL_OVERRIDE:
         margin = np.full(model.npair, float(model.opt.o_margin))
     else:
         margin = np.asarray(model.pair_margin, dtype=np.float64)
-    return np.maximum(margin + np.asarray(model.pair_gap, dtype=np.float64), 0.0)
+    return (np.maximum(margin + np.asarray(model.pair_gap, dtype=np.float64), 0.0)
+            + 2.0 * _ccd_slack(model))
+
+
+def _ccd_slack(model: mujoco.MjModel) -> float:
+    return max(float(model.opt.ccd_tolerance), 0.0)
+
+
+def geom_frames(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
+    """Each geom's pose in its body's frame as MuJoCo's kinematics places it.
+
+    The compiler marks a geom whose frame coincides with its body's or inertial frame, up to
+    its tolerance, in ``geom_sameframe``, and ``mj_kinematics`` then copies that frame
+    (``mj_local2Global``): ``geom_pos`` / ``geom_quat`` are ignored for it (a plane at
+    ``pos="0 0 -5e-7"`` sits at the body origin). Same for the rotation alone (``BODYROT``,
+    ``INERTIAROT``).
+
+    Returns
+    -------
+    pos : (G, 3) float64
+    rot : (G, 3, 3) float64
+    """
+    pos = np.array(model.geom_pos, dtype=np.float64).reshape(-1, 3)
+    quat = np.array(model.geom_quat, dtype=np.float64).reshape(-1, 4)
+    sf = np.asarray(model.geom_sameframe)
+    bid = np.asarray(model.geom_bodyid)
+    same = mujoco.mjtSameFrame
+    ident = np.array([1.0, 0.0, 0.0, 0.0])
+    body = sf == same.mjSAMEFRAME_BODY
+    pos[body] = 0.0
+    quat[body | (sf == same.mjSAMEFRAME_BODYROT)] = ident
+    inertia = sf == same.mjSAMEFRAME_INERTIA
+    pos[inertia] = np.asarray(model.body_ipos)[bid[inertia]]
+    irot = inertia | (sf == same.mjSAMEFRAME_INERTIAROT)
+    quat[irot] = np.asarray(model.body_iquat)[bid[irot]]
+    return pos, _quat_to_mat(quat)
+
+
+def _model_mismatch(model: mujoco.MjModel, other: mujoco.MjModel) -> str | None:
+    # What differs between two models as far as our bounds and filters go (None: nothing): a
+    # BroadPhase of one model must not silently answer for another of the same sizes.
+    if model is other:
+        return None
+    for attr in ("nbody", "ngeom", "npair", "nexclude"):
+        if getattr(model, attr) != getattr(other, attr):
+            return f"{attr} {getattr(other, attr)} != {getattr(model, attr)}"
+    for attr in ("body_parentid", "body_weldid", "geom_bodyid", "geom_type", "geom_dataid", "geom_size",
+                 "geom_pos", "geom_quat", "geom_contype", "geom_conaffinity", "geom_margin", "geom_gap",
+                 "pair_geom1", "pair_geom2", "pair_margin", "pair_gap", "exclude_signature"):
+        if not np.array_equal(getattr(model, attr), getattr(other, attr)):
+            return f"{attr} differs"
+    for attr in ("disableflags", "enableflags", "o_margin", "ccd_tolerance"):
+        if getattr(model.opt, attr) != getattr(other.opt, attr):
+            return f"opt.{attr} differs"
+    if model.nmeshvert != other.nmeshvert or not np.array_equal(model.mesh_vert, other.mesh_vert):
+        return "mesh_vert differs"
+    return None
 
 
 def parent_excludes(model: mujoco.MjModel) -> np.ndarray:
@@ -222,10 +289,10 @@ def articulation(model: mujoco.MjModel) -> Articulation:
     Returns
     -------
     Articulation
-        Bodies as in the model (body 0 is the world), geoms placed by ``geom_pos`` /
-        ``geom_quat``, clouds from `geom_clouds`, contype/conaffinity, inflation from
-        `geom_inflation`, exclusions from ``<exclude>`` and `parent_excludes`, weld groups
-        from `weld_groups`, explicit pairs with `pair_inflation`. MuJoCo's parent filter (on
+        Bodies as in the model (body 0 is the world), geoms placed as `geom_frames` says,
+        clouds from `geom_clouds`, contype/conaffinity, inflation from `geom_inflation`,
+        exclusions from ``<exclude>`` and `parent_excludes`, weld groups from `weld_groups`,
+        explicit pairs with `pair_inflation`. MuJoCo's parent filter (on
         weld groups, not bodies) goes through `exclusion_rules`.
     """
     if not isinstance(model, mujoco.MjModel):
@@ -233,12 +300,13 @@ def articulation(model: mujoco.MjModel) -> Articulation:
     weld = weld_groups(model)
     filter_parent, excludes = exclusion_rules(model, weld)
     pairs = np.stack([model.pair_geom1, model.pair_geom2], axis=1).astype(np.int64).reshape(-1, 2)
+    geom_pos, geom_rot = geom_frames(model)
     return Articulation(
         body_parent=np.asarray(model.body_parentid, dtype=np.int64),
         geom_body=np.asarray(model.geom_bodyid, dtype=np.int64),
         geom_cloud=geom_clouds(model),
-        geom_pos=np.asarray(model.geom_pos, dtype=np.float64),
-        geom_rot=_quat_to_mat(np.asarray(model.geom_quat, dtype=np.float64)),
+        geom_pos=geom_pos,
+        geom_rot=geom_rot,
         geom_contype=np.asarray(model.geom_contype, dtype=np.int64),
         geom_conaffinity=np.asarray(model.geom_conaffinity, dtype=np.int64),
         geom_margin=geom_inflation(model),
@@ -554,6 +622,11 @@ class BroadPhase:
             if data.xpos.shape[0] != self.model.nbody:
                 raise ValueError(f"data: made for a model with {data.xpos.shape[0]} bodies, this broad phase's "
                                  f"has {self.model.nbody}")
+            # Checked once per MjData (here, where its arrays are bound), not per step.
+            diff = _model_mismatch(self.model, getattr(data, "model", self.model))
+            if diff is not None:
+                raise ValueError(f"data: made for another model than this broad phase's ({diff}); "
+                                 "build a BroadPhase of that model")
             if self._disabled:
                 return self._empty2
             # The bindings build new numpy views at every attribute access (~0.3 us a call), and
@@ -601,9 +674,9 @@ class BroadPhase:
         """
         if not isinstance(model, mujoco.MjModel):
             raise ValueError(f"model: expected a mujoco.MjModel, got {type(model).__name__}")
-        if model is not self.model and (model.nbody != self.model.nbody
-                                         or model.ngeom != self.model.ngeom):
-            raise ValueError("model: not the model this BroadPhase was built from")
+        diff = _model_mismatch(self.model, model)
+        if diff is not None:
+            raise ValueError(f"model: not the model this BroadPhase was built from ({diff})")
         q = as_array(qpos, "qpos", (None, model.nq))
         if self._disabled:
             return self._empty3
@@ -802,6 +875,11 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
     seed = as_count(seed, "seed", 0)
     hold = as_count(hold, "hold", 1)
     bp = broadphase if broadphase is not None else BroadPhase(model)
+    if not isinstance(bp, BroadPhase):
+        raise ValueError(f"broadphase: expected a collide.mujoco.BroadPhase, got {type(bp).__name__}")
+    diff = _model_mismatch(bp.model, model)
+    if diff is not None:
+        raise ValueError(f"broadphase: built from another model ({diff})")
     rec = Comparison(name, seed)
     perf = time.perf_counter_ns
     # Inside the loop only raw copies are kept: numpy's set routines (np.unique with an axis,

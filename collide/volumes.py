@@ -693,7 +693,7 @@ def fit_obb(points: np.ndarray, radius: float = 0.0, method: str = "optimal") ->
     local = points - offset
     verts, hull = _hull_points(local)
     rot = pca_axes(verts) if method == "pca" else _optimal_rotation(verts, hull, radius)
-    # Extents from every point, not only the hull vertices: the hull reduction treats
+    # Extents from every point, not only the hull vertices: _hull_points (axes only) treats
     # thickness below ~1e-12 of the spread as flat and drops it, the box must not.
     box = box_from_axes(local, radius, rot)
     # A few ulps of the coordinates' size: moving the centre back by ``offset`` and a later

@@ -590,6 +590,25 @@ def test_far_from_the_origin():
     assert touching > 10
 
 
+def test_tiny_bodies_far_from_the_origin_keep_their_pair():
+    # Reproducer (review, 2026-11-21): boxes 1.4e-6 wide at x = 1e6 overlapping by 1.9e-11, less
+    # than the rounding of their centres (1.2e-10). The tree's AABB tests had no slack and lost the
+    # pair the exact test reports; the body AABBs now carry the OBB test's slack.
+    from fractions import Fraction
+
+    h1, h2 = 1.441358639424687e-06, 1.406315392012355e-06
+    c1, c2 = 1.7890018458891245e-06, 3.838979540228114e-06
+    x1, x2 = 1000000.9028811551, 1000000.9028819528
+    assert Fraction(x1) + Fraction(c1) + Fraction(h1) > Fraction(x2) + Fraction(c2) - Fraction(h2)
+    art = Articulation([0, 0, 0], [1, 2], [shapes.box([h1] * 3), shapes.box([h2] * 3)],
+                       geom_pos=[[c1, 0, 0], [c2, 0, 0]])
+    pos = np.array([[0, 0, 0], [x1, 5e5, 5e5], [x2, 5e5, 5e5]])
+    rot = np.tile(np.eye(3), (3, 1, 1))
+    assert _rows(testing.brute_force_pairs(art, pos, rot)) == {(0, 1)}
+    assert _rows(BroadPhase(art).pairs(pos, rot)) == {(0, 1)}
+    assert BroadPhase(art).pairs_batch(pos[None], rot[None]).tolist() == [[0, 0, 1]]
+
+
 def test_slightly_scaled_rotations_never_lose_a_touching_pair():
     # Rotations are accepted up to |R^T R - I| <= 1e-6 (float32 poses); the bounds carry the slack.
     # Reproducer (2026-11-21): a rotation scaled by 1 + 4.5e-7 missed boxes 4e-7 apart.

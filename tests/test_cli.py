@@ -74,6 +74,21 @@ def test_bad_usage_exits_2(argv, capsys):
     assert "error:" in capsys.readouterr().err
 
 
+def test_bad_outputs_are_refused_before_the_run(tmp_path, capsys):
+    # Checked up front: after a whole run they were tracebacks with exit status 1 ("a miss").
+    assert main(["compare", "--steps", "1", "--json", str(tmp_path)]) == 2
+    assert "is a folder" in capsys.readouterr().err
+    assert main(["compare", "--steps", "1", "--plot", str(tmp_path / "p.xyz")]) == 2
+    assert "cannot write '.xyz'" in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())
+
+
+def test_plot_without_extension_is_a_png(tmp_path, capsys):
+    assert main(["compare", "--steps", "5", "--plot", str(tmp_path / "noext")]) == 0
+    assert (tmp_path / "noext.png").is_file()
+    assert f"wrote {tmp_path / 'noext.png'}" in capsys.readouterr().out
+
+
 def test_unknown_command_is_rejected():
     with pytest.raises(SystemExit) as exc:
         main(["frobnicate"])

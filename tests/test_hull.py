@@ -57,6 +57,30 @@ def test_flat_rotated_polygon_far_from_origin():
     assert hull.affine_basis(pts)[2] == 2
 
 
+@pytest.mark.parametrize("half", [[1.0, 1.0, 1e-13], [1e6, 1e6, 1e-7], [1.0, 1e-13, 1e-13]],
+                         ids=["plate", "wide-plate", "needle"])
+def test_thin_sets_keep_their_thickness(half):
+    # Review reproducer (2026-11-21): thickness below FLAT_TOL of the spread (flat for
+    # affine_basis) but far above the rounding of the coordinates was dropped by the reduction,
+    # which kept one face's corners. Now every box corner, under random rotations, stays inside
+    # the hull of the reduced points, measured along the box's own thin axes.
+    from collide import shapes, union
+
+    rng = np.random.default_rng(11)
+    half = np.array(half)
+    box = shapes.box(half)
+    for _ in range(4):
+        q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        q *= np.sign(np.linalg.det(q))
+        moved = box.transform(q, rng.normal(size=3))
+        for cloud in (moved.reduced(), union([moved, moved], threshold=1)):
+            local = (cloud.points - moved.points.mean(axis=0)) @ q  # back in the box's frame
+            # rounding of the rotated coordinates: a few ulps of their size
+            tol = 1e-14 * float(np.abs(moved.points).max())
+            np.testing.assert_allclose(local.max(axis=0), half, rtol=0, atol=tol)
+            np.testing.assert_allclose(local.min(axis=0), -half, rtol=0, atol=tol)
+
+
 @pytest.mark.parametrize("level", [0, 1, 2])
 def test_ball_polytope_contains_the_unit_ball(level):
     # The support function of the polytope is >= 1 in every direction (it circumscribes the ball).

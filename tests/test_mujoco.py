@@ -317,8 +317,110 @@ def test_inflation_values():
       <body><freejoint/><geom name="b" type="sphere" size=".1"/></body>
     </worldbody><contact><pair geom1="a" geom2="b" margin=".05" gap=".02"/></contact></mujoco>"""
     model = mujoco.MjModel.from_xml_string(xml)
-    np.testing.assert_allclose(cm.geom_inflation(model), [0.03, 0.0])
-    np.testing.assert_allclose(cm.pair_inflation(model), [0.07])
+    tol = model.opt.ccd_tolerance  # 1e-6 by default (see test_ccd_tolerance_widens_the_bounds)
+    assert tol == 1e-6
+    np.testing.assert_allclose(cm.geom_inflation(model), [0.03 + tol, tol], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(cm.pair_inflation(model), [0.07 + 2 * tol], rtol=0, atol=1e-15)
+
+
+def _cylinder_and_box(scale: float, ccd_tolerance: str = ""):
+    # A cylinder and a box 4.96e-3 * scale apart, which MuJoCo's GJK/EPA reports as touching
+    # (dist -6.5e-3 * scale) when ccd_tolerance is 1e-2 * scale (review reproducer, 2026-11-21).
+    opt = f'ccd_tolerance="{ccd_tolerance}"' if ccd_tolerance else ""
+    inertial = '<inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>'
+    xml = f"""<mujoco><option gravity="0 0 0" {opt}/><worldbody>
+      <body>{inertial}<freejoint/><geom type="cylinder" size="{.3 * scale} {.02 * scale}"/></body>
+      <body>{inertial}<freejoint/><geom type="box" size="{.3 * scale} {.05 * scale} {.01 * scale}"/></body>
+    </worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    data.qpos[:] = [-0.27354999853321776, 0.042656946555812425, 0.15046362590392015, 0.40528595143131513,
+                    -0.15773661178624865, 0.3617266135643967, -0.8246310180400938, 0.11434286081098499,
+                    0.22623580440450386, 0.08393490114742647, 0.7237705373703305, -0.5149749858364848,
+                    -0.3230656425759032, 0.32647444583672086]
+    data.qpos[0:3] *= scale
+    data.qpos[7:10] *= scale
+    mujoco.mj_forward(model, data)
+    return model, data
+
+
+@pytest.mark.parametrize("scale, tol", [(1.0, "0.01"), (1e-4, "")])
+def test_ccd_tolerance_widens_the_bounds(scale, tol):
+    # MuJoCo's convex narrow phase reports contacts up to ~0.8 x ccd_tolerance apart: we must
+    # propose them (at 1e-4 scale the default 1e-6 tolerance is 1/30 of the box's width).
+    model, data = _cylinder_and_box(scale, tol)
+    assert cm.contact_pairs(model, data).tolist() == [[0, 1]]
+    bp = cm.BroadPhase(model)
+    ours = bp.pairs(data).tolist()
+    model.opt.ccd_tolerance = 1e-12 * scale
+    gap = mujoco.mj_geomDistance(model, data, 0, 1, 1.0, np.zeros(6))
+    assert gap > 0.4e-2 * scale  # truly apart, by about half the tolerance
+    assert ours == [[0, 1]]
+
+
+def test_geoms_snapped_to_their_body_frame():
+    # The compiler snaps a geom within its tolerance of the body (or inertial) frame to it
+    # (geom_sameframe) and mj_kinematics then ignores geom_pos: a plane 5e-7 below the origin
+    # is at the origin, and a box resting on z = 0 touches it (review reproducer, 2026-11-21).
+    # (A tiny box and tolerance: our rotation slack and ccd_tolerance inflation would hide it.)
+    xml = """<mujoco><option gravity="0 0 0" ccd_tolerance="1e-10"/><worldbody>
+      <geom type="plane" size="1 1 1" pos="0 0 -5e-7"/>
+      <body pos="0 0 1e-7"><freejoint/><inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>
+        <geom type="box" size="1e-3 1e-3 2e-7"/></body></worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    assert model.geom_sameframe[0] == mujoco.mjtSameFrame.mjSAMEFRAME_BODY and model.geom_pos[0, 2] == -5e-7
+    assert cm.contact_pairs(model, data).tolist() == [[0, 1]]
+    assert cm.BroadPhase(model).pairs(data).tolist() == [[0, 1]]
+
+
+def test_geom_frames_follow_mj_kinematics():
+    # Every kind of geom_sameframe, on a body with an offset, rotated inertial frame.
+    xml = """<mujoco><worldbody><body pos=".3 -.2 1" euler="10 20 30"><freejoint/>
+      <inertial pos=".1 .2 .3" euler="40 50 60" mass="1" diaginertia="1 2 3"/>
+      <geom name="none" size=".1" pos=".5 0 0" euler="5 6 7"/>
+      <geom name="body" size=".1"/>
+      <geom name="inertia" size=".1" pos=".1 .2 .3" euler="40 50 60"/>
+      <geom name="bodyrot" size=".1" pos="1 1 1"/>
+      <geom name="inertiarot" size=".1" pos="-.4 .1 0" euler="40 50 60"/>
+    </body></worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    assert sorted(model.geom_sameframe) == [0, 1, 2, 3, 4]
+    data = mujoco.MjData(model)
+    data.qpos[3:7] = [0.5, 0.5, -0.5, 0.5]
+    mujoco.mj_kinematics(model, data)
+    pos, rot = cm.geom_frames(model)
+    for g in range(model.ngeom):
+        b = model.geom_bodyid[g]
+        R = data.xmat[b].reshape(3, 3)
+        np.testing.assert_allclose(data.xpos[b] + R @ pos[g], data.geom_xpos[g], atol=1e-12)
+        np.testing.assert_allclose(R @ rot[g], data.geom_xmat[g].reshape(3, 3), atol=1e-12)
+
+
+def test_another_models_data_or_model_is_refused():
+    # Same body and geom counts, other geometry: an answer would be silently wrong.
+    a = CLUSTER.format('<geom type="plane" size="1 1 1"/>' + _free_sphere("a", "0 0 .05")
+                       + _free_sphere("b", "1 0 .05"))
+    b = CLUSTER.format(_free_sphere("a", "0 0 3") + '<body pos="0 0 3.1"><freejoint/>'
+                       '<geom size=".1" contype="0" conaffinity="0"/><geom size=".1" pos="0 .1 0"/></body>')
+    ma, mb = mujoco.MjModel.from_xml_string(a), mujoco.MjModel.from_xml_string(b)
+    assert (ma.nbody, ma.ngeom) == (mb.nbody, mb.ngeom)
+    bp = cm.BroadPhase(ma)
+    db = mujoco.MjData(mb)
+    mujoco.mj_forward(mb, db)
+    with pytest.raises(ValueError, match="data: made for another model"):
+        bp.pairs(db)
+    with pytest.raises(ValueError, match="model: not the model this BroadPhase was built from"):
+        bp.pairs_batch(mb, mb.qpos0[None])
+    with pytest.raises(ValueError, match="broadphase: built from another model"):
+        cm.compare(mb, steps=2, broadphase=bp)
+    # a second copy of the same model is the same model
+    twin = mujoco.MjModel.from_xml_string(a)
+    dt = mujoco.MjData(twin)
+    mujoco.mj_forward(twin, dt)
+    assert bp.pairs(dt).tolist() == cm.BroadPhase(twin).pairs(dt).tolist()
+    assert len(bp.pairs_batch(twin, twin.qpos0[None])) == 2
 
 
 def _batch_equals_single_worlds(bp, model, qpos) -> int:

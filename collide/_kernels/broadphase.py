@@ -264,9 +264,14 @@ def _place(body_rot, body_pos, b, blocal, x, bw, baabb, saabb, baabb_t):
     # World row of position x (body b's pose) and its AABB: the AABB of the world OBB, also the
     # start of its subtree AABB (stage 2 merges the descendants in).
     _world_row(body_rot, body_pos, b, blocal, x, bw, x)
+    # The slack of the OBB test (SLACK_REL of the size, SLACK_POS of the centre's magnitude): the
+    # tree's AABB tests compare lo <= hi bare, and a tiny body far from the origin (1e-6 at 1e6)
+    # would otherwise lose a pair the OBB test keeps (rounding of the centre > its guard).
+    tol = (SLACK_REL * (bw[x, 12] + bw[x, 13] + bw[x, 14])
+           + SLACK_POS * (abs(bw[x, 0]) + abs(bw[x, 1]) + abs(bw[x, 2])))
     for i in range(3):
         h = (abs(bw[x, 3 + 3 * i]) * bw[x, 12] + abs(bw[x, 4 + 3 * i]) * bw[x, 13]
-             + abs(bw[x, 5 + 3 * i]) * bw[x, 14])
+             + abs(bw[x, 5 + 3 * i]) * bw[x, 14] + tol)
         lo = bw[x, i] - h
         hi = bw[x, i] + h
         baabb[x, i] = lo

@@ -228,8 +228,11 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats):
             _lane_row(ps, order[x], blocal, x, wb, x, nv)
             for i in range(3):
                 for l in range(nv):
+                    # the OBB test's slack, as in broadphase._place
                     h = (abs(wb[x, 3 + 3 * i, l]) * wb[x, 12, l] + abs(wb[x, 4 + 3 * i, l]) * wb[x, 13, l]
-                         + abs(wb[x, 5 + 3 * i, l]) * wb[x, 14, l])
+                         + abs(wb[x, 5 + 3 * i, l]) * wb[x, 14, l]
+                         + SLACK_REL * (wb[x, 12, l] + wb[x, 13, l] + wb[x, 14, l])
+                         + SLACK_POS * (abs(wb[x, 0, l]) + abs(wb[x, 1, l]) + abs(wb[x, 2, l])))
                     lo = wb[x, i, l] - h
                     hi = wb[x, i, l] + h
                     wa[x, i, l] = lo

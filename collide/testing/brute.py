@@ -159,6 +159,13 @@ def _as_pairs(g1, g2) -> np.ndarray:
 def brute_force_bound_pairs(art: Articulation, body_pos, body_rot, chunk: int = 200_000) -> np.ndarray:
     """All filter-passing geom pairs whose world bounds (inflated by margins) overlap.
 
+    Overlap is the sphere test and the 15-axis separating-axis test, each with the kernels'
+    rounding slack (``SLACK_REL`` of the sizes plus ``SLACK_POS`` of the coordinates). The fast
+    path equals this set up to pairs inside that slack: it also culls with AABBs carrying the
+    same slack along the world axes, and the 15 axes can under-state a separation along a world
+    axis (vertex-vertex closest features). At ordinary scales the slack is ~1e-12 of a body's
+    size; it becomes visible only for bodies below ~1e-6 of their distance to the origin.
+
     Parameters
     ----------
     art : Articulation
