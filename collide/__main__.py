@@ -91,6 +91,8 @@ def compare_main(args: argparse.Namespace) -> int:
     else:
         model = cm.default_scene(seed=args.seed)
         name = "built-in scene (figure falling on a pile)"
+    # Said before the run: the first one also compiles the kernels (about a minute, silent).
+    print(f"{name}: simulating {args.steps} steps with random controls (seed {args.seed})...", flush=True)
     result = cm.compare(model, steps=args.steps, seed=args.seed, name=name, hold=args.hold)
     print(cm.format_report(result))
     if args.json:

@@ -70,7 +70,11 @@ class BroadPhase:
         ``body_aabb_tests``: body against a non-leaf body in deeper subtrees; ``body_sphere_tests``,
         ``body_obb_tests``, ``geom_aabb_tests``, ``geom_sphere_tests``, ``geom_obb_tests`` (geoms of
         multi-geom bodies, AABB then sphere then OBB), ``plane_tests``) and ``pairs`` out; summed
-        over worlds after `pairs_batch`.
+        over worlds after `pairs_batch`. ``pairs`` is always the sum of the worlds' counts; the
+        test counters are those of the path the batch took: small models go through a kernel that
+        tests 8 worlds at once (``collide._kernels.lanes``), which counts one vectorised test per
+        8 worlds and walks no tree (``subtree_tests`` 0), so they differ from the single-world
+        counts summed.
 
     Notes
     -----

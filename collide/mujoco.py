@@ -869,7 +869,9 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
         ``time_mujoco_broad_us`` (medians), their ``ratio``, the per-step times
         (``time_ours_us_per_step``, ``time_mujoco_broad_us_per_step``), ``model``, ``seed``,
         ``unstable_resets`` (times MuJoCo reset an unstable simulation),
-        ``mujoco_count_replayed`` (True when the counting run reproduced every step's contacts).
+        ``mujoco_count_replayed`` (True when the counting run reproduced every step's contacts),
+        ``contact_pairs_total`` (MuJoCo contact pairs summed over the steps), ``nbody`` and
+        ``ngeom``.
     """
     steps = as_count(steps, "steps", 1)
     seed = as_count(seed, "seed", 0)
@@ -1022,17 +1024,24 @@ def plot_comparison(result: dict, path) -> None:
     ax1.plot(steps, result["candidates_per_step"], lw=0.8, label="our candidates")
     ax1.plot(steps, result["contact_pairs_per_step"], lw=0.8, label="MuJoCo contact pairs")
     ax1.set_ylabel("geom pairs per step")
-    ax1.set_title(f"{result['model']}: recall {100 * result['recall']:.2f} %, "
+    ax1.set_title(f"\n{result['model']}: recall {100 * result['recall']:.2f} %, "
                   f"{len(result['missed'])} missed")
-    ax1.legend(loc="upper right")
+    # Outside the axes: the lines fill the panel (MuJoCo's candidates run along its top).
+    ax1.legend(loc="lower left", bbox_to_anchor=(0.0, 1.08), ncol=3, fontsize="small", frameon=False)
     ax2.plot(steps, result["time_mujoco_broad_us_per_step"], lw=0.6,
              label=f"MuJoCo broad phase (median {result['time_mujoco_broad_us']:.1f} us)")
     ax2.plot(steps, result["time_ours_us_per_step"], lw=0.6,
              label=f"ours, Python call included (median {result['time_ours_us']:.1f} us)")
     ax2.set_yscale("log")
+    from matplotlib.ticker import LogLocator, NullFormatter, ScalarFormatter
+
+    # 2, 5, 10, 20, 50 rather than 2 x 10^0 ... and crowded minor labels
+    ax2.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+    ax2.yaxis.set_major_formatter(ScalarFormatter())
+    ax2.yaxis.set_minor_formatter(NullFormatter())
     ax2.set_xlabel("step")
     ax2.set_ylabel("time per step (us)")
-    ax2.legend(loc="upper right")
+    ax2.legend(loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=2, fontsize="small", frameon=False)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

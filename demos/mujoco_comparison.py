@@ -139,8 +139,10 @@ def main(argv: list[str] | None = None) -> int:
         plt.imsave(path, frame["image"])
         print(f"wrote {path} (our OBBs: orange = in a candidate pair, blue = not)")
     else:
-        print(f"no rendered image: no OpenGL backend ({why}); set MUJOCO_GL=egl or "
-              "MUJOCO_GL=osmesa (see the README) to get one")
+        # A backend chosen but unusable needs its library, not the advice to choose one.
+        hint = (f"install lib{_GL_LIBRARY} (see the README)" if _GL_LIBRARY
+                else "set MUJOCO_GL=egl or MUJOCO_GL=osmesa (see the README) to get one")
+        print(f"no rendered image: no OpenGL backend ({why}); {hint}")
     return 0 if not result["missed"] else 1
 
 

@@ -350,6 +350,7 @@ def main(argv=None):
     print("# per step, medians; ours = BroadPhase.pairs() on MjData's xpos/xmat bound once (Python call included),")
     print("# passed = pairs(xpos, xmat) on the same states; MuJoCo = mjTIMER_COL_BROAD;")
     print("# fcl/coal = DynamicAABBTreeCollisionManager (transforms set from Python, update, collect pairs);")
+    print("# every ratio column = that library's time / MuJoCo's;")
     print("# candidates = pairs per step (MuJoCo: contact-filter callback, record and reject).")
     rows = []
     for n in sizes:
