@@ -65,6 +65,16 @@ class Node:
 
     __slots__ = ()
 
+    def __setattr__(self, name, value):
+        # Set once (in __init__, by copy or pickle), never again: rewiring a built node could
+        # tie its graph into a cycle of objects, and memoised clouds would go stale.
+        try:
+            object.__getattribute__(self, name)
+        except AttributeError:
+            object.__setattr__(self, name, value)
+            return
+        raise AttributeError(f"{type(self).__name__}.{name}: nodes are immutable; build a new node")
+
     def children(self) -> tuple["Node", ...]:
         """The node's direct children (a `Ref` has none: it is resolved when unrolled)."""
         return ()
@@ -128,7 +138,6 @@ class Leaf(Node):
         if kind not in self.KINDS:
             raise ValueError(f"kind: expected one of {self.KINDS}, got {kind!r}")
         self.kind = kind
-        self._vertices = self._faces = None
         if kind == "mesh":
             if len(args) + len(kwargs) != 1:
                 raise ValueError("mesh: expected one argument, a trimesh.Trimesh or (vertices, faces)")
@@ -155,6 +164,7 @@ class Leaf(Node):
             # shapes validates and raises ValueError naming the bad parameter.
             self._cloud = getattr(_shapes, kind)(*args, **kwargs)
             self.params = self._normalise(kind, args, kwargs)
+            self._vertices = self._faces = None
 
     @staticmethod
     def _normalise(kind, args, kwargs) -> dict:
@@ -216,7 +226,8 @@ class Leaf(Node):
             return _ray.P_SPHERE, p, local
         p[0] = prm["radius"]
         p[1] = prm["half_length"] if kind in ("capsule", "cylinder") else prm["height"]
-        if kind == "cone" and (p[0] <= 0 or p[1] <= 0):
+        if p[0] <= 0 or (kind == "cone" and p[1] <= 0):
+            # no volume (a capsule or cylinder of radius 0 is a segment: an axis ray "hit" it)
             return _ray.P_BOX, np.zeros(3), local
         return {"capsule": _ray.P_CAPSULE, "cylinder": _ray.P_CYLINDER, "cone": _ray.P_CONE}[kind], p, local
 
@@ -460,8 +471,14 @@ class _deep_recursion:
         self.old = sys.getrecursionlimit()
         sys.setrecursionlimit(max(self.old, 20000))
 
-    def __exit__(self, *exc):
+    def __exit__(self, exc_type, exc, tb):
         sys.setrecursionlimit(self.old)
+        if exc_type is RecursionError:
+            # A bare RecursionError named no cause (review, 2026-11-21).
+            raise ValueError(
+                "node: the unrolled graph nests deeper than the 20000 Python frames allowed here (about "
+                "6000 levels of recursion, or of directly nested transforms and unions), or its node "
+                "objects form a cycle; lower the Recursive depth or flatten the nesting") from exc
 
 
 @dataclass
@@ -857,6 +874,9 @@ def build_bvh(node: Node, volume: str = "aabb", method: str = "pointcloud", tigh
     if method == "box_of_box" and volume != "aabb":
         raise ValueError("method: 'box_of_box' is the classical construction of axis-aligned "
                          f"boxes; use volume='aabb' with it, got volume={volume!r}")
+    for flag, value in (("tighten", tighten), ("exact_intersection", exact_intersection)):
+        if not isinstance(value, (bool, np.bool_)):
+            raise ValueError(f"{flag}: expected True or False, got {value!r}")
     ctx = _Context(as_count(threshold, "threshold", 1), bool(exact_intersection), {})
     leaf_list: list = []
     with _deep_recursion():

@@ -438,6 +438,61 @@ def test_exact_intersection_flag_must_be_a_bool():
     with pytest.raises(ValueError, match="exact_intersection"):
         node.point_cloud(exact_intersection="no")
     assert len(node.point_cloud(exact_intersection=False)) == 8
+    with pytest.raises(ValueError, match="exact_intersection"):
+        csg.build_bvh(node, exact_intersection="no")
+    with pytest.raises(ValueError, match="tighten"):
+        csg.build_bvh(node, tighten=None)
+
+
+@pytest.mark.parametrize("volume", ["aabb", "obb", "sphere"])
+def test_rays_from_far_away_hit_curved_solids(volume):
+    # Review reproducer (2026-11-21): from 1e8 away the textbook discriminant b^2 - a c cancels,
+    # and most rays through a unit sphere (and the sphere bounds of a hierarchy) missed. Every
+    # ray below passes within 0.3 of a solid's centre: all must hit, as in the twin.
+    rng = np.random.default_rng(0)
+    scene = csg.Union(csg.sphere(1.0), csg.Transform(move(3.0), csg.capsule(0.5, 1.0)),
+                      csg.Transform(move(-3.0), csg.ellipsoid([1.0, 0.7, 0.4])),
+                      csg.Transform(move(0.0, 3.0), csg.cylinder(0.5, 1.0)),
+                      csg.Transform(move(0.0, -3.0), csg.cone(0.8, 1.0)))
+    bvh = csg.build_bvh(scene, volume=volume)
+    centres = np.array([[0, 0, 0], [3, 0, 0], [-3, 0, 0], [0, 3, 0], [0, -3, 0.5]], float)
+    for D in (1e6, 1e8, 1e10):
+        d = rng.normal(size=(500, 3))
+        d /= np.linalg.norm(d, axis=1)[:, None]
+        off = rng.normal(size=(500, 3))
+        off -= np.sum(off * d, axis=1)[:, None] * d
+        off *= (0.3 * rng.random(500) / np.linalg.norm(off, axis=1))[:, None]
+        o = centres[np.arange(500) % 5] + off - D * d
+        hits = csg.raycast(bvh, o, d)
+        dist, leaf = tcsg.brute_force_raycast(scene, o, d)
+        assert hits.hit.all() and np.isfinite(dist).all()
+        assert np.all(np.abs(hits.distance - D) <= 8.0)  # the scene is less than 8 wide
+        np.testing.assert_allclose(hits.distance, dist, rtol=0, atol=1e-6 * D * 1e-6 + 1e-6)
+
+
+def test_zero_radius_capsule_and_cylinder_are_never_entered():
+    # A segment has no volume: an axis ray "hit" it at t = 4 (review reproducer, 2026-11-21).
+    o = np.array([[0.0, 0.0, 5.0]])
+    d = np.array([[0.0, 0.0, -1.0]])
+    for leaf in (csg.capsule(0.0, 1.0), csg.cylinder(0.0, 1.0)):
+        scene = csg.Union(leaf, csg.Transform(move(0, 0, -3.0), csg.sphere(0.5)))
+        hits = csg.raycast(csg.build_bvh(scene), o, d)
+        dist, _ = tcsg.brute_force_raycast(scene, o, d)
+        assert hits.leaf.tolist() == [1] and hits.distance[0] == pytest.approx(7.5) == dist[0]
+
+
+def test_too_deep_graphs_and_rewired_nodes_are_refused():
+    # 7000 levels pass the 20000 frames unrolling may use: a clear ValueError, not RecursionError.
+    tower = csg.Recursive("t", csg.Union(csg.box([1, 1, 0.1]), csg.Transform(move(0, 0, 0.2), csg.Ref("t"))),
+                          7000)
+    with pytest.raises(ValueError, match="nests deeper"):
+        tower.point_cloud()
+    with pytest.raises(ValueError, match="nests deeper"):
+        csg.build_bvh(tower)
+    # Nodes are immutable: rewiring one into a cycle of objects is refused.
+    u = csg.Union(csg.box([1, 1, 1]))
+    with pytest.raises(AttributeError, match="immutable"):
+        u.items = (csg.box([1, 1, 1]), csg.Transform(move(0, 0, 1), u))
 
 
 def test_shared_cache_keeps_settings_apart():

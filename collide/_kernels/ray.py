@@ -41,6 +41,7 @@ LEAF, UNION, INTERSECTION, DIFFERENCE = 0, 1, 2, 3
 P_BOX, P_SPHERE, P_CYLINDER, P_CONE, P_CAPSULE, P_MESH = 0, 1, 2, 3, 4, 5
 
 RAYS_PER_BLOCK = 64
+_EPS = float(np.finfo(np.float64).eps)
 
 
 @njit(cache=True)
@@ -81,16 +82,21 @@ def _ray_bound(kind, n, o, d, tmax, node_lo, node_hi, node_rot, node_center, nod
     ox = o[0] - c[0]
     oy = o[1] - c[1]
     oz = o[2] - c[2]
-    rad = node_radius[n]
     a = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
-    b = ox * d[0] + oy * d[1] + oz * d[2]
-    cc = ox * ox + oy * oy + oz * oz - rad * rad
-    disc = b * b - a * cc
-    if disc < 0.0:
+    # From the ray's point closest to the centre (see _recentre): the textbook discriminant
+    # b^2 - a c culled most hits from 1e8 away. The radius gets the rounding of that point,
+    # a few ulps of the origin's distance, so the test never culls a hit.
+    tc = -(ox * d[0] + oy * d[1] + oz * d[2]) / a
+    px = ox + tc * d[0]
+    py = oy + tc * d[1]
+    pz = oz + tc * d[2]
+    rad = node_radius[n] + 8.0 * _EPS * (abs(ox) + abs(oy) + abs(oz))
+    h = rad * rad - (px * px + py * py + pz * pz)
+    if h < 0.0:
         return False, 0.0
-    sq = np.sqrt(disc)
-    t0 = (-b - sq) / a
-    t1 = (-b + sq) / a
+    sq = np.sqrt(h / a)
+    t0 = tc - sq
+    t1 = tc + sq
     if t0 < 0.0:
         t0 = 0.0
     if t1 > tmax:
@@ -303,6 +309,24 @@ def _local_ray(inv, o, d, ol, dl):
 
 
 @njit(cache=True)
+def _recentre(prim, ol, dl):
+    # Quadric leaves: moves the ray's origin to its point closest to the leaf's origin and returns
+    # that point's parameter tc (spans found from there are shifted by tc). From far away the
+    # quadratics' coefficients (|o|^2 - r^2, b^2 - a c) cancel catastrophically: a unit sphere
+    # seen from 1e8 was missed by most rays through it (review, 2026-11-21). From the closest
+    # point they are of the primitive's size, and the only loss is the rounding of o itself.
+    if prim == P_BOX or prim == P_MESH:
+        return 0.0
+    a = dl[0] * dl[0] + dl[1] * dl[1] + dl[2] * dl[2]
+    if a == 0.0:
+        return 0.0
+    tc = -(ol[0] * dl[0] + ol[1] * dl[1] + ol[2] * dl[2]) / a
+    for i in range(3):
+        ol[i] += tc * dl[i]
+    return tc
+
+
+@njit(cache=True)
 def _leaf_spans(lf, o, d, leaf_prim, leaf_param, leaf_inv, leaf_tri_first, leaf_tri_count, tri,
                 sp_t, sp_i, pos, ht, hi, ol, dl):
     # Writes the leaf's spans at sp[pos:], returns their count. Meshes: sorted hits paired
@@ -310,11 +334,12 @@ def _leaf_spans(lf, o, d, leaf_prim, leaf_param, leaf_inv, leaf_tri_first, leaf_
     _local_ray(leaf_inv[lf], o, d, ol, dl)
     prim = leaf_prim[lf]
     if prim != P_MESH:
+        tc = _recentre(prim, ol, dl)
         t0, s0, t1, s1, hit = leaf_interval(prim, leaf_param[lf], ol, dl)
         if not hit:
             return 0
-        sp_t[pos, 0] = t0
-        sp_t[pos, 1] = t1
+        sp_t[pos, 0] = t0 + tc
+        sp_t[pos, 1] = t1 + tc
         sp_i[pos, 0] = lf
         sp_i[pos, 1] = s0
         sp_i[pos, 2] = lf

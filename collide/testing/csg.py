@@ -86,7 +86,22 @@ def _convex_interval(breaks, inside_at):
 
 
 def leaf_spans(leaf: "csg.Leaf", world: np.ndarray, origins: np.ndarray, directions: np.ndarray):
-    """Spans of one leaf along every ray: ``(t0, t1)``, each ``(R, k) float64``, nan-padded."""
+    """Spans of one leaf along every ray: ``(t0, t1)``, each ``(R, k) float64``, nan-padded.
+
+    Quadric leaves are solved from each ray's point closest to the leaf's origin (``t = tc``),
+    then shifted back: from far away the quadratic's coefficients cancel catastrophically.
+    """
+    tc = np.zeros(len(origins))
+    if leaf.kind not in ("box", "mesh"):
+        a = np.sum(directions * directions, axis=1)
+        rel = origins - world[:3, 3]
+        tc = np.where(a > 0, -np.sum(rel * directions, axis=1) / np.where(a > 0, a, 1.0), 0.0)
+        origins = origins + tc[:, None] * directions
+    t0, t1 = _local_spans(leaf, world, origins, directions)
+    return t0 + tc[:, None], t1 + tc[:, None]
+
+
+def _local_spans(leaf: "csg.Leaf", world: np.ndarray, origins: np.ndarray, directions: np.ndarray):
     m = world.copy()
     kind, p = leaf.kind, leaf.params
     if kind == "ellipsoid":
