@@ -317,10 +317,15 @@ def test_inflation_values():
       <body><freejoint/><geom name="b" type="sphere" size=".1"/></body>
     </worldbody><contact><pair geom1="a" geom2="b" margin=".05" gap=".02"/></contact></mujoco>"""
     model = mujoco.MjModel.from_xml_string(xml)
-    tol = model.opt.ccd_tolerance  # 1e-6 by default (see test_ccd_tolerance_widens_the_bounds)
+    np.testing.assert_allclose(cm.geom_inflation(model), [0.03, 0.0])
+    np.testing.assert_allclose(cm.pair_inflation(model), [0.07])
+    # ellipsoids and cylinders add ccd_tolerance (see test_ccd_tolerance_widens_the_bounds)
+    curved = mujoco.MjModel.from_xml_string(xml.replace('name="b" type="sphere" size=".1"',
+                                                        'name="b" type="cylinder" size=".1 .1"'))
+    tol = curved.opt.ccd_tolerance
     assert tol == 1e-6
-    np.testing.assert_allclose(cm.geom_inflation(model), [0.03 + tol, tol], rtol=0, atol=1e-15)
-    np.testing.assert_allclose(cm.pair_inflation(model), [0.07 + 2 * tol], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(cm.geom_inflation(curved), [0.03, tol], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(cm.pair_inflation(curved), [0.07 + tol], rtol=0, atol=1e-15)
 
 
 def _cylinder_and_box(scale: float, ccd_tolerance: str = ""):
