@@ -20,9 +20,12 @@ from ._validate import as_affine, as_count, as_points, as_radius
 # intersections): 42 points, at most 7.1 % wider than the ball (see hull.ball_polytope).
 BALL_LEVEL = 1
 
-# A linear map whose singular values agree to this relative tolerance is a similarity: the radius
-# is scaled by the largest singular value (conservative) instead of being turned into points.
-SIMILARITY_TOL = 1e-9
+# A linear map whose singular values agree to this relative tolerance counts as a similarity: the
+# radius is scaled by the largest singular value, a ball that contains the mapped ball (an
+# ellipsoid), at most 0.1 % too wide along its shortest axis; the polytope it would otherwise
+# become is up to 7.1 % too wide. At 1e-9, rotations rounded to float32 (|R^T R - I| ~ 1e-7)
+# turned every sphere geom into a polytope (review of the test twins, 2026-11-21).
+SIMILARITY_TOL = 1e-3
 
 
 class PointCloud:
@@ -90,9 +93,10 @@ class PointCloud:
         Returns
         -------
         PointCloud
-            Rigid and similarity maps keep the radius, scaled by the map's scale; any other
-            linear map first turns the radius into the vertices of a polytope circumscribed
-            about the ball (hull-reduced), so the result still bounds the mapped set.
+            Rigid and similarity maps (singular values within ``SIMILARITY_TOL`` = 0.1 % of each
+            other: float32-rounded rotations are) keep the radius, scaled by the largest singular
+            value; any other linear map first turns the radius into the vertices of a polytope
+            circumscribed about the ball (hull-reduced), so the result still bounds the mapped set.
         """
         linear, t = as_affine(matrix, translation)
         if self.is_empty:

@@ -95,6 +95,28 @@ def test_general_affine_turns_radius_into_points_conservatively():
     assert np.all(np.max(dirs @ out.points.T, axis=1) >= np.max(dirs @ surface.T, axis=1) - 1e-12)
 
 
+def test_near_similarity_maps_keep_a_ball_that_contains_the_mapped_ball():
+    # A float32-rounded rotation, or one stretched by 1e-4, is not a similarity to 1e-9: the
+    # radius became a polytope up to 7.1 % wider (review, 2026-11-21). Within 0.1 % it stays a
+    # ball, of radius x the largest singular value, and still contains the true mapped capsule.
+    rng = np.random.default_rng(4)
+    capsule = PointCloud([[0.0, 0.0, -0.5], [0.0, 0.0, 0.5]], 0.3)
+    for k in range(20):
+        rot = _random_rotation(rng)
+        m = rot.astype(np.float32).astype(np.float64) if k % 2 else rot @ np.diag(1 + rng.uniform(-5e-4, 5e-4, 3))
+        out = capsule.transform(m, rng.normal(size=3))
+        assert len(out) == 2 and out.radius <= 0.3 * (1 + 1e-3)
+        # the true surface: the segment's points plus the radius in every direction, mapped
+        u = rng.normal(size=(4000, 3))
+        u /= np.linalg.norm(u, axis=1)[:, None]
+        surface = (np.column_stack([np.zeros((4000, 2)), rng.uniform(-0.5, 0.5, 4000)]) + 0.3 * u) @ m.T
+        surface += out.points[0] - m @ capsule.points[0]
+        a, b = out.points
+        t = np.clip((surface - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0)
+        dist = np.linalg.norm(surface - (a + t[:, None] * (b - a)), axis=1)
+        assert np.all(dist <= out.radius * (1 + 1e-12))
+
+
 def test_union_threshold_and_mixed_radii():
     rng = np.random.default_rng(2)
     clouds = [PointCloud(rng.normal(size=(100, 3)) + i) for i in range(3)]

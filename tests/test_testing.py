@@ -53,6 +53,29 @@ def test_gjk_distance_box_against_flat_polygon_at_small_scale():
         assert small == pytest.approx(unit * s, rel=1e-6, abs=1e-9 * s), k
 
 
+def test_gjk_finds_a_point_inside_a_thin_box():
+    # Review reproducer (2026-11-21): a point 5e-8 inside a 2 x 1.5 x 2e-7 box. The simplex
+    # solver's singularity test was quadratic in the tetrahedron's volume and rejected it, so GJK
+    # reported the distance to a face (5e-8, 97 rotations in 100) and the twin missed the pair.
+    from collide import Articulation, PointCloud
+    from collide.testing.scenes import random_rotation
+
+    rng = np.random.default_rng(1)
+    h = np.array([1.0, 0.75, 1e-7])
+    box = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * h
+    art = Articulation([0, 0, 0], [1, 2], [PointCloud(box), PointCloud([[0.0, 0.0, 0.0]])])
+    for _ in range(100):
+        rot = random_rotation(rng)
+        inside = rot @ np.array([*(rng.uniform(-0.9, 0.9, 2) * h[:2]), 0.5 * h[2]])
+        assert testing.gjk_distance(box @ rot.T, inside[None]) == (0.0, 0.0)
+        pos = np.array([[0, 0, 0], [0, 0, 0], inside])
+        assert testing.brute_force_pairs(art, pos, np.stack([np.eye(3), rot, np.eye(3)])).tolist() == [[0, 1]]
+        # and just outside the face: apart by 1e-8, never touching
+        outside = rot @ np.array([0.1, 0.2, h[2] + 1e-8])
+        upper, lower = testing.gjk_distance(box @ rot.T, outside[None])
+        assert lower > 0.9e-8 and upper < 1.1e-8
+
+
 def test_twins_refuse_the_poses_the_broad_phase_refuses():
     sc = testing.many_robots(2, 3, seed=5)
     pos, rot = sc.poses(np.random.default_rng(6))

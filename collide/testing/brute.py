@@ -196,48 +196,27 @@ def brute_force_bound_pairs(art: Articulation, body_pos, body_rot, chunk: int = 
 
 @nb.njit(cache=True)
 def _closest_on_simplex(W, n, lam_out):
-    # Closest point to the origin of hull(W[:n]) (n <= 4): every non-empty subset's affine
-    # projection with positive weights is a candidate point of the simplex; the smallest is the
-    # answer (brute-force Johnson, robust to degenerate subsets: singular systems are skipped).
+    # Closest point to the origin of hull(W[:n]) (n <= 4, unit-size coordinates): every
+    # non-empty subset's projection of the origin with non-negative weights is a point of the
+    # simplex; the smallest is the answer (brute-force Johnson). The weights come from signed
+    # lengths, areas and volumes (Montanari et al. 2017), linear in the subset's size: the
+    # bordered Gram system used before has a determinant quadratic in it, so a tetrahedron
+    # 1e-7 thin was rejected as singular and a point inside it reported 5e-8 away (review,
+    # 2026-11-21). A subset thinner than 1e-13 of its edges (rounding) is skipped.
     best = np.inf
     bestmask = 0
     v = np.zeros(3)
+    lam = np.zeros(4)
+    idx = np.empty(4, np.int64)
+    p = np.zeros(3)
     for mask in range(1, 1 << n):
-        idx = np.empty(4, np.int64)
         m = 0
         for i in range(n):
             if mask & (1 << i):
                 idx[m] = i
                 m += 1
-        # Solve min |sum l_i w_i|^2, sum l_i = 1: [W^T W 1; 1^T 0] [l; mu] = [0; 1]
-        M = np.zeros((m + 1, m + 1))
-        rhs = np.zeros(m + 1)
-        for a in range(m):
-            for b in range(m):
-                M[a, b] = W[idx[a], 0] * W[idx[b], 0] + W[idx[a], 1] * W[idx[b], 1] + W[idx[a], 2] * W[idx[b], 2]
-            M[a, m] = 1.0
-            M[m, a] = 1.0
-        rhs[m] = 1.0
-        if m == 1:
-            lam = np.ones(1)
-        else:
-            scale = 0.0
-            for a in range(m):
-                scale = max(scale, M[a, a])
-            det = np.linalg.det(M)
-            if not np.isfinite(det) or abs(det) <= 1e-13 * max(scale, 1e-300) ** m:
-                continue
-            lam = np.linalg.solve(M, rhs)[:m]
-        feasible = True
-        for a in range(m):
-            if lam[a] < 0.0:
-                feasible = False
-        if not feasible:
+        if not _subset_weights(W, idx, m, lam, p):
             continue
-        p = np.zeros(3)
-        for a in range(m):
-            for c in range(3):
-                p[c] += lam[a] * W[idx[a], c]
         d2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2]
         if d2 < best:
             best = d2
@@ -247,6 +226,65 @@ def _closest_on_simplex(W, n, lam_out):
             for a in range(m):
                 lam_out[idx[a]] = lam[a]
     return v, bestmask
+
+
+@nb.njit(cache=True)
+def _det3(a, b, c):
+    return (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
+            + a[2] * (b[0] * c[1] - b[1] * c[0]))
+
+
+@nb.njit(cache=True)
+def _subset_weights(W, idx, m, lam, p):
+    # Barycentric weights (into lam[:m]) of the origin's projection p onto the affine hull of
+    # W[idx[:m]]; False when the subset is degenerate or a weight is negative (the projection
+    # lies outside the subset: a smaller subset holds the closest point). p is computed
+    # directly, not as sum(lam * w): that sum carries the weights' rounding times |w| (1e-9 for
+    # a tetrahedron 1e-7 thin), more than the distance it should show.
+    w0 = W[idx[0]]
+    if m == 1:
+        lam[0] = 1.0
+        p[:] = w0
+        return True
+    if m == 2:
+        e = W[idx[1]] - w0
+        ee = e[0] * e[0] + e[1] * e[1] + e[2] * e[2]
+        if ee == 0.0:
+            return False
+        t = -(w0[0] * e[0] + w0[1] * e[1] + w0[2] * e[2]) / ee
+        lam[0] = 1.0 - t
+        lam[1] = t
+        p[:] = w0 + t * e
+        return 0.0 <= t <= 1.0
+    e1 = W[idx[1]] - w0
+    e2 = W[idx[2]] - w0
+    l1 = e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]
+    l2 = e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]
+    if m == 3:
+        nrm = np.cross(e1, e2)
+        nn = nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]
+        if not nn > (1e-13 * max(l1, l2)) ** 2:
+            return False
+        # the projection p of the origin on the plane, then each weight = signed sub-area / area
+        p[:] = nrm * ((nrm[0] * w0[0] + nrm[1] * w0[1] + nrm[2] * w0[2]) / nn)
+        for a in range(3):
+            b = W[idx[(a + 1) % 3]] - p
+            c = W[idx[(a + 2) % 3]] - p
+            lam[a] = np.dot(nrm, np.cross(b, c)) / nn
+        return lam[0] >= 0.0 and lam[1] >= 0.0 and lam[2] >= 0.0
+    e3 = W[idx[3]] - w0
+    d = _det3(e1, e2, e3)
+    l3 = e3[0] * e3[0] + e3[1] * e3[1] + e3[2] * e3[2]
+    if not abs(d) > 1e-13 * max(l1, l2, l3) ** 1.5:
+        return False
+    # origin = w0 + mu . (e1, e2, e3), by Cramer's rule; inside when every weight is >= 0
+    mw = -w0
+    lam[1] = _det3(mw, e2, e3) / d
+    lam[2] = _det3(e1, mw, e3) / d
+    lam[3] = _det3(e1, e2, mw) / d
+    lam[0] = 1.0 - lam[1] - lam[2] - lam[3]
+    p[:] = 0.0  # the origin is its own projection onto a 3-dimensional hull
+    return lam[0] >= 0.0 and lam[1] >= 0.0 and lam[2] >= 0.0 and lam[3] >= 0.0
 
 
 @nb.njit(cache=True)
@@ -392,6 +430,12 @@ def brute_force_pairs(art: Articulation, body_pos, body_rot, candidates=None) ->
     else:
         g1, g2 = (np.asarray(c, np.int64) for c in candidates)
         m1, m2 = art.geom_margin[g1], art.geom_margin[g2]
+        # a candidate that is an explicit pair is also tested with the pair's own inflation
+        e1, e2, em1, em2 = _explicit_margins(art)
+        key = np.minimum(g1, g2) * len(art.geom_body) + np.maximum(g1, g2)
+        sel = np.isin(np.minimum(e1, e2) * len(art.geom_body) + np.maximum(e1, e2), key)
+        g1, g2 = np.r_[g1, e1[sel]], np.r_[g2, e2[sel]]
+        m1, m2 = np.r_[m1, em1[sel]], np.r_[m2, em2[sel]]
     is_plane = art.geom_is_plane
     sizes = np.array([0 if c is None else len(c) for c in art.geom_local_cloud])
     pstart = np.r_[0, np.cumsum(sizes)].astype(np.int64)
