@@ -1027,6 +1027,7 @@ def plot_comparison(result: dict, path) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import LogLocator, NullFormatter, ScalarFormatter
 
     steps = np.arange(result["steps"])
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 7), sharex=True)
@@ -1035,17 +1036,15 @@ def plot_comparison(result: dict, path) -> None:
     ax1.plot(steps, result["candidates_per_step"], lw=0.8, label="our candidates")
     ax1.plot(steps, result["contact_pairs_per_step"], lw=0.8, label="MuJoCo contact pairs")
     ax1.set_ylabel("geom pairs per step")
-    ax1.set_title(f"\n{result['model']}: recall {100 * result['recall']:.2f} %, "
-                  f"{len(result['missed'])} missed")
+    ax1.set_title(f"{result['model']}: recall {100 * result['recall']:.2f} %, "
+                  f"{len(result['missed'])} missed", pad=20)  # room for the legend above
     # Outside the axes: the lines fill the panel (MuJoCo's candidates run along its top).
-    ax1.legend(loc="lower left", bbox_to_anchor=(0.0, 1.08), ncol=3, fontsize="small", frameon=False)
+    ax1.legend(loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=3, fontsize="small", frameon=False)
     ax2.plot(steps, result["time_mujoco_broad_us_per_step"], lw=0.6,
              label=f"MuJoCo broad phase (median {result['time_mujoco_broad_us']:.1f} us)")
     ax2.plot(steps, result["time_ours_us_per_step"], lw=0.6,
              label=f"ours, Python call included (median {result['time_ours_us']:.1f} us)")
     ax2.set_yscale("log")
-    from matplotlib.ticker import LogLocator, NullFormatter, ScalarFormatter
-
     # 2, 5, 10, 20, 50 rather than 2 x 10^0 ... and crowded minor labels
     ax2.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
     ax2.yaxis.set_major_formatter(ScalarFormatter())

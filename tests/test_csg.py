@@ -467,7 +467,7 @@ def test_rays_from_far_away_hit_curved_solids(volume):
         dist, leaf = tcsg.brute_force_raycast(scene, o, d)
         assert hits.hit.all() and np.isfinite(dist).all()
         assert np.all(np.abs(hits.distance - D) <= 8.0)  # the scene is less than 8 wide
-        np.testing.assert_allclose(hits.distance, dist, rtol=0, atol=1e-6 * D * 1e-6 + 1e-6)
+        np.testing.assert_allclose(hits.distance, dist, rtol=0, atol=1e-12 * D + 1e-6)
 
 
 def test_zero_radius_capsule_and_cylinder_are_never_entered():
