@@ -47,7 +47,7 @@ One step, for one world (`_world`):
 from __future__ import annotations
 
 import numba as nb
-from numba.cpython.unsafe.numbers import trailing_zeros
+from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
 import numpy as np
 
 from ._ptr import f64_ptr, i32_ptr, i64_ptr
@@ -768,7 +768,6 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
             # which the compiler vectorises, into a bit mask; the static one keeps the pairs to
             # push. No walk, no sibling pairs, no call (17-body humanoid, hot: 98 pair tests one
             # by one 380 ns, by rows 140 ns).
-            m = end[n] - n
             for a in range(n, end[n]):
                 keep = np.uint64(flat_mask[a])
                 if keep == 0:
@@ -780,7 +779,9 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
                 h1 = baabb_t[4, a]
                 h2 = baabb_t[5, a]
                 hits = np.uint64(0)
-                for i in range(m):
+                # Only the span of keep's bits (pairs are stored once, a < q): a body's row tests
+                # its later partners only (22 humanoids, hot: 31.0 -> 30.0 us a step).
+                for i in range(np.int64(trailing_zeros(keep)), 64 - np.int64(leading_zeros(keep))):
                     q = n + i
                     hits |= np.uint64((l0 <= baabb_t[3, q]) & (baabb_t[0, q] <= h0) & (l1 <= baabb_t[4, q])
                                       & (baabb_t[1, q] <= h1) & (l2 <= baabb_t[5, q])
