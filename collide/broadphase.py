@@ -72,9 +72,10 @@ class BroadPhase:
         multi-geom bodies, AABB then sphere then OBB), ``plane_tests``) and ``pairs`` out; summed
         over worlds after `pairs_batch`. ``pairs`` is always the sum of the worlds' counts; the
         test counters are those of the path the batch took: small models go through a kernel that
-        tests 8 worlds at once (``collide._kernels.lanes``), which counts one vectorised test per
-        8 worlds and walks no tree (``subtree_tests`` 0), so they differ from the single-world
-        counts summed.
+        tests 8 worlds at once (``collide._kernels.lanes``). It counts per world too, but it culls
+        differently (each body against the subtrees after it, no sweep or grid, the static pair
+        list instead of the parent rule and masks), so its test counts differ from the
+        single-world counts summed.
 
     Notes
     -----

@@ -7,6 +7,7 @@ import collide.broadphase
 from collide import Articulation, BroadPhase, PointCloud, shapes, testing
 from collide._kernels import broadphase as _kern
 from collide.broadphase import ARENA_ROWS
+from collide.testing.scenes import random_rotation
 
 BALL = PointCloud([[0, 0, 0]], 0.5)
 EYE = np.eye(3)
@@ -607,6 +608,73 @@ def test_tiny_bodies_far_from_the_origin_keep_their_pair():
     assert _rows(testing.brute_force_pairs(art, pos, rot)) == {(0, 1)}
     assert _rows(BroadPhase(art).pairs(pos, rot)) == {(0, 1)}
     assert BroadPhase(art).pairs_batch(pos[None], rot[None]).tolist() == [[0, 0, 1]]
+
+
+def _batch_equals_single(bp, pos, rot):
+    # pairs_batch on the lanes (small models) and on the per-world kernel, each against pairs().
+    single = bp.pairs(pos, rot).tolist()
+    lanes = bp.pairs_batch(pos[None], rot[None])[:, 1:].tolist()
+    J, bp._J = bp._J, None
+    try:
+        per_world = bp.pairs_batch(pos[None], rot[None])[:, 1:].tolist()
+    finally:
+        bp._J = J
+    return single, lanes, per_world
+
+
+CUBE = PointCloud([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+
+
+def test_batch_lanes_round_as_a_single_world():
+    # Reproducers (review, 2026-11-21): pairs_batch's lanes lost pairs that pairs() reports, at
+    # the rounding level or at coordinates near the float range.
+    # 1. Cubes touching to within an ulp: the lanes added the AABB slack in another order.
+    art = Articulation([0, 0, 0], [1, 2], [CUBE, CUBE])
+    bp = BroadPhase(art)
+    assert bp._J is not None
+    pos = np.array([[0.0, 0.0, 0.0], [-0.04156428198829166, 0.3, 0.7], [1.958483718364522, 0.3, 0.7]])
+    rot = np.tile(EYE, (3, 1, 1))
+    assert testing.brute_force_bound_pairs(art, pos, rot).tolist() == [[0, 1]]
+    assert _batch_equals_single(bp, pos, rot) == ([[0, 1]],) * 3
+    assert len(bp.pairs_batch(np.repeat(pos[None], 8, 0), np.repeat(rot[None], 8, 0))) == 8
+    # 2. A pair handed reversed by the root's sweep (10 children): the OBB test is not bitwise
+    # symmetric, and the lanes test the lower position first.
+    N = 10
+    art = Articulation([0] * (N + 1), np.arange(1, N + 1), [CUBE.transform(np.diag([0.3, 0.2, 0.1]))] * N)
+    bp = BroadPhase(art)
+    assert bp._J is not None
+    pos = np.zeros((N + 1, 3))
+    pos[1:, 1] = np.arange(N) * 5.0
+    rot = np.tile(EYE, (N + 1, 1, 1))
+    pos[2] = [0.0, 5.0, -1.18730931605939]
+    pos[9] = [0.45668782766805, 4.902301120177755, -1.1306413376263729]
+    rot[2] = [[-0.9155821294021425, 0.15022448836695368, -0.3730173821879163],
+              [0.3583099253477091, -0.11632094938321313, -0.9263279301262094],
+              [-0.18254687539576825, -0.9817851291547838, 0.05267445731819975]]
+    rot[9] = [[0.01831905538467249, 0.09434330661142953, 0.9953711632890695],
+              [0.9920210880770458, -0.12591338117235673, -0.006323073001255286],
+              [0.12473400907630461, 0.9875450171710487, -0.09589716388082481]]
+    # apart by less than rounding: the twins' wider slack keeps the pair, the exact test does not
+    assert testing.brute_force_bound_pairs(art, pos, rot).tolist() == [[1, 8]]
+    assert testing.brute_force_pairs(art, pos, rot).tolist() == []
+    single, lanes, per_world = _batch_equals_single(bp, pos, rot)
+    assert single == lanes == per_world
+    # 3. A body near the float range: an OBB axis projection overflows to NaN, which separated
+    # nothing in the scalar test and everything in the vectorised one.
+    box = CUBE.transform(0.1 * EYE)
+    art = Articulation([0, 0, 0], [1, 1, 2], [box, box.transform(EYE, [0.3, 0, 0]), box])
+    bp = BroadPhase(art)
+    hits = 0
+    for seed in range(200):  # seed 143 lost its pairs in the lanes
+        rng = np.random.default_rng(seed)
+        pos = np.zeros((3, 3))
+        pos[1] = 1.7e308
+        rot = np.tile(EYE, (3, 1, 1))
+        rot[1:] = random_rotation(rng, 2)
+        single, lanes, per_world = _batch_equals_single(bp, pos, rot)
+        assert single == lanes == per_world, seed
+        hits += len(single)
+    assert hits > 0
 
 
 def test_slightly_scaled_rotations_never_lose_a_touching_pair():

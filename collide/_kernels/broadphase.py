@@ -260,6 +260,15 @@ def _pose_ok(r00, r01, r02, r10, r11, r12, r20, r21, r22, p0, p1, p2):
 
 
 @nb.njit(cache=True, inline="always")
+def aabb_slack(e0, e1, e2, c0, c1, c2):
+    """The rounding slack added to each half-width of a world AABB (box half extents ``e``, centre
+    ``c``): the OBB test's, so that an AABB test never rejects a pair the OBB test keeps. One
+    function for both kernels: the batch's lanes must round every AABB exactly as a single world
+    does (a one-ulp difference lost a touching pair in `pairs_batch`)."""
+    return SLACK_REL * (e0 + e1 + e2) + SLACK_POS * (abs(c0) + abs(c1) + abs(c2))
+
+
+@nb.njit(cache=True, inline="always")
 def _place(body_rot, body_pos, b, blocal, x, bw, baabb, saabb, baabb_t):
     # World row of position x (body b's pose) and its AABB: the AABB of the world OBB, also the
     # start of its subtree AABB (stage 2 merges the descendants in).
@@ -267,8 +276,7 @@ def _place(body_rot, body_pos, b, blocal, x, bw, baabb, saabb, baabb_t):
     # The slack of the OBB test (SLACK_REL of the size, SLACK_POS of the centre's magnitude): the
     # tree's AABB tests compare lo <= hi bare, and a tiny body far from the origin (1e-6 at 1e6)
     # would otherwise lose a pair the OBB test keeps (rounding of the centre > its guard).
-    tol = (SLACK_REL * (bw[x, 12] + bw[x, 13] + bw[x, 14])
-           + SLACK_POS * (abs(bw[x, 0]) + abs(bw[x, 1]) + abs(bw[x, 2])))
+    tol = aabb_slack(bw[x, 12], bw[x, 13], bw[x, 14], bw[x, 0], bw[x, 1], bw[x, 2])
     for i in range(3):
         h = (abs(bw[x, 3 + 3 * i]) * bw[x, 12] + abs(bw[x, 4 + 3 * i]) * bw[x, 13]
              + abs(bw[x, 5 + 3 * i]) * bw[x, 14] + tol)
@@ -289,7 +297,9 @@ def _sphere_hit(A, a, ma, B, b, mb, o=15):
     dy = A[a, o + 1] - B[b, o + 1]
     dz = A[a, o + 2] - B[b, o + 2]
     r = A[a, o + 3] + ma + B[b, o + 3] + mb
-    pos = abs(A[a, o]) + abs(A[a, o + 1]) + abs(A[a, o + 2]) + abs(B[b, o]) + abs(B[b, o + 1]) + abs(B[b, o + 2])
+    # Each box's magnitudes summed apart: the same bits in either order (the grid tests pairs in
+    # its own order; with ma = mb = 0 the radius sum commutes too).
+    pos = (abs(A[a, o]) + abs(A[a, o + 1]) + abs(A[a, o + 2])) + (abs(B[b, o]) + abs(B[b, o + 1]) + abs(B[b, o + 2]))
     r += SLACK_REL * r + SLACK_POS * pos
     return dx * dx + dy * dy + dz * dz <= r * r
 
@@ -375,7 +385,9 @@ def bounds_mask(A, a, ma, B, b, mb, n):
     columns, one pair per column, n <= 64), inflated by ``ma``, ``mb``, overlap: sphere and OBB.
 
     `_sphere_hit` and `obb_hit` in the same operations (the same bits), with every axis evaluated
-    and the outcomes combined without a branch, so that the loop over the columns vectorises.
+    and the outcomes combined without a branch, so that the loop over the columns vectorises. An
+    axis separates only when ``|t| > r`` holds, as in `obb_hit`: a NaN projection (inf - inf at
+    coordinates near the float range) separates nothing in either.
     """
     m = np.uint64(0)
     for l in range(n):
@@ -383,8 +395,8 @@ def bounds_mask(A, a, ma, B, b, mb, n):
         dy = A[a, 16, l] - B[b, 16, l]
         dz = A[a, 17, l] - B[b, 17, l]
         r = A[a, 18, l] + ma + B[b, 18, l] + mb
-        pos = (abs(A[a, 15, l]) + abs(A[a, 16, l]) + abs(A[a, 17, l]) + abs(B[b, 15, l]) + abs(B[b, 16, l])
-               + abs(B[b, 17, l]))
+        pos = ((abs(A[a, 15, l]) + abs(A[a, 16, l]) + abs(A[a, 17, l]))
+               + (abs(B[b, 15, l]) + abs(B[b, 16, l]) + abs(B[b, 17, l])))
         r += SLACK_REL * r + SLACK_POS * pos
         ok = dx * dx + dy * dy + dz * dz <= r * r
         ea0 = A[a, 12, l] + ma
@@ -419,21 +431,21 @@ def bounds_mask(A, a, ma, B, b, mb, n):
         t2 = d0 * A[a, 5, l] + d1 * A[a, 8, l] + d2 * A[a, 11, l]
         pos = abs(A[a, 0, l]) + abs(A[a, 1, l]) + abs(A[a, 2, l]) + abs(B[b, 0, l]) + abs(B[b, 1, l]) + abs(B[b, 2, l])
         tol = SLACK_REL * (ea0 + ea1 + ea2 + eb0 + eb1 + eb2) + SLACK_POS * pos
-        ok &= abs(t0) <= ea0 + eb0 * a00 + eb1 * a01 + eb2 * a02 + tol
-        ok &= abs(t1) <= ea1 + eb0 * a10 + eb1 * a11 + eb2 * a12 + tol
-        ok &= abs(t2) <= ea2 + eb0 * a20 + eb1 * a21 + eb2 * a22 + tol
-        ok &= abs(t0 * r00 + t1 * r10 + t2 * r20) <= ea0 * a00 + ea1 * a10 + ea2 * a20 + eb0 + tol
-        ok &= abs(t0 * r01 + t1 * r11 + t2 * r21) <= ea0 * a01 + ea1 * a11 + ea2 * a21 + eb1 + tol
-        ok &= abs(t0 * r02 + t1 * r12 + t2 * r22) <= ea0 * a02 + ea1 * a12 + ea2 * a22 + eb2 + tol
-        ok &= abs(t2 * r10 - t1 * r20) <= ea1 * a20 + ea2 * a10 + eb1 * a02 + eb2 * a01 + tol
-        ok &= abs(t2 * r11 - t1 * r21) <= ea1 * a21 + ea2 * a11 + eb0 * a02 + eb2 * a00 + tol
-        ok &= abs(t2 * r12 - t1 * r22) <= ea1 * a22 + ea2 * a12 + eb0 * a01 + eb1 * a00 + tol
-        ok &= abs(t0 * r20 - t2 * r00) <= ea0 * a20 + ea2 * a00 + eb1 * a12 + eb2 * a11 + tol
-        ok &= abs(t0 * r21 - t2 * r01) <= ea0 * a21 + ea2 * a01 + eb0 * a12 + eb2 * a10 + tol
-        ok &= abs(t0 * r22 - t2 * r02) <= ea0 * a22 + ea2 * a02 + eb0 * a11 + eb1 * a10 + tol
-        ok &= abs(t1 * r00 - t0 * r10) <= ea0 * a10 + ea1 * a00 + eb1 * a22 + eb2 * a21 + tol
-        ok &= abs(t1 * r01 - t0 * r11) <= ea0 * a11 + ea1 * a01 + eb0 * a22 + eb2 * a20 + tol
-        ok &= abs(t1 * r02 - t0 * r12) <= ea0 * a12 + ea1 * a02 + eb0 * a21 + eb1 * a20 + tol
+        ok &= not (abs(t0) > ea0 + eb0 * a00 + eb1 * a01 + eb2 * a02 + tol)
+        ok &= not (abs(t1) > ea1 + eb0 * a10 + eb1 * a11 + eb2 * a12 + tol)
+        ok &= not (abs(t2) > ea2 + eb0 * a20 + eb1 * a21 + eb2 * a22 + tol)
+        ok &= not (abs(t0 * r00 + t1 * r10 + t2 * r20) > ea0 * a00 + ea1 * a10 + ea2 * a20 + eb0 + tol)
+        ok &= not (abs(t0 * r01 + t1 * r11 + t2 * r21) > ea0 * a01 + ea1 * a11 + ea2 * a21 + eb1 + tol)
+        ok &= not (abs(t0 * r02 + t1 * r12 + t2 * r22) > ea0 * a02 + ea1 * a12 + ea2 * a22 + eb2 + tol)
+        ok &= not (abs(t2 * r10 - t1 * r20) > ea1 * a20 + ea2 * a10 + eb1 * a02 + eb2 * a01 + tol)
+        ok &= not (abs(t2 * r11 - t1 * r21) > ea1 * a21 + ea2 * a11 + eb0 * a02 + eb2 * a00 + tol)
+        ok &= not (abs(t2 * r12 - t1 * r22) > ea1 * a22 + ea2 * a12 + eb0 * a01 + eb1 * a00 + tol)
+        ok &= not (abs(t0 * r20 - t2 * r00) > ea0 * a20 + ea2 * a00 + eb1 * a12 + eb2 * a11 + tol)
+        ok &= not (abs(t0 * r21 - t2 * r01) > ea0 * a21 + ea2 * a01 + eb0 * a12 + eb2 * a10 + tol)
+        ok &= not (abs(t0 * r22 - t2 * r02) > ea0 * a22 + ea2 * a02 + eb0 * a11 + eb1 * a10 + tol)
+        ok &= not (abs(t1 * r00 - t0 * r10) > ea0 * a10 + ea1 * a00 + eb1 * a22 + eb2 * a21 + tol)
+        ok &= not (abs(t1 * r01 - t0 * r11) > ea0 * a11 + ea1 * a01 + eb0 * a22 + eb2 * a20 + tol)
+        ok &= not (abs(t1 * r02 - t0 * r12) > ea0 * a12 + ea1 * a02 + eb0 * a21 + eb1 * a20 + tol)
         m |= np.uint64(ok) << np.uint64(l)
     return m
 
@@ -1020,8 +1032,12 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
         # A multi-geom body whose bounds are mostly empty space (walls around an arena, the world's
         # scattered static geoms: single < 0, see BroadPhase) passes every body-level test; its
         # pairs go straight to its geoms' AABBs.
-        bp[m, 0] = x
-        bp[m, 1] = ~y if (single[x] < 0 or single[y] < 0) else y
+        # Lower position first: the OBB test is not bitwise symmetric in its two boxes, and the
+        # batch's lanes test each pair in this order (a sweep or the grid may hand it reversed).
+        lo = min(x, y)
+        hi = max(x, y)
+        bp[m, 0] = lo
+        bp[m, 1] = ~hi if (single[x] < 0 or single[y] < 0) else hi
         m += 1
     # 4b. sphere and OBB tests of the body bounds, 64 pairs at a time: both rows copied into
     # columns (sa, sb), then one loop without a branch, which the compiler vectorises, into a bit
@@ -1275,7 +1291,7 @@ def _geom_rows(x, order, gstart, pgeoms, glocal, gmargin, body_pos, body_rot, gw
         e0 = gw[g, 12] + m
         e1 = gw[g, 13] + m
         e2 = gw[g, 14] + m
-        tol = SLACK_REL * (e0 + e1 + e2) + SLACK_POS * (abs(gw[g, 0]) + abs(gw[g, 1]) + abs(gw[g, 2]))
+        tol = aabb_slack(e0, e1, e2, gw[g, 0], gw[g, 1], gw[g, 2])
         for i in range(3):
             h = abs(gw[g, 3 + 3 * i]) * e0 + abs(gw[g, 4 + 3 * i]) * e1 + abs(gw[g, 5 + 3 * i]) * e2 + tol
             gaabb[g, i] = gw[g, i] - h

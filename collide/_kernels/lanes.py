@@ -31,7 +31,8 @@ from ._ptr import f64_ptr, i64_ptr
 from ._simd import aabb_mask8
 from .broadphase import (BIG, C_KEYS, C_NKEYS, N_STATS, NCTX, ROW, SLACK_POS, SLACK_REL, ST_BODY_OBB,
                          ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT, ST_PLANE, ST_SUBTREE,
-                         _batch_world, _buffers, _explicit_hit, _plane_hit_local, _pose_ok, _views, bounds_mask)
+                         _batch_world, _buffers, _explicit_hit, _plane_hit_local, _pose_ok, _views, aabb_slack,
+                         bounds_mask)
 
 LANES = 8
 MAX_BODY_PAIRS = 4096  # above this many static body pairs, the tree of the per-world kernel culls better
@@ -228,11 +229,10 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats):
             _lane_row(ps, order[x], blocal, x, wb, x, nv)
             for i in range(3):
                 for l in range(nv):
-                    # the OBB test's slack, as in broadphase._place
+                    # the OBB test's slack, rounded as in broadphase._place
+                    tol = aabb_slack(wb[x, 12, l], wb[x, 13, l], wb[x, 14, l], wb[x, 0, l], wb[x, 1, l], wb[x, 2, l])
                     h = (abs(wb[x, 3 + 3 * i, l]) * wb[x, 12, l] + abs(wb[x, 4 + 3 * i, l]) * wb[x, 13, l]
-                         + abs(wb[x, 5 + 3 * i, l]) * wb[x, 14, l]
-                         + SLACK_REL * (wb[x, 12, l] + wb[x, 13, l] + wb[x, 14, l])
-                         + SLACK_POS * (abs(wb[x, 0, l]) + abs(wb[x, 1, l]) + abs(wb[x, 2, l])))
+                         + abs(wb[x, 5 + 3 * i, l]) * wb[x, 14, l] + tol)
                     lo = wb[x, i, l] - h
                     hi = wb[x, i, l] + h
                     wa[x, i, l] = lo
@@ -411,7 +411,7 @@ def _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gmargin, ps, gwl, gal, 
             e0 = gwl[g, 12, l] + m
             e1 = gwl[g, 13, l] + m
             e2 = gwl[g, 14, l] + m
-            tol = SLACK_REL * (e0 + e1 + e2) + SLACK_POS * (abs(gwl[g, 0, l]) + abs(gwl[g, 1, l]) + abs(gwl[g, 2, l]))
+            tol = aabb_slack(e0, e1, e2, gwl[g, 0, l], gwl[g, 1, l], gwl[g, 2, l])
             for i in range(3):
                 h = (abs(gwl[g, 3 + 3 * i, l]) * e0 + abs(gwl[g, 4 + 3 * i, l]) * e1
                      + abs(gwl[g, 5 + 3 * i, l]) * e2 + tol)
