@@ -76,6 +76,25 @@ def test_gjk_finds_a_point_inside_a_thin_box():
         assert lower > 0.9e-8 and upper < 1.1e-8
 
 
+def test_explicit_pair_margin_replaces_the_geom_margins_with_or_without_candidates():
+    # Review (2026-11-21): with candidates=, an explicit pair was tested with the geoms' margins as
+    # well as its own, so a pair margin smaller than theirs reported pairs the broad phase (and
+    # the twin without candidates) rightly drops.
+    from collide import Articulation, BroadPhase, PointCloud
+
+    ball = PointCloud([[0.0, 0.0, 0.0]], 0.5)
+    rot = np.tile(np.eye(3), (3, 1, 1))
+    for pair_margin, gap, touching in ((0.05, 0.2, False), (0.05, 0.08, True), (0.3, 0.4, True), (0.3, 0.7, False)):
+        art = Articulation([0, 0, 0], [1, 2], [ball, ball], geom_margin=[0.2, 0.2], pairs=[(0, 1)],
+                           pair_margin=[pair_margin])
+        pos = np.array([[0, 0, 0], [0, 0, 0], [1.0 + gap, 0, 0]])
+        want = [[0, 1]] if touching else []
+        assert testing.brute_force_pairs(art, pos, rot).tolist() == want
+        assert testing.brute_force_pairs(art, pos, rot, candidates=([0], [1])).tolist() == want
+        assert testing.brute_force_pairs(art, pos, rot, candidates=([1], [0])).tolist() == want
+        assert BroadPhase(art).pairs(pos, rot).tolist() == want
+
+
 def test_twins_refuse_the_poses_the_broad_phase_refuses():
     sc = testing.many_robots(2, 3, seed=5)
     pos, rot = sc.poses(np.random.default_rng(6))

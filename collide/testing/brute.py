@@ -414,7 +414,8 @@ def brute_force_pairs(art: Articulation, body_pos, body_rot, candidates=None) ->
     body_pos : (L, 3) float64
     body_rot : (L, 3, 3) float64
     candidates : tuple of two (n,) int arrays, optional
-        Test only these pairs (default: every filter-passing pair, plus the explicit pairs).
+        Test only these pairs (default: every filter-passing pair, plus the explicit pairs). An
+        explicit pair among them is inflated by its own ``pair_margin`` where one is given.
 
     Returns
     -------
@@ -430,12 +431,19 @@ def brute_force_pairs(art: Articulation, body_pos, body_rot, candidates=None) ->
     else:
         g1, g2 = (np.asarray(c, np.int64) for c in candidates)
         m1, m2 = art.geom_margin[g1], art.geom_margin[g2]
-        # a candidate that is an explicit pair is also tested with the pair's own inflation
-        e1, e2, em1, em2 = _explicit_margins(art)
-        key = np.minimum(g1, g2) * len(art.geom_body) + np.maximum(g1, g2)
-        sel = np.isin(np.minimum(e1, e2) * len(art.geom_body) + np.maximum(e1, e2), key)
-        g1, g2 = np.r_[g1, e1[sel]], np.r_[g2, e2[sel]]
-        m1, m2 = np.r_[m1, em1[sel]], np.r_[m2, em2[sel]]
+        # A candidate that is an explicit pair with its own margin is tested with that margin only,
+        # as without candidates and as the broad phase does (the explicit pair replaces the
+        # dynamic one). art.pairs are unique rows, lower id first, so their keys are sorted.
+        G = len(art.geom_body)
+        ekey = art.pairs[:, 0] * G + art.pairs[:, 1]
+        key = np.minimum(g1, g2) * G + np.maximum(g1, g2)
+        at = np.searchsorted(ekey, key)
+        hit = at < len(ekey)
+        hit[hit] &= ekey[at[hit]] == key[hit]
+        pm = np.full(len(key), np.nan)
+        pm[hit] = art.pair_margin[at[hit]]
+        given = ~np.isnan(pm)
+        m1, m2 = np.where(given, pm, m1), np.where(given, pm, m2)
     is_plane = art.geom_is_plane
     sizes = np.array([0 if c is None else len(c) for c in art.geom_local_cloud])
     pstart = np.r_[0, np.cumsum(sizes)].astype(np.int64)
