@@ -881,8 +881,9 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
         (``time_ours_us_per_step``, ``time_mujoco_broad_us_per_step``), ``model``, ``seed``,
         ``unstable_resets`` (times MuJoCo reset an unstable simulation),
         ``mujoco_count_replayed`` (True when the counting run reproduced every step's contacts),
-        ``contact_pairs_total`` (MuJoCo contact pairs summed over the steps), ``nbody`` and
-        ``ngeom``.
+        ``contact_pairs_total`` (MuJoCo contact pairs summed over the steps),
+        ``flex_contacts_total`` (MuJoCo contacts involving a flex, summed over the steps: not geom
+        pairs, so left out of the comparison), ``nbody`` and ``ngeom``.
     """
     steps = as_count(steps, "steps", 1)
     seed = as_count(seed, "seed", 0)
@@ -942,9 +943,11 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
             if replayed and not np.array_equal(data2.contact.geom[:data2.ncon], raw_contacts[step]):
                 replayed = False
     ng = np.int64(model.ngeom)
+    flex_contacts = 0
     for step, (geoms, cand) in enumerate(zip(raw_contacts, raw_candidates)):
         rec.candidates.append(len(cand))
         geoms = np.sort(geoms, axis=1)
+        flex_contacts += int(np.count_nonzero(geoms[:, 0] < 0))
         geoms = geoms[geoms[:, 0] >= 0]  # flex contacts are not geom pairs
         key_c = np.unique(geoms[:, 0] * ng + geoms[:, 1])
         rec.contact_pairs.append(len(key_c))
@@ -964,6 +967,7 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
         "recall": 1.0 if total == 0 else (total - len(rec.missed)) / total,
         "missed": rec.missed,
         "contact_pairs_total": total,
+        "flex_contacts_total": flex_contacts,
         "contact_pairs_per_step": rec.contact_pairs,
         "candidates_per_step": rec.candidates,
         "mujoco_candidates_per_step": rec.mujoco_candidates,
@@ -1012,6 +1016,9 @@ def format_report(result: dict) -> str:
     ]
     if result.get("mujoco_count_replayed") is False:
         lines.append("note: the run counting MuJoCo's candidates did not reproduce the timed run's contacts")
+    if result.get("flex_contacts_total"):
+        lines.append(f"note: {result['flex_contacts_total']} MuJoCo contacts involving a flex were left out "
+                     "(collide bounds geoms; flex contacts are not geom pairs)")
     if result.get("unstable_resets"):
         lines.append(f"note: MuJoCo reset an unstable simulation {result['unstable_resets']} time(s)")
     return "\n".join(lines)
