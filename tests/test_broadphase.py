@@ -614,11 +614,11 @@ def _batch_equals_single(bp, pos, rot):
     # pairs_batch on the lanes (small models) and on the per-world kernel, each against pairs().
     single = bp.pairs(pos, rot).tolist()
     lanes = bp.pairs_batch(pos[None], rot[None])[:, 1:].tolist()
-    J, bp._J = bp._J, None
+    J, bp._J, bp._batch = bp._J, None, None  # the batch buffers are the path's own
     try:
         per_world = bp.pairs_batch(pos[None], rot[None])[:, 1:].tolist()
     finally:
-        bp._J = J
+        bp._J, bp._batch = J, None
     return single, lanes, per_world
 
 

@@ -1034,10 +1034,9 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
         # pairs go straight to its geoms' AABBs.
         # Lower position first: the OBB test is not bitwise symmetric in its two boxes, and the
         # batch's lanes test each pair in this order (a sweep or the grid may hand it reversed).
-        lo = min(x, y)
-        hi = max(x, y)
-        bp[m, 0] = lo
-        bp[m, 1] = ~hi if (single[x] < 0 or single[y] < 0) else hi
+        x, y = min(x, y), max(x, y)
+        bp[m, 0] = x
+        bp[m, 1] = ~y if (single[x] < 0 or single[y] < 0) else y
         m += 1
     # 4b. sphere and OBB tests of the body bounds, 64 pairs at a time: both rows copied into
     # columns (sa, sb), then one loop without a branch, which the compiler vectorises, into a bit
