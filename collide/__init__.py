@@ -3,11 +3,15 @@
 The flat public surface; every name here is re-exported from the module that defines it.
 """
 
-from . import csg, hull, shapes, volumes
-from .articulation import Articulation
-from .broadphase import BroadPhase
-from .pointcloud import PointCloud, difference, intersection, union
-from .volumes import AABB, KDOP, OBB, Sphere, overlap
+from . import _cache
+
+_cache.register()  # before any kernel is defined: numba's cache keyed on the files a kernel imports
+
+from . import csg, hull, shapes, volumes  # noqa: E402
+from .articulation import Articulation  # noqa: E402
+from .broadphase import BroadPhase  # noqa: E402
+from .pointcloud import PointCloud, difference, intersection, union  # noqa: E402
+from .volumes import AABB, KDOP, OBB, Sphere, overlap  # noqa: E402
 
 __all__ = [
     "AABB",
