@@ -16,11 +16,28 @@ from functools import lru_cache
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
-from ._validate import as_count, as_points, as_radius
+from ._validate import as_array, as_count, as_points, as_radius
 
 # Relative size of a singular value, against the largest, below which a direction is treated as
 # flat. 1e-12 keeps the neglected thickness at the level of float64 rounding of the coordinates.
 FLAT_TOL = 1e-12
+
+
+# Largest coordinate (plus radius) the hull and fitting routines accept: their means, squared
+# distances and SVDs overflow float64 beyond about 1e154 (at 1e306 the mean of a cloud overflowed
+# and hull reduction collapsed it to one point, silently; found 2026-11-22).
+MAX_COORDINATE = 1e150
+
+
+def require_bounded(points: np.ndarray, what: str, radius: float = 0.0) -> None:
+    """Raise ValueError when the non-empty ``points`` ``(n, 3)`` (plus ``radius``) are empty or
+    reach beyond `MAX_COORDINATE`, naming ``what``."""
+    if len(points) == 0:
+        raise ValueError(f"{what}: the cloud is empty and bounds nothing")
+    big = float(np.abs(points).max()) + radius
+    if not big <= MAX_COORDINATE:
+        raise ValueError(f"{what}: coordinates plus radius reach {big:.3g}, beyond {MAX_COORDINATE:g} "
+                         "(squared distances would overflow float64)")
 
 
 def affine_basis(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
@@ -40,6 +57,8 @@ def affine_basis(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     rank : int
         0 (a single point, up to duplicates), 1 (collinear), 2 (flat) or 3.
     """
+    points = as_points(points)
+    require_bounded(points, "points")
     center = points.mean(axis=0)
     centred = points - center
     extent = float(np.abs(centred).max()) if len(points) > 1 else 0.0
@@ -240,6 +259,8 @@ def clip_hull(points: np.ndarray, normals: np.ndarray, offsets: np.ndarray) -> n
     points : (m, 3) float64
         ``(0, 3)`` when the intersection is empty.
     """
+    normals = as_array(normals, "normals", (None, 3))
+    offsets = as_array(offsets, "offsets", (len(normals),))
     pts = hull_vertices(points)
     for n, d in zip(normals, offsets):
         s = pts @ n - d

@@ -47,7 +47,10 @@ _CORNER_SIGNS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (
 
 def obb_corners(center: np.ndarray, rotation: np.ndarray, half_extents: np.ndarray) -> np.ndarray:
     """The 8 corners ``(8, 3)`` of the box ``center`` + ``rotation`` @ [-h, h] (columns are axes)."""
-    return center + (_CORNER_SIGNS * half_extents) @ np.asarray(rotation).T
+    center = as_array(center, "center", (3,))
+    rotation = as_array(rotation, "rotation", (3, 3))
+    half_extents = as_array(half_extents, "half_extents", (3,))
+    return center + (_CORNER_SIGNS * half_extents) @ rotation.T
 
 
 def aabb_corners(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -141,6 +144,8 @@ class AABB:
         ----------
         points : (n, 3) float64
         rtol : float
+            ``>= 0``: the room, relative to the volume's coordinates and size (no absolute floor:
+            a 1e-9 box is widened by 1e-9 of its size, not of 1).
 
         Returns
         -------
@@ -149,7 +154,7 @@ class AABB:
         p = as_array(points, "points", (None, 3))
         if self.is_empty:
             return np.zeros(len(p), dtype=bool)
-        pad = rtol * max(float(np.max(np.abs(np.concatenate([self.lo, self.hi])))), 1.0)
+        pad = as_radius(rtol, "rtol") * float(np.max(np.abs(np.concatenate([self.lo, self.hi]))))
         return np.all((p >= self.lo - pad) & (p <= self.hi + pad), axis=1)
 
     def aabb(self) -> "AABB":
@@ -195,13 +200,15 @@ class Sphere:
         ----------
         points : (n, 3) float64
         rtol : float
+            ``>= 0``: the room, relative to the volume's coordinates and size (no absolute floor:
+            a 1e-9 box is widened by 1e-9 of its size, not of 1).
 
         Returns
         -------
         inside : (n,) bool
         """
         p = as_array(points, "points", (None, 3))
-        pad = rtol * max(self.radius, float(np.max(np.abs(self.center))), 1.0)
+        pad = as_radius(rtol, "rtol") * max(self.radius, float(np.max(np.abs(self.center))))
         return np.linalg.norm(p - self.center, axis=1) <= self.radius + pad
 
     def aabb(self) -> AABB:
@@ -258,6 +265,8 @@ class OBB:
         ----------
         points : (n, 3) float64
         rtol : float
+            ``>= 0``: the room, relative to the volume's coordinates and size (no absolute floor:
+            a 1e-9 box is widened by 1e-9 of its size, not of 1).
 
         Returns
         -------
@@ -265,7 +274,7 @@ class OBB:
         """
         p = as_array(points, "points", (None, 3))
         local = (p - self.center) @ self.rotation
-        pad = rtol * max(float(np.max(self.half_extents)), float(np.max(np.abs(self.center))), 1.0)
+        pad = as_radius(rtol, "rtol") * max(float(np.max(self.half_extents)), float(np.max(np.abs(self.center))))
         return np.all(np.abs(local) <= self.half_extents + pad, axis=1)
 
     def aabb(self) -> AABB:
@@ -285,19 +294,11 @@ class OBB:
 # ----------------------------------------------------------------------------------------------
 # Fitting: AABB and OBB
 
-# Largest coordinate (plus radius) the fitters accept: their squared distances and SVDs
-# overflow float64 beyond about 1e154 (1e300 gave "radius: must be finite, got inf" and "rotation:
-# not orthonormal", naming nothing the user passed).
-MAX_COORDINATE = 1e150
-
-
-def _require_points(points: np.ndarray, what: str, radius: float = 0.0) -> None:
-    if len(points) == 0:
-        raise ValueError(f"{what}: the cloud is empty and bounds nothing")
-    big = float(np.abs(points).max()) + radius
-    if not big <= MAX_COORDINATE:
-        raise ValueError(f"{what}: coordinates plus radius reach {big:.3g}, beyond {MAX_COORDINATE:g} "
-                         "(squared distances would overflow float64)")
+# Largest coordinate (plus radius) the fitters accept (`hull.MAX_COORDINATE`): their squared
+# distances and SVDs overflow float64 beyond about 1e154 (1e300 gave "radius: must be finite, got
+# inf" and "rotation: not orthonormal", naming nothing the user passed).
+MAX_COORDINATE = _hull.MAX_COORDINATE
+_require_points = _hull.require_bounded
 
 
 def fit_aabb(points: np.ndarray, radius: float = 0.0) -> AABB:
@@ -325,6 +326,10 @@ def box_from_axes(points: np.ndarray, radius: float, rotation: np.ndarray) -> OB
     rotation : (3, 3) float64
         Orthonormal; columns are the axes.
     """
+    points = as_points(points, "points")
+    radius = as_radius(radius, "radius")
+    _require_points(points, "points", radius)
+    rotation = _rotation(rotation, "rotation")
     local = points @ rotation
     lo, hi = local.min(axis=0), local.max(axis=0)
     center = rotation @ ((lo + hi) / 2.0)
@@ -360,6 +365,8 @@ def pca_axes(points: np.ndarray) -> np.ndarray:
     points : (n, 3) float64
         Non-empty.
     """
+    points = as_points(points, "points")
+    _require_points(points, "points")
     return _right_handed(_principal(points)[0].T)
 
 
@@ -832,8 +839,7 @@ def min_sphere_center(points: np.ndarray) -> np.ndarray:
         coordinates around 1e5 lose no more precision than the input carries.
     """
     points = as_points(points)
-    if len(points) == 0:
-        raise ValueError("points: must be non-empty")
+    _require_points(points, "points")
     offset = 0.5 * (points.min(axis=0) + points.max(axis=0))
     local = points - offset
     scale = float(np.abs(local).max())
@@ -921,8 +927,9 @@ def _kdop_directions(k: int) -> np.ndarray:
     edges = np.array([[1, 1, 0], [1, -1, 0], [1, 0, 1], [1, 0, -1], [0, 1, 1], [0, 1, -1]],
                      dtype=float) / np.sqrt(2.0)
     table = {6: [axes], 14: [axes, corners], 18: [axes, edges], 26: [axes, corners, edges]}
-    if k not in table:
+    if isinstance(k, (bool, np.bool_)) or not isinstance(k, (int, np.integer)) or int(k) not in table:
         raise ValueError(f"k: expected 6, 14, 18 or 26, got {k!r}")
+    k = int(k)
     out = np.concatenate(table[k])
     out.setflags(write=False)
     return out
@@ -1005,6 +1012,8 @@ class KDOP:
         ----------
         points : (n, 3) float64
         rtol : float
+            ``>= 0``: the room, relative to the volume's coordinates and size (no absolute floor:
+            a 1e-9 box is widened by 1e-9 of its size, not of 1).
 
         Returns
         -------
@@ -1012,7 +1021,7 @@ class KDOP:
         """
         p = as_array(points, "points", (None, 3))
         proj = p @ self.directions.T
-        pad = rtol * max(float(np.max(np.abs(np.concatenate([self.lo, self.hi])))), 1.0)
+        pad = as_radius(rtol, "rtol") * float(np.max(np.abs(np.concatenate([self.lo, self.hi]))))
         return np.all((proj >= self.lo - pad) & (proj <= self.hi + pad), axis=1)
 
     def aabb(self) -> AABB:
@@ -1079,25 +1088,45 @@ def transform(volume, rotation, translation):
     Returns
     -------
     Sphere, OBB or KDOP
-        A sphere stays a sphere and an OBB an OBB (both exact); an AABB becomes the OBB it
-        is mapped to (exact; take ``.aabb()`` of it for an axis-aligned bound); a k-DOP
-        becomes the tightest k-DOP of its moved vertices (it grows, as any fixed-direction
-        bound does under rotation).
+        A sphere stays a sphere and an OBB an OBB (both exact up to a few ulps of padding, and
+        grown to bound the image when ``rotation`` is within `ROTATION_TOL` of orthonormal but
+        not exactly so, as float32 rotations are); an AABB becomes the OBB it is mapped to (take
+        ``.aabb()`` of it for an axis-aligned bound); a k-DOP becomes the tightest k-DOP of its
+        moved vertices (it grows, as any fixed-direction bound does under rotation).
     """
     rot = _rotation(rotation, "rotation")
     t = as_array(translation, "translation", (3,))
+    # ``rotation`` is accepted up to ROTATION_TOL from orthonormal (float32 poses), and the volume
+    # must bound the image under the map as given: a ball grows by the map's largest stretch, a box
+    # by the off-diagonal part of its axes' images seen from the new (orthonormal) axes. With an
+    # exact rotation both are the identity up to rounding, covered by the pad.
     if isinstance(volume, KDOP):
-        # Rotated slabs are no longer the fixed directions: refit to the moved vertices.
+        # Rotated slabs are no longer the fixed directions: refit to the moved vertices (the
+        # image of a convex polytope under a linear map is the hull of its vertices' images).
         return fit_kdop(volume.vertices() @ rot.T + t, 0.0, volume.k)
     if isinstance(volume, Sphere):
-        return Sphere(rot @ volume.center + t, volume.radius)
+        center = rot @ volume.center + t
+        stretch = max(1.0, float(np.linalg.norm(rot, 2)))
+        pad = _ROUNDING_PAD * (volume.radius + _moved_size(rot, volume.center, t))
+        return Sphere(center, volume.radius * stretch + pad)
     if isinstance(volume, AABB):
         if volume.is_empty:
             raise ValueError("volume: the empty box has no transform (it bounds nothing)")
         volume = OBB(volume.center, np.eye(3), volume.half_extents)
     if isinstance(volume, OBB):
-        return OBB(rot @ volume.center + t, _orthonormal(rot @ volume.rotation), volume.half_extents)
+        center = rot @ volume.center + t
+        image = rot @ volume.rotation  # the box's axes under the map, nearly orthonormal
+        axes = _orthonormal(image)
+        half = np.abs(axes.T @ image) @ volume.half_extents
+        half += _ROUNDING_PAD * (float(np.sum(volume.half_extents)) + _moved_size(rot, volume.center, t))
+        return OBB(center, axes, half)
     raise ValueError(f"volume: expected an AABB, Sphere, OBB or KDOP, got {type(volume).__name__}")
+
+
+def _moved_size(rot: np.ndarray, center: np.ndarray, t: np.ndarray) -> float:
+    # The magnitude of the terms summed into rot @ center + t: their rounding, not the result's
+    # (which may cancel to 0), sets the error of the moved centre.
+    return float((np.abs(rot) @ np.abs(center) + np.abs(t)).max())
 
 
 def aabb_of(volume) -> AABB:

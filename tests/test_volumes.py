@@ -445,9 +445,36 @@ def test_transform_and_aabb_of_volumes():
         corners = box.corners()
         assert np.allclose(box.aabb().lo, corners.min(axis=0))
         assert np.allclose(box.aabb().hi, corners.max(axis=0))
-        # Rigid maps keep sizes.
-        assert ball.radius == cloud.sphere().radius
-        assert np.allclose(box.half_extents, cloud.obb().half_extents)
+        # Rigid maps keep sizes (up to the few ulps of rounding pad).
+        r = cloud.sphere().radius
+        assert r <= ball.radius <= r * (1 + 1e-13) + 1e-13 * np.abs(t).max()
+        assert np.allclose(box.half_extents, cloud.obb().half_extents, rtol=1e-13, atol=1e-13 * np.abs(t).max())
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1.0, 1e3, 1e6])
+def test_transformed_volumes_bound_the_image_under_nearly_orthonormal_rotations(scale):
+    # Rotations are accepted up to ROTATION_TOL from orthonormal (float32 poses); the volumes must
+    # bound the image under the map as given (a 100-unit box under a rotation scaled by
+    # 1 + 4.9e-7 escaped its transformed sphere by 5.6e-5, found 2026-11-22).
+    rng = np.random.default_rng(12)
+    corners = np.array(list(itertools.product((-1.0, 1.0), repeat=3))) * [1.0, 0.5, 0.2] * scale
+    for i in range(40):
+        base = _rotation(rng)
+        if i % 2:
+            rot = base * (1.0 + 0.49 * V.ROTATION_TOL * rng.choice([-1.0, 1.0]))
+        else:
+            rot = base.astype(np.float32).astype(np.float64)
+        assert np.abs(rot.T @ rot - np.eye(3)).max() <= V.ROTATION_TOL
+        t = rng.normal(size=3) * scale * 10
+        shift = rng.normal(size=3) * scale
+        cloud = PointCloud(corners + shift, 0.0)
+        image = (corners + shift) @ rot.T + t  # the box's corners under the map: its true surface's extremes
+        ball_local = V.Sphere(shift, float(np.linalg.norm(corners[0])))
+        on_ball = shift + ball_local.radius * _sphere_surface(rng, 500)
+        for vol, pts in ((cloud.obb(), image), (cloud.aabb(), image), (ball_local, on_ball @ rot.T + t)):
+            moved = V.transform(vol, rot, t)
+            assert np.all(moved.contains(pts)), (type(vol).__name__, i)
+            assert np.all(moved.aabb().contains(pts)), (type(vol).__name__, i)
 
 
 # ---------------------------------------------------------------------------------------------
