@@ -317,15 +317,11 @@ def test_inflation_values():
       <body><freejoint/><geom name="b" type="sphere" size=".1"/></body>
     </worldbody><contact><pair geom1="a" geom2="b" margin=".05" gap=".02"/></contact></mujoco>"""
     model = mujoco.MjModel.from_xml_string(xml)
-    np.testing.assert_allclose(cm.geom_inflation(model), [0.03, 0.0])
-    np.testing.assert_allclose(cm.pair_inflation(model), [0.07])
-    # ellipsoids and cylinders add ccd_tolerance (see test_ccd_tolerance_widens_the_bounds)
-    curved = mujoco.MjModel.from_xml_string(xml.replace('name="b" type="sphere" size=".1"',
-                                                        'name="b" type="cylinder" size=".1 .1"'))
-    tol = curved.opt.ccd_tolerance
+    # every geom adds ccd_tolerance (see test_ccd_tolerance_widens_the_bounds), each of a pair's two too
+    tol = model.opt.ccd_tolerance
     assert tol == 1e-6
-    np.testing.assert_allclose(cm.geom_inflation(curved), [0.03, tol], rtol=0, atol=1e-15)
-    np.testing.assert_allclose(cm.pair_inflation(curved), [0.07 + tol], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(cm.geom_inflation(model), [0.03 + tol, tol], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(cm.pair_inflation(model), [0.07 + 2 * tol], rtol=0, atol=1e-15)
 
 
 def _cylinder_and_box(scale: float, ccd_tolerance: str = ""):
@@ -360,6 +356,26 @@ def test_ccd_tolerance_widens_the_bounds(scale, tol):
     model.opt.ccd_tolerance = 1e-12 * scale
     gap = mujoco.mj_geomDistance(model, data, 0, 1, 1.0, np.zeros(6))
     assert gap > 0.4e-2 * scale  # truly apart, by about half the tolerance
+    assert ours == [[0, 1]]
+
+
+def test_ccd_tolerance_widens_polytopes_when_gjk_stops_early():
+    # With few GJK iterations MuJoCo reports polytopes up to ~0.8 x ccd_tolerance apart as touching
+    # (a box and a mesh 0.0095 apart at 4 iterations, tolerance 0.1: review reproducer, 2026-11-22);
+    # the tolerance once widened only ellipsoids and cylinders.
+    xml = """<mujoco><option gravity="0 0 0" ccd_tolerance="0.1" ccd_iterations="4"/>
+      <asset><mesh name="m" vertex="0.01 0.408 0.367 -0.153 -0.089 -0.158 0.171 -0.017 0.224 -0.554 0.47 -0.029
+        0.204 -0.041 -0.114 0.139 0.247 -0.061 -0.046 0.206 -0.261 -0.454 0.118 -0.201"/></asset><worldbody>
+      <body><freejoint/><geom type="box" size=".2 .2 .2"/></body>
+      <body><freejoint/><geom type="mesh" mesh="m"/></body></worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    data.qpos[7:10] = [0.415, -0.108, -0.344]
+    mujoco.mj_forward(model, data)
+    assert cm.contact_pairs(model, data).tolist() == [[0, 1]]
+    ours = cm.BroadPhase(model).pairs(data).tolist()
+    model.opt.ccd_iterations, model.opt.ccd_tolerance = 1000, 1e-12
+    assert mujoco.mj_geomDistance(model, data, 0, 1, 1.0, None) > 0.009  # truly apart
     assert ours == [[0, 1]]
 
 
