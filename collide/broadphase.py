@@ -85,6 +85,10 @@ class BroadPhase:
     world (``filter_parent``), excluded body pairs never pair, and the masks must match
     (``(ct1 & ca2) or (ct2 & ca1)``). Explicit pairs bypass the filter and are tested with their
     own inflation. Planes are halfspaces, tested against the other geom's bounds.
+
+    One instance holds one workspace and one output arena, like a ``mujoco.MjData``: call it
+    from one thread at a time. For several threads, give each its own (``copy.copy(bp)`` builds
+    an independent one from the same articulation); `pairs_batch` threads over worlds itself.
     """
 
     def __init__(self, articulation: Articulation):

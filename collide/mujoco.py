@@ -570,6 +570,10 @@ class BroadPhase:
     ----------
     articulation : Articulation
     broadphase : collide.BroadPhase
+
+    Notes
+    -----
+    As `collide.BroadPhase`: one thread at a time per instance (``copy.copy`` for another thread).
     """
 
     def __init__(self, model: mujoco.MjModel):

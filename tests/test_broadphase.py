@@ -908,6 +908,34 @@ def test_copies_and_pickles_are_rebuilt():
         assert np.array_equal(c.pairs_batch(pos, rot)[:, 1:], np.concatenate(want))
 
 
+def test_one_copy_per_thread():
+    # The documented way to use threads: each its own copy, all at once, each answer its own.
+    import copy
+    import threading
+
+    sc = testing.many_robots(4, 5, seed=45, spread=0.4)
+    pos, rot = sc.poses(np.random.default_rng(46), worlds=40)
+    bp = BroadPhase(sc.articulation)
+    want = [bp.pairs(pos[w], rot[w]).copy() for w in range(40)]
+    assert sum(len(p) for p in want) > 100  # the scene had hits
+    got = {}
+
+    def run(t):
+        mine = copy.copy(bp)
+        got[t] = [[mine.pairs(pos[w], rot[w]) for w in range(40)] for _ in range(25)]
+
+    threads = [threading.Thread(target=run, args=(t,)) for t in range(4)]
+    for th in threads:
+        th.start()
+    for th in threads:
+        th.join()
+    assert sorted(got) == [0, 1, 2, 3]
+    for rounds in got.values():
+        for answers in rounds:
+            for w in range(40):
+                assert np.array_equal(answers[w], want[w])
+
+
 def test_read_only_pose_arrays():
     # A memory map or another framework's buffer arrives read-only: read, never written.
     sc = testing.many_robots(3, 5, seed=43, spread=0.3)
