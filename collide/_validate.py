@@ -91,12 +91,14 @@ def as_positive(value, name: str) -> float:
     return r
 
 
-def as_count(value, name: str, minimum: int) -> int:
-    """Return ``value`` as an int ``>= minimum``."""
+def as_count(value, name: str, minimum: int, maximum: int | None = None) -> int:
+    """Return ``value`` as an int ``>= minimum`` (and ``<= maximum`` when given)."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise ValueError(f"{name}: expected an integer, got {value!r}")
     if value < minimum:
         raise ValueError(f"{name}: must be >= {minimum}, got {value}")
+    if maximum is not None and value > maximum:
+        raise ValueError(f"{name}: must be <= {maximum}, got {value}")
     return int(value)
 
 

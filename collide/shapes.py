@@ -56,6 +56,16 @@ def _ring(r: float, z: float, k: int) -> np.ndarray:
     return np.stack([rr * np.cos(a), rr * np.sin(a), np.full(k, float(z))], axis=1)
 
 
+# Most points a shape builder makes (tessellation counts multiply: a torus has planes x
+# tube_planes): 2**24 points are 400 MB; more is a typo, refused before numpy's allocation fails.
+MAX_POINTS = 2**24
+
+
+def _budget(n: int, what: str) -> None:
+    if n > MAX_POINTS:
+        raise ValueError(f"{what}: would make {n} points, more than MAX_POINTS = {MAX_POINTS}")
+
+
 def _revolve_points(rz: np.ndarray, steps: int) -> np.ndarray:
     # Each (r, z) becomes a circumscribed `steps`-gon of radius |r| at height z; r == 0 stays one
     # point on the axis. Why this bounds the solid of revolution of hull(rz): a point at
@@ -63,6 +73,7 @@ def _revolve_points(rz: np.ndarray, steps: int) -> np.ndarray:
     # combination of the points, so it equals Σ λ_i (r_i cos φ, r_i sin φ, z_i), a convex
     # combination of points on the circles of radius |r_i| at heights z_i, each inside its ring.
     # (The same argument allows r_i < 0, which the torus uses.)
+    _budget(len(rz) * steps, "planes (or steps) x contour points")
     out = []
     for r, z in rz:
         if r == 0.0:
@@ -388,9 +399,9 @@ def cone(radius: float, height: float, planes: int = 16) -> PointCloud:
 def _bands(planes: int, bands) -> int:
     # Latitude bands matched to the longitudinal planes: tangent points every π/m in latitude
     # versus every 2π/k in azimuth, so m = k/2 balances the two angular errors.
-    if bands is None:
-        return max(2, math.ceil(planes / 2))
-    return as_count(bands, "bands", 2)
+    m = max(2, math.ceil(planes / 2)) if bands is None else as_count(bands, "bands", 2)
+    _budget(planes * (m + 1), "planes x bands")
+    return m
 
 
 def _vertex_latitudes(m: int) -> np.ndarray:

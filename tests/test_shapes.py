@@ -412,6 +412,13 @@ BAD = [
     (lambda: shapes.superquadric_support(np.ones((2, 3)), -1.0, 1.0), "e1: must be >= 0"),
     (lambda: collide.volumes.min_sphere_center([[0.0, np.nan, 0.0]]), "points: non-finite"),
     (lambda: collide.volumes.min_sphere_center(np.zeros((0, 3))), "points: the cloud is empty"),
+    # Tessellation counts that would exhaust memory or run for minutes (review, 2026-11-22).
+    (lambda: shapes.cylinder(1.0, 1.0, planes=10**10), "would make .* points, more than MAX_POINTS"),
+    (lambda: shapes.torus(1.0, 0.5, planes=10**5, tube_planes=10**5), "more than MAX_POINTS"),
+    (lambda: shapes.ellipsoid([1.0, 1.0, 1.0], planes=10**9), "planes x bands"),
+    (lambda: shapes.superquadric([1.0, 1.0, 1.0], 0.5, 0.5, planes=64, bands=10**9), "planes x bands"),
+    (lambda: shapes.revolve([[1.0, 0.0], [1.0, 1.0]], steps=10**9), "more than MAX_POINTS"),
+    (lambda: PointCloud([[0.0, 0.0, 0.0]], 1.0).with_radius_as_points(level=9), "level: must be <= 7"),
     # The public helpers of hull and volumes check their input too (review, 2026-11-22: lists,
     # NaNs, empty sets and 1e308 reached numpy's own errors or came back as NaN or as "empty").
     (lambda: collide.volumes.min_sphere_center(np.full((2, 3), 1e308)), "points: coordinates.*beyond 1e\\+150"),
