@@ -35,8 +35,8 @@ MAX_BALL_LEVEL = 7
 
 
 def require_bounded(points: np.ndarray, what: str, radius: float = 0.0) -> None:
-    """Raise ValueError when the non-empty ``points`` ``(n, 3)`` (plus ``radius``) are empty or
-    reach beyond `MAX_COORDINATE`, naming ``what``."""
+    """Raise ValueError, naming ``what``, when ``points`` ``(n, 3)`` are empty or, plus
+    ``radius``, reach beyond `MAX_COORDINATE`."""
     if len(points) == 0:
         raise ValueError(f"{what}: the cloud is empty and bounds nothing")
     big = float(np.abs(points).max()) + radius
