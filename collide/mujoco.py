@@ -157,11 +157,11 @@ def geom_inflation(model: mujoco.MjModel) -> np.ndarray:
 
     MuJoCo generates a contact below ``margin1 + margin2 + gap1 + gap2`` (``getMargin`` +
     ``getGap`` in engine_collision_driver.c); with ``mjENBL_OVERRIDE`` the margin sum becomes
-    ``opt.o_margin``, so each geom takes half of it. Its convex-convex narrow phase (``mjc_ccd``)
-    also reports contacts for geoms a little apart: it runs EPA once GJK's distance estimate is
-    within ``opt.ccd_tolerance``, and that estimate (the norm of a point of the Minkowski
-    difference) is never below the true distance, so a reported pair is at most the tolerance
-    apart. Measured on this install: true gaps up to 0.77 x ``ccd_tolerance`` with an ellipsoid or
+    ``opt.o_margin``, so each geom takes half of it. Its convex-convex narrow phase (``mjc_ccd`` in
+    engine_collision_gjk.c) also reports contacts for geoms a little apart: it runs EPA once GJK's
+    distance estimate is within ``opt.ccd_tolerance``, and that estimate (the norm of a point of
+    the Minkowski difference) is never below the true distance, so a reported pair is at most the
+    tolerance apart. Measured on this install: true gaps up to 0.77 x ``ccd_tolerance`` with an ellipsoid or
     a cylinder at the default 35 iterations (3000 random poses per pair of types, tolerance 1e-3
     to 5e-2), and up to 0.78 x for boxes, meshes and height fields when ``opt.ccd_iterations``
     stops GJK early (4 iterations: review, 2026-11-22). Every geom adds the whole tolerance
