@@ -1,6 +1,8 @@
 """numba's on-disk kernel cache, keyed on every package file a kernel depends on.
 
-numba stamps a cached kernel with its own source file only (numba issue #6845, open since 2021).
+numba stamps a cached kernel with its own source file only (a documented limitation: "cache
+invalidation fails to recognize changes in symbols defined in a different file", numba's JIT
+guide; feature request numba/numba#1833, work in numba/numba#8396).
 Our kernels inline helpers from other files (`_kernels.lanes` runs `_kernels.broadphase`'s tests,
 every kernel uses `_kernels._ptr`) and freeze the module constants they read. After an update that
 changes only such a file -- a ``git pull`` into the README's editable install, one edit while
@@ -11,7 +13,8 @@ another file kept returning ``f``'s old result after ``f`` changed.
 `_PackageLocator` wraps the locator numba would have chosen (same folder, same file names) and adds
 to its stamp the content hashes of every file of this package the kernel's file imports,
 transitively; numba discards an index whose stamp differs and compiles afresh. It is registered
-when `collide` is imported, before any kernel is defined.
+when `collide` is imported, before any kernel is defined. (``NUMBA_CACHE_LOCATOR_CLASSES``, where
+set, replaces numba's list of locators, this one included: numba's own stamps then.)
 """
 
 from __future__ import annotations
@@ -20,16 +23,15 @@ import functools
 import hashlib
 import os
 import re
+import sys
 import warnings
 
 _ROOT = os.path.dirname(os.path.abspath(__file__))
-# ``from .x import ...``, ``from ..x.y import (...)``, ``from . import a, b``: the package-relative
-# imports (the package imports itself only this way).
-_FROM = re.compile(r"^[ \t]*from[ \t]+(\.+)([\w.]*)[ \t]+import[ \t]+(\([^)]*\)|[^\n#]*)", re.M)
 
 
-def _module_file(package_dir: str, dotted: str) -> str | None:
-    path = os.path.join(package_dir, *dotted.split("."))
+def _module_file(base: str, dotted: str) -> str | None:
+    # The file of module ``dotted`` ("" for the package itself) under the folder ``base``.
+    path = os.path.join(base, *dotted.split(".")) if dotted else base
     for cand in (path + ".py", os.path.join(path, "__init__.py")):
         if os.path.isfile(cand):
             return cand
@@ -37,24 +39,55 @@ def _module_file(package_dir: str, dotted: str) -> str | None:
 
 
 @functools.lru_cache(maxsize=None)
-def _direct_imports(path: str, mtime_ns: int, size: int) -> tuple[str, ...]:
-    # The package files that ``path`` imports by relative imports (keyed on its stat: re-read on change).
-    with open(path, encoding="utf-8") as f:
+def _patterns(pkg: str):
+    # ``from .x import a``, ``from..x.y import (a, b)``, ``from . import a``, ``from pkg.x import a``;
+    # ``import pkg.x as y``. Comments are dropped and backslash continuations joined first.
+    from_ = re.compile(r"^[ \t]*from[ \t]*(\.+|" + re.escape(pkg) + r"(?=[\s.]))([\w.]*)[ \t]*import\b[ \t]*"
+                       r"(\([^)]*\)|[^\n]*)", re.M)
+    import_ = re.compile(r"^[ \t]*import[ \t]+([^\n]*)", re.M)
+    return from_, import_
+
+
+@functools.lru_cache(maxsize=None)
+def _direct_imports(path: str, mtime_ns: int, size: int, root: str = _ROOT) -> tuple[str, ...]:
+    """The files of the package at ``root`` that the file ``path`` imports, relatively or by the
+    package's name: each module named, and each imported name that is a submodule (``from .sub
+    import a`` imports ``sub/a.py`` when it exists; the package's ``__init__`` only when a name
+    is not a submodule). Keyed on the file's stat, so a changed file is read again."""
+    with open(path, encoding="utf-8", errors="replace") as f:
         text = f.read()
+    text = re.sub(r"#[^\n]*", "", text).replace("\\\n", " ")
+    pkg = os.path.basename(root)
+    from_, import_ = _patterns(pkg)
     here = os.path.dirname(path)
     out = []
-    for dots, module, names in _FROM.findall(text):
-        base = here
-        for _ in range(len(dots) - 1):
-            base = os.path.dirname(base)
-        if module:
-            found = _module_file(base, module)
-            if found is not None:
-                out.append(found)
-        else:  # from . import a, b as c: each name may be a submodule
-            for name in names.strip("()").replace("\n", " ").split(","):
-                name = name.split(" as ")[0].strip()
-                found = _module_file(base, name) if name else None
+    for lead, module, names in from_.findall(text):
+        if lead.startswith("."):
+            base = here
+            for _ in range(len(lead) - 1):
+                base = os.path.dirname(base)
+            itself = not module  # from . import a: the package itself
+        else:  # pkg.x.y: from the folder holding the package
+            base, module, itself = os.path.dirname(root), pkg + module, not module
+        parent = _module_file(base, module)
+        if parent is None:
+            continue
+        folder = os.path.dirname(parent) if parent.endswith("__init__.py") else None
+        all_submodules = True
+        for name in names.strip("()").replace("\n", " ").split(","):
+            name = name.split(" as ")[0].strip()
+            sub = _module_file(folder, name) if (folder and name and name != "*") else None
+            if sub is not None:
+                out.append(sub)
+            elif name:
+                all_submodules = False
+        if not itself or not all_submodules:
+            out.append(parent)
+    for names in import_.findall(text):
+        for name in names.split(","):
+            name = name.split(" as ")[0].strip()
+            if name == pkg or name.startswith(pkg + "."):
+                found = _module_file(os.path.dirname(root), name)
                 if found is not None:
                     out.append(found)
     return tuple(out)
@@ -66,16 +99,16 @@ def _file_hash(path: str, mtime_ns: int, size: int) -> bytes:
         return hashlib.sha256(f.read()).digest()
 
 
-def dependency_files(path: str) -> list[str]:
-    """``path`` and every file of its package it imports, transitively (package-relative imports),
-    sorted; only files under ``path``'s top package folder are followed."""
+def dependency_files(path: str, root: str = _ROOT) -> list[str]:
+    """``path`` and every file of the package at ``root`` it imports, transitively (see
+    `_direct_imports`), sorted."""
     path = os.path.abspath(path)
     seen = {path}
     todo = [path]
     while todo:
         p = todo.pop()
         st = os.stat(p)
-        for q in _direct_imports(p, st.st_mtime_ns, st.st_size):
+        for q in _direct_imports(p, st.st_mtime_ns, st.st_size, root):
             q = os.path.abspath(q)
             if q not in seen:
                 seen.add(q)
@@ -86,7 +119,7 @@ def dependency_files(path: str) -> list[str]:
 def source_stamp(path: str, root: str = _ROOT) -> bytes:
     """One hash of the contents of `dependency_files` (paths relative to ``root``)."""
     h = hashlib.sha256()
-    for p in dependency_files(path):
+    for p in dependency_files(path, root):
         st = os.stat(p)
         h.update(os.path.relpath(p, root).encode())
         h.update(_file_hash(p, st.st_mtime_ns, st.st_size))
@@ -94,8 +127,13 @@ def source_stamp(path: str, root: str = _ROOT) -> bytes:
 
 
 def _inside(path: str, root: str) -> bool:
+    # A source file of this package on disk (not in a zip archive, not a frozen application's:
+    # numba's own locators handle those, and their files cannot be read here).
+    if getattr(sys, "frozen", False) or not os.path.isfile(path):
+        return False
+    path, root = os.path.normcase(os.path.abspath(path)), os.path.normcase(root)
     try:
-        return os.path.commonpath([os.path.abspath(path), root]) == root
+        return os.path.commonpath([path, root]) == root
     except ValueError:  # another drive
         return False
 
@@ -132,7 +170,11 @@ def register() -> None:
             return self._inner.get_disambiguator()
 
         def get_source_stamp(self):
-            return (self._inner.get_source_stamp(), source_stamp(self._py_file, root))
+            try:
+                ours = source_stamp(self._py_file, root)
+            except OSError:  # a file gone meanwhile: a stamp that matches no index, so a recompile
+                ours = None
+            return (self._inner.get_source_stamp(), ours)
 
         @classmethod
         def from_function(cls, py_func, py_file):

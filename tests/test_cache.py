@@ -8,6 +8,8 @@ import sys
 import textwrap
 from pathlib import Path
 
+import pytest
+
 import collide
 from collide import _cache
 
@@ -49,20 +51,44 @@ def test_a_cached_kernel_is_recompiled_when_a_file_it_inlines_from_changes(tmp_p
     assert _run(tmp_path) == "3"
 
 
-def _ast_imports(path: Path) -> set[Path]:
-    # The package files a file imports with relative imports, resolved by the ast.
+def _module(base: Path, dotted: str) -> Path | None:
+    p = base.joinpath(*dotted.split(".")) if dotted else base
+    for cand in (p.with_suffix(".py") if dotted else None, p / "__init__.py"):
+        if cand is not None and cand.is_file():
+            return cand.resolve()
+    return None
+
+
+def _ast_imports(path: Path, root: Path) -> set[Path]:
+    # The package files a file imports, resolved by the ast: the module each import names, and each
+    # imported name that is a submodule; the package's own __init__ (from . import a) only when a
+    # name is not a submodule. Relative imports and imports by the package's name.
     out = set()
+    pkg = root.name
     for node in ast.walk(ast.parse(path.read_text())):
-        if isinstance(node, ast.ImportFrom) and node.level:
-            base = path.parent
-            for _ in range(node.level - 1):
-                base = base.parent
-            names = [node.module] if node.module else [a.name for a in node.names]
-            for name in names:
-                p = base.joinpath(*name.split("."))
-                for cand in (p.with_suffix(".py"), p / "__init__.py"):
-                    if cand.is_file():
-                        out.add(cand.resolve())
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = path.parent
+                for _ in range(node.level - 1):
+                    base = base.parent
+                module, itself = node.module or "", not node.module
+            elif node.module == pkg or node.module.startswith(pkg + "."):
+                base, module, itself = root.parent, node.module, node.module == pkg
+            else:
+                continue
+            parent = _module(base, module)
+            if parent is None:
+                continue
+            subs = [_module(parent.parent, a.name) if parent.name == "__init__.py" else None for a in node.names]
+            out.update(s for s in subs if s is not None)
+            if not itself or None in subs:
+                out.add(parent)
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                if a.name == pkg or a.name.startswith(pkg + "."):
+                    found = _module(root.parent, a.name)
+                    if found is not None:
+                        out.add(found)
     return out
 
 
@@ -72,10 +98,38 @@ def test_dependency_files_agree_with_the_ast_on_every_package_file():
     for path in files:
         st = path.stat()
         direct = {Path(p).resolve() for p in _cache._direct_imports(str(path), st.st_mtime_ns, st.st_size)}
-        assert direct == _ast_imports(path), path
+        assert direct == _ast_imports(path, PACKAGE), path
     lanes = {Path(p).relative_to(PACKAGE).as_posix()
              for p in _cache.dependency_files(str(PACKAGE / "_kernels" / "lanes.py"))}
     assert lanes == {"_kernels/lanes.py", "_kernels/broadphase.py", "_kernels/_ptr.py", "_kernels/_simd.py"}
+    # `from .._kernels import broadphase as _k`: a submodule named in the import list
+    brute = {Path(p).relative_to(PACKAGE).as_posix()
+             for p in _cache.dependency_files(str(PACKAGE / "testing" / "brute.py"))}
+    assert "_kernels/broadphase.py" in brute
+
+
+@pytest.mark.parametrize("source", [
+    "from .sub import a as _a\n",
+    "from . import (h,  # helpers\n    a)\n",
+    "from.a import f\n",
+    "from .a \\\n    import f\n",
+    "from pkgx.a import f\n",
+    "import pkgx.a\n",
+    "from pkgx import a\n",
+])
+def test_every_import_form_is_followed(tmp_path, source):
+    # Each form, written as Python allows it, makes the target a dependency; the ast agrees.
+    pkg = tmp_path / "pkgx"
+    (pkg / "sub").mkdir(parents=True)
+    for f in ("__init__.py", "a.py", "h.py", "sub/__init__.py", "sub/a.py"):
+        (pkg / f).write_text("C = 1\n")
+    (pkg / "b.py").write_text(source)
+    st = (pkg / "b.py").stat()
+    got = {Path(p).resolve() for p in _cache._direct_imports(str(pkg / "b.py"), st.st_mtime_ns, st.st_size,
+                                                                str(pkg))}
+    assert got == _ast_imports(pkg / "b.py", pkg)
+    want = pkg / ("sub/a.py" if "sub" in source else "a.py")
+    assert want.resolve() in got, (source, got)
 
 
 def test_the_stamp_changes_with_a_dependency_only(tmp_path):
@@ -89,3 +143,21 @@ def test_the_stamp_changes_with_a_dependency_only(tmp_path):
     with open(copy / "_kernels" / "broadphase.py", "a") as f:
         f.write("\n# edited\n")
     assert _cache.source_stamp(lanes, str(copy)) != before
+
+
+def test_the_package_imports_from_a_zip_archive(tmp_path):
+    # zipimport deployments: numba's own locator caches those kernels; ours must stand aside (it
+    # cannot read files inside the archive: `import collide` raised NotADirectoryError).
+    import zipfile
+
+    archive = tmp_path / "collide.zip"
+    with zipfile.ZipFile(archive, "w") as z:
+        for f in PACKAGE.rglob("*.py"):
+            z.write(f, f.relative_to(PACKAGE.parent).as_posix())
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_CACHE")}
+    env["PYTHONPATH"] = str(archive)
+    env["XDG_CACHE_HOME"] = str(tmp_path / "cache")
+    out = subprocess.run([sys.executable, "-c", "import collide; print(collide.__file__)"], cwd=tmp_path, env=env,
+                         capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert "collide.zip" in out.stdout
