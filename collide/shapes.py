@@ -508,6 +508,7 @@ def torus(major_radius: float, minor_radius: float, planes: int = 16,
     small = as_radius(minor_radius, "minor_radius")
     k = as_count(planes, "planes", 3)
     p = k if tube_planes is None else as_count(tube_planes, "tube_planes", 3)
+    _budget(k * p, "planes x tube_planes")  # before the tube's polygon is built
     return PointCloud(_revolve_points(_circle_polygon((big, 0.0), small, p), k))
 
 

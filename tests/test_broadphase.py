@@ -909,7 +909,9 @@ def test_copies_and_pickles_are_rebuilt():
 
 
 def test_one_copy_per_thread():
-    # The documented way to use threads: each its own copy, all at once, each answer its own.
+    # The documented way to use threads: each its own copy, all at once, each answer its own, in
+    # its own memory (the kernels hold the GIL, so a shared instance would rarely race; the
+    # arenas tell whether the copies share state).
     import copy
     import threading
 
@@ -934,6 +936,8 @@ def test_one_copy_per_thread():
         for answers in rounds:
             for w in range(40):
                 assert np.array_equal(answers[w], want[w])
+    arenas = [{id(a.base) for answers in got[t] for a in answers if len(a)} for t in range(4)]
+    assert all(arenas) and all(arenas[t].isdisjoint(arenas[u]) for t in range(4) for u in range(t))
 
 
 def test_read_only_pose_arrays():

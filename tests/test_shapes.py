@@ -414,7 +414,8 @@ BAD = [
     (lambda: collide.volumes.min_sphere_center(np.zeros((0, 3))), "points: the cloud is empty"),
     # Tessellation counts that would exhaust memory or run for minutes (review, 2026-11-22).
     (lambda: shapes.cylinder(1.0, 1.0, planes=10**10), "would make .* points, more than MAX_POINTS"),
-    (lambda: shapes.torus(1.0, 0.5, planes=10**5, tube_planes=10**5), "more than MAX_POINTS"),
+    (lambda: shapes.torus(1.0, 0.5, planes=10**5, tube_planes=10**5), "planes x tube_planes.*more than MAX_POINTS"),
+    (lambda: shapes.torus(1.0, 0.5, planes=3, tube_planes=10**9), "planes x tube_planes"),
     (lambda: shapes.ellipsoid([1.0, 1.0, 1.0], planes=10**9), "planes x bands"),
     (lambda: shapes.superquadric([1.0, 1.0, 1.0], 0.5, 0.5, planes=64, bands=10**9), "planes x bands"),
     (lambda: shapes.revolve([[1.0, 0.0], [1.0, 1.0]], steps=10**9), "more than MAX_POINTS"),
