@@ -19,11 +19,16 @@ and the copy of the result add ~1 us (franka, hot: 0.9 us of work, 2.0 us per ca
 arrays passed, 1.9 with them bound by `bind`), and in a simulation loop the first call after
 ``mj_step`` runs 1.3-1.6x slower than a repeat (caches and predictors left to MuJoCo's code and
 data). Batches of a small model (`pairs_batch`) run eight worlds at a time in SIMD lanes
-(`_kernels.lanes`): per world, about a third of MuJoCo's single-world broad-phase time on one
-core.
+(`_kernels.lanes`): per world, 0.4x (humanoid) to 0.6x (a 64-link chain) of MuJoCo's
+single-world broad-phase time on one core, 0.2x to 0.4x on two.
+
+`BroadPhase.world_bounds` returns the world OBBs, spheres and AABBs the broad phase tests (of
+geoms or bodies), for drawing them, debugging a pair, or feeding another spatial structure.
 """
 
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -46,6 +51,53 @@ def _local_rows(center, rot, half, sc, sr) -> np.ndarray:
     rows[:, 15:18] = sc
     rows[:, 18] = sr
     return rows
+
+
+class WorldBounds(NamedTuple):
+    """World bounding volumes of n geoms or bodies (`BroadPhase.world_bounds`).
+
+    Attributes
+    ----------
+    obb_center : (n, 3) float64
+    obb_rot : (n, 3, 3) float64
+        Columns are the box axes in the world.
+    obb_half : (n, 3) float64
+    sphere_center : (n, 3) float64
+    sphere_radius : (n,) float64
+    aabb_min, aabb_max : (n, 3) float64
+        The intersection of the OBB's and the sphere's world AABBs (each contains the shape, so
+        their intersection does), padded by the broad phase's rounding slack.
+    plane : (n, 4) float64
+        For plane geoms, the world halfspace ``{x : plane[:3] . x <= plane[3]}``; zeros otherwise.
+    """
+
+    obb_center: np.ndarray
+    obb_rot: np.ndarray
+    obb_half: np.ndarray
+    sphere_center: np.ndarray
+    sphere_radius: np.ndarray
+    aabb_min: np.ndarray
+    aabb_max: np.ndarray
+    plane: np.ndarray
+
+
+def check_pose_values(body_pos: np.ndarray, body_rot: np.ndarray, where: str = "") -> None:
+    """Raise ``ValueError`` naming the first body whose pose the kernel refuses (`_k._pose_ok`).
+
+    Parameters
+    ----------
+    body_pos : (L, 3) float64
+    body_rot : (L, 3, 3) float64
+    where : str
+        Prefix of the message (``"world 3, "``).
+    """
+    finite = np.isfinite(body_pos).all(axis=1) & np.isfinite(body_rot).all(axis=(1, 2))
+    with np.errstate(invalid="ignore", over="ignore"):
+        err = np.abs(np.einsum("lji,ljk->lik", body_rot, body_rot) - np.eye(3)).max(axis=(1, 2), initial=0.0)
+        ok = finite & (err <= _k.ORTHO_TOL) & (np.linalg.det(body_rot) > 0)
+    if not ok.all():
+        b = int(np.flatnonzero(~ok)[0])
+        BroadPhase._raise(_k.BAD_ROTATION if finite[b] else _k.BAD_NONFINITE, b, where)
 
 
 FLAT_BODIES = 64  # see BroadPhase._flat_lists
@@ -467,6 +519,88 @@ class BroadPhase:
                 self._set_buffers(self._bp.shape[0], 2 * int(info[2]))
             k = self._step(body_pos, body_rot, self._ctx)
         return k
+
+    def world_bounds(self, body_pos: np.ndarray | None = None, body_rot: np.ndarray | None = None,
+                     of: str = "geoms", inflate: bool = True) -> WorldBounds:
+        """The world bounds of every geom (or body) at these poses: what `pairs` tests.
+
+        For drawing the bounds, debugging a candidate pair, or feeding another spatial structure.
+        Computed in numpy from the articulation's local bounds (not on the per-step path).
+
+        Parameters
+        ----------
+        body_pos : (L, 3) float64
+        body_rot : (L, 3, 3) float64
+            As for `pairs`; with neither, the arrays given to `bind`.
+        of : {"geoms", "bodies"}
+            ``"geoms"``: G rows, by geom id. ``"bodies"``: L rows, by body id, each containing its
+            geoms' bounds inflated by their margins (what the tree culls with; a body without a
+            solid geom is empty: ``aabb_min = inf``, ``aabb_max = -inf``, ``sphere_radius`` and
+            ``obb_half = -inf``).
+        inflate : bool, default True
+            Geoms: inflate each by its margin (radius + margin, half extents + margin, a plane's
+            offset + margin), as `pairs` does. Bodies always are.
+
+        Returns
+        -------
+        WorldBounds
+            Planes are unbounded: infinite half extents, radius and AABB, centred on the point of
+            their boundary nearest the origin; their halfspace is in ``plane``.
+
+        Raises
+        ------
+        ValueError
+            As `pairs`: wrong shape or dtype, a non-finite pose or a rotation that is not
+            orthonormal (naming the first offending body); ``of`` not one of the two.
+        """
+        if of not in ("geoms", "bodies"):
+            raise ValueError(f"of: expected 'geoms' or 'bodies', got {of!r}")
+        if not isinstance(inflate, (bool, np.bool_)):
+            raise ValueError(f"inflate: expected True or False, got {inflate!r}")
+        if body_pos is None and body_rot is None:
+            if self._bound is None:
+                raise ValueError("world_bounds: no pose arrays given and none bound (see BroadPhase.bind)")
+            body_pos, body_rot = self._bound
+        body_pos, body_rot = self._check(body_pos, body_rot, ())
+        check_pose_values(body_pos, body_rot)
+        a = self.articulation
+        if of == "geoms":
+            ids = a.geom_body
+            center, rot, half = a.geom_obb_center, a.geom_obb_rot, a.geom_obb_half
+            sc, sr = a.geom_sphere_center, a.geom_sphere_radius
+            m = a.geom_margin if inflate else np.zeros(a.geom_count)
+            half, sr = half + m[:, None], sr + m
+            unbounded, empty = a.geom_is_plane, np.zeros(a.geom_count, bool)
+        else:
+            ids = np.arange(a.body_count)
+            center, rot, half = a.body_obb_center, a.body_obb_rot, a.body_obb_half
+            sc, sr = a.body_sphere_center, a.body_sphere_radius
+            unbounded, empty = np.zeros(a.body_count, bool), ~a.body_has_bounds
+        R, p = body_rot[ids], body_pos[ids]
+        c = np.einsum("nij,nj->ni", R, center) + p
+        obb_rot = R @ rot
+        s = np.einsum("nij,nj->ni", R, sc) + p
+        # The kernel's slack (`_k.aabb_slack`, and the sphere test's): rounding never lets a
+        # shape's point out.
+        w = np.abs(obb_rot) @ half[:, :, None]
+        w = w[:, :, 0] + (_k.SLACK_REL * half.sum(1) + _k.SLACK_POS * np.abs(c).sum(1))[:, None]
+        rs = (sr + _k.SLACK_REL * sr + _k.SLACK_POS * np.abs(s).sum(1))[:, None]
+        lo = np.maximum(c - w, s - rs)
+        hi = np.minimum(c + w, s + rs)
+        plane = np.zeros((len(ids), 4))
+        if unbounded.any():
+            q = np.flatnonzero(unbounded)
+            n = np.einsum("nij,nj->ni", R[q], a.geom_plane[q, :3])
+            d = a.geom_plane[q, 3] + np.einsum("ni,ni->n", n, p[q]) + (a.geom_margin[q] if inflate else 0.0)
+            plane[q, :3], plane[q, 3] = n, d
+            c[q] = s[q] = n * d[:, None]
+            obb_rot[q] = np.eye(3)
+            half, sr = half.copy(), sr.copy()
+            half[q], sr[q], lo[q], hi[q] = np.inf, np.inf, -np.inf, np.inf
+        if empty.any():
+            half, sr = half.copy(), sr.copy()
+            half[empty], sr[empty], lo[empty], hi[empty] = -np.inf, -np.inf, np.inf, -np.inf
+        return WorldBounds(c, obb_rot, np.array(half), s, np.array(sr), lo, hi, plane)
 
     @property
     def stats(self) -> dict:

@@ -664,6 +664,30 @@ class BroadPhase:
             out = bp._take(k)
         return out if self._no_function is None else self._drop_null(out, 0)
 
+    def world_bounds(self, data: mujoco.MjData, of: str = "geoms", inflate: bool = True):
+        """World bounds of every geom (or body) at the poses of ``data``: what `pairs` tests.
+
+        `collide.BroadPhase.world_bounds` on ``data.xpos`` and ``data.xmat``; rows by MuJoCo geom
+        (or body) id. Inflated geoms are grown by `geom_inflation` (margin + gap +
+        ``opt.ccd_tolerance``).
+
+        Returns
+        -------
+        collide.broadphase.WorldBounds
+        """
+        if not isinstance(data, mujoco.MjData):
+            raise ValueError(f"data: expected a mujoco.MjData, got {type(data).__name__}")
+        if data.xpos.shape[0] != self.model.nbody:
+            raise ValueError(f"data: made for a model with {data.xpos.shape[0]} bodies, this broad phase's "
+                             f"has {self.model.nbody}")
+        try:
+            return self.broadphase.world_bounds(data.xpos, data.xmat.reshape(-1, 3, 3), of, inflate)
+        except ValueError as exc:
+            if not np.any(data.xmat):
+                raise ValueError("data: body poses are all zero; run mujoco.mj_kinematics, "
+                                 "mj_forward or mj_step on it first") from exc
+            raise
+
     def pairs_batch(self, model: mujoco.MjModel, qpos) -> np.ndarray:
         """Candidate pairs of many configurations: kinematics per world, one batched call.
 

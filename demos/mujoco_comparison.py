@@ -44,34 +44,15 @@ import numpy as np  # noqa: E402
 import collide.mujoco as cm  # noqa: E402
 
 
-def world_obbs(bp: cm.BroadPhase, data: mujoco.MjData):
-    """World OBB of every non-plane geom, inflated by its margin: centres, rotations, half sizes.
-
-    Returns
-    -------
-    geoms : (n,) int64
-    center : (n, 3) float64
-    rot : (n, 3, 3) float64
-        Columns are the box axes.
-    half : (n, 3) float64
-    """
-    a = bp.articulation
-    geoms = np.flatnonzero(~a.geom_is_plane)
-    body = a.geom_body[geoms]
-    body_rot = data.xmat.reshape(-1, 3, 3)[body]
-    center = np.einsum("nij,nj->ni", body_rot, a.geom_obb_center[geoms]) + data.xpos[body]
-    rot = body_rot @ a.geom_obb_rot[geoms]
-    half = a.geom_obb_half[geoms] + a.geom_margin[geoms, None]
-    return geoms, center, rot, half
-
-
 def render_with_obbs(renderer: mujoco.Renderer, bp: cm.BroadPhase, data, candidates) -> np.ndarray:
     """One frame of ``data`` with our world OBBs added to the scene as translucent boxes."""
     renderer.update_scene(data, camera=-1)
     scene = renderer.scene
     in_pair = np.zeros(bp.articulation.geom_count, bool)
     in_pair[np.asarray(candidates, dtype=np.int64).ravel()] = True
-    for g, c, r, h in zip(*world_obbs(bp, data)):
+    wb = bp.world_bounds(data)  # every geom's world OBB and sphere, inflated: what pairs() tests
+    for g in np.flatnonzero(~bp.articulation.geom_is_plane):
+        c, r, h = wb.obb_center[g], wb.obb_rot[g], wb.obb_half[g]
         if scene.ngeom >= scene.maxgeom:
             break
         rgba = np.array([1.0, 0.55, 0.0, 0.35] if in_pair[g] else [0.2, 0.5, 1.0, 0.18])

@@ -953,3 +953,151 @@ def test_read_only_pose_arrays():
     assert np.array_equal(bp.pairs(p, r), want)
     assert np.array_equal(bp.pairs(p, rot[0]), want)
     assert np.array_equal(bp.pairs(pos[0], r), want)
+
+
+# --------------------------------------------------------------------------- world bounds
+
+def _primitive_articulation(rng, n_bodies=8):
+    # A tree of bodies, each with one or two random primitives (every kind of collide.shapes) at a
+    # random place in its body, random margins, a floor plane on the world; returns the
+    # articulation and, per geom, its kind and parameters (for true-surface sampling).
+    parent = np.array([0] + [int(rng.integers(0, b)) for b in range(1, n_bodies)])
+    geom_body, clouds, specs, gpos, grot = [0], [shapes.plane((0, 0.6, 0.8), -0.3)], [None], [np.zeros(3)], [EYE]
+    for b in range(1, n_bodies):
+        for _ in range(int(rng.integers(1, 3))):
+            kind = testing.SHAPE_KINDS[int(rng.integers(len(testing.SHAPE_KINDS)))]
+            params = testing.random_shape_params(kind, rng)
+            geom_body.append(b)
+            clouds.append(getattr(shapes, kind)(**params))
+            specs.append((kind, params))
+            gpos.append(rng.normal(size=3))
+            grot.append(random_rotation(rng))
+    G = len(geom_body)
+    margin = rng.choice([0.0, 0.01, 0.3], size=G)
+    art = Articulation(parent, geom_body, clouds, geom_pos=np.array(gpos), geom_rot=np.array(grot),
+                       geom_margin=margin)
+    return art, specs
+
+
+def _inside(points, wb, i, inflated_by, tol):
+    # points (n, 3) world: inside row i's OBB, sphere and AABB, each given up to tol.
+    local = (points - wb.obb_center[i]) @ wb.obb_rot[i]
+    obb = np.abs(local) <= wb.obb_half[i] + tol
+    sphere = np.linalg.norm(points - wb.sphere_center[i], axis=1) <= wb.sphere_radius[i] + tol
+    box = (points >= wb.aabb_min[i] - tol) & (points <= wb.aabb_max[i] + tol)
+    return obb.all(), sphere.all(), box.all()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_world_bounds_contain_the_true_surfaces_under_random_poses(seed):
+    rng = np.random.default_rng(40 + seed)
+    art, specs = _primitive_articulation(rng)
+    bp = BroadPhase(art)
+    checked = 0
+    for scale in (1e-2, 1.0, 1e3):
+        pos = rng.normal(scale=scale, size=(art.body_count, 3))
+        rot = random_rotation(rng, art.body_count)
+        geoms = bp.world_bounds(pos, rot)
+        tight = bp.world_bounds(pos, rot, inflate=False)
+        bodies = bp.world_bounds(pos, rot, of="bodies")
+        for g in range(1, art.geom_count):
+            kind, params = specs[g]
+            local = testing.sample_surface(kind, 200, rng, **params) @ art.geom_rot[g].T + art.geom_pos[g]
+            b = art.geom_body[g]
+            pts = local @ rot[b].T + pos[b]
+            d = rng.normal(size=pts.shape)
+            grown = pts + art.geom_margin[g] * d / np.linalg.norm(d, axis=1, keepdims=True)
+            tol = 1e-12 * (1.0 + scale)
+            assert _inside(pts, tight, g, 0.0, tol) == (True, True, True), (kind, params, scale)
+            assert _inside(grown, geoms, g, art.geom_margin[g], tol) == (True, True, True), (kind, scale)
+            assert _inside(grown, bodies, b, 0.0, tol) == (True, True, True), (kind, scale)
+            checked += len(pts)
+        # the inflated bounds of a geom are its tight ones grown by its margin (an AABB side by at
+        # most sqrt(3) margins each way: the box's grown diagonal), and no looser
+        m = art.geom_margin[1:, None]
+        assert np.allclose(geoms.obb_half[1:], tight.obb_half[1:] + m)
+        assert np.allclose(geoms.sphere_radius[1:], tight.sphere_radius[1:] + m[:, 0])
+        grow = (geoms.aabb_max[1:] - geoms.aabb_min[1:]) - (tight.aabb_max[1:] - tight.aabb_min[1:])
+        assert np.all(grow <= 2 * np.sqrt(3) * m + 1e-9) and np.all(grow >= -1e-9)
+    assert checked > 5000
+
+
+def test_world_bounds_agree_with_the_twin_and_the_bound_arrays():
+    sc = testing.branching_tree(30, seed=3, planes=2)
+    a = sc.articulation
+    bp = BroadPhase(a)
+    pos, rot = sc.poses(np.random.default_rng(1))
+    pos, rot = np.ascontiguousarray(pos), np.ascontiguousarray(rot)
+    wb = bp.world_bounds(pos, rot, inflate=False)
+    c, R, h, sc_, sr, plane = testing.world_bounds(a, pos, rot)
+    solid = ~a.geom_is_plane
+    assert np.allclose(wb.obb_center[solid], c[solid], atol=1e-12) and np.allclose(wb.obb_rot[solid], R[solid])
+    assert np.array_equal(wb.obb_half[solid], h[solid]) and np.array_equal(wb.sphere_radius[solid], sr[solid])
+    assert np.allclose(wb.sphere_center[solid], sc_[solid], atol=1e-12)
+    assert np.allclose(wb.plane[~solid], plane[~solid]) and not wb.plane[solid].any()
+    # planes: unbounded, centred on their boundary, offset grown by the margin when inflated
+    q = np.flatnonzero(~solid)
+    assert len(q) == 2 and np.all(np.isinf(wb.obb_half[q])) and np.all(np.isinf(wb.sphere_radius[q]))
+    assert np.all(wb.aabb_min[q] == -np.inf) and np.all(wb.aabb_max[q] == np.inf)
+    assert np.allclose(np.einsum("ni,ni->n", wb.plane[q, :3], wb.obb_center[q]), wb.plane[q, 3])
+    inflated = bp.world_bounds(pos, rot)
+    assert np.allclose(inflated.plane[q, 3], wb.plane[q, 3] + a.geom_margin[q])
+    # bodies without a solid geom are empty boxes; the others' AABBs hold their geoms' AABBs
+    bodies = bp.world_bounds(pos, rot, of="bodies")
+    bare = ~a.body_has_bounds
+    assert bare.any() and np.all(bodies.aabb_min[bare] == np.inf) and np.all(bodies.sphere_radius[bare] == -np.inf)
+    for g in np.flatnonzero(solid):
+        b = a.geom_body[g]
+        assert np.all(bodies.aabb_min[b] <= inflated.aabb_min[g] + 1e-9)
+        assert np.all(bodies.aabb_max[b] >= inflated.aabb_max[g] - 1e-9)
+    # the arrays given to bind are read when no pose is given
+    bp.bind(pos, rot)
+    again = bp.world_bounds()
+    assert all(np.array_equal(x, y) for x, y in zip(again, inflated))
+
+
+def test_world_bounds_refuse_bad_input():
+    bp = BroadPhase(Articulation([0, 0, 1], [1, 2], [BALL, BALL]))
+    pos, rot = np.zeros((3, 3)), np.tile(EYE, (3, 1, 1))
+    with pytest.raises(ValueError, match="no pose arrays given and none bound"):
+        bp.world_bounds()
+    bad = pos.copy()
+    bad[2, 1] = np.nan
+    with pytest.raises(ValueError, match="body 2: pose has a non-finite value"):
+        bp.world_bounds(bad, rot)
+    skew = rot.copy()
+    skew[1] *= 1.01
+    with pytest.raises(ValueError, match="body 1: rotation is not a proper orthonormal matrix"):
+        bp.world_bounds(pos, skew)
+    mirror = rot.copy()
+    mirror[1, 0, 0] = -1.0
+    with pytest.raises(ValueError, match="body 1: rotation is not a proper orthonormal matrix"):
+        bp.world_bounds(pos, mirror)
+    with pytest.raises(ValueError, match=r"body_pos: expected shape \(3, 3\)"):
+        bp.world_bounds(pos[:2], rot)
+    with pytest.raises(ValueError, match="body_rot: expected a float array"):
+        bp.world_bounds(pos, rot.astype(int))
+    with pytest.raises(ValueError, match="of: expected 'geoms' or 'bodies'"):
+        bp.world_bounds(pos, rot, of="links")
+    with pytest.raises(ValueError, match="inflate: expected True or False"):
+        bp.world_bounds(pos, rot, inflate="yes")
+    assert bp.world_bounds(pos, rot).obb_center.shape == (2, 3)  # and it still works
+
+
+def test_world_bounds_of_a_box_and_a_ball_are_known():
+    # A box's bounds are the box, turned with its body; a ball's AABB is its sphere's box (the
+    # OBB's AABB would be wider once turned): both within the set-up's conservative slack.
+    half = np.array([1.0, 2.0, 3.0])
+    art = Articulation([0, 0, 0], [1, 2], [shapes.box(half), PointCloud([[0, 0, 0]], 0.5)], geom_margin=[0.0, 0.1])
+    bp = BroadPhase(art)
+    c, s = np.cos(np.pi / 4), np.sin(np.pi / 4)
+    turn = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+    pos = np.array([[0, 0, 0], [5.0, 0, 0], [0, 0, 7.0]])
+    rot = np.stack([EYE, turn, turn])
+    wb = bp.world_bounds(pos, rot)
+    w = np.array([(1 + 2) * c, (1 + 2) * c, 3.0])  # the turned box's AABB half widths
+    assert np.all(wb.aabb_max[0] - pos[1] >= w) and np.all(wb.aabb_max[0] - pos[1] <= w + 1e-4)
+    assert np.all(pos[1] - wb.aabb_min[0] >= w) and np.all(pos[1] - wb.aabb_min[0] <= w + 1e-4)
+    assert np.allclose(np.sort(wb.obb_half[0]), half, atol=1e-4) and np.all(np.sort(wb.obb_half[0]) >= half)
+    assert np.allclose(wb.aabb_max[1] - pos[2], 0.6, atol=1e-5) and np.allclose(wb.sphere_radius[1], 0.6, atol=1e-5)
+    assert np.all(wb.aabb_max[1] - pos[2] >= 0.6) and np.all(pos[2] - wb.aabb_min[1] >= 0.6)

@@ -690,3 +690,37 @@ def test_flex_contacts_are_counted_apart_and_reported():
     assert result["contact_pairs_total"] > 0  # box and ball on the floor
     assert result["flex_contacts_total"] > 0
     assert f"{result['flex_contacts_total']} MuJoCo contacts involving a flex were left out" in cm.format_report(result)
+
+
+def test_world_bounds_contain_mujocos_own_geoms():
+    # The adapter's world bounds (what the demo draws) against MuJoCo's own geom poses: every box
+    # geom's corners and every sphere geom's extreme points lie in the geom's OBB, sphere and AABB.
+    model = cm.default_scene(seed=2)
+    data = mujoco.MjData(model)
+    for _ in range(50):
+        mujoco.mj_step(model, data)
+    bp = cm.BroadPhase(model)
+    wb = bp.world_bounds(data)
+    assert wb.obb_center.shape == (model.ngeom, 3)
+    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    kinds = {int(mujoco.mjtGeom.mjGEOM_BOX): signs,
+             int(mujoco.mjtGeom.mjGEOM_SPHERE): np.vstack([np.eye(3), -np.eye(3)])}
+    checked = 0
+    for g in range(model.ngeom):
+        t = int(model.geom_type[g])
+        if t not in kinds:
+            continue
+        size = model.geom_size[g] if t == mujoco.mjtGeom.mjGEOM_BOX else model.geom_size[g, 0]
+        pts = data.geom_xpos[g] + (kinds[t] * size) @ data.geom_xmat[g].reshape(3, 3).T
+        local = (pts - wb.obb_center[g]) @ wb.obb_rot[g]
+        assert np.all(np.abs(local) <= wb.obb_half[g] + 1e-9)
+        assert np.all(np.linalg.norm(pts - wb.sphere_center[g], axis=1) <= wb.sphere_radius[g] + 1e-9)
+        assert np.all((pts >= wb.aabb_min[g] - 1e-9) & (pts <= wb.aabb_max[g] + 1e-9))
+        checked += 1
+    assert checked > 5
+    bodies = bp.world_bounds(data, of="bodies")
+    assert bodies.aabb_min.shape == (model.nbody, 3)
+    with pytest.raises(ValueError, match="body poses are all zero"):
+        bp.world_bounds(mujoco.MjData(model))
+    with pytest.raises(ValueError, match="expected a mujoco.MjData"):
+        bp.world_bounds(model)

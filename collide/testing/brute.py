@@ -15,8 +15,7 @@ import numpy as np
 
 from .._kernels import broadphase as _k
 from ..articulation import Articulation
-
-_ORTHO_TOL = _k.ORTHO_TOL  # the broad phase's own tolerance on body rotations
+from ..broadphase import check_pose_values
 
 
 # ------------------------------------------------------------------------------- static filter
@@ -55,14 +54,7 @@ def _check_poses(art: Articulation, body_pos, body_rot):
     body_rot = np.asarray(body_rot, np.float64)
     if body_pos.shape != (L, 3) or body_rot.shape != (L, 3, 3):
         raise ValueError(f"poses: expected ({L}, 3) and ({L}, 3, 3), got {body_pos.shape}, {body_rot.shape}")
-    # The same rules as BroadPhase (a twin must not answer where the fast path refuses).
-    finite = np.isfinite(body_pos).all(axis=1) & np.isfinite(body_rot).all(axis=(1, 2))
-    if not finite.all():
-        raise ValueError(f"body {int(np.flatnonzero(~finite)[0])}: pose has a non-finite value (NaN or inf)")
-    err = np.abs(np.einsum("lji,ljk->lik", body_rot, body_rot) - np.eye(3)).max(axis=(1, 2), initial=0.0)
-    bad = np.flatnonzero((err > _ORTHO_TOL) | (np.linalg.det(body_rot) <= 0)) if L else []
-    if len(bad):
-        raise ValueError(f"body {int(bad[0])}: rotation is not a proper orthonormal matrix")
+    check_pose_values(body_pos, body_rot)  # BroadPhase's rules: a twin must not answer where it refuses
     return body_pos, body_rot
 
 
