@@ -50,8 +50,8 @@ bounding spheres). Our time covers everything down to filtered geom pairs.
 from __future__ import annotations
 
 import ctypes
-import sys
 import time
+import warnings
 from dataclasses import dataclass, field
 
 import mujoco
@@ -59,6 +59,7 @@ import numba
 import numpy as np
 
 from . import shapes
+from ._kernels import _clock
 from ._kernels._ptr import f64_ptr as _f64_ptr
 from ._kernels._ptr import i64_ptr as _i64_ptr
 from ._validate import as_array, as_count
@@ -726,26 +727,28 @@ class BroadPhase:
 
 def _native_clock():
     # MuJoCo's timers tick only when mjcb_time is set. A Python callable would add its own call
-    # overhead to every interval, so on Linux we hand it a numba C callback reading
-    # clock_gettime(CLOCK_MONOTONIC) in microseconds; elsewhere we fall back to Python.
-    if not sys.platform.startswith("linux"):
-        return lambda: time.perf_counter() * 1e6
-    try:
-        import numba
+    # overhead to every interval (measured: 0.2-0.4 us a broad phase), so on Linux we hand it a
+    # numba C callback reading clock_gettime(CLOCK_MONOTONIC) (`_kernels._clock`); elsewhere, or if
+    # that fails, the portable clock, with a warning: the benchmarks' MuJoCo figures then carry it.
+    if _clock.AVAILABLE:
+        try:
+            @numba.cfunc("float64()", cache=True)
+            def now_us():
+                return _clock.now_us()
 
-        gettime = ctypes.CDLL(None).clock_gettime
-        gettime.argtypes = [ctypes.c_int, ctypes.c_void_p]
-        gettime.restype = ctypes.c_int
+            return ctypes.cast(now_us.address, ctypes.CFUNCTYPE(ctypes.c_double)), now_us
+        except Exception as exc:  # pragma: no cover - any failure: the portable clock
+            warnings.warn(f"collide.mujoco: no native clock for MuJoCo's timers ({type(exc).__name__}: {exc}); "
+                          "timing with a Python callback, which adds ~0.1 us to each interval")
+    return lambda: time.perf_counter() * 1e6
 
-        @numba.cfunc("float64()", cache=True)
-        def now_us():
-            ts = np.empty(2, np.int64)
-            gettime(1, ts.ctypes.data)
-            return ts[0] * 1e6 + ts[1] * 1e-3
 
-        return ctypes.cast(now_us.address, ctypes.CFUNCTYPE(ctypes.c_double)), now_us
-    except Exception:  # pragma: no cover - any failure: the portable clock
-        return lambda: time.perf_counter() * 1e6
+def timer_clock() -> str:
+    """``"native"`` or ``"python"``: the clock `mujoco_timer` hands MuJoCo (for benchmark headers)."""
+    global _CLOCK
+    if _CLOCK is None:
+        _CLOCK = _native_clock()
+    return "native" if isinstance(_CLOCK, tuple) else "python"
 
 
 _CLOCK = None
@@ -822,8 +825,12 @@ def _geom_name(model: mujoco.MjModel, g: int) -> str:
 
 
 _OBJ_GEOM = mujoco.mjtObj.mjOBJ_GEOM
-_UNSTABLE = (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
-             mujoco.mjtWarning.mjWARN_BADQACC)
+_UNSTABLE = [int(w) for w in (mujoco.mjtWarning.mjWARN_BADQPOS, mujoco.mjtWarning.mjWARN_BADQVEL,
+                              mujoco.mjtWarning.mjWARN_BADQACC)]
+
+
+def _unstable_warnings(data: mujoco.MjData) -> tuple:
+    return tuple(data.warning[w].number for w in _UNSTABLE)
 
 
 def _control_range(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
@@ -899,7 +906,8 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
         pairs its broad phase and midphase pass to the contact filter, plus its explicit pairs), ``time_ours_us`` and
         ``time_mujoco_broad_us`` (medians), their ``ratio``, the per-step times
         (``time_ours_us_per_step``, ``time_mujoco_broad_us_per_step``), ``model``, ``seed``,
-        ``unstable_resets`` (times MuJoCo reset an unstable simulation),
+        ``unstable_resets`` (times MuJoCo reset an unstable simulation; such a step's MuJoCo
+        time is that of the broad phase after the reset),
         ``mujoco_count_replayed`` (True when the counting run reproduced every step's contacts),
         ``contact_pairs_total`` (MuJoCo contact pairs summed over the steps),
         ``flex_contacts_total`` (MuJoCo contacts involving a flex, summed over the steps: not geom
@@ -926,18 +934,26 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
     mujoco.mj_forward(model, data)
     bp.pairs(data)  # compile / warm up (and bind data) outside the timed loop
     timer = data.timer[_TIMER_BROAD]
+    resets = 0
     with mujoco_timer():
         for step in range(steps):
             if step % hold == 0 and len(ctrls):
                 data.ctrl[:] = ctrls[step // hold]
-            dur0, num0 = timer.duration, timer.number
+            dur0, num0, time0, warn0 = timer.duration, timer.number, data.time, _unstable_warnings(data)
             mujoco.mj_step(model, data)
-            nbroad = max(int(timer.number - num0), 1)
             t0 = perf()
             cand = bp.pairs(data)
             t1 = perf()
             rec.time_ours_us.append((t1 - t0) * 1e-3)
-            rec.time_mujoco_broad_us.append(float(timer.duration - dur0) / nbroad)
+            # An unstable simulation is reset inside mj_step (mj_resetData, then the forward pass
+            # again): its time starts over and its timers and warnings restart from zero, so the
+            # timer then holds only the intervals after the reset (found 2026-11-22: negative
+            # times, and 1 reset reported for 3). A reset shows as time not advancing, or as a
+            # new instability warning (the first step's reset).
+            if not data.time > time0 or _unstable_warnings(data) != warn0:
+                resets += 1
+                dur0 = num0 = 0
+            rec.time_mujoco_broad_us.append(float(timer.duration - dur0) / max(int(timer.number - num0), 1))
             raw_contacts.append(np.array(data.contact.geom[:data.ncon], dtype=np.int64))
             raw_candidates.append(cand)
             if on_step is not None:
@@ -998,7 +1014,7 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
         "time_mujoco_broad_us_per_step": rec.time_mujoco_broad_us,
         "nbody": int(model.nbody),
         "ngeom": int(model.ngeom),
-        "unstable_resets": int(sum(data.warning[int(w)].number for w in _UNSTABLE)),
+        "unstable_resets": resets,
         "mujoco_count_replayed": replayed,
     }
 

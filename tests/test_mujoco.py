@@ -724,3 +724,43 @@ def test_world_bounds_contain_mujocos_own_geoms():
         bp.world_bounds(mujoco.MjData(model))
     with pytest.raises(ValueError, match="expected a mujoco.MjData"):
         bp.world_bounds(model)
+
+
+def test_mujoco_timer_runs_on_a_native_clock():
+    # A Python clock adds its own call to every interval MuJoCo times (0.2-0.4 us a broad phase):
+    # on Linux the timer is a compiled C callback (found 2026-11-22: caching it had failed, and
+    # the fallback to the Python clock was silent).
+    import sys
+    import time
+
+    if not sys.platform.startswith("linux"):
+        pytest.skip("the native clock is Linux's clock_gettime")
+    assert cm.timer_clock() == "native"
+    clock = cm._CLOCK[0]
+    a = clock()
+    time.sleep(0.02)
+    assert 15_000 < clock() - a < 2_000_000  # microseconds
+    model = mujoco.MjModel.from_xml_string(
+        "<mujoco><worldbody><geom type='plane' size='1 1 .1'/><body pos='0 0 .1'><freejoint/>"
+        "<geom type='sphere' size='.1'/></body></worldbody></mujoco>")
+    data = mujoco.MjData(model)
+    with cm.mujoco_timer():
+        for _ in range(20):
+            mujoco.mj_step(model, data)
+    timer = data.timer[cm._TIMER_BROAD]
+    assert timer.number == 20 and 0 < timer.duration < 20 * 1000
+
+
+def test_compare_counts_resets_and_keeps_the_timer_right():
+    # A motor of gear 1e12 makes the simulation unstable at every step: MuJoCo resets it inside
+    # mj_step and restarts its timers, which gave negative broad-phase times and one reset
+    # counted for many.
+    xml = """<mujoco><worldbody><geom type="plane" size="5 5 .1"/>
+      <body pos="0 0 0.5"><joint name="h" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.5 0 0" size="0.05"/></body></worldbody>
+      <actuator><motor joint="h" gear="1e12" ctrlrange="-1 1"/></actuator></mujoco>"""
+    result = cm.compare(mujoco.MjModel.from_xml_string(xml), steps=30, seed=0, hold=1)
+    assert result["unstable_resets"] == 30
+    assert min(result["time_mujoco_broad_us_per_step"]) > 0 and result["recall"] == 1.0
+    calm = cm.compare(cm.default_scene(seed=1), steps=30, seed=0)
+    assert calm["unstable_resets"] == 0 and min(calm["time_mujoco_broad_us_per_step"]) > 0

@@ -14,9 +14,10 @@ Per step, on the same poses: ours = ``BroadPhase.pairs()`` on MjData's ``xpos`` 
 bound once with `BroadPhase.bind` (the simulation-loop path: Python call included,
 perf_counter_ns around it), and in a second pass over the same states ``pairs(xpos, xmat)`` with
 the arrays passed each call ("passed"); MuJoCo = ``mjTIMER_COL_BROAD`` after ``mj_kinematics`` +
-``mj_collision`` (native clock callback from `collide.mujoco.mujoco_timer`, so no Python runs in
-MuJoCo's interval); fcl / coal = set every object's transform from Python, update the
-DynamicAABBTree manager and collect its pairs (no narrow phase). Medians over steps.
+``mj_collision`` (compiled clock callback from `collide.mujoco.mujoco_timer`, so no Python runs in
+MuJoCo's interval; the header names the clock); fcl / coal = set every object's transform from
+Python, update the DynamicAABBTree manager and collect its pairs (no narrow phase), and the
+manager alone ("mgr": update and collide), which is the libraries' own work. Medians over steps.
 Candidates per step: ours (pairs out) against MuJoCo's broad-phase candidates, counted in a
 separate run by a contact-filter callback that records and rejects every pair.
 """
@@ -43,9 +44,9 @@ import numpy as np
 from collide import Articulation, BroadPhase, PointCloud, testing
 
 try:
-    from collide.mujoco import mujoco_timer
+    from collide.mujoco import mujoco_timer, timer_clock
 except ImportError:  # pragma: no cover
-    mujoco_timer = None
+    mujoco_timer = timer_clock = None
 
 try:
     import fcl
@@ -219,8 +220,11 @@ def _geom_world(art, pos, rot):
     return g, R, t
 
 
-def run_fcl(art, poses, steps: int) -> tuple[float, float]:
-    """python-fcl DynamicAABBTreeCollisionManager: per step set transforms, update, collect pairs."""
+def run_fcl(art, poses, steps: int) -> tuple[float, float, float]:
+    """python-fcl DynamicAABBTreeCollisionManager: per step set transforms, update, collect pairs.
+
+    Returns the median per step of the whole loop body and of the manager alone (update and
+    collide, after the transforms were set from Python), and the mean pair count."""
     g, R, t = _geom_world(art, *poses[0])
     # fcl/coal capsules are centred on their axis: the geom frame here is the capsule's middle.
     objs = [fcl.CollisionObject(_fcl_shape(art.geom_cloud[k]), fcl.Transform(R[i], t[i])) for i, k in enumerate(g)]
@@ -233,22 +237,27 @@ def run_fcl(art, poses, steps: int) -> tuple[float, float]:
         data.append(1)
         return False
 
+    manager = []
     pc = time.perf_counter_ns
     for pos, rot in poses[:steps]:
         t0 = pc()
         _, R, t = _geom_world(art, pos, rot)
         for i, o in enumerate(objs):
             o.setTransform(fcl.Transform(R[i], t[i]))
+        t1 = pc()
         man.update()
         found = []
         man.collide(found, cb)
-        times.append(pc() - t0)
+        t2 = pc()
+        times.append(t2 - t0)
+        manager.append(t2 - t1)
         counts.append(len(found))
-    return _median_us(times), float(np.mean(counts))
+    return _median_us(times), _median_us(manager), float(np.mean(counts))
 
 
-def run_coal(art, poses, steps: int) -> tuple[float, float]:
-    """coal DynamicAABBTreeCollisionManager, the same loop (CollisionCallBackCollect: no narrow phase)."""
+def run_coal(art, poses, steps: int) -> tuple[float, float, float]:
+    """coal DynamicAABBTreeCollisionManager, the same loop (CollisionCallBackCollect: no narrow phase);
+    returns as `run_fcl` (the manager alone: update and collide, after transforms and AABBs)."""
     g, R, t = _geom_world(art, *poses[0])
     objs = []
     for i, k in enumerate(g):
@@ -260,7 +269,7 @@ def run_coal(art, poses, steps: int) -> tuple[float, float]:
     for o in objs:
         man.registerObject(o)
     man.setup()
-    times, counts = [], []
+    times, manager, counts = [], [], []
     pc = time.perf_counter_ns
     for pos, rot in poses[:steps]:
         t0 = pc()
@@ -268,12 +277,15 @@ def run_coal(art, poses, steps: int) -> tuple[float, float]:
         for i, o in enumerate(objs):
             o.setTransform(coal.Transform3s(R[i], t[i]))
             o.computeAABB()
-        man.update()
         cb = coal.CollisionCallBackCollect(4 * len(objs) + 16)
+        t1 = pc()
+        man.update()
         man.collide(cb)
-        times.append(pc() - t0)
+        t2 = pc()
+        times.append(t2 - t0)
+        manager.append(t2 - t1)
         counts.append(cb.numCollisionPairs())
-    return _median_us(times), float(np.mean(counts))
+    return _median_us(times), _median_us(manager), float(np.mean(counts))
 
 
 # ------------------------------------------------------------------------------- scenes
@@ -327,8 +339,8 @@ def bench(name, model, qpos, fcl_steps) -> dict:
     row = dict(scene=name, bodies=model.nbody - 1, geoms=model.ngeom, ours=ours, passed=passed, mujoco=theirs,
                ours_k=ours_k, mj_k=mujoco_candidates(model, qpos), setup=setup, stats=bp.stats)
     fposes = poses_of(model, qpos[:fcl_steps])
-    row["fcl"], row["fcl_k"] = run_fcl(art, fposes, fcl_steps) if fcl else (np.nan, np.nan)
-    row["coal"], row["coal_k"] = run_coal(art, fposes, fcl_steps) if coal else (np.nan, np.nan)
+    row["fcl"], row["fcl_mgr"], row["fcl_k"] = run_fcl(art, fposes, fcl_steps) if fcl else (np.nan,) * 3
+    row["coal"], row["coal_mgr"], row["coal_k"] = run_coal(art, fposes, fcl_steps) if coal else (np.nan,) * 3
     return row, bp, art
 
 
@@ -348,8 +360,10 @@ def main(argv=None):
     print(f"# machine: {numba.get_num_threads()} cores, Python {platform.python_version()}, {_cpu()}; "
           f"mujoco {mujoco.__version__}, numba {numba.__version__}")
     print("# per step, medians; ours = BroadPhase.pairs() on MjData's xpos/xmat bound once (Python call included),")
+    print(f"# MuJoCo's timer on a {timer_clock()} clock;")
     print("# passed = pairs(xpos, xmat) on the same states; MuJoCo = mjTIMER_COL_BROAD;")
     print("# fcl/coal = DynamicAABBTreeCollisionManager (transforms set from Python, update, collect pairs);")
+    print("# mgr = the manager alone (update and collide, after the transforms were set): the libraries' own work;")
     print("# every ratio column = that library's time / MuJoCo's;")
     print("# candidates = pairs per step (MuJoCo: contact-filter callback, record and reject).")
     rows = []
@@ -385,17 +399,19 @@ def main(argv=None):
     per_world = float(np.median(reps)) / B / 1e3
     print()
     head = (f"{'scene':<11}{'bodies':>7}{'ours us':>10}{'passed':>8}{'MuJoCo us':>11}{'ratio':>7}{'fcl us':>10}{'ratio':>7}"
-            f"{'coal us':>10}{'ratio':>7}{'ours cand':>11}{'MuJoCo cand':>13}{'fcl cand':>10}{'coal cand':>10}")
+            f"{'mgr us':>9}{'ratio':>7}{'coal us':>10}{'ratio':>7}{'mgr us':>9}{'ratio':>7}"
+            f"{'ours cand':>11}{'MuJoCo cand':>13}{'fcl cand':>10}{'coal cand':>10}")
     print(head)
     print("-" * len(head))
     for r in rows:
         print(f"{r['scene']:<11}{r['bodies']:>7}{r['ours']:>10.1f}{r['passed']:>8.1f}{r['mujoco']:>11.1f}"
               f"{r['ours'] / r['mujoco']:>7.2f}"
-              f"{r['fcl']:>10.1f}{r['fcl'] / r['mujoco']:>7.1f}{r['coal']:>10.1f}{r['coal'] / r['mujoco']:>7.1f}"
+              f"{r['fcl']:>10.1f}{r['fcl'] / r['mujoco']:>7.1f}{r['fcl_mgr']:>9.1f}{r['fcl_mgr'] / r['mujoco']:>7.1f}"
+              f"{r['coal']:>10.1f}{r['coal'] / r['mujoco']:>7.1f}{r['coal_mgr']:>9.1f}{r['coal_mgr'] / r['mujoco']:>7.1f}"
               f"{r['ours_k']:>11.1f}{r['mj_k']:>13.1f}{r['fcl_k']:>10.1f}{r['coal_k']:>10.1f}")
     mj_chain = rows[-1]["mujoco"]
     print(f"{'batch ' + str(B):<11}{model.nbody - 1:>7}{per_world:>10.2f}{'':>8}{mj_chain:>11.1f}"
-          f"{per_world / mj_chain:>7.2f}{'':>34}{len(got) / B:>11.1f}    (time per world, {numba.get_num_threads()} threads)")
+          f"{per_world / mj_chain:>7.2f}{'':>66}{len(got) / B:>11.1f}    (time per world, {numba.get_num_threads()} threads)")
     print()
     print("# targets: ratio <= 1.0 everywhere, <= 0.5 from 1024 bodies, batch <= 0.3; ours cand < MuJoCo cand")
 
