@@ -61,6 +61,13 @@ def fit_local_sphere(cloud: PointCloud) -> _volumes.Sphere:
 # scaled rotation missed touching boxes 4e-7 apart).
 POSE_ORTHO_TOL = 1e-6
 ROTATION_SLACK = 8.0 * POSE_ORTHO_TOL
+# Margins are added to the half extents and radii the kernel moves with the same rotations, so
+# they need the same cover: a margin-1 point under R = (1 - 4.9e-7) I reached 1 - 4.9e-7 along
+# the axes and lost a touching pair (review, 2026-11-22). Under R with |R^T R - I| <= tol, the
+# axes' support in any unit direction is at least 1 - 1.5 tol, and treating skewed axes as
+# orthonormal costs up to 4 tol of the three half extents summed (12 tol m from a margin m):
+# every bound carries its margin grown by MARGIN_SLACK (32 tol) relative.
+MARGIN_SLACK = 4.0 * ROTATION_SLACK
 
 
 def _guarded(obb: _volumes.OBB, sphere: _volumes.Sphere):
@@ -157,6 +164,9 @@ class Articulation:
         Local sphere of the body (contains its geoms' spheres inflated by their margins).
     geom_body, geom_contype, geom_conaffinity : (G,) int64
     geom_pos, geom_rot, geom_margin : (G, 3), (G, 3, 3), (G,) float64
+    geom_bound_margin : (G,) float64
+        The margin as the bounds carry it: ``geom_margin * (1 + MARGIN_SLACK)``, so that rotations
+        accepted within ``POSE_ORTHO_TOL`` of orthonormal still cover the margin.
     geom_is_plane : (G,) bool
     geom_plane : (G, 4) float64
         For planes: unit normal and offset in the body frame (zeros for other geoms).
@@ -172,6 +182,8 @@ class Articulation:
         Explicit geom pairs, lower id first, sorted, unique.
     pair_margin : (P,) float64
         Inflation for each explicit pair (NaN where the geoms' own margins apply).
+    pair_bound_margin : (P,) float64
+        ``pair_margin * (1 + MARGIN_SLACK)``, as ``geom_bound_margin``.
     filter_parent : bool
     """
 
@@ -239,6 +251,8 @@ class Articulation:
         self.filter_parent = bool(filter_parent)
         self.exclude = self._pair_list(exclude, "exclude", L, "body")
         self.pairs, self.pair_margin = self._explicit(pairs, pair_margin, G)
+        self.geom_bound_margin = margin * (1.0 + MARGIN_SLACK)
+        self.pair_bound_margin = self.pair_margin * (1.0 + MARGIN_SLACK)
         self.body_dfs_order, self.body_dfs_pos, end_by_pos = _depth_first(parent)
         self.body_subtree_end = end_by_pos[self.body_dfs_pos]
         self._fit_geoms()
@@ -348,7 +362,7 @@ class Articulation:
             if len(gs) == 0:
                 continue
             self.body_has_bounds[b] = True
-            m = self.geom_margin[gs]
+            m = self.geom_bound_margin[gs]
             self.body_cloud[b] = union([self.geom_local_cloud[g] for g in gs], threshold=1).reduced()
             if len(gs) == 1:
                 # One geom: the body's bounds are that geom's inflated bounds, bit for bit, so

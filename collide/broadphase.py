@@ -22,8 +22,8 @@ data). Batches of a small model (`pairs_batch`) run eight worlds at a time in SI
 (`_kernels.lanes`): per world, 0.4x (humanoid) to 0.6x (a 64-link chain) of MuJoCo's
 single-world broad-phase time on one core, 0.2x to 0.4x on two.
 
-`BroadPhase.world_bounds` returns the world OBBs, spheres and AABBs the broad phase tests (of
-geoms or bodies), for drawing them, debugging a pair, or feeding another spatial structure.
+`BroadPhase.world_bounds` returns the world spheres and OBBs the broad phase tests (of geoms or
+bodies) and their AABBs, for drawing them, debugging a pair, or feeding another spatial structure.
 """
 
 from __future__ import annotations
@@ -66,7 +66,9 @@ class WorldBounds(NamedTuple):
     sphere_radius : (n,) float64
     aabb_min, aabb_max : (n, 3) float64
         The intersection of the OBB's and the sphere's world AABBs (each contains the shape, so
-        their intersection does), padded by the broad phase's rounding slack.
+        their intersection does), padded by the broad phase's rounding slack. Derived for the
+        caller: the broad phase tests the spheres and OBBs, so a reported pair may have disjoint
+        AABBs (never a touching one).
     plane : (n, 4) float64
         For plane geoms, the world halfspace ``{x : plane[:3] . x <= plane[3]}``; zeros otherwise.
     """
@@ -93,11 +95,37 @@ def check_pose_values(body_pos: np.ndarray, body_rot: np.ndarray, where: str = "
     """
     finite = np.isfinite(body_pos).all(axis=1) & np.isfinite(body_rot).all(axis=(1, 2))
     with np.errstate(invalid="ignore", over="ignore"):
+        near = (np.abs(body_pos) <= _k.MAX_POSITION).all(axis=1)
         err = np.abs(np.einsum("lji,ljk->lik", body_rot, body_rot) - np.eye(3)).max(axis=(1, 2), initial=0.0)
-        ok = finite & (err <= _k.ORTHO_TOL) & (np.linalg.det(body_rot) > 0)
+        ok = finite & near & (err <= _k.ORTHO_TOL) & (np.linalg.det(body_rot) > 0)
     if not ok.all():
         b = int(np.flatnonzero(~ok)[0])
-        BroadPhase._raise(_k.BAD_ROTATION if finite[b] else _k.BAD_NONFINITE, b, where)
+        status = _k.BAD_NONFINITE if not finite[b] else _k.BAD_RANGE if not near[b] else _k.BAD_ROTATION
+        BroadPhase._raise(status, b, where)
+
+
+def world_planes(rot: np.ndarray, pos: np.ndarray, local: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """World halfspaces ``{x : n . x <= d}`` (unit ``n``) of local ones under ``x = R y + p``.
+
+    Parameters
+    ----------
+    rot : (n, 3, 3) float64
+        Proper, not necessarily orthonormal (poses are accepted within ``_k.ORTHO_TOL``).
+    pos : (n, 3) float64
+    local : (n, 4) float64
+        Local unit normal and offset.
+
+    Returns
+    -------
+    normal : (n, 3) float64
+    offset : (n,) float64
+        ``n`` along ``R^-T n_local``: the image of the plane under the map as given (the kernels'
+        `_k.plane_world`, with a linear solve instead of the cofactors).
+    """
+    w = np.linalg.solve(np.swapaxes(rot, 1, 2), local[:, :3, None])[:, :, 0]
+    norm = np.linalg.norm(w, axis=1)
+    normal = w / norm[:, None]
+    return normal, local[:, 3] / norm + np.einsum("ni,ni->n", normal, pos)
 
 
 FLAT_BODIES = 64  # see BroadPhase._flat_lists
@@ -216,8 +244,8 @@ class BroadPhase:
         if V:
             # A leaf's bounds are its geom's, inflated, as for any single-geom body.
             blocal[1:V + 1] = glocal[world_geoms]
-            blocal[1:V + 1, 12:15] += a.geom_margin[world_geoms, None]
-            blocal[1:V + 1, 18] += a.geom_margin[world_geoms]
+            blocal[1:V + 1, 12:15] += a.geom_bound_margin[world_geoms, None]
+            blocal[1:V + 1, 18] += a.geom_bound_margin[world_geoms]
         pair_keys = (a.pairs[:, 0].astype(i64) << _k.key_shift(G)) | a.pairs[:, 1]
         flat_root, flat_n, flat_mask = self._flat_lists(end, parent_pos, nchild, hasb, weld, ctor, caor,
                                                         ex_start, ex[:, 1], a.filter_parent)
@@ -225,7 +253,7 @@ class BroadPhase:
             order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag,
             ctor, caor, children, gstart, pgeoms, ex_start, ex[:, 1], planes, plane_ok, a.geom_body,
             a.geom_contype, a.geom_conaffinity, a.pairs, pair_keys, a.filter_parent, blocal, glocal,
-            a.geom_plane, a.geom_margin, a.pair_margin, flat_root, flat_n, flat_mask, n_virtual=V)
+            a.geom_plane, a.geom_bound_margin, a.pair_bound_margin, flat_root, flat_n, flat_mask, n_virtual=V)
         self.position_count = Lp
         self._nW = _k.workspace_size(Lp, G, len(planes))
         self._sap_init = _k.sap_state(children)
@@ -398,6 +426,8 @@ class BroadPhase:
     def _raise(status: int, body: int, where: str = ""):
         if status == _k.BAD_NONFINITE:
             raise ValueError(f"{where}body {body}: pose has a non-finite value (NaN or inf)")
+        if status == _k.BAD_RANGE:
+            raise ValueError(f"{where}body {body}: position beyond {_k.MAX_POSITION:g} (the coordinate limit)")
         raise ValueError(f"{where}body {body}: rotation is not a proper orthonormal matrix "
                          f"(|R^T R - I| > {_k.ORTHO_TOL:g} or det <= 0)")
 
@@ -522,7 +552,8 @@ class BroadPhase:
 
     def world_bounds(self, body_pos: np.ndarray | None = None, body_rot: np.ndarray | None = None,
                      of: str = "geoms", inflate: bool = True) -> WorldBounds:
-        """The world bounds of every geom (or body) at these poses: what `pairs` tests.
+        """The world bounds of every geom (or body) at these poses: the spheres and OBBs `pairs`
+        tests, their AABBs, and the planes' halfspaces.
 
         For drawing the bounds, debugging a candidate pair, or feeding another spatial structure.
         Computed in numpy from the articulation's local bounds (not on the per-step path).
@@ -539,7 +570,8 @@ class BroadPhase:
             ``obb_half = -inf``).
         inflate : bool, default True
             Geoms: inflate each by its margin (radius + margin, half extents + margin, a plane's
-            offset + margin), as `pairs` does. Bodies always are.
+            offset + margin: `Articulation.geom_bound_margin`), as `pairs` does for every pair but
+            an explicit one with its own ``pair_margin``. Bodies always are.
 
         Returns
         -------
@@ -568,7 +600,7 @@ class BroadPhase:
             ids = a.geom_body
             center, rot, half = a.geom_obb_center, a.geom_obb_rot, a.geom_obb_half
             sc, sr = a.geom_sphere_center, a.geom_sphere_radius
-            m = a.geom_margin if inflate else np.zeros(a.geom_count)
+            m = a.geom_bound_margin if inflate else np.zeros(a.geom_count)
             half, sr = half + m[:, None], sr + m
             unbounded, empty = a.geom_is_plane, np.zeros(a.geom_count, bool)
         else:
@@ -590,8 +622,8 @@ class BroadPhase:
         plane = np.zeros((len(ids), 4))
         if unbounded.any():
             q = np.flatnonzero(unbounded)
-            n = np.einsum("nij,nj->ni", R[q], a.geom_plane[q, :3])
-            d = a.geom_plane[q, 3] + np.einsum("ni,ni->n", n, p[q]) + (a.geom_margin[q] if inflate else 0.0)
+            n, d = world_planes(R[q], p[q], a.geom_plane[q])
+            d = d + (a.geom_bound_margin[q] if inflate else 0.0)
             plane[q, :3], plane[q, 3] = n, d
             c[q] = s[q] = n * d[:, None]
             obb_rot[q] = np.eye(3)

@@ -625,16 +625,7 @@ class BroadPhase:
         """
         bp = self.broadphase
         if data is not self._views_of or bp._bound is not self._views:
-            if not isinstance(data, mujoco.MjData):
-                raise ValueError(f"data: expected a mujoco.MjData, got {type(data).__name__}")
-            if data.xpos.shape[0] != self.model.nbody:
-                raise ValueError(f"data: made for a model with {data.xpos.shape[0]} bodies, this broad phase's "
-                                 f"has {self.model.nbody}")
-            # Checked once per MjData (here, where its arrays are bound), not per step.
-            diff = _model_mismatch(self.model, getattr(data, "model", self.model))
-            if diff is not None:
-                raise ValueError(f"data: made for another model than this broad phase's ({diff}); "
-                                 "build a BroadPhase of that model")
+            self._check_data(data)  # once per MjData (here, where its arrays are bound), not per step
             if self._disabled:
                 return self._empty2
             # The bindings build new numpy views at every attribute access (~0.3 us a call), and
@@ -666,28 +657,33 @@ class BroadPhase:
         return out if self._no_function is None else self._drop_null(out, 0)
 
     def world_bounds(self, data: mujoco.MjData, of: str = "geoms", inflate: bool = True):
-        """World bounds of every geom (or body) at the poses of ``data``: what `pairs` tests.
+        """World bounds of every geom (or body) at the poses of ``data``.
 
         `collide.BroadPhase.world_bounds` on ``data.xpos`` and ``data.xmat``; rows by MuJoCo geom
         (or body) id. Inflated geoms are grown by `geom_inflation` (margin + gap +
-        ``opt.ccd_tolerance``).
+        ``opt.ccd_tolerance``); an explicit ``<pair>`` is tested with its own inflation instead.
 
         Returns
         -------
         collide.broadphase.WorldBounds
         """
+        self._check_data(data)
+        if not np.any(data.xmat):
+            raise ValueError("data: body poses are all zero; run mujoco.mj_kinematics, mj_forward or mj_step on it "
+                             "first")
+        return self.broadphase.world_bounds(data.xpos, data.xmat.reshape(-1, 3, 3), of, inflate)
+
+    def _check_data(self, data) -> None:
+        # An MjData of this model (checked where pairs() binds its arrays, and by world_bounds).
         if not isinstance(data, mujoco.MjData):
             raise ValueError(f"data: expected a mujoco.MjData, got {type(data).__name__}")
         if data.xpos.shape[0] != self.model.nbody:
             raise ValueError(f"data: made for a model with {data.xpos.shape[0]} bodies, this broad phase's "
                              f"has {self.model.nbody}")
-        try:
-            return self.broadphase.world_bounds(data.xpos, data.xmat.reshape(-1, 3, 3), of, inflate)
-        except ValueError as exc:
-            if not np.any(data.xmat):
-                raise ValueError("data: body poses are all zero; run mujoco.mj_kinematics, "
-                                 "mj_forward or mj_step on it first") from exc
-            raise
+        diff = _model_mismatch(self.model, getattr(data, "model", self.model))
+        if diff is not None:
+            raise ValueError(f"data: made for another model than this broad phase's ({diff}); "
+                             "build a BroadPhase of that model")
 
     def pairs_batch(self, model: mujoco.MjModel, qpos) -> np.ndarray:
         """Candidate pairs of many configurations: kinematics per world, one batched call.

@@ -461,14 +461,35 @@ def test_bad_poses_name_the_body_and_next_call_works(robot_bp, what, msg):
     assert len(bp.pairs_batch(np.repeat(pos[None], B, 0), np.repeat(rot[None], B, 0))) == B * len(good)
 
 
-def test_huge_finite_positions_are_valid(robot_bp):
-    # Far from the origin but finite: a pose, not an error (the validation must not overflow).
+def test_positions_up_to_the_coordinate_limit_are_valid_and_beyond_it_refused(robot_bp):
+    # Far from the origin: a pose up to 1e150 (the geoms' own coordinate limit), an error beyond,
+    # naming the body. Near the float range sums overflowed to inf, and inf times a zero normal
+    # component is NaN: a ball touching a plane at 1e308 was lost, silently (review, 2026-11-22).
     sc, bp = robot_bp
     pos, rot = sc.poses(np.random.default_rng(1))
-    pos = pos + 1e300
-    pos[3] = [1.7e308, -1.7e308, 1.7e308]
-    got = bp.pairs(pos, rot)
+    want = bp.pairs(pos, rot)
+    far = pos + 1e150
+    got = bp.pairs(far, rot)
     assert got.dtype == np.int32 and got.shape[1] == 2
+    assert np.array_equal(bp.pairs_batch(far[None], rot[None])[:, 1:], got)
+    beyond = pos.copy()
+    beyond[3] = [1.7e308, -1.7e308, 1.7e308]
+    for call in (lambda: bp.pairs(beyond, rot), lambda: bp.world_bounds(beyond, rot),
+                 lambda: testing.brute_force_bound_pairs(sc.articulation, beyond, rot)):
+        with pytest.raises(ValueError, match=r"body 3: position beyond 1e\+150"):
+            call()
+    with pytest.raises(ValueError, match=r"world 0, body 3: position beyond 1e\+150"):
+        bp.pairs_batch(beyond[None], rot[None])
+    assert np.array_equal(bp.pairs(pos, rot), want)  # and it keeps working
+
+
+def test_a_ball_on_a_plane_far_from_the_origin_is_found():
+    art = Articulation([0, 0], [0, 1], [shapes.plane((0, 0, 1), 0.0), PointCloud([[0, 0, 0]], 0.5)])
+    bp = BroadPhase(art)
+    rot = np.tile(EYE, (2, 1, 1))
+    for x in (1e6, 1e50, 1e150):
+        pos = np.array([[0, 0, 0], [x, -x, 0.5 - 1e-9 * 0.5]])
+        assert bp.pairs(pos, rot).tolist() == [[0, 1]], x
 
 
 def test_wrong_shapes_and_dtypes_raise(robot_bp):
@@ -659,18 +680,25 @@ def test_batch_lanes_round_as_a_single_world():
     assert testing.brute_force_pairs(art, pos, rot).tolist() == []
     single, lanes, per_world = _batch_equals_single(bp, pos, rot)
     assert single == lanes == per_world
-    # 3. A body near the float range: an OBB axis projection overflows to NaN, which separated
-    # nothing in the scalar test and everything in the vectorised one.
+    # 3. A body near the float range: an OBB axis projection overflowed to NaN, which separated
+    # nothing in the scalar test and everything in the vectorised one. Such poses are refused
+    # now (beyond MAX_POSITION, 2026-11-22), by every path alike; at the limit all three agree.
     box = CUBE.transform(0.1 * EYE)
     art = Articulation([0, 0, 0], [1, 1, 2], [box, box.transform(EYE, [0.3, 0, 0]), box])
     bp = BroadPhase(art)
     hits = 0
-    for seed in range(200):  # seed 143 lost its pairs in the lanes
+    for seed in range(50):
         rng = np.random.default_rng(seed)
         pos = np.zeros((3, 3))
         pos[1] = 1.7e308
         rot = np.tile(EYE, (3, 1, 1))
         rot[1:] = random_rotation(rng, 2)
+        with pytest.raises(ValueError, match="body 1: position beyond"):
+            bp.pairs(pos, rot)
+        with pytest.raises(ValueError, match="world 0, body 1: position beyond"):
+            bp.pairs_batch(pos[None], rot[None])
+        pos[1] = _kern.MAX_POSITION
+        pos[2] = _kern.MAX_POSITION * (1 - 1e-16 * rng.integers(0, 3))
         single, lanes, per_world = _batch_equals_single(bp, pos, rot)
         assert single == lanes == per_world, seed
         hits += len(single)
@@ -1014,7 +1042,7 @@ def test_world_bounds_contain_the_true_surfaces_under_random_poses(seed):
             checked += len(pts)
         # the inflated bounds of a geom are its tight ones grown by its margin (an AABB side by at
         # most sqrt(3) margins each way: the box's grown diagonal), and no looser
-        m = art.geom_margin[1:, None]
+        m = art.geom_bound_margin[1:, None]
         assert np.allclose(geoms.obb_half[1:], tight.obb_half[1:] + m)
         assert np.allclose(geoms.sphere_radius[1:], tight.sphere_radius[1:] + m[:, 0])
         grow = (geoms.aabb_max[1:] - geoms.aabb_min[1:]) - (tight.aabb_max[1:] - tight.aabb_min[1:])
@@ -1041,7 +1069,7 @@ def test_world_bounds_agree_with_the_twin_and_the_bound_arrays():
     assert np.all(wb.aabb_min[q] == -np.inf) and np.all(wb.aabb_max[q] == np.inf)
     assert np.allclose(np.einsum("ni,ni->n", wb.plane[q, :3], wb.obb_center[q]), wb.plane[q, 3])
     inflated = bp.world_bounds(pos, rot)
-    assert np.allclose(inflated.plane[q, 3], wb.plane[q, 3] + a.geom_margin[q])
+    assert np.allclose(inflated.plane[q, 3], wb.plane[q, 3] + a.geom_bound_margin[q])
     # bodies without a solid geom are empty boxes; the others' AABBs hold their geoms' AABBs
     bodies = bp.world_bounds(pos, rot, of="bodies")
     bare = ~a.body_has_bounds
@@ -1101,3 +1129,46 @@ def test_world_bounds_of_a_box_and_a_ball_are_known():
     assert np.allclose(np.sort(wb.obb_half[0]), half, atol=1e-4) and np.all(np.sort(wb.obb_half[0]) >= half)
     assert np.allclose(wb.aabb_max[1] - pos[2], 0.6, atol=1e-5) and np.allclose(wb.sphere_radius[1], 0.6, atol=1e-5)
     assert np.all(wb.aabb_max[1] - pos[2] >= 0.6) and np.all(pos[2] - wb.aabb_min[1] >= 0.6)
+
+
+@pytest.mark.parametrize("scale", [1 - 4.9e-7, 1 + 4.9e-7])
+def test_margins_are_covered_under_accepted_nearly_orthonormal_rotations(scale):
+    # Two points with margin 1, 2 - 1e-7 apart: touching. Body rotations scaled by 1 -/+ 4.9e-7
+    # are accepted (|R^T R - I| = 9.8e-7 <= 1e-6); the bounds moved the margin with them and the
+    # pair was lost, and a point of the inflated shape fell outside the world bounds (review,
+    # 2026-11-22).
+    dot = PointCloud([[0, 0, 0]])
+    art = Articulation([0, 0, 0], [1, 2], [dot, dot], geom_margin=[1.0, 1.0])
+    bp = BroadPhase(art)
+    rot = np.stack([EYE, scale * EYE, scale * EYE])
+    pos = np.array([[0, 0, 0], [0, 0, 0], [2 - 1e-7, 0, 0.0]])
+    assert testing.brute_force_pairs(art, pos, rot).tolist() == [[0, 1]]
+    assert bp.pairs(pos, rot).tolist() == [[0, 1]]
+    assert bp.pairs_batch(pos[None], rot[None]).tolist() == [[0, 0, 1]]
+    assert testing.brute_force_bound_pairs(art, pos, rot).tolist() == [[0, 1]]
+    wb = bp.world_bounds(pos, rot)
+    reach = np.vstack([EYE, -EYE])  # the inflated point's extremes, margin 1 in the world
+    assert np.all(np.abs((reach - wb.obb_center[0]) @ wb.obb_rot[0]) <= wb.obb_half[0])
+    assert np.all(reach <= wb.aabb_max[0]) and np.all(reach >= wb.aabb_min[0])
+
+
+def test_planes_on_nearly_orthonormal_bodies_are_moved_exactly():
+    # A plane on a body whose accepted rotation is skewed by 4.9e-7: the world normal was R n, not
+    # R^-T n, and the halfspace missed the moved plane by the skew times the distance along it (a
+    # ball touching the plane 1 km out was lost; review, 2026-11-22).
+    R = np.eye(3) + np.array([[0, 0, 1], [0, 0, 0], [1, 0, 0.0]]) * 4.9e-7
+    art = Articulation([0, 0, 0], [1, 2], [shapes.plane((0, 0, 1), 0.0), PointCloud([[0, 0, 0]], 0.01)])
+    bp = BroadPhase(art)
+    rot = np.stack([EYE, R, EYE])
+    true_n = np.linalg.inv(R).T @ [0, 0, 1.0]
+    true_n /= np.linalg.norm(true_n)
+    for far in (1.0, 1e3, 1e5):
+        pos = np.zeros((3, 3))
+        pos[2] = R @ [far, 0, 0] + true_n * (0.01 - 1e-6 * max(1.0, far / 1e3))  # the ball dips into the plane
+        assert testing.brute_force_pairs(art, pos, rot).tolist() == [[0, 1]], far
+        assert bp.pairs(pos, rot).tolist() == [[0, 1]], far
+        assert bp.pairs_batch(pos[None], rot[None]).tolist() == [[0, 0, 1]], far
+        wb = bp.world_bounds(pos, rot, inflate=False)
+        n, d = wb.plane[0, :3], wb.plane[0, 3]
+        for y in ([far, 0, 0], [0, far, 0], [-far, 0, 0], [0, -far, 0]):
+            assert n @ (R @ np.array(y)) - d <= 1e-15 * far  # the moved boundary lies in the halfspace

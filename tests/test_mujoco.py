@@ -764,3 +764,23 @@ def test_compare_counts_resets_and_keeps_the_timer_right():
     assert min(result["time_mujoco_broad_us_per_step"]) > 0 and result["recall"] == 1.0
     calm = cm.compare(cm.default_scene(seed=1), steps=30, seed=0)
     assert calm["unstable_resets"] == 0 and min(calm["time_mujoco_broad_us_per_step"]) > 0
+
+
+def test_world_bounds_refuse_an_mjdata_of_another_model():
+    # The same number of bodies, another geom: pairs() refused it, world_bounds() answered for it.
+    a = mujoco.MjModel.from_xml_string("<mujoco><worldbody><body><freejoint/><geom type='sphere' size='.1'/>"
+                                       "</body></worldbody></mujoco>")
+    b = mujoco.MjModel.from_xml_string("<mujoco><worldbody><body><freejoint/><geom type='box' size='.1 .1 .1'/>"
+                                       "</body></worldbody></mujoco>")
+    bp = cm.BroadPhase(a)
+    other = mujoco.MjData(b)
+    mujoco.mj_forward(b, other)
+    with pytest.raises(ValueError, match="made for another model"):
+        bp.pairs(other)
+    with pytest.raises(ValueError, match="made for another model"):
+        bp.world_bounds(other)
+    mine = mujoco.MjData(a)
+    mujoco.mj_forward(a, mine)
+    with pytest.raises(ValueError, match="of: expected 'geoms' or 'bodies'"):
+        bp.world_bounds(mine, of="links")
+    assert bp.world_bounds(mine).sphere_radius.shape == (1,)

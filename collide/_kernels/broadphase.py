@@ -73,6 +73,12 @@ _FWD = np.array([(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz i
 OK = 0
 BAD_NONFINITE = 1
 BAD_ROTATION = 2
+BAD_RANGE = 3
+# Body positions are refused beyond this (`collide.hull.MAX_COORDINATE`, the geoms' own limit):
+# near the float range, sums of coordinates overflow to inf and an inf times a zero normal
+# component is NaN, which no test passes (a ball touching a plane at 1e308 was lost; review,
+# 2026-11-22).
+MAX_POSITION = 1e150
 
 # stats slots
 (ST_SUBTREE, ST_BODY_AABB, ST_BODY_SPHERE, ST_BODY_OBB, ST_GEOM_SPHERE, ST_GEOM_OBB, ST_PLANE, ST_OUT,
@@ -244,7 +250,7 @@ def _world_row(rot, pos, b, src, s, dst, d):
 
 @nb.njit(cache=True, inline="always")
 def _pose_ok(r00, r01, r02, r10, r11, r12, r20, r21, r22, p0, p1, p2):
-    # One test per body: R^T R = I within ORTHO_TOL, det > 0, a finite position. Comparisons
+    # One test per body: R^T R = I within ORTHO_TOL, det > 0, a position within MAX_POSITION. Comparisons
     # with NaN are false, and an inf in R makes a product inf or NaN, so a non-finite pose
     # fails too (the caller tells which afterwards). det > 0 (no reflection): column 2 must
     # agree with column 0 x column 1 in sign.
@@ -256,7 +262,7 @@ def _pose_ok(r00, r01, r02, r10, r11, r12, r20, r21, r22, p0, p1, p2):
             & (abs(r00 * r01 + r10 * r11 + r20 * r21) <= ORTHO_TOL)
             & (abs(r00 * r02 + r10 * r12 + r20 * r22) <= ORTHO_TOL)
             & (abs(r01 * r02 + r11 * r12 + r21 * r22) <= ORTHO_TOL)
-            & (det > 0.0) & (abs(p0) < np.inf) & (abs(p1) < np.inf) & (abs(p2) < np.inf))
+            & (det > 0.0) & (abs(p0) <= MAX_POSITION) & (abs(p1) <= MAX_POSITION) & (abs(p2) <= MAX_POSITION))
 
 
 @nb.njit(cache=True, inline="always")
@@ -974,6 +980,9 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
         if not ok:
             info[0] = BAD_ROTATION
             for i in range(3):
+                if abs(body_pos[b, i]) > MAX_POSITION:
+                    info[0] = BAD_RANGE
+            for i in range(3):
                 if not np.isfinite(body_pos[b, i]):
                     info[0] = BAD_NONFINITE
                 for j in range(3):
@@ -1298,14 +1307,38 @@ def _geom_rows(x, order, gstart, pgeoms, glocal, gmargin, body_pos, body_rot, gw
 
 
 @nb.njit(cache=True, inline="always")
+def plane_world(r00, r01, r02, r10, r11, r12, r20, r21, r22, p0, p1, p2, n0, n1, n2, d):
+    """The world halfspace ``(m, e)``, ``{x : m . x <= e}``, unit ``m``, of the local one
+    ``{y : n . y <= d}`` under ``x = R y + p``: ``m`` along ``R^-T n``, the cofactor matrix of R
+    times n (``R^-T = cof(R) / det R``), exact for any proper R. ``R n`` is right only for an exact
+    rotation: under one accepted within ORTHO_TOL the plane moved by up to the tolerance times the
+    distance from the body (0.1 at 100 km; review, 2026-11-22). Both kernels call this (the
+    lanes must round as one world does)."""
+    # rows of cof(R): r1 x r2, r2 x r0, r0 x r1
+    w0 = (r11 * r22 - r12 * r21) * n0 + (r12 * r20 - r10 * r22) * n1 + (r10 * r21 - r11 * r20) * n2
+    w1 = (r21 * r02 - r22 * r01) * n0 + (r22 * r00 - r20 * r02) * n1 + (r20 * r01 - r21 * r00) * n2
+    w2 = (r01 * r12 - r02 * r11) * n0 + (r02 * r10 - r00 * r12) * n1 + (r00 * r11 - r01 * r10) * n2
+    det = r00 * (r11 * r22 - r12 * r21) + r01 * (r12 * r20 - r10 * r22) + r02 * (r10 * r21 - r11 * r20)
+    norm = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    m0 = w0 / norm
+    m1 = w1 / norm
+    m2 = w2 / norm
+    # n . R^-1 (x - p) <= d  <=>  w . x <= d det + w . p, divided by |w|
+    e = d * (det / norm) + m0 * p0 + m1 * p1 + m2 * p2
+    return m0, m1, m2, e
+
+
+@nb.njit(cache=True, inline="always")
 def _plane_world(g, body_pos, body_rot, geom_bid, gplane, out, o):
     b = geom_bid[g]
-    d = gplane[g, 3]
-    for i in range(3):
-        n = body_rot[b, i, 0] * gplane[g, 0] + body_rot[b, i, 1] * gplane[g, 1] + body_rot[b, i, 2] * gplane[g, 2]
-        out[o, i] = n
-        d += n * body_pos[b, i]
-    out[o, 3] = d
+    m0, m1, m2, e = plane_world(body_rot[b, 0, 0], body_rot[b, 0, 1], body_rot[b, 0, 2], body_rot[b, 1, 0],
+                                body_rot[b, 1, 1], body_rot[b, 1, 2], body_rot[b, 2, 0], body_rot[b, 2, 1],
+                                body_rot[b, 2, 2], body_pos[b, 0], body_pos[b, 1], body_pos[b, 2],
+                                gplane[g, 0], gplane[g, 1], gplane[g, 2], gplane[g, 3])
+    out[o, 0] = m0
+    out[o, 1] = m1
+    out[o, 2] = m2
+    out[o, 3] = e
 
 
 @nb.njit(cache=True, inline="always")

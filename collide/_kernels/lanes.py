@@ -32,7 +32,7 @@ from ._simd import aabb_mask8
 from .broadphase import (BIG, C_KEYS, C_NKEYS, N_STATS, NCTX, ROW, SLACK_POS, SLACK_REL, ST_BODY_OBB,
                          ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT, ST_PLANE, ST_SUBTREE,
                          _batch_world, _buffers, _explicit_hit, _plane_hit_local, _pose_ok, _views, aabb_slack,
-                         bounds_mask)
+                         bounds_mask, plane_world)
 
 LANES = 8
 MAX_BODY_PAIRS = 4096  # above this many static body pairs, the tree of the per-world kernel culls better
@@ -296,13 +296,13 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats):
         b = geom_bid[qg]
         mq = gmargin[qg]
         for l in range(nv):
-            d = gplane[qg, 3]
-            for c in range(3):
-                nc = (ps[b, 3 + 3 * c, l] * gplane[qg, 0] + ps[b, 4 + 3 * c, l] * gplane[qg, 1]
-                      + ps[b, 5 + 3 * c, l] * gplane[qg, 2])
-                pln[i, c, l] = nc
-                d += nc * ps[b, c, l]
-            pln[i, 3, l] = d
+            m0, m1, m2, e = plane_world(ps[b, 3, l], ps[b, 4, l], ps[b, 5, l], ps[b, 6, l], ps[b, 7, l], ps[b, 8, l],
+                                        ps[b, 9, l], ps[b, 10, l], ps[b, 11, l], ps[b, 0, l], ps[b, 1, l], ps[b, 2, l],
+                                        gplane[qg, 0], gplane[qg, 1], gplane[qg, 2], gplane[qg, 3])
+            pln[i, 0, l] = m0
+            pln[i, 1, l] = m1
+            pln[i, 2, l] = m2
+            pln[i, 3, l] = e
         stats[ST_PLANE] += (plane_start[i + 1] - plane_start[i]) * nlanes
         for e in range(plane_start[i], plane_start[i + 1]):
             x = plane_pos[e]

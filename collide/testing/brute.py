@@ -15,7 +15,7 @@ import numpy as np
 
 from .._kernels import broadphase as _k
 from ..articulation import Articulation
-from ..broadphase import check_pose_values
+from ..broadphase import check_pose_values, world_planes
 
 
 # ------------------------------------------------------------------------------- static filter
@@ -74,8 +74,11 @@ def world_bounds(art: Articulation, body_pos, body_rot):
     center = np.einsum("gij,gj->gi", Rb, art.geom_obb_center) + pb
     rot = Rb @ art.geom_obb_rot
     sc = np.einsum("gij,gj->gi", Rb, art.geom_sphere_center) + pb
-    n = np.einsum("gij,gj->gi", Rb, art.geom_plane[:, :3])
-    plane = np.concatenate([n, (art.geom_plane[:, 3] + np.sum(n * pb, axis=1))[:, None]], axis=1)
+    plane = np.zeros((art.geom_count, 4))
+    q = np.flatnonzero(art.geom_is_plane)
+    if len(q):
+        n, d = world_planes(Rb[q], pb[q], art.geom_plane[q])
+        plane[q, :3], plane[q, 3] = n, d
     return center, rot, art.geom_obb_half.copy(), sc, art.geom_sphere_radius.copy(), plane
 
 
@@ -132,11 +135,13 @@ def _bounds_test(wb, g1, g2, m1, m2, is_plane) -> np.ndarray:
     return out
 
 
-def _explicit_margins(art: Articulation):
+def _explicit_margins(art: Articulation, bound: bool):
+    # bound: the margins the bounds carry (the broad phase's, `Articulation.geom_bound_margin`);
+    # else the exact ones.
     g1, g2 = art.pairs[:, 0], art.pairs[:, 1]
-    pm = art.pair_margin
-    m1 = np.where(np.isnan(pm), art.geom_margin[g1], pm)
-    m2 = np.where(np.isnan(pm), art.geom_margin[g2], pm)
+    pm, gm = (art.pair_bound_margin, art.geom_bound_margin) if bound else (art.pair_margin, art.geom_margin)
+    m1 = np.where(np.isnan(pm), gm[g1], pm)
+    m2 = np.where(np.isnan(pm), gm[g2], pm)
     keep = ~(art.geom_is_plane[g1] & art.geom_is_plane[g2])
     return g1[keep], g2[keep], m1[keep], m2[keep]
 
@@ -173,13 +178,13 @@ def brute_force_bound_pairs(art: Articulation, body_pos, body_rot, chunk: int = 
     """
     wb = world_bounds(art, body_pos, body_rot)
     g1, g2 = filter_passing_pairs(art)
-    m = art.geom_margin
+    m = art.geom_bound_margin
     keep = []
     for s in range(0, len(g1), chunk):
         a, b = g1[s:s + chunk], g2[s:s + chunk]
         keep.append(_bounds_test(wb, a, b, m[a], m[b], art.geom_is_plane))
     keep = np.concatenate(keep) if keep else np.zeros(0, bool)
-    e1, e2, em1, em2 = _explicit_margins(art)
+    e1, e2, em1, em2 = _explicit_margins(art, bound=True)
     ek = _bounds_test(wb, e1, e2, em1, em2, art.geom_is_plane)
     return _as_pairs(np.r_[g1[keep], e1[ek]], np.r_[g2[keep], e2[ek]])
 
@@ -418,7 +423,7 @@ def brute_force_pairs(art: Articulation, body_pos, body_rot, candidates=None) ->
     if candidates is None:
         g1, g2 = filter_passing_pairs(art)
         m1, m2 = art.geom_margin[g1], art.geom_margin[g2]
-        e1, e2, em1, em2 = _explicit_margins(art)
+        e1, e2, em1, em2 = _explicit_margins(art, bound=False)
         g1, g2, m1, m2 = np.r_[g1, e1], np.r_[g2, e2], np.r_[m1, em1], np.r_[m2, em2]
     else:
         g1, g2 = (np.asarray(c, np.int64) for c in candidates)
