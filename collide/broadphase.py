@@ -104,7 +104,8 @@ def check_pose_values(body_pos: np.ndarray, body_rot: np.ndarray, where: str = "
         BroadPhase._raise(status, b, where)
 
 
-def world_planes(rot: np.ndarray, pos: np.ndarray, local: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def world_planes(rot: np.ndarray, pos: np.ndarray, local: np.ndarray,
+                 slack: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """World halfspaces ``{x : n . x <= d}`` (unit ``n``) of local ones under ``x = R y + p``.
 
     Parameters
@@ -114,6 +115,9 @@ def world_planes(rot: np.ndarray, pos: np.ndarray, local: np.ndarray) -> tuple[n
     pos : (n, 3) float64
     local : (n, 4) float64
         Local unit normal and offset.
+    slack : bool, default True
+        Grow the offset by the kernels' rounding slack of the body position (``SLACK_POS |p|_1``),
+        as `_k.plane_world` does; False: the plane itself, up to rounding.
 
     Returns
     -------
@@ -125,7 +129,8 @@ def world_planes(rot: np.ndarray, pos: np.ndarray, local: np.ndarray) -> tuple[n
     w = np.linalg.solve(np.swapaxes(rot, 1, 2), local[:, :3, None])[:, :, 0]
     norm = np.linalg.norm(w, axis=1)
     normal = w / norm[:, None]
-    return normal, local[:, 3] / norm + np.einsum("ni,ni->n", normal, pos)
+    offset = local[:, 3] / norm + np.einsum("ni,ni->n", normal, pos)
+    return normal, offset + (_k.SLACK_POS * np.abs(pos).sum(axis=1) if slack else 0.0)
 
 
 FLAT_BODIES = 64  # see BroadPhase._flat_lists
@@ -452,8 +457,9 @@ class BroadPhase:
         Raises
         ------
         ValueError
-            Wrong shape or dtype, or a pose with a NaN/inf or a rotation that is not orthonormal
-            (naming the first offending body); the broad phase stays usable.
+            Wrong shape or dtype, or a pose with a NaN/inf, a position beyond ``1e150``
+            (`_k.MAX_POSITION`) or a rotation that is not orthonormal (naming the first offending
+            body); the broad phase stays usable.
         """
         if body_pos is None and body_rot is None:
             # the bound arrays' current values (see bind)
@@ -565,9 +571,10 @@ class BroadPhase:
             As for `pairs`; with neither, the arrays given to `bind`.
         of : {"geoms", "bodies"}
             ``"geoms"``: G rows, by geom id. ``"bodies"``: L rows, by body id, each containing its
-            geoms' bounds inflated by their margins (what the tree culls with; a body without a
-            solid geom is empty: ``aabb_min = inf``, ``aabb_max = -inf``, ``sphere_radius`` and
-            ``obb_half = -inf``).
+            geoms' bounds inflated by their margins (what the tree culls with, except the world
+            when it holds two or more solid geoms: the tree takes each of those as a leaf of its
+            own; a body without a solid geom is empty: ``aabb_min = inf``, ``aabb_max = -inf``,
+            ``sphere_radius`` and ``obb_half = -inf``).
         inflate : bool, default True
             Geoms: inflate each by its margin (radius + margin, half extents + margin, a plane's
             offset + margin: `Articulation.geom_bound_margin`), as `pairs` does for every pair but
@@ -582,8 +589,9 @@ class BroadPhase:
         Raises
         ------
         ValueError
-            As `pairs`: wrong shape or dtype, a non-finite pose or a rotation that is not
-            orthonormal (naming the first offending body); ``of`` not one of the two.
+            As `pairs`: wrong shape or dtype, a non-finite pose, a position beyond ``1e150`` or a
+            rotation that is not orthonormal (naming the first offending body); ``of`` not one of
+            the two.
         """
         if of not in ("geoms", "bodies"):
             raise ValueError(f"of: expected 'geoms' or 'bodies', got {of!r}")

@@ -661,7 +661,8 @@ class BroadPhase:
 
         `collide.BroadPhase.world_bounds` on ``data.xpos`` and ``data.xmat``; rows by MuJoCo geom
         (or body) id. Inflated geoms are grown by `geom_inflation` (margin + gap +
-        ``opt.ccd_tolerance``); an explicit ``<pair>`` is tested with its own inflation instead.
+        ``opt.ccd_tolerance``, times ``1 + MARGIN_SLACK``: `Articulation.geom_bound_margin`); an
+        explicit ``<pair>`` is tested with its own inflation instead.
 
         Returns
         -------

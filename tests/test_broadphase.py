@@ -483,14 +483,38 @@ def test_positions_up_to_the_coordinate_limit_are_valid_and_beyond_it_refused(ro
     assert np.array_equal(bp.pairs(pos, rot), want)  # and it keeps working
 
 
-def test_a_ball_on_a_plane_far_from_the_origin_is_found():
-    art = Articulation([0, 0], [0, 1], [shapes.plane((0, 0, 1), 0.0), PointCloud([[0, 0, 0]], 0.5)])
+def test_a_plane_on_a_far_body_keeps_its_touching_balls():
+    # The plane's body 1e9 from the origin, its boundary near the origin: the world offset carries
+    # ~eps |p| of rounding, which the plane tests' slack (scaled by |offset|) did not cover; a
+    # touching ball was lost by every path (review, 2026-11-22). Then a sweep of such layouts.
+    R = np.array([[-0.8361936715421523, 0.11393562808107999, 0.536468840033254],
+                  [-0.049656705321903104, -0.9898935457849072, 0.1328344068001872],
+                  [0.546181613833191, 0.0844360152254579, 0.8334003863950492]])
+    p = np.array([-464123151.2672715, 148843237.64170915, -873175464.0769925])
+    ball = np.array([0.3944170196932064, -1.8580630714139803, 0.054262339666094395])
+    art = Articulation([0, 0, 0], [1, 2], [shapes.plane((0, 0, 1), 956920874.5670179),
+                                           PointCloud([[0.0, 0, 0]], 0.01)])
     bp = BroadPhase(art)
-    rot = np.tile(EYE, (2, 1, 1))
-    for x in (1e6, 1e50, 1e150):
-        pos = np.array([[0, 0, 0], [x, -x, 0.5 - 1e-9 * 0.5]])
-        assert bp.pairs(pos, rot).tolist() == [[0, 1]], x
-
+    pos, rot = np.array([[0, 0, 0], p, ball]), np.stack([EYE, R, EYE])
+    assert testing.brute_force_pairs(art, pos, rot).tolist() == [[0, 1]]
+    assert _batch_equals_single(bp, pos, rot) == ([[0, 1]],) * 3
+    rng = np.random.default_rng(5)
+    touching = 0
+    for scale in (1e3, 1e6, 1e12):
+        for _ in range(60):
+            R = random_rotation(rng)
+            p = rng.normal(size=3) * scale
+            n = R[:, 2]  # the plane's world normal; its local offset puts it through the origin
+            far = Articulation([0, 0, 0], [1, 2], [shapes.plane((0, 0, 1), float(-n @ p)),
+                                                   PointCloud([[0.0, 0, 0]], 0.01)])
+            q = rng.normal(size=3)
+            pos = np.array([[0, 0, 0], p, q - (n @ q) * n + 0.01 * n])  # a ball resting on it near the origin
+            rot = np.stack([EYE, R, EYE])
+            want = testing.brute_force_pairs(far, pos, rot).tolist()
+            touching += want == [[0, 1]]
+            got = _batch_equals_single(BroadPhase(far), pos, rot)
+            assert got[0] == got[1] == got[2] and set(map(tuple, want)) <= set(map(tuple, got[0])), scale
+    assert touching > 100
 
 def test_wrong_shapes_and_dtypes_raise(robot_bp):
     sc, bp = robot_bp
@@ -1131,14 +1155,16 @@ def test_world_bounds_of_a_box_and_a_ball_are_known():
     assert np.all(wb.aabb_max[1] - pos[2] >= 0.6) and np.all(pos[2] - wb.aabb_min[1] >= 0.6)
 
 
+@pytest.mark.parametrize("explicit", [False, True], ids=["geom_margin", "pair_margin"])
 @pytest.mark.parametrize("scale", [1 - 4.9e-7, 1 + 4.9e-7])
-def test_margins_are_covered_under_accepted_nearly_orthonormal_rotations(scale):
+def test_margins_are_covered_under_accepted_nearly_orthonormal_rotations(scale, explicit):
     # Two points with margin 1, 2 - 1e-7 apart: touching. Body rotations scaled by 1 -/+ 4.9e-7
     # are accepted (|R^T R - I| = 9.8e-7 <= 1e-6); the bounds moved the margin with them and the
     # pair was lost, and a point of the inflated shape fell outside the world bounds (review,
-    # 2026-11-22).
+    # 2026-11-22). The same for an explicit pair's own margin.
     dot = PointCloud([[0, 0, 0]])
-    art = Articulation([0, 0, 0], [1, 2], [dot, dot], geom_margin=[1.0, 1.0])
+    art = (Articulation([0, 0, 0], [1, 2], [dot, dot], pairs=[(0, 1)], pair_margin=[1.0]) if explicit
+           else Articulation([0, 0, 0], [1, 2], [dot, dot], geom_margin=[1.0, 1.0]))
     bp = BroadPhase(art)
     rot = np.stack([EYE, scale * EYE, scale * EYE])
     pos = np.array([[0, 0, 0], [0, 0, 0], [2 - 1e-7, 0, 0.0]])
@@ -1146,10 +1172,39 @@ def test_margins_are_covered_under_accepted_nearly_orthonormal_rotations(scale):
     assert bp.pairs(pos, rot).tolist() == [[0, 1]]
     assert bp.pairs_batch(pos[None], rot[None]).tolist() == [[0, 0, 1]]
     assert testing.brute_force_bound_pairs(art, pos, rot).tolist() == [[0, 1]]
+    if explicit:
+        return  # world_bounds inflates by the geoms' margins (0 here), not by a pair's
     wb = bp.world_bounds(pos, rot)
     reach = np.vstack([EYE, -EYE])  # the inflated point's extremes, margin 1 in the world
     assert np.all(np.abs((reach - wb.obb_center[0]) @ wb.obb_rot[0]) <= wb.obb_half[0])
     assert np.all(reach <= wb.aabb_max[0]) and np.all(reach >= wb.aabb_min[0])
+
+
+def test_the_exact_twin_keeps_exact_margins_and_the_bounds_their_slack():
+    # Points with margin 1, 2 (1 + 1e-5) apart: not touching (the exact twin), but within the
+    # bounds' margin slack (MARGIN_SLACK = 3.2e-5 relative): the broad phase and its bound twin
+    # report them, the exact twin does not.
+    dot = PointCloud([[0, 0, 0]])
+    art = Articulation([0, 0, 0], [1, 2], [dot, dot], geom_margin=[1.0, 1.0])
+    pos = np.array([[0, 0, 0], [0, 0, 0], [2 * (1 + 1e-5), 0, 0.0]])
+    rot = np.tile(EYE, (3, 1, 1))
+    assert testing.brute_force_pairs(art, pos, rot).tolist() == []
+    assert testing.brute_force_bound_pairs(art, pos, rot).tolist() == [[0, 1]]
+    assert BroadPhase(art).pairs(pos, rot).tolist() == [[0, 1]]
+
+
+def test_position_limit_is_the_geoms_coordinate_limit():
+    assert _kern.MAX_POSITION == collide.hull.MAX_COORDINATE
+
+
+def test_world_aabbs_carry_the_rounding_slack_of_their_centres():
+    # A point geom far from the origin: its world AABB is as wide as the kernels' slack of its
+    # centre's magnitude (SLACK_POS |c|_1 each way, 6e-5 here), which covers the rounding of c;
+    # without it, one ulp (6e-8). Compared at half, the widths themselves being rounded at 3e8.
+    bp = BroadPhase(Articulation([0, 0], [1], [PointCloud([[0.3, 0.2, 0.1]])]))
+    pos = np.array([[0, 0, 0], [1e8, -2e8, 3e8]])
+    wb = bp.world_bounds(pos, np.stack([EYE, random_rotation(np.random.default_rng(0))]))
+    assert np.all(wb.aabb_max[0] - wb.aabb_min[0] >= _kern.SLACK_POS * np.abs(wb.obb_center[0]).sum())
 
 
 def test_planes_on_nearly_orthonormal_bodies_are_moved_exactly():

@@ -12,13 +12,14 @@ from __future__ import annotations
 import sys
 
 from llvmlite import ir
-from numba.core import types
+from numba.core import cgutils, types
 from numba.extending import intrinsic
 
-# CLOCK_MONOTONIC's id (time.h): 1 on Linux; other systems are not given this clock (see
-# `collide.mujoco.mujoco_timer`).
+# CLOCK_MONOTONIC's id (time.h): 1 on Linux; other systems, and 32-bit ones (whose time_t may be
+# 32 bits: the two-int64 timespec below would be wrong), are not given this clock (see
+# `collide.mujoco._native_clock`).
 CLOCK_MONOTONIC = 1
-AVAILABLE = sys.platform.startswith("linux")
+AVAILABLE = sys.platform.startswith("linux") and sys.maxsize > 2**32
 
 
 @intrinsic
@@ -33,7 +34,7 @@ def now_us(typingctx):
         fn = builder.module.globals.get("clock_gettime")
         if fn is None:
             fn = ir.Function(builder.module, fnty, name="clock_gettime")
-        ts = builder.alloca(ts_type)
+        ts = cgutils.alloca_once(builder, ts_type)  # in the entry block: no growth if inlined in a loop
         builder.call(fn, [ir.Constant(i32, CLOCK_MONOTONIC), ts])
         zero = ir.Constant(i32, 0)
         sec = builder.load(builder.gep(ts, [zero, zero]))

@@ -74,7 +74,8 @@ OK = 0
 BAD_NONFINITE = 1
 BAD_ROTATION = 2
 BAD_RANGE = 3
-# Body positions are refused beyond this (`collide.hull.MAX_COORDINATE`, the geoms' own limit):
+# Body positions are refused beyond this (= `collide.hull.MAX_COORDINATE`, the geoms' own limit;
+# a test keeps the two equal):
 # near the float range, sums of coordinates overflow to inf and an inf times a zero normal
 # component is NaN, which no test passes (a ball touching a plane at 1e308 was lost; review,
 # 2026-11-22).
@@ -1323,8 +1324,11 @@ def plane_world(r00, r01, r02, r10, r11, r12, r20, r21, r22, p0, p1, p2, n0, n1,
     m0 = w0 / norm
     m1 = w1 / norm
     m2 = w2 / norm
-    # n . R^-1 (x - p) <= d  <=>  w . x <= d det + w . p, divided by |w|
-    e = d * (det / norm) + m0 * p0 + m1 * p1 + m2 * p2
+    # n . R^-1 (x - p) <= d  <=>  w . x <= d det + w . p, divided by |w|. The offset carries the
+    # rounding of m . p, ~eps |p|: covered here, where |p| is known (the plane tests' own slack
+    # sees only |e|, which is small for a plane through the origin on a body at 1e9: a touching
+    # ball was lost; review, 2026-11-22).
+    e = d * (det / norm) + m0 * p0 + m1 * p1 + m2 * p2 + SLACK_POS * (abs(p0) + abs(p1) + abs(p2))
     return m0, m1, m2, e
 
 

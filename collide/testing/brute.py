@@ -454,14 +454,17 @@ def brute_force_pairs(art: Articulation, body_pos, body_rot, candidates=None) ->
     _pairs_touch(g1[idx].astype(np.int64), g2[idx].astype(np.int64), rad, pts, pstart, body_rot, body_pos,
                  art.geom_body.astype(np.int64), res)
     touch[idx] = res
-    _, _, _, _, _, plane = world_bounds(art, body_pos, body_rot)
     for k in np.flatnonzero(is_plane[g1] ^ is_plane[g2]):
         gp, gs = (g1[k], g2[k]) if is_plane[g1[k]] else (g2[k], g1[k])
         mp, ms = (m1[k], m2[k]) if is_plane[g1[k]] else (m2[k], m1[k])
-        b = art.geom_body[gs]
+        bp_, b = art.geom_body[gp], art.geom_body[gs]
+        n, d = world_planes(body_rot[bp_][None], body_pos[bp_][None], art.geom_plane[gp][None], slack=False)
         P = art.geom_local_cloud[gs].points @ body_rot[b].T + body_pos[b]
-        low = float(np.min(P @ plane[gp, :3])) - crad[gs] - ms
-        touch[k] = low <= plane[gp, 3] + mp
+        low = float(np.min(P @ n[0])) - crad[gs] - ms
+        # the plane's offset carries ~eps of its body's position, the points ~eps of theirs (as
+        # the GJK branch's relative 1e-14)
+        scale = float(np.abs(body_pos[bp_]).sum() + np.abs(P).max() + abs(d[0]))
+        touch[k] = low <= d[0] + mp + 1e-14 * scale
     return _as_pairs(g1[touch], g2[touch])
 
 
