@@ -12,15 +12,15 @@ Example
 >>> pairs = bp.pairs(data.xpos, data.xmat.reshape(-1, 3, 3))   # (K, 2) int32 geom ids
 
 Measured (tests/bench/broadphase.txt and mujoco_models.txt, 2 shared cores; see those files for
-the figures of the latest run): random convex hulls from 64 bodies take less time than MuJoCo
-4.0's broad phase (~0.25x at 4096 bodies) with 3-4x fewer candidates. Small scenes are dominated by
+the figures of the latest run): random convex hulls from 256 bodies (64 in most runs) take less
+time than MuJoCo 4.0's broad phase (~0.25x at 4096 bodies) with 3-4x fewer candidates. Small scenes are dominated by
 fixed costs: around the kernel's own work, the Python call into numba, the keys-to-rows conversion
 and the copy of the result add ~1 us (franka, hot: 0.9 us of work, 2.0 us per call with the
 arrays passed, 1.9 with them bound by `bind`), and in a simulation loop the first call after
 ``mj_step`` runs 1.3-1.6x slower than a repeat (caches and predictors left to MuJoCo's code and
 data). Batches of a small model (`pairs_batch`) run eight worlds at a time in SIMD lanes
 (`_kernels.lanes`): per world, about 0.5x of MuJoCo's single-world broad-phase time on one core
-(humanoid), 0.3x (humanoid) to 0.5x (a 64-link chain) on two.
+(humanoid), 0.2x to 0.5x on two (humanoid, a 64-link chain; with the machine's load).
 
 `BroadPhase.world_bounds` returns the world spheres and OBBs the broad phase tests (of geoms or
 bodies) and their AABBs, for drawing them, debugging a pair, or feeding another spatial structure.
