@@ -669,10 +669,14 @@ class BroadPhase:
         collide.broadphase.WorldBounds
         """
         self._check_data(data)
-        if not np.any(data.xmat):
-            raise ValueError("data: body poses are all zero; run mujoco.mj_kinematics, mj_forward or mj_step on it "
-                             "first")
-        return self.broadphase.world_bounds(data.xpos, data.xmat.reshape(-1, 3, 3), of, inflate)
+        try:
+            return self.broadphase.world_bounds(data.xpos, data.xmat.reshape(-1, 3, 3), of, inflate)
+        except ValueError as exc:
+            # a pose error (the arguments are checked first) on an MjData never moved
+            if str(exc).startswith("body ") and not np.any(data.xmat):
+                raise ValueError("data: body poses are all zero; run mujoco.mj_kinematics, mj_forward or mj_step "
+                                 "on it first") from exc
+            raise
 
     def _check_data(self, data) -> None:
         # An MjData of this model (checked where pairs() binds its arrays, and by world_bounds).

@@ -724,6 +724,8 @@ def test_world_bounds_contain_mujocos_own_geoms():
     assert bodies.aabb_min.shape == (model.nbody, 3)
     with pytest.raises(ValueError, match="body poses are all zero"):
         bp.world_bounds(mujoco.MjData(model))
+    with pytest.raises(ValueError, match="inflate: expected True or False"):
+        bp.world_bounds(mujoco.MjData(model), inflate="yes")  # the argument named, not the poses
     with pytest.raises(ValueError, match="of: expected 'geoms' or 'bodies'"):
         bp.world_bounds(data, of="links")
     with pytest.raises(ValueError, match="expected a mujoco.MjData"):
