@@ -613,8 +613,8 @@ class BroadPhase:
             unbounded, empty = a.geom_is_plane, np.zeros(a.geom_count, bool)
         else:
             ids = np.arange(a.body_count)
-            center, rot, half = a.body_obb_center, a.body_obb_rot, a.body_obb_half
-            sc, sr = a.body_sphere_center, a.body_sphere_radius
+            center, rot, half = a.body_obb_center, a.body_obb_rot, a.body_obb_half.copy()
+            sc, sr = a.body_sphere_center, a.body_sphere_radius.copy()
             unbounded, empty = np.zeros(a.body_count, bool), ~a.body_has_bounds
         R, p = body_rot[ids], body_pos[ids]
         c = np.einsum("nij,nj->ni", R, center) + p
@@ -635,12 +635,10 @@ class BroadPhase:
             plane[q, :3], plane[q, 3] = n, d
             c[q] = s[q] = n * d[:, None]
             obb_rot[q] = np.eye(3)
-            half, sr = half.copy(), sr.copy()
             half[q], sr[q], lo[q], hi[q] = np.inf, np.inf, -np.inf, np.inf
         if empty.any():
-            half, sr = half.copy(), sr.copy()
             half[empty], sr[empty], lo[empty], hi[empty] = -np.inf, -np.inf, np.inf, -np.inf
-        return WorldBounds(c, obb_rot, np.array(half), s, np.array(sr), lo, hi, plane)
+        return WorldBounds(c, obb_rot, half, s, sr, lo, hi, plane)
 
     @property
     def stats(self) -> dict:

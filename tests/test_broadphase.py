@@ -1031,7 +1031,7 @@ def _primitive_articulation(rng, n_bodies=8):
     return art, specs
 
 
-def _inside(points, wb, i, inflated_by, tol):
+def _inside(points, wb, i, tol):
     # points (n, 3) world: inside row i's OBB, sphere and AABB, each given up to tol.
     local = (points - wb.obb_center[i]) @ wb.obb_rot[i]
     obb = np.abs(local) <= wb.obb_half[i] + tol
@@ -1060,9 +1060,9 @@ def test_world_bounds_contain_the_true_surfaces_under_random_poses(seed):
             d = rng.normal(size=pts.shape)
             grown = pts + art.geom_margin[g] * d / np.linalg.norm(d, axis=1, keepdims=True)
             tol = 1e-12 * (1.0 + scale)
-            assert _inside(pts, tight, g, 0.0, tol) == (True, True, True), (kind, params, scale)
-            assert _inside(grown, geoms, g, art.geom_margin[g], tol) == (True, True, True), (kind, scale)
-            assert _inside(grown, bodies, b, 0.0, tol) == (True, True, True), (kind, scale)
+            assert _inside(pts, tight, g, tol) == (True, True, True), (kind, params, scale)
+            assert _inside(grown, geoms, g, tol) == (True, True, True), (kind, scale)
+            assert _inside(grown, bodies, b, tol) == (True, True, True), (kind, scale)
             checked += len(pts)
         # the inflated bounds of a geom are its tight ones grown by its margin (an AABB side by at
         # most sqrt(3) margins each way: the box's grown diagonal), and no looser
