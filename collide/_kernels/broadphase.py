@@ -36,8 +36,8 @@ One step, for one world (`_world`):
    counting, even inlined: the hottest tests are written out);
 4. body pair -> static filter -> sphere and OBB separating-axis tests (15 axes, Ericson 2005,
    *Real-Time Collision Detection* §4.4.1), 64 body pairs at a time with every axis evaluated
-   (`bounds_mask`: one loop without a branch, vectorised) -> geom pairs, the same tests one by
-   one on the geoms' bounds;
+   (`_pairs_mask`: one loop without a branch, vectorised, the rows gathered where they lie) ->
+   geom pairs, the same tests one by one on the geoms' bounds;
 5. planes (halfspaces) down the tree, the static filter of every (plane, body) pair precomputed,
    a multi-geom body's geoms tested in the body's frame; explicit pairs last; keys ``g1 << S | g2`` sorted (``S`` bits
    hold any geom id: decoding is a shift and a mask, not an integer division per pair), the
@@ -123,7 +123,7 @@ def key_shift(G: int) -> int:
 
 def workspace_size(L: int, G: int, Q: int) -> int:
     """Length of the float64 workspace ``W`` of one world (``L`` positions)."""
-    return ROW * L + ROW * G + 18 * L + 4 * max(Q, 1) + 2 * ROW + 6 * G + L + 1 + 2 * ROW * 64
+    return ROW * L + ROW * G + 18 * L + 4 * max(Q, 1) + 2 * ROW + 6 * G + L + 1
 
 
 @nb.njit(cache=True, inline="always")
@@ -219,34 +219,101 @@ def _views(I, F, W):
     gaabb = nb.carray(f64_ptr(wa + 8 * w), (G, 6))
     w += 6 * G
     gstamp = W[w:w + L + 1]  # gstamp[L]: the call counter
-    w += L + 1
-    sa = nb.carray(f64_ptr(wa + 8 * w), (1, ROW, 64))  # stage 4's body rows as columns
-    w += ROW * 64
-    sb = nb.carray(f64_ptr(wa + 8 * w), (1, ROW, 64))
     return (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
             caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
             pair_keys,
             blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp, baabb_t,
-            sa, sb, flat_root, flat_n, flat_mask)
+            flat_root, flat_n, flat_mask)
 
 
 # ------------------------------------------------------------------------------- small tests
 
 @nb.njit(cache=True, inline="always")
 def _world_row(rot, pos, b, src, s, dst, d):
-    # dst[d] = world bounds of local row src[s] under body b's pose (rot[b] (3, 3), pos[b] (3,)).
-    # Indexing the pose arrays directly (no per-body views) spares numba's reference counting.
-    for i in range(3):
-        r0 = rot[b, i, 0]
-        r1 = rot[b, i, 1]
-        r2 = rot[b, i, 2]
-        dst[d, i] = pos[b, i] + r0 * src[s, 0] + r1 * src[s, 1] + r2 * src[s, 2]
-        dst[d, 15 + i] = pos[b, i] + r0 * src[s, 15] + r1 * src[s, 16] + r2 * src[s, 17]
-        for j in range(3):
-            dst[d, 3 + 3 * i + j] = r0 * src[s, 3 + j] + r1 * src[s, 6 + j] + r2 * src[s, 9 + j]
-    for j in range(12, 15):
-        dst[d, j] = src[s, j]
-    dst[d, 18] = src[s, 18]
+    """``dst[d]`` = world bounds of local row ``src[s]`` under body ``b``'s pose (``rot[b]`` (3, 3),
+    ``pos[b]`` (3,)); returns the world OBB (centre, axes row by row, half extents) for the
+    caller's AABB.
+
+    Every input is read into a local before the first store: the rows are raw pointers the
+    compiler cannot prove apart, and each store would otherwise force the later loads again
+    (22 humanoids: 5 % of a step). Indexing the pose arrays directly (no per-body views) spares
+    numba's reference counting.
+    """
+    r00 = rot[b, 0, 0]
+    r01 = rot[b, 0, 1]
+    r02 = rot[b, 0, 2]
+    r10 = rot[b, 1, 0]
+    r11 = rot[b, 1, 1]
+    r12 = rot[b, 1, 2]
+    r20 = rot[b, 2, 0]
+    r21 = rot[b, 2, 1]
+    r22 = rot[b, 2, 2]
+    p0 = pos[b, 0]
+    p1 = pos[b, 1]
+    p2 = pos[b, 2]
+    c0 = src[s, 0]
+    c1 = src[s, 1]
+    c2 = src[s, 2]
+    a00 = src[s, 3]
+    a01 = src[s, 4]
+    a02 = src[s, 5]
+    a10 = src[s, 6]
+    a11 = src[s, 7]
+    a12 = src[s, 8]
+    a20 = src[s, 9]
+    a21 = src[s, 10]
+    a22 = src[s, 11]
+    e0 = src[s, 12]
+    e1 = src[s, 13]
+    e2 = src[s, 14]
+    s0 = src[s, 15]
+    s1 = src[s, 16]
+    s2 = src[s, 17]
+    rad = src[s, 18]
+    # Centre R c + p; axes: row i of the world axes block is sum_k R[i, k] (local row k).
+    w0 = p0 + r00 * c0 + r01 * c1 + r02 * c2
+    w1 = p1 + r10 * c0 + r11 * c1 + r12 * c2
+    w2 = p2 + r20 * c0 + r21 * c1 + r22 * c2
+    m00 = r00 * a00 + r01 * a10 + r02 * a20
+    m01 = r00 * a01 + r01 * a11 + r02 * a21
+    m02 = r00 * a02 + r01 * a12 + r02 * a22
+    m10 = r10 * a00 + r11 * a10 + r12 * a20
+    m11 = r10 * a01 + r11 * a11 + r12 * a21
+    m12 = r10 * a02 + r11 * a12 + r12 * a22
+    m20 = r20 * a00 + r21 * a10 + r22 * a20
+    m21 = r20 * a01 + r21 * a11 + r22 * a21
+    m22 = r20 * a02 + r21 * a12 + r22 * a22
+    dst[d, 0] = w0
+    dst[d, 1] = w1
+    dst[d, 2] = w2
+    dst[d, 3] = m00
+    dst[d, 4] = m01
+    dst[d, 5] = m02
+    dst[d, 6] = m10
+    dst[d, 7] = m11
+    dst[d, 8] = m12
+    dst[d, 9] = m20
+    dst[d, 10] = m21
+    dst[d, 11] = m22
+    dst[d, 12] = e0
+    dst[d, 13] = e1
+    dst[d, 14] = e2
+    dst[d, 15] = p0 + r00 * s0 + r01 * s1 + r02 * s2
+    dst[d, 16] = p1 + r10 * s0 + r11 * s1 + r12 * s2
+    dst[d, 17] = p2 + r20 * s0 + r21 * s1 + r22 * s2
+    dst[d, 18] = rad
+    return w0, w1, w2, m00, m01, m02, m10, m11, m12, m20, m21, m22, e0, e1, e2
+
+
+@nb.njit(cache=True, inline="always")
+def _world_aabb(w0, w1, w2, m00, m01, m02, m10, m11, m12, m20, m21, m22, e0, e1, e2):
+    """Half widths of the world AABB of an OBB (centre ``w``, axes rows ``m``, half extents ``e``),
+    with the OBB test's rounding slack (`aabb_slack`): ``|M| e + tol`` per world axis."""
+    tol = aabb_slack(e0, e1, e2, w0, w1, w2)
+    h0 = abs(m00) * e0 + abs(m01) * e1 + abs(m02) * e2 + tol
+    h1 = abs(m10) * e0 + abs(m11) * e1 + abs(m12) * e2 + tol
+    h2 = abs(m20) * e0 + abs(m21) * e1 + abs(m22) * e2 + tol
+    return h0, h1, h2
 
 
 @nb.njit(cache=True, inline="always")
@@ -279,22 +346,36 @@ def aabb_slack(e0, e1, e2, c0, c1, c2):
 def _place(body_rot, body_pos, b, blocal, x, bw, baabb, saabb, baabb_t):
     # World row of position x (body b's pose) and its AABB: the AABB of the world OBB, also the
     # start of its subtree AABB (stage 2 merges the descendants in).
-    _world_row(body_rot, body_pos, b, blocal, x, bw, x)
     # The slack of the OBB test (SLACK_REL of the size, SLACK_POS of the centre's magnitude): the
     # tree's AABB tests compare lo <= hi bare, and a tiny body far from the origin (1e-6 at 1e6)
     # would otherwise lose a pair the OBB test keeps (rounding of the centre > its guard).
-    tol = aabb_slack(bw[x, 12], bw[x, 13], bw[x, 14], bw[x, 0], bw[x, 1], bw[x, 2])
-    for i in range(3):
-        h = (abs(bw[x, 3 + 3 * i]) * bw[x, 12] + abs(bw[x, 4 + 3 * i]) * bw[x, 13]
-             + abs(bw[x, 5 + 3 * i]) * bw[x, 14] + tol)
-        lo = bw[x, i] - h
-        hi = bw[x, i] + h
-        baabb[x, i] = lo
-        baabb[x, 3 + i] = hi
-        baabb_t[i, x] = lo
-        baabb_t[3 + i, x] = hi
-        saabb[x, i] = lo
-        saabb[x, 3 + i] = hi
+    w0, w1, w2, m00, m01, m02, m10, m11, m12, m20, m21, m22, e0, e1, e2 = _world_row(
+        body_rot, body_pos, b, blocal, x, bw, x)
+    h0, h1, h2 = _world_aabb(w0, w1, w2, m00, m01, m02, m10, m11, m12, m20, m21, m22, e0, e1, e2)
+    lo0 = w0 - h0
+    lo1 = w1 - h1
+    lo2 = w2 - h2
+    hi0 = w0 + h0
+    hi1 = w1 + h1
+    hi2 = w2 + h2
+    baabb[x, 0] = lo0
+    baabb[x, 1] = lo1
+    baabb[x, 2] = lo2
+    baabb[x, 3] = hi0
+    baabb[x, 4] = hi1
+    baabb[x, 5] = hi2
+    saabb[x, 0] = lo0
+    saabb[x, 1] = lo1
+    saabb[x, 2] = lo2
+    saabb[x, 3] = hi0
+    saabb[x, 4] = hi1
+    saabb[x, 5] = hi2
+    baabb_t[0, x] = lo0
+    baabb_t[1, x] = lo1
+    baabb_t[2, x] = lo2
+    baabb_t[3, x] = hi0
+    baabb_t[4, x] = hi1
+    baabb_t[5, x] = hi2
 
 
 @nb.njit(cache=True, inline="always")
@@ -387,72 +468,111 @@ def obb_hit(A, a, ma, B, b, mb):
 
 
 @nb.njit(cache=True, inline="always")
+def _bounds_ok(ra, ma, rb, mb):
+    """`_sphere_hit` and `obb_hit` of the bounds rows ``ra``, ``rb`` (19-tuples: a `ROW` each),
+    inflated by ``ma``, ``mb``, in the same operations (the same bits), with every axis evaluated
+    and the outcomes combined without a branch, so that a loop over pairs vectorises. An axis
+    separates only when ``|t| > r`` holds, as in `obb_hit`: a NaN projection (inf - inf at
+    coordinates near the float range) separates nothing in either."""
+    (A0, A1, A2, A3, A4, A5, A6, A7, A8, A9, A10, A11, A12, A13, A14, A15, A16, A17, A18) = ra
+    (B0, B1, B2, B3, B4, B5, B6, B7, B8, B9, B10, B11, B12, B13, B14, B15, B16, B17, B18) = rb
+    dx = A15 - B15
+    dy = A16 - B16
+    dz = A17 - B17
+    r = A18 + ma + B18 + mb
+    pos = ((abs(A15) + abs(A16) + abs(A17))
+           + (abs(B15) + abs(B16) + abs(B17)))
+    r += SLACK_REL * r + SLACK_POS * pos
+    ok = dx * dx + dy * dy + dz * dz <= r * r
+    ea0 = A12 + ma
+    ea1 = A13 + ma
+    ea2 = A14 + ma
+    eb0 = B12 + mb
+    eb1 = B13 + mb
+    eb2 = B14 + mb
+    r00 = A3 * B3 + A6 * B6 + A9 * B9
+    r01 = A3 * B4 + A6 * B7 + A9 * B10
+    r02 = A3 * B5 + A6 * B8 + A9 * B11
+    r10 = A4 * B3 + A7 * B6 + A10 * B9
+    r11 = A4 * B4 + A7 * B7 + A10 * B10
+    r12 = A4 * B5 + A7 * B8 + A10 * B11
+    r20 = A5 * B3 + A8 * B6 + A11 * B9
+    r21 = A5 * B4 + A8 * B7 + A11 * B10
+    r22 = A5 * B5 + A8 * B8 + A11 * B11
+    a00 = abs(r00) + EPS_PAR
+    a01 = abs(r01) + EPS_PAR
+    a02 = abs(r02) + EPS_PAR
+    a10 = abs(r10) + EPS_PAR
+    a11 = abs(r11) + EPS_PAR
+    a12 = abs(r12) + EPS_PAR
+    a20 = abs(r20) + EPS_PAR
+    a21 = abs(r21) + EPS_PAR
+    a22 = abs(r22) + EPS_PAR
+    d0 = B0 - A0
+    d1 = B1 - A1
+    d2 = B2 - A2
+    t0 = d0 * A3 + d1 * A6 + d2 * A9
+    t1 = d0 * A4 + d1 * A7 + d2 * A10
+    t2 = d0 * A5 + d1 * A8 + d2 * A11
+    pos = abs(A0) + abs(A1) + abs(A2) + abs(B0) + abs(B1) + abs(B2)
+    tol = SLACK_REL * (ea0 + ea1 + ea2 + eb0 + eb1 + eb2) + SLACK_POS * pos
+    ok &= not (abs(t0) > ea0 + eb0 * a00 + eb1 * a01 + eb2 * a02 + tol)
+    ok &= not (abs(t1) > ea1 + eb0 * a10 + eb1 * a11 + eb2 * a12 + tol)
+    ok &= not (abs(t2) > ea2 + eb0 * a20 + eb1 * a21 + eb2 * a22 + tol)
+    ok &= not (abs(t0 * r00 + t1 * r10 + t2 * r20) > ea0 * a00 + ea1 * a10 + ea2 * a20 + eb0 + tol)
+    ok &= not (abs(t0 * r01 + t1 * r11 + t2 * r21) > ea0 * a01 + ea1 * a11 + ea2 * a21 + eb1 + tol)
+    ok &= not (abs(t0 * r02 + t1 * r12 + t2 * r22) > ea0 * a02 + ea1 * a12 + ea2 * a22 + eb2 + tol)
+    ok &= not (abs(t2 * r10 - t1 * r20) > ea1 * a20 + ea2 * a10 + eb1 * a02 + eb2 * a01 + tol)
+    ok &= not (abs(t2 * r11 - t1 * r21) > ea1 * a21 + ea2 * a11 + eb0 * a02 + eb2 * a00 + tol)
+    ok &= not (abs(t2 * r12 - t1 * r22) > ea1 * a22 + ea2 * a12 + eb0 * a01 + eb1 * a00 + tol)
+    ok &= not (abs(t0 * r20 - t2 * r00) > ea0 * a20 + ea2 * a00 + eb1 * a12 + eb2 * a11 + tol)
+    ok &= not (abs(t0 * r21 - t2 * r01) > ea0 * a21 + ea2 * a01 + eb0 * a12 + eb2 * a10 + tol)
+    ok &= not (abs(t0 * r22 - t2 * r02) > ea0 * a22 + ea2 * a02 + eb0 * a11 + eb1 * a10 + tol)
+    ok &= not (abs(t1 * r00 - t0 * r10) > ea0 * a10 + ea1 * a00 + eb1 * a22 + eb2 * a21 + tol)
+    ok &= not (abs(t1 * r01 - t0 * r11) > ea0 * a11 + ea1 * a01 + eb0 * a22 + eb2 * a20 + tol)
+    ok &= not (abs(t1 * r02 - t0 * r12) > ea0 * a12 + ea1 * a02 + eb0 * a21 + eb1 * a20 + tol)
+    return ok
+
+
+@nb.njit(cache=True, inline="always")
+def _row_of_column(A, a, l):
+    # Row l of the (ROW, n) block A[a] (rows as columns) as a 19-tuple.
+    return (A[a, 0, l], A[a, 1, l], A[a, 2, l], A[a, 3, l], A[a, 4, l], A[a, 5, l], A[a, 6, l], A[a, 7, l], A[a, 8,
+     l], A[a, 9, l], A[a, 10, l], A[a, 11, l], A[a, 12, l], A[a, 13, l], A[a, 14, l], A[a, 15, l], A[a, 16, l], A[a,
+     17, l], A[a, 18, l])
+
+
+@nb.njit(cache=True, inline="always")
+def _row_of(A, a):
+    # Row A[a] of a (n, ROW) array as a 19-tuple.
+    return (A[a, 0], A[a, 1], A[a, 2], A[a, 3], A[a, 4], A[a, 5], A[a, 6], A[a, 7], A[a, 8], A[a, 9], A[a, 10], A[a,
+     11], A[a, 12], A[a, 13], A[a, 14], A[a, 15], A[a, 16], A[a, 17], A[a, 18])
+
+
+@nb.njit(cache=True, inline="always")
 def bounds_mask(A, a, ma, B, b, mb, n):
     """Bit l set when the bounds in column l of ``A[a]`` and ``B[b]`` (``(ROW, n)`` blocks: rows as
-    columns, one pair per column, n <= 64), inflated by ``ma``, ``mb``, overlap: sphere and OBB.
-
-    `_sphere_hit` and `obb_hit` in the same operations (the same bits), with every axis evaluated
-    and the outcomes combined without a branch, so that the loop over the columns vectorises. An
-    axis separates only when ``|t| > r`` holds, as in `obb_hit`: a NaN projection (inf - inf at
-    coordinates near the float range) separates nothing in either.
-    """
+    columns, one pair per column, n <= 64), inflated by ``ma``, ``mb``, overlap: `_bounds_ok`."""
     m = np.uint64(0)
     for l in range(n):
-        dx = A[a, 15, l] - B[b, 15, l]
-        dy = A[a, 16, l] - B[b, 16, l]
-        dz = A[a, 17, l] - B[b, 17, l]
-        r = A[a, 18, l] + ma + B[b, 18, l] + mb
-        pos = ((abs(A[a, 15, l]) + abs(A[a, 16, l]) + abs(A[a, 17, l]))
-               + (abs(B[b, 15, l]) + abs(B[b, 16, l]) + abs(B[b, 17, l])))
-        r += SLACK_REL * r + SLACK_POS * pos
-        ok = dx * dx + dy * dy + dz * dz <= r * r
-        ea0 = A[a, 12, l] + ma
-        ea1 = A[a, 13, l] + ma
-        ea2 = A[a, 14, l] + ma
-        eb0 = B[b, 12, l] + mb
-        eb1 = B[b, 13, l] + mb
-        eb2 = B[b, 14, l] + mb
-        r00 = A[a, 3, l] * B[b, 3, l] + A[a, 6, l] * B[b, 6, l] + A[a, 9, l] * B[b, 9, l]
-        r01 = A[a, 3, l] * B[b, 4, l] + A[a, 6, l] * B[b, 7, l] + A[a, 9, l] * B[b, 10, l]
-        r02 = A[a, 3, l] * B[b, 5, l] + A[a, 6, l] * B[b, 8, l] + A[a, 9, l] * B[b, 11, l]
-        r10 = A[a, 4, l] * B[b, 3, l] + A[a, 7, l] * B[b, 6, l] + A[a, 10, l] * B[b, 9, l]
-        r11 = A[a, 4, l] * B[b, 4, l] + A[a, 7, l] * B[b, 7, l] + A[a, 10, l] * B[b, 10, l]
-        r12 = A[a, 4, l] * B[b, 5, l] + A[a, 7, l] * B[b, 8, l] + A[a, 10, l] * B[b, 11, l]
-        r20 = A[a, 5, l] * B[b, 3, l] + A[a, 8, l] * B[b, 6, l] + A[a, 11, l] * B[b, 9, l]
-        r21 = A[a, 5, l] * B[b, 4, l] + A[a, 8, l] * B[b, 7, l] + A[a, 11, l] * B[b, 10, l]
-        r22 = A[a, 5, l] * B[b, 5, l] + A[a, 8, l] * B[b, 8, l] + A[a, 11, l] * B[b, 11, l]
-        a00 = abs(r00) + EPS_PAR
-        a01 = abs(r01) + EPS_PAR
-        a02 = abs(r02) + EPS_PAR
-        a10 = abs(r10) + EPS_PAR
-        a11 = abs(r11) + EPS_PAR
-        a12 = abs(r12) + EPS_PAR
-        a20 = abs(r20) + EPS_PAR
-        a21 = abs(r21) + EPS_PAR
-        a22 = abs(r22) + EPS_PAR
-        d0 = B[b, 0, l] - A[a, 0, l]
-        d1 = B[b, 1, l] - A[a, 1, l]
-        d2 = B[b, 2, l] - A[a, 2, l]
-        t0 = d0 * A[a, 3, l] + d1 * A[a, 6, l] + d2 * A[a, 9, l]
-        t1 = d0 * A[a, 4, l] + d1 * A[a, 7, l] + d2 * A[a, 10, l]
-        t2 = d0 * A[a, 5, l] + d1 * A[a, 8, l] + d2 * A[a, 11, l]
-        pos = abs(A[a, 0, l]) + abs(A[a, 1, l]) + abs(A[a, 2, l]) + abs(B[b, 0, l]) + abs(B[b, 1, l]) + abs(B[b, 2, l])
-        tol = SLACK_REL * (ea0 + ea1 + ea2 + eb0 + eb1 + eb2) + SLACK_POS * pos
-        ok &= not (abs(t0) > ea0 + eb0 * a00 + eb1 * a01 + eb2 * a02 + tol)
-        ok &= not (abs(t1) > ea1 + eb0 * a10 + eb1 * a11 + eb2 * a12 + tol)
-        ok &= not (abs(t2) > ea2 + eb0 * a20 + eb1 * a21 + eb2 * a22 + tol)
-        ok &= not (abs(t0 * r00 + t1 * r10 + t2 * r20) > ea0 * a00 + ea1 * a10 + ea2 * a20 + eb0 + tol)
-        ok &= not (abs(t0 * r01 + t1 * r11 + t2 * r21) > ea0 * a01 + ea1 * a11 + ea2 * a21 + eb1 + tol)
-        ok &= not (abs(t0 * r02 + t1 * r12 + t2 * r22) > ea0 * a02 + ea1 * a12 + ea2 * a22 + eb2 + tol)
-        ok &= not (abs(t2 * r10 - t1 * r20) > ea1 * a20 + ea2 * a10 + eb1 * a02 + eb2 * a01 + tol)
-        ok &= not (abs(t2 * r11 - t1 * r21) > ea1 * a21 + ea2 * a11 + eb0 * a02 + eb2 * a00 + tol)
-        ok &= not (abs(t2 * r12 - t1 * r22) > ea1 * a22 + ea2 * a12 + eb0 * a01 + eb1 * a00 + tol)
-        ok &= not (abs(t0 * r20 - t2 * r00) > ea0 * a20 + ea2 * a00 + eb1 * a12 + eb2 * a11 + tol)
-        ok &= not (abs(t0 * r21 - t2 * r01) > ea0 * a21 + ea2 * a01 + eb0 * a12 + eb2 * a10 + tol)
-        ok &= not (abs(t0 * r22 - t2 * r02) > ea0 * a22 + ea2 * a02 + eb0 * a11 + eb1 * a10 + tol)
-        ok &= not (abs(t1 * r00 - t0 * r10) > ea0 * a10 + ea1 * a00 + eb1 * a22 + eb2 * a21 + tol)
-        ok &= not (abs(t1 * r01 - t0 * r11) > ea0 * a11 + ea1 * a01 + eb0 * a22 + eb2 * a20 + tol)
-        ok &= not (abs(t1 * r02 - t0 * r12) > ea0 * a12 + ea1 * a02 + eb0 * a21 + eb1 * a20 + tol)
+        ok = _bounds_ok(_row_of_column(A, a, l), ma, _row_of_column(B, b, l), mb)
+        m |= np.uint64(ok) << np.uint64(l)
+    return m
+
+
+@nb.njit(cache=True, inline="always")
+def _pairs_mask(bw, bp, c0, n):
+    """Bit l set when the body rows of pair ``bp[c0 + l]`` overlap (`_bounds_ok`, no inflation:
+    the rows carry it), n <= 64; a marked second body (``~y``) is read as ``y``.
+
+    The rows are read where they are (vector gathers): copying them into columns first cost more
+    than the test (22 humanoids, 320 pairs a step)."""
+    m = np.uint64(0)
+    for l in range(n):
+        x = bp[c0 + l, 0]
+        y = bp[c0 + l, 1]
+        y = y ^ (y >> 63)
+        ok = _bounds_ok(_row_of(bw, x), 0.0, _row_of(bw, y), 0.0)
         m |= np.uint64(ok) << np.uint64(l)
     return m
 
@@ -957,7 +1077,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
     (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
      caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
             pair_keys,
-     blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp, baabb_t, sa, sb,
+     blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp, baabb_t,
      flat_root, flat_n, flat_mask) = _views(I, F, W)
     filter_parent = I[H_FP] != 0
     S = I[H_KS]
@@ -1048,22 +1168,14 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
         bp[m, 0] = x
         bp[m, 1] = ~y if (single[x] < 0 or single[y] < 0) else y
         m += 1
-    # 4b. sphere and OBB tests of the body bounds, 64 pairs at a time: both rows copied into
-    # columns (sa, sb), then one loop without a branch, which the compiler vectorises, into a bit
-    # mask.
+    # 4b. sphere and OBB tests of the body bounds, 64 pairs at a time: one loop without a branch,
+    # which the compiler vectorises, into a bit mask; a loose pair (~y) passes.
     for c0 in range(0, m, 64):
         cnt = min(64, m - c0)
         force = np.uint64(0)
         for i in range(cnt):
-            x = bp[c0 + i, 0]
-            y = bp[c0 + i, 1]
-            loose = y < 0
-            y = y ^ (y >> 63)  # ~y when marked
-            force |= np.uint64(loose) << np.uint64(i)
-            for c in range(ROW):
-                sa[0, c, i] = bw[x, c]
-                sb[0, c, i] = bw[y, c]
-        hits = bounds_mask(sa, 0, 0.0, sb, 0, 0.0, cnt) | force
+            force |= np.uint64(bp[c0 + i, 1] < 0) << np.uint64(i)
+        hits = _pairs_mask(bw, bp, c0, cnt) | force
         nl = 0
         f = force
         while f != 0:
@@ -1295,16 +1407,16 @@ def _geom_rows(x, order, gstart, pgeoms, glocal, gmargin, body_pos, body_rot, gw
     b = order[x]
     for ii in range(gstart[x], gstart[x + 1]):
         g = pgeoms[ii]
-        _world_row(body_rot, body_pos, b, glocal, g, gw, g)
+        w0, w1, w2, m00, m01, m02, m10, m11, m12, m20, m21, m22, e0, e1, e2 = _world_row(
+            body_rot, body_pos, b, glocal, g, gw, g)
         m = gmargin[g]
-        e0 = gw[g, 12] + m
-        e1 = gw[g, 13] + m
-        e2 = gw[g, 14] + m
-        tol = aabb_slack(e0, e1, e2, gw[g, 0], gw[g, 1], gw[g, 2])
-        for i in range(3):
-            h = abs(gw[g, 3 + 3 * i]) * e0 + abs(gw[g, 4 + 3 * i]) * e1 + abs(gw[g, 5 + 3 * i]) * e2 + tol
-            gaabb[g, i] = gw[g, i] - h
-            gaabb[g, 3 + i] = gw[g, i] + h
+        h0, h1, h2 = _world_aabb(w0, w1, w2, m00, m01, m02, m10, m11, m12, m20, m21, m22, e0 + m, e1 + m, e2 + m)
+        gaabb[g, 0] = w0 - h0
+        gaabb[g, 1] = w1 - h1
+        gaabb[g, 2] = w2 - h2
+        gaabb[g, 3] = w0 + h0
+        gaabb[g, 4] = w1 + h1
+        gaabb[g, 5] = w2 + h2
 
 
 @nb.njit(cache=True, inline="always")
