@@ -292,9 +292,10 @@ def _world_row(rot, pos, b, src, s, dst, d):
 
 
 @nb.njit(cache=True, inline="always")
-def _world_aabb(w, m):
-    """Half widths of the world AABB of the OBB of row ``w`` (a 19-tuple) inflated by ``m``, with the
-    OBB test's rounding slack (`aabb_slack`): ``|M| (e + m) + tol`` per world axis."""
+def _world_aabb(w, m, box, k):
+    """``box[k]`` = (lo, hi): the world AABB of the OBB of row ``w`` (a 19-tuple) inflated by ``m``,
+    half widths ``|M| (e + m) + tol`` per world axis with the OBB test's rounding slack
+    (`aabb_slack`)."""
     e0 = w[12] + m
     e1 = w[13] + m
     e2 = w[14] + m
@@ -302,7 +303,12 @@ def _world_aabb(w, m):
     h0 = abs(w[3]) * e0 + abs(w[4]) * e1 + abs(w[5]) * e2 + tol
     h1 = abs(w[6]) * e0 + abs(w[7]) * e1 + abs(w[8]) * e2 + tol
     h2 = abs(w[9]) * e0 + abs(w[10]) * e1 + abs(w[11]) * e2 + tol
-    return h0, h1, h2
+    box[k, 0] = w[0] - h0
+    box[k, 1] = w[1] - h1
+    box[k, 2] = w[2] - h2
+    box[k, 3] = w[0] + h0
+    box[k, 4] = w[1] + h1
+    box[k, 5] = w[2] + h2
 
 
 @nb.njit(cache=True, inline="always")
@@ -339,31 +345,11 @@ def _place(body_rot, body_pos, b, blocal, x, bw, baabb, saabb, baabb_t):
     # tree's AABB tests compare lo <= hi bare, and a tiny body far from the origin (1e-6 at 1e6)
     # would otherwise lose a pair the OBB test keeps (rounding of the centre > its guard).
     w = _world_row(body_rot, body_pos, b, blocal, x, bw, x)
-    h0, h1, h2 = _world_aabb(w, 0.0)
-    lo0 = w[0] - h0
-    lo1 = w[1] - h1
-    lo2 = w[2] - h2
-    hi0 = w[0] + h0
-    hi1 = w[1] + h1
-    hi2 = w[2] + h2
-    baabb[x, 0] = lo0
-    baabb[x, 1] = lo1
-    baabb[x, 2] = lo2
-    baabb[x, 3] = hi0
-    baabb[x, 4] = hi1
-    baabb[x, 5] = hi2
-    saabb[x, 0] = lo0
-    saabb[x, 1] = lo1
-    saabb[x, 2] = lo2
-    saabb[x, 3] = hi0
-    saabb[x, 4] = hi1
-    saabb[x, 5] = hi2
-    baabb_t[0, x] = lo0
-    baabb_t[1, x] = lo1
-    baabb_t[2, x] = lo2
-    baabb_t[3, x] = hi0
-    baabb_t[4, x] = hi1
-    baabb_t[5, x] = hi2
+    _world_aabb(w, 0.0, baabb, x)
+    for i in range(6):
+        v = baabb[x, i]
+        saabb[x, i] = v
+        baabb_t[i, x] = v
 
 
 @nb.njit(cache=True, inline="always")
@@ -1396,13 +1382,7 @@ def _geom_rows(x, order, gstart, pgeoms, glocal, gmargin, body_pos, body_rot, gw
     for ii in range(gstart[x], gstart[x + 1]):
         g = pgeoms[ii]
         w = _world_row(body_rot, body_pos, b, glocal, g, gw, g)
-        h0, h1, h2 = _world_aabb(w, gmargin[g])
-        gaabb[g, 0] = w[0] - h0
-        gaabb[g, 1] = w[1] - h1
-        gaabb[g, 2] = w[2] - h2
-        gaabb[g, 3] = w[0] + h0
-        gaabb[g, 4] = w[1] + h1
-        gaabb[g, 5] = w[2] + h2
+        _world_aabb(w, gmargin[g], gaabb, g)
 
 
 @nb.njit(cache=True, inline="always")
