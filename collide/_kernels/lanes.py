@@ -229,7 +229,7 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats):
             _lane_row(ps, order[x], blocal, x, wb, x, nv)
             for i in range(3):
                 for l in range(nv):
-                    # the OBB test's slack, rounded as in broadphase._place
+                    # the OBB test's slack, rounded as in broadphase._world_aabb
                     tol = aabb_slack(wb[x, 12, l], wb[x, 13, l], wb[x, 14, l], wb[x, 0, l], wb[x, 1, l], wb[x, 2, l])
                     h = (abs(wb[x, 3 + 3 * i, l]) * wb[x, 12, l] + abs(wb[x, 4 + 3 * i, l]) * wb[x, 13, l]
                          + abs(wb[x, 5 + 3 * i, l]) * wb[x, 14, l] + tol)
