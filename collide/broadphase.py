@@ -268,6 +268,7 @@ class BroadPhase:
         self._stats = np.zeros(_k.N_STATS, np.int64)
         self._info = np.zeros(4, np.int64)
         self._ctx = np.zeros(_k.NCTX, np.int64)
+        self._ctx_addr = self._ctx.ctypes.data  # `_k.step_bound`'s argument: never replaced
         self._step = _k.step_function()
         self._step_bound = None  # see bind
         self._bound = None
@@ -466,7 +467,7 @@ class BroadPhase:
             # the bound arrays' current values (see bind)
             if self._bound is None:
                 raise ValueError("pairs: no pose arrays given and none bound (see BroadPhase.bind)")
-            k = self._step_bound(self._ctx)
+            k = self._step_bound(self._ctx_addr)
             if k < 0:
                 k = self._rerun(*self._bound, k)
         else:

@@ -636,7 +636,7 @@ class BroadPhase:
             self._views_of = data
             self._views = bp._bound
         # BroadPhase.pairs() on the bound arrays, written out (one Python call less on the fast path).
-        k = bp._step_bound(bp._ctx)
+        k = bp._step_bound(bp._ctx_addr)
         if k < 0:  # a bad pose raises; full buffers are grown and the step rerun
             try:
                 k = bp._rerun(*bp._bound, k)

@@ -11,7 +11,7 @@ each stage mark, a copy of the package is made with an early return inserted int
 kernel (`collide._kernels.broadphase._world`) just before that mark, and the copies are timed
 side by side with the unchanged package, in one process, on the same states:
 
-- hot: ``_step_bound(ctx)`` called ``--calls`` times on one pose (the minimum of 11 repeats);
+- hot: ``_step_bound(addr)`` called ``--calls`` times on one pose (the minimum of 11 repeats);
 - loop: one ``pairs(data)`` after each ``mj_step``, median over three passes of ``--steps`` steps per
   copy; each pass replays the same trajectory with one copy alone, so each call finds its code and
   data as a simulation loop leaves them.
@@ -133,7 +133,7 @@ def main() -> None:
     hot = {stage: [] for stage in bps}
     for _ in range(11):
         for stage, bp in bps.items():
-            f, ctx = bp.broadphase._step_bound, bp.broadphase._ctx
+            f, ctx = bp.broadphase._step_bound, bp.broadphase._ctx_addr
             t0 = perf()
             for _ in range(args.calls):
                 f(ctx)
