@@ -46,3 +46,35 @@ def aabb_mask8(typingctx, px, py):
         return builder.zext(builder.bitcast(m, ir.IntType(LANES)), i64)
 
     return sig, codegen
+
+
+@intrinsic
+def aabb_merge8(typingctx, pq, px):
+    """Grow the AABBs at ``pq`` by those at ``px``, lane by lane (a subtree's box by its child's).
+
+    ``pq`` and ``px``: addresses (int64) of two ``(6, 8)`` float64 blocks as in `aabb_mask8`. Each
+    lo becomes ``x if x < q else q`` and each hi ``x if x > q else q``: numba's ``min(q, x)`` and
+    ``max(q, x)`` on floats, the same bits (signed zeros included). The loop it replaces (six rows
+    of eight) ran scalar in numba, the compiler unable to tell the two blocks apart (64-link chain,
+    batch on one thread: 1.75 -> 1.65 us a world).
+    """
+    if not (isinstance(pq, types.Integer) and isinstance(px, types.Integer)):
+        return None
+    sig = types.void(pq, px)
+
+    def codegen(context, builder, signature, args):
+        vec = ir.VectorType(ir.DoubleType(), LANES)
+        aq = builder.inttoptr(args[0], vec.as_pointer())
+        ax = builder.inttoptr(args[1], vec.as_pointer())
+        i64 = ir.IntType(64)
+        rows = []
+        for i in range(6):  # every load before the first store (the blocks may be one)
+            gq = builder.gep(aq, [ir.Constant(i64, i)])
+            rows.append((gq, builder.load(gq, align=8),
+                         builder.load(builder.gep(ax, [ir.Constant(i64, i)]), align=8)))
+        for i, (gq, q, x) in enumerate(rows):
+            take = builder.fcmp_ordered("<" if i < 3 else ">", x, q)
+            builder.store(builder.select(take, x, q), gq, align=8)
+        return context.get_dummy_value()
+
+    return sig, codegen

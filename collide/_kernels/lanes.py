@@ -28,7 +28,7 @@ from numba.cpython.unsafe.numbers import trailing_zeros
 import numpy as np
 
 from ._ptr import f64_ptr, i64_ptr
-from ._simd import aabb_mask8
+from ._simd import aabb_mask8, aabb_merge8
 from .broadphase import (BIG, C_KEYS, C_NKEYS, N_STATS, NCTX, ROW, SLACK_POS, SLACK_REL, ST_BODY_OBB,
                          ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT, ST_PLANE, ST_SUBTREE,
                          _batch_world, _buffers, _explicit_hit, _plane_hit_local, _pose_ok, _views, aabb_slack,
@@ -248,11 +248,7 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats):
                     sa[x, 3 + i, l] = -BIG
     # subtree AABBs in every lane (`_world`, stage 2)
     for x in range(L - 1, 0, -1):
-        q = parent_pos[x]
-        for i in range(3):
-            for l in range(nv):
-                sa[q, i, l] = min(sa[q, i, l], sa[x, i, l])
-                sa[q, 3 + i, l] = max(sa[q, 3 + i, l], sa[x, 3 + i, l])
+        aabb_merge8(sa_at + 384 * parent_pos[x], sa_at + 384 * x)
     for wi in range(NWd):
         for l in range(nv):
             bits[wi, l] = 0
