@@ -30,6 +30,10 @@ import os
 # lets one preempted spinner stall every batched call by a scheduler time slice (measured here:
 # 100+ us per world instead of ~5). Must be set before numba's OpenMP runtime starts.
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+# numpy's OpenBLAS keeps worker threads that spin after a linear-algebra call (the set-up's); on
+# two cores they took the core numba's second thread needs: the chain batch ran 1.39 us a world
+# on 2 threads with them, 1.02 without, 1.61 on one (session 16). Must be set before numpy loads.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse
 import gc
@@ -358,7 +362,9 @@ def main(argv=None):
     import numba
     print(f"# collide broad phase benchmark, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
     print(f"# machine: {numba.get_num_threads()} cores, Python {platform.python_version()}, {_cpu()}; "
-          f"mujoco {mujoco.__version__}, numba {numba.__version__}")
+          f"mujoco {mujoco.__version__}, numba {numba.__version__}; "
+          f"OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}, "
+          f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}")
     print("# per step, medians; ours = BroadPhase.pairs() on MjData's xpos/xmat bound once (Python call included),")
     print(f"# MuJoCo's timer on a {timer_clock()} clock;")
     print("# passed = pairs(xpos, xmat) on the same states; MuJoCo = mjTIMER_COL_BROAD;")

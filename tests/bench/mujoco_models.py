@@ -35,6 +35,9 @@ from pathlib import Path
 # Spinning OpenMP waiters stall threaded calls on a machine shared with other work (see
 # collide.BroadPhase.pairs_batch); must be set before numba starts its OpenMP runtime.
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+# numpy's OpenBLAS keeps worker threads spinning after a linear-algebra call; on two cores they take
+# the core numba's second thread needs (see tests/bench/broadphase.py). Set before numpy loads.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
@@ -130,7 +133,8 @@ def main(argv=None) -> int:
     print(f"# machine: {numba.config.NUMBA_NUM_THREADS} cores, Python "
           f"{platform.python_version()}, {_cpu()}; {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; "
           f"load average at start {os.getloadavg()[0]:.1f} (machine shared with other processes); "
-          f"OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}")
+          f"OMP_WAIT_POLICY={os.environ.get('OMP_WAIT_POLICY')}, "
+          f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}")
     print("# ours: BroadPhase.pairs(data), Python call included; MuJoCo: mjTIMER_COL_BROAD "
           f"(body-level SAP + filters, ends in body pairs; {cm.timer_clock()} clock); medians over the steps")
     print("# candidates: geom pairs per step (mean); MuJoCo's = pairs its broad phase and midphase "
