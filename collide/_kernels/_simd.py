@@ -18,6 +18,22 @@ from numba.extending import intrinsic
 LANES = 8
 
 
+def _row_pointers(builder, addrs):
+    # For each address (int64) of a (6, LANES) float64 block: pointers to its six rows as
+    # <LANES x double> vectors.
+    vec = ir.VectorType(ir.DoubleType(), LANES)
+    i64 = ir.IntType(64)
+    out = []
+    for a in addrs:
+        p = builder.inttoptr(a, vec.as_pointer())
+        out.append([builder.gep(p, [ir.Constant(i64, i)]) for i in range(6)])
+    return out
+
+
+def _load(builder, p):
+    return builder.load(p, align=8)
+
+
 @intrinsic
 def aabb_mask8(typingctx, px, py):
     """Bit l set when the AABBs of lane l overlap (closed intervals on every axis).
@@ -30,20 +46,13 @@ def aabb_mask8(typingctx, px, py):
     sig = types.uint64(px, py)
 
     def codegen(context, builder, signature, args):
-        vec = ir.VectorType(ir.DoubleType(), LANES)
-        ax = builder.inttoptr(args[0], vec.as_pointer())
-        ay = builder.inttoptr(args[1], vec.as_pointer())
-        i64 = ir.IntType(64)
-
-        def row(p, i):
-            return builder.load(builder.gep(p, [ir.Constant(i64, i)]), align=8)
-
+        ax, ay = _row_pointers(builder, args)
         m = None
         for i in range(3):
-            c = builder.and_(builder.fcmp_ordered("<=", row(ax, i), row(ay, 3 + i)),
-                             builder.fcmp_ordered("<=", row(ay, i), row(ax, 3 + i)))
+            c = builder.and_(builder.fcmp_ordered("<=", _load(builder, ax[i]), _load(builder, ay[3 + i])),
+                             builder.fcmp_ordered("<=", _load(builder, ay[i]), _load(builder, ax[3 + i])))
             m = c if m is None else builder.and_(m, c)
-        return builder.zext(builder.bitcast(m, ir.IntType(LANES)), i64)
+        return builder.zext(builder.bitcast(m, ir.IntType(LANES)), ir.IntType(64))
 
     return sig, codegen
 
@@ -63,18 +72,12 @@ def aabb_merge8(typingctx, pq, px):
     sig = types.void(pq, px)
 
     def codegen(context, builder, signature, args):
-        vec = ir.VectorType(ir.DoubleType(), LANES)
-        aq = builder.inttoptr(args[0], vec.as_pointer())
-        ax = builder.inttoptr(args[1], vec.as_pointer())
-        i64 = ir.IntType(64)
-        rows = []
-        for i in range(6):  # every load before the first store (the blocks may be one)
-            gq = builder.gep(aq, [ir.Constant(i64, i)])
-            rows.append((gq, builder.load(gq, align=8),
-                         builder.load(builder.gep(ax, [ir.Constant(i64, i)]), align=8)))
-        for i, (gq, q, x) in enumerate(rows):
+        aq, ax = _row_pointers(builder, args)
+        # every load before the first store (the blocks may be one)
+        rows = [(_load(builder, aq[i]), _load(builder, ax[i])) for i in range(6)]
+        for i, (q, x) in enumerate(rows):
             take = builder.fcmp_ordered("<" if i < 3 else ">", x, q)
-            builder.store(builder.select(take, x, q), gq, align=8)
+            builder.store(builder.select(take, x, q), aq[i], align=8)
         return context.get_dummy_value()
 
     return sig, codegen
