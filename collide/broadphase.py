@@ -676,11 +676,12 @@ class BroadPhase:
         Worlds are cut into chunks handed to numba's threads one at a time. On a machine shared
         with other work, set ``OMP_WAIT_POLICY=PASSIVE`` before numba starts its OpenMP runtime:
         spinning waiters can stall each call by a scheduler time slice (measured: 30x slower).
-        numpy's OpenBLAS keeps its own worker threads spinning after a linear-algebra call; on
-        a machine with few cores they take the cores these threads need (64-link chain, 2
-        cores: 1.60 us a world after a 300 x 300 matrix product, 1.03 without, 1.61 on one
-        thread). Where linear algebra and batched calls share a loop, set
-        ``OPENBLAS_NUM_THREADS=1`` before numpy loads.
+        The second thread's worth depends on what the cores did just before (64-link chain, 2
+        shared cores of a virtual machine, per world): 1.0-1.15 us back to back, 1.61 on one
+        thread; 1.45 with a 300 x 300 matrix product before each call, 1.69 when numpy's OpenBLAS
+        runs its own threads, which spin on the cores for a while after each product (set
+        ``OPENBLAS_NUM_THREADS=1`` before numpy loads where both share a loop); 2.8 with a 0.1 s
+        pause before each call (the idle core is slow to wake).
         """
         if not isinstance(body_pos, np.ndarray) or body_pos.ndim != 3:
             raise ValueError(f"body_pos: expected shape (B, {self.body_count}, 3), got "

@@ -30,9 +30,10 @@ import os
 # lets one preempted spinner stall every batched call by a scheduler time slice (measured here:
 # 100+ us per world instead of ~5). Must be set before numba's OpenMP runtime starts.
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
-# numpy's OpenBLAS keeps worker threads that spin after a linear-algebra call (the set-up's); on
-# two cores they took the core numba's second thread needs: the chain batch ran 1.39 us a world
-# on 2 threads with them, 1.02 without, 1.61 on one (session 16). Must be set before numpy loads.
+# numpy's OpenBLAS keeps worker threads that spin on the cores after a linear-algebra call. One
+# interference less for the batched run's second thread (64-link chain, 2 threads, a 300 x 300 product
+# before each call: 1.69 us a world with those threads, 1.45 without, 1.0-1.15 with no product; an A/B
+# of the humanoid batch in mujoco_models.py showed no difference; session 16). Set before numpy loads.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse

@@ -35,8 +35,8 @@ from pathlib import Path
 # Spinning OpenMP waiters stall threaded calls on a machine shared with other work (see
 # collide.BroadPhase.pairs_batch); must be set before numba starts its OpenMP runtime.
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
-# numpy's OpenBLAS keeps worker threads spinning after a linear-algebra call; on two cores they take
-# the core numba's second thread needs (see tests/bench/broadphase.py). Set before numpy loads.
+# numpy's OpenBLAS keeps worker threads that spin after a linear-algebra call: one interference
+# less for the batched run's second thread (see tests/bench/broadphase.py). Set before numpy loads.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import mujoco  # noqa: E402
