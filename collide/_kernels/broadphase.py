@@ -9,10 +9,10 @@ box axes), OBB half extents (3), sphere centre (3), sphere radius (1).
 
 The static model travels as two flat arrays (``I`` int64 with a header of counts, ``F`` float64)
 and the workspace as one (``W`` float64); one step is a call with three arguments (the two pose
-arrays and a *context* of buffer addresses, see `_ptr` and `context`), or with the context alone
-when it holds the pose arrays' addresses too (`step_bound`: arrays that stay put, as MuJoCo's):
-a numba call pays ~0.1 us per array argument, and views built from pointers carry no reference
-count. `_views` cuts the buffers back into named arrays (no copy).
+arrays and a *context* of buffer addresses, see `_ptr` and `context`), or with the context's own
+address alone when it holds the pose arrays' addresses too (`step_bound`: arrays that stay put, as
+MuJoCo's): a numba call pays ~0.1 us per array argument, and views built from pointers carry no
+reference count. `_views` cuts the buffers back into named arrays (no copy).
 
 One step, for one world (`_world`):
 1. validate each body's pose (finite, proper orthonormal rotation: one combined test) and move
