@@ -705,30 +705,36 @@ class BroadPhase:
                                                                         int(self._J[_lanes.J_NR]))), np.int64)
             self._set_batch_buffers(4 * L + 64, max(256, 2 * G * per))
         bt = self._batch
-        world_count = np.zeros(B, np.int64)
-        world_info = np.zeros((B, 4), np.int64)
-        chunk_total = np.zeros(C, np.int64)
+        # world_info is written for bad worlds only, and the kernel writes every world's count and
+        # every chunk's row: nothing to clear.
+        world_count = np.empty(B, np.int64)
+        world_info = np.empty((B, 4), np.int64)
+        chunk_info = np.empty((C, _k.N_CI), np.int64)
+        S = _k.key_shift(self.geom_count)
         while True:
+            # The kernels sum the chunks' stats into self._stats (`stats` reads it) and return the
+            # rows, or none when a chunk holds a bad world or ran out of room.
             with numba.parallel_chunksize(1):
                 if self._J is None:
-                    _k.step_batch(body_pos, body_rot, bt["ctx"], world_count, world_info, chunk_total)
+                    out = _k.step_batch(body_pos, body_rot, bt["ctx"], world_count, world_info, chunk_info, S,
+                                        self._stats)
                 else:
-                    _lanes.step_lanes(body_pos, body_rot, bt["ctx"], self._J, bt["LW"], bt["LB"], world_count,
-                                      world_info, chunk_total)
-            bad = np.flatnonzero(world_count < 0)
-            if len(bad):
-                w = int(bad[0])
+                    out = _lanes.step_lanes(body_pos, body_rot, bt["ctx"], self._J, bt["LW"], bt["LB"], world_count,
+                                            world_info, chunk_info, S, self._stats)
+            if len(out):
+                return out
+            bad = chunk_info[:, _k.CI_BAD]
+            if bad.max() >= 0:
+                w = int(bad[bad >= 0].min())
                 self._raise(int(world_info[w, 0]), int(world_info[w, 1]), f"world {w}, ")
-            need_bp = int(world_info[:, 3].max()) if B else 0
-            need = int(chunk_total.max())
+            need_bp = int(chunk_info[:, _k.CI_NEED].max())
+            need = int(chunk_info[:, _k.CI_KEYS].max())
             if need_bp > 0:  # never drop a pair: grow and rerun
                 self._set_batch_buffers(2 * need_bp, bt["keys"].shape[1])
             elif need > bt["keys"].shape[1]:
                 self._set_batch_buffers(bt["bp"].shape[1], 2 * need)
             else:
-                break
-        self._stats[:] = bt["stats"].sum(axis=0)  # `stats` reads this
-        return _k.gather_batch(bt["ctx"], world_count, chunk_total, _k.key_shift(self.geom_count))
+                return out
 
     def _set_batch_buffers(self, body_pairs: int, keys: int) -> None:
         # Per chunk buffers and their context rows (the kernel reaches them through addresses).

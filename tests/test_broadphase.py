@@ -174,6 +174,11 @@ def test_lanes_keep_every_pair_of_each_world_and_name_a_bad_one():
     pos[17, 5, 1] = np.nan  # in the last, partial group
     with pytest.raises(ValueError, match="world 17, body 5"):
         bp.pairs_batch(pos, rot)
+    keep = pos[2, 4, 0]
+    pos[2, 4, 0] = np.inf  # two bad worlds in different chunks: the first is named
+    with pytest.raises(ValueError, match="world 2, body 4"):
+        bp.pairs_batch(pos, rot)
+    pos[2, 4, 0] = keep
     pos[17, 5, 1] = 0.0
     assert np.array_equal(bp.pairs_batch(pos, rot), want)
 
@@ -185,6 +190,7 @@ def test_big_models_batch_world_by_world():
     assert bp._J is None
     pos, rot = testing.hull_motion(sc, np.random.default_rng(0), 3, 0.02)
     got = bp.pairs_batch(pos, rot)
+    assert bp.stats["pairs"] == len(got)
     for w in range(len(pos)):
         assert np.array_equal(got[got[:, 0] == w, 1:], bp.pairs(pos[w], rot[w]))
     assert len(got) > 100

@@ -1462,6 +1462,10 @@ def _explicit_hit(i, pair_g, pair_m, gmargin, gplane, geom_bid, glocal, body_pos
 (C_I, C_NI, C_F, C_NF, C_W, C_NW, C_SAP, C_NSAP, C_BP, C_NBP, C_KEYS, C_NKEYS, C_SCR, C_NSCR, C_STATS,
  C_INFO, C_POS, C_ROT, C_OUT, C_NOUT, C_OFF) = range(21)
 NCTX = 21
+# A batch chunk's summary (`step_batch`'s chunk_info rows): its key count, its first bad world (-1:
+# none), the body-pair capacity a world lacked (0: none).
+CI_KEYS, CI_BAD, CI_NEED = range(3)
+N_CI = 3
 
 # step() return codes below zero
 RET_BAD_POSE = -1
@@ -1597,31 +1601,41 @@ def step_bound():
 
 @nb.njit(cache=True, inline="always")
 def _batch_world(w, pos_all, rot_all, I, F, W, sap, bp, kp, cap, off, scr, stats, info, world_info, world_count,
-                 st, so):
+                 st, so, ci):
     # World w of a batch through `_world`, its sorted keys at offset off of the chunk's keys (at
-    # address kp, capacity cap), its count, status and stats (into st[so:]) recorded; returns the
-    # next offset. Beyond capacity it keeps counting (on a zero-length tail) so the caller learns
-    # the size.
+    # address kp, capacity cap), its count and stats (into st[so:]) recorded, its status in
+    # world_info[w] when bad and in its chunk's summary ci (CI_BAD, CI_NEED); returns the next
+    # offset. Beyond capacity it keeps counting (on a zero-length tail) so the caller learns the
+    # size.
     start = off if off < cap else cap
     keys = nb.carray(i64_ptr(kp + 8 * start), cap - start)
     info[0] = OK
     kw = _world(pos_all[w], rot_all[w], I, F, W, sap, bp, keys, scr, stats, info)
-    for i in range(4):
-        world_info[w, i] = info[i]
     world_count[w] = kw
+    if kw < 0:
+        for i in range(4):
+            world_info[w, i] = info[i]
+        if ci[CI_BAD] < 0:
+            ci[CI_BAD] = w
+    if info[3] > ci[CI_NEED]:
+        ci[CI_NEED] = info[3]
     for s in range(N_STATS):
         st[so + s] += stats[s]
     return off + kw if kw > 0 else off
 
 
 @nb.njit(cache=True, parallel=True)
-def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_total):
+def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_info, S, stats_out):
     """Worlds split into ``C = ctxs.shape[0]`` contiguous chunks handed to numba's threads, each
     chunk with its own buffers (a context row; the static ``I`` and ``F`` are shared, read only).
     World ``w``'s sorted keys follow the previous worlds of its chunk in the chunk's keys;
     ``world_count[w]`` is its pair count (-1 with ``world_info[w]`` = (status, body, ...) on a bad
-    pose); ``chunk_total[c]`` may exceed the keys' capacity and ``world_info[w, 3]`` report a
-    body-pair overflow (then the caller reruns). ``body_pos`` and ``body_rot`` must be C-contiguous.
+    pose; ``world_info`` is written for bad worlds only). ``chunk_info[c]`` (int64, 3) sums up chunk
+    c (`CI_KEYS`: its key count, which may exceed the keys' capacity; `CI_BAD`: its first bad world
+    or -1; `CI_NEED`: the body-pair capacity a world lacked, or 0): the caller reads C rows, not B
+    (rows that the other core wrote cost a cache-line transfer each: the 64-link chain's 1024
+    worlds, 35 us a call to read ``world_info``). Returns `gather_batch`'s rows (``stats_out``:
+    the chunks' stats summed). ``body_pos`` and ``body_rot`` must be C-contiguous.
 
     Every view here is pointer-built (no reference count): views of a shared reference-counted
     array would bump its counter atomically on every world, from both cores (measured: two
@@ -1634,6 +1648,9 @@ def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_total):
     rot_all = nb.carray(f64_ptr(np.int64(body_rot.ctypes.data)), (B, L, 3, 3))
     for c in nb.prange(C):
         ctx = nb.carray(i64_ptr(np.int64(ctxs.ctypes.data) + 8 * NCTX * c), NCTX)
+        ci = nb.carray(i64_ptr(np.int64(chunk_info.ctypes.data) + 8 * N_CI * c), N_CI)
+        ci[CI_BAD] = -1
+        ci[CI_NEED] = 0
         I, F, W, sap, bp, scr, stats, info = _buffers(ctx)
         cap = ctx[C_NKEYS]
         st = np.zeros(2 * N_STATS, np.int64)
@@ -1642,30 +1659,45 @@ def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_total):
         off = 0
         for w in range(w0, w1):
             off = _batch_world(w, pos_all, rot_all, I, F, W, sap, bp, ctx[C_KEYS], cap, off, scr, stats, info,
-                               world_info, world_count, st, N_STATS)
+                               world_info, world_count, st, N_STATS, ci)
         for s in range(N_STATS):
             stats[s] = st[N_STATS + s]
-        chunk_total[c] = off
-    return 0
+        ci[CI_KEYS] = off
+    return gather_batch(ctxs, world_count, chunk_info, S, stats_out)
 
 
 @nb.njit(cache=True)
-def gather_batch(ctxs, world_count, chunk_total, S):
-    """Rows ``(world, g1, g2)`` int32 from the chunks' keys, world by world."""
+def gather_batch(ctxs, world_count, chunk_info, S, stats):
+    """After `step_batch` or `lanes.step_lanes`, in the same call: rows ``(world, g1, g2)`` int32
+    from the chunks' keys, world by world, and ``stats`` (N_STATS,) = the chunks' stats summed;
+    ``(0, 3)`` rows when a chunk holds a bad world or ran out of room (the caller reads
+    ``chunk_info`` then).
+
+    In the parallel kernels' own call rather than the caller's: the first numpy operation after a
+    batch took 13 us, the Python and numpy code having left the caches (64-link chain, 1024 worlds,
+    2 threads). One thread: a parallel region of its own costs more than it saves, its waiting
+    thread having gone to sleep (63 -> 100 ns a world)."""
     B = world_count.shape[0]
     C = ctxs.shape[0]
+    for c in range(C):
+        if chunk_info[c, CI_BAD] >= 0 or chunk_info[c, CI_NEED] > 0 or chunk_info[c, CI_KEYS] > ctxs[c, C_NKEYS]:
+            return np.empty((0, 3), np.int32)
     mask = (np.int64(1) << S) - 1
     K = 0
     for c in range(C):
-        K += chunk_total[c]
+        K += chunk_info[c, CI_KEYS]
+    for s in range(N_STATS):
+        stats[s] = 0
+    for c in range(C):
+        cs = nb.carray(i64_ptr(ctxs[c, C_STATS]), N_STATS)
+        for s in range(N_STATS):
+            stats[s] += cs[s]
     out = np.empty((K, 3), np.int32)
     r = 0
     for c in range(C):
         keys = nb.carray(i64_ptr(ctxs[c, C_KEYS]), ctxs[c, C_NKEYS])
-        w0 = (B * c) // C
-        w1 = (B * (c + 1)) // C
         i = 0
-        for w in range(w0, w1):
+        for w in range((B * c) // C, (B * (c + 1)) // C):
             for _ in range(world_count[w]):
                 out[r, 0] = w
                 out[r, 1] = keys[i] >> S

@@ -29,9 +29,9 @@ import numpy as np
 
 from ._ptr import f64_ptr, i64_ptr
 from ._simd import aabb_mask8, aabb_merge8
-from .broadphase import (BIG, C_KEYS, C_NKEYS, N_STATS, NCTX, ROW, SLACK_POS, SLACK_REL, ST_BODY_OBB,
+from .broadphase import (BIG, C_KEYS, C_NKEYS, CI_BAD, CI_KEYS, CI_NEED, N_CI, N_STATS, NCTX, ROW, SLACK_POS, SLACK_REL, ST_BODY_OBB,
                          ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT, ST_PLANE, ST_SUBTREE,
-                         _batch_world, _buffers, _explicit_hit, _plane_hit_local, _pose_ok, _views, aabb_slack,
+                         _batch_world, _buffers, _explicit_hit, gather_batch, _plane_hit_local, _pose_ok, _views, aabb_slack,
                          bounds_mask, plane_world)
 
 LANES = 8
@@ -418,7 +418,7 @@ def _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gmargin, ps, gwl, gal, 
 # ------------------------------------------------------------------------------- entry point
 
 @nb.njit(cache=True, parallel=True)
-def step_lanes(body_pos, body_rot, ctxs, J, LWs, LBs, world_count, world_info, chunk_total):
+def step_lanes(body_pos, body_rot, ctxs, J, LWs, LBs, world_count, world_info, chunk_info, S, stats_out):
     """`broadphase.step_batch` through the lanes: each chunk's worlds ``LANES`` at a time, each
     world's sorted keys after the previous worlds' in its chunk's keys. A group with a bad pose
     runs world by world through `broadphase._world` (which reports the offender, and whose
@@ -433,6 +433,9 @@ def step_lanes(body_pos, body_rot, ctxs, J, LWs, LBs, world_count, world_info, c
     NWd = (NR + 63) // 64
     for c in nb.prange(C):
         ctx = nb.carray(i64_ptr(np.int64(ctxs.ctypes.data) + 8 * NCTX * c), NCTX)
+        ci = nb.carray(i64_ptr(np.int64(chunk_info.ctypes.data) + 8 * N_CI * c), N_CI)
+        ci[CI_BAD] = -1
+        ci[CI_NEED] = 0
         I, F, W, sap, bp, scr, stats, info = _buffers(ctx)
         LW = nb.carray(f64_ptr(np.int64(LWs.ctypes.data) + 8 * LWs.shape[1] * c), LWs.shape[1])
         LB = nb.carray(i64_ptr(np.int64(LBs.ctypes.data) + 8 * LBs.shape[1] * c), LBs.shape[1])
@@ -463,15 +466,13 @@ def step_lanes(body_pos, body_rot, ctxs, J, LWs, LBs, world_count, world_info, c
                             k += 1
                             word &= word - np.uint64(1)
                     world_count[w] = k
-                    for i in range(4):
-                        world_info[w, i] = 0
                     off += k
                     st[ST_OUT] += k
                 continue
             for w in range(g0, g0 + nl):
                 off = _batch_world(w, pos_all, rot_all, I, F, W, sap, bp, kp, cap, off, scr, stats, info,
-                                   world_info, world_count, st, 0)
+                                   world_info, world_count, st, 0, ci)
         for s in range(N_STATS):
             stats[s] = st[s]
-        chunk_total[c] = off
-    return 0
+        ci[CI_KEYS] = off
+    return gather_batch(ctxs, world_count, chunk_info, S, stats_out)
