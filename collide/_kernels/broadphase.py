@@ -1065,10 +1065,21 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
     Q = planes.shape[0]
     check_pairs = pair_keys.shape[0] > 0
     k = 0
-    # 1. poses -> world bounds of bodies, by body id so the first offender is named.
-    for b in range(I[H_NB]):
-        # One combined test per body; only a failing pose is told apart (the error names what is
-        # wrong).
+    # 1. poses -> world bounds of bodies. Every pose is checked first, in one loop without a branch
+    # over flat views of the (C-contiguous) pose arrays, which the compiler vectorises (gathers):
+    # inside the placing loop the test cost 6.8 ns a body, alone 4.3 (65 bodies: 0.44 -> 0.28 us).
+    # Only a failing call looks at the bodies one by one, by id, so the first offender is named.
+    NB = I[H_NB]
+    rf = nb.carray(f64_ptr(np.int64(body_rot.ctypes.data)), 9 * NB)
+    pf = nb.carray(f64_ptr(np.int64(body_pos.ctypes.data)), 3 * NB)
+    bad = False
+    for b in range(NB):
+        o = 9 * b
+        q = 3 * b
+        bad |= not _pose_ok(rf[o], rf[o + 1], rf[o + 2], rf[o + 3], rf[o + 4], rf[o + 5], rf[o + 6], rf[o + 7],
+                            rf[o + 8], pf[q], pf[q + 1], pf[q + 2])
+    for b in range(NB if bad else 0):
+        # only a failing pose is told apart (the error names what is wrong)
         ok = _pose_ok(body_rot[b, 0, 0], body_rot[b, 0, 1], body_rot[b, 0, 2], body_rot[b, 1, 0], body_rot[b, 1, 1],
                       body_rot[b, 1, 2], body_rot[b, 2, 0], body_rot[b, 2, 1], body_rot[b, 2, 2], body_pos[b, 0],
                       body_pos[b, 1], body_pos[b, 2])
@@ -1085,6 +1096,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
                         info[0] = BAD_NONFINITE
             info[1] = b
             return -1
+    for b in range(NB):
         x = pos_of[b]
         if hasb[x]:
             _place(body_rot, body_pos, b, blocal, x, bw, baabb, saabb, baabb_t)
