@@ -29,10 +29,10 @@ import numpy as np
 
 from ._ptr import f64_ptr, i64_ptr
 from ._simd import aabb_mask8, aabb_merge8
-from .broadphase import (BIG, C_KEYS, C_NKEYS, CI_BAD, CI_KEYS, CI_NEED, N_CI, N_STATS, NCTX, ROW, SLACK_POS, SLACK_REL, ST_BODY_OBB,
-                         ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT, ST_PLANE, ST_SUBTREE,
-                         _batch_world, _buffers, _explicit_hit, gather_batch, _plane_hit_local, _pose_ok, _views, aabb_slack,
-                         bounds_mask, plane_world)
+from .broadphase import (BIG, C_KEYS, C_NKEYS, CI_BAD, CI_KEYS, CI_NEED, N_CI, N_STATS, NCTX, ROW, SLACK_POS,
+                         SLACK_REL, ST_BODY_OBB, ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT,
+                         ST_PLANE, ST_SUBTREE, _batch_world, _buffers, _explicit_hit, _plane_hit_local, _pose_ok,
+                         _views, aabb_slack, bounds_mask, gather_batch, plane_world)
 
 LANES = 8
 MAX_BODY_PAIRS = 4096  # above this many static body pairs, the tree of the per-world kernel culls better
