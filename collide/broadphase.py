@@ -689,6 +689,21 @@ class BroadPhase:
                              f"{getattr(body_pos, 'shape', type(body_pos).__name__)}")
         B = body_pos.shape[0]
         body_pos, body_rot = self._check(body_pos, body_rot, (B,))
+
+        def launch(bt, world_count, world_info, chunk_info, S):
+            if self._J is None:
+                return _k.step_batch(body_pos, body_rot, bt["ctx"], world_count, world_info, chunk_info, S,
+                                     self._stats)
+            return _lanes.step_lanes(body_pos, body_rot, bt["ctx"], self._J, bt["LW"], bt["LB"], world_count,
+                                     world_info, chunk_info, S, self._stats)
+
+        return self._run_batch(B, launch)
+
+    def _run_batch(self, B: int, launch) -> np.ndarray:
+        # The batch's chunks and buffers, then ``launch(bt, world_count, world_info, chunk_info, S)``
+        # (one of the batch kernels) until no buffer is short: its rows, or the first bad world's
+        # error. `collide.mujoco.BroadPhase.pairs_batch` launches the kernel that computes the
+        # poses itself.
         # More chunks than threads, handed out one at a time (parallel_chunksize 1): a thread
         # that the OS pauses does not hold up the whole call.
         # The lane kernel takes worlds _lanes.LANES at a time: no chunk of fewer.
@@ -700,8 +715,10 @@ class BroadPhase:
                            "stats": np.zeros((C, _k.N_STATS), np.int64), "info": np.zeros((C, 4), np.int64),
                            "ctx": np.zeros((C, _k.NCTX), np.int64)}
             if self._J is not None:
-                self._batch["LW"] = np.zeros((C, _lanes.lane_workspace_size(
-                    self.body_count, self.position_count, G, int(self._I[_k.H_Q]))))
+                # the lanes' workspace, then room for a group's poses computed in the call
+                ko = _lanes.lane_workspace_size(L, self.position_count, G, int(self._I[_k.H_Q]))
+                self._batch["LW"] = np.zeros((C, ko + _lanes.kin_workspace_size(L)))
+                self._batch["ko"] = ko
                 self._batch["LB"] = np.zeros((C, _lanes.lane_bits_size(self.position_count,
                                                                         int(self._J[_lanes.J_NR]))), np.int64)
             self._set_batch_buffers(4 * L + 64, max(256, 2 * G * per))
@@ -716,12 +733,7 @@ class BroadPhase:
             # The kernels sum the chunks' stats into self._stats (`stats` reads it) and return the
             # rows, or none when a chunk holds a bad world or ran out of room.
             with numba.parallel_chunksize(1):
-                if self._J is None:
-                    out = _k.step_batch(body_pos, body_rot, bt["ctx"], world_count, world_info, chunk_info, S,
-                                        self._stats)
-                else:
-                    out = _lanes.step_lanes(body_pos, body_rot, bt["ctx"], self._J, bt["LW"], bt["LB"], world_count,
-                                            world_info, chunk_info, S, self._stats)
+                out = launch(bt, world_count, world_info, chunk_info, S)
             if len(out):
                 return out
             bad = chunk_info[:, _k.CI_BAD]

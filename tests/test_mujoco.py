@@ -500,6 +500,34 @@ KIN = """<mujoco><worldbody>
 </worldbody></mujoco>"""
 
 
+@pytest.mark.parametrize("xml", ["chain", "kinematics_mjcf"])
+def test_pairs_batch_poses_in_the_call_equal_kinematics_then_batch(xml):
+    # On a small model pairs_batch(model, qpos) computes each group of worlds' poses in the lane
+    # kernel's own call (`_kernels.kinematics.step_lanes_kin`): its rows and stats must be those of
+    # kinematics_batch followed by collide.BroadPhase.pairs_batch, bit for bit, over full and
+    # partial groups of lanes; a bad pose names the same world and body in both.
+    model = mujoco.MjModel.from_xml_string(CHAIN.format(fp="enable") if xml == "chain" else KIN)
+    bp = cm.BroadPhase(model)
+    assert bp.broadphase._J is not None  # the lanes run it
+    qpos = _random_qpos(model, 21, np.random.default_rng(11))
+    got = bp.pairs_batch(model, qpos)
+    stats = bp.stats
+    want = bp.broadphase.pairs_batch(*cm.kinematics_batch(model, qpos))
+    assert np.array_equal(got, want) and got.dtype == want.dtype
+    assert bp.stats == stats and stats["pairs"] == len(got)
+    if xml == "chain":
+        assert len(np.unique(got[:, 0])) > 10  # hits in most worlds
+    else:  # every joint type, a mocap body; and a bad pose
+        slide = model.jnt_qposadr[np.flatnonzero(model.jnt_type == mujoco.mjtJoint.mjJNT_SLIDE)[0]]
+        qpos[13, slide] = 1e200  # body b and its children beyond MAX_POSITION, in world 13
+        for call in (lambda: bp.pairs_batch(model, qpos),
+                     lambda: bp.broadphase.pairs_batch(*cm.kinematics_batch(model, qpos))):
+            with pytest.raises(ValueError, match=r"world 13, body 3: "):
+                call()
+        qpos[13, slide] = 0.0
+        assert np.array_equal(bp.pairs_batch(model, qpos), bp.broadphase.pairs_batch(*cm.kinematics_batch(model, qpos)))
+
+
 @pytest.mark.parametrize("scene", ["kinematics_mjcf"] + SCENES)
 def test_kinematics_batch_matches_mj_kinematics(scene):
     if scene == "kinematics_mjcf":

@@ -1612,9 +1612,9 @@ def step_bound():
 
 
 @nb.njit(cache=True, inline="always")
-def _batch_world(w, pos_all, rot_all, I, F, W, sap, bp, kp, cap, off, scr, stats, info, world_info, world_count,
-                 st, so, ci):
-    # World w of a batch through `_world`, its sorted keys at offset off of the chunk's keys (at
+def _batch_world(w, pos_w, rot_w, I, F, W, sap, bp, kp, cap, off, scr, stats, info, world_info, world_count, st,
+                 so, ci):
+    # World w of a batch (poses pos_w, rot_w) through `_world`, its sorted keys at offset off of the chunk's keys (at
     # address kp, capacity cap), its count and stats (into st[so:]) recorded, its status in
     # world_info[w] when bad and in its chunk's summary ci (CI_BAD, CI_NEED); returns the next
     # offset. Beyond capacity it keeps counting (on a zero-length tail) so the caller learns the
@@ -1622,7 +1622,7 @@ def _batch_world(w, pos_all, rot_all, I, F, W, sap, bp, kp, cap, off, scr, stats
     start = off if off < cap else cap
     keys = nb.carray(i64_ptr(kp + 8 * start), cap - start)
     info[0] = OK
-    kw = _world(pos_all[w], rot_all[w], I, F, W, sap, bp, keys, scr, stats, info)
+    kw = _world(pos_w, rot_w, I, F, W, sap, bp, keys, scr, stats, info)
     world_count[w] = kw
     if kw < 0:
         for i in range(4):
@@ -1670,7 +1670,7 @@ def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_info, S,
         w1 = (B * (c + 1)) // C
         off = 0
         for w in range(w0, w1):
-            off = _batch_world(w, pos_all, rot_all, I, F, W, sap, bp, ctx[C_KEYS], cap, off, scr, stats, info,
+            off = _batch_world(w, pos_all[w], rot_all[w], I, F, W, sap, bp, ctx[C_KEYS], cap, off, scr, stats, info,
                                world_info, world_count, st, N_STATS, ci)
         for s in range(N_STATS):
             stats[s] = st[N_STATS + s]

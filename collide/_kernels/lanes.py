@@ -417,6 +417,48 @@ def _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gmargin, ps, gwl, gal, 
 
 # ------------------------------------------------------------------------------- entry point
 
+@nb.njit(cache=True, inline="always")
+def _lane_group(pos_src, rot_src, l0, g0, nl, I, F, W, sap, bp, scr, stats, info, Jv, LW, LB, NWd, ctx, off, st,
+                world_count, world_info, ci):
+    """Worlds ``g0 .. g0 + nl - 1`` (poses ``pos_src[l0 + l]``, ``rot_src[l0 + l]``) of a chunk whose
+    keys (in ``ctx``) run to ``off``: `_group`, then each world's keys read from the bitsets, or on a
+    bad pose world by world through `broadphase._world`; returns the new ``off``."""
+    bits = nb.carray(i64_ptr(np.int64(LB.ctypes.data)), (NWd, LANES))
+    NR = Jv[J_NR]
+    rank_keys = Jv[Jv.shape[0] - NR:]
+    cap = ctx[C_NKEYS]
+    kp = ctx[C_KEYS]
+    keys_all = nb.carray(i64_ptr(kp), cap)
+    for s in range(N_STATS):
+        stats[s] = 0
+    if _group(pos_src, rot_src, l0, nl, I, F, W, Jv, LW, LB, stats):
+        for s in range(N_STATS):
+            st[s] += stats[s]
+        for l in range(nl):
+            k = 0
+            for wi in range(NWd):
+                word = np.uint64(bits[wi, l])
+                while word != 0:
+                    if off + k < cap:
+                        keys_all[off + k] = rank_keys[wi * 64 + np.int64(trailing_zeros(word))]
+                    k += 1
+                    word &= word - np.uint64(1)
+            world_count[g0 + l] = k
+            off += k
+            st[ST_OUT] += k
+        return off
+    for l in range(nl):
+        off = _batch_world(g0 + l, pos_src[l0 + l], rot_src[l0 + l], I, F, W, sap, bp, kp, cap, off, scr, stats, info,
+                           world_info, world_count, st, 0, ci)
+    return off
+
+
+def kin_workspace_size(NB: int) -> int:
+    """float64 a thread needs after `lane_workspace_size` when the poses are computed in the call
+    (`kinematics.step_lanes_kin`): a group's poses and the kinematics' scratch."""
+    return LANES * 12 * NB + 4 * NB + 21
+
+
 @nb.njit(cache=True, parallel=True)
 def step_lanes(body_pos, body_rot, ctxs, J, LWs, LBs, world_count, world_info, chunk_info, S, stats_out):
     """`broadphase.step_batch` through the lanes: each chunk's worlds ``LANES`` at a time, each
@@ -429,8 +471,7 @@ def step_lanes(body_pos, body_rot, ctxs, J, LWs, LBs, world_count, world_info, c
     pos_all = nb.carray(f64_ptr(np.int64(body_pos.ctypes.data)), (B, NB, 3))
     rot_all = nb.carray(f64_ptr(np.int64(body_rot.ctypes.data)), (B, NB, 3, 3))
     Jv = nb.carray(i64_ptr(np.int64(J.ctypes.data)), J.shape[0])
-    NR = Jv[J_NR]
-    NWd = (NR + 63) // 64
+    NWd = (Jv[J_NR] + 63) // 64
     for c in nb.prange(C):
         ctx = nb.carray(i64_ptr(np.int64(ctxs.ctypes.data) + 8 * NCTX * c), NCTX)
         ci = nb.carray(i64_ptr(np.int64(chunk_info.ctypes.data) + 8 * N_CI * c), N_CI)
@@ -439,39 +480,13 @@ def step_lanes(body_pos, body_rot, ctxs, J, LWs, LBs, world_count, world_info, c
         I, F, W, sap, bp, scr, stats, info = _buffers(ctx)
         LW = nb.carray(f64_ptr(np.int64(LWs.ctypes.data) + 8 * LWs.shape[1] * c), LWs.shape[1])
         LB = nb.carray(i64_ptr(np.int64(LBs.ctypes.data) + 8 * LBs.shape[1] * c), LBs.shape[1])
-        bits = nb.carray(i64_ptr(np.int64(LB.ctypes.data)), (NWd, LANES))
-        rank_keys = Jv[Jv.shape[0] - NR:]
-        cap = ctx[C_NKEYS]
-        kp = ctx[C_KEYS]
-        keys_all = nb.carray(i64_ptr(kp), cap)
         st = np.zeros(N_STATS, np.int64)
         w0 = (B * c) // C
         w1 = (B * (c + 1)) // C
         off = 0
         for g0 in range(w0, w1, LANES):
-            nl = min(LANES, w1 - g0)
-            for s in range(N_STATS):
-                stats[s] = 0
-            if _group(pos_all, rot_all, g0, nl, I, F, W, Jv, LW, LB, stats):
-                for s in range(N_STATS):
-                    st[s] += stats[s]
-                for l in range(nl):
-                    w = g0 + l
-                    k = 0
-                    for wi in range(NWd):
-                        word = np.uint64(bits[wi, l])
-                        while word != 0:
-                            if off + k < cap:
-                                keys_all[off + k] = rank_keys[wi * 64 + np.int64(trailing_zeros(word))]
-                            k += 1
-                            word &= word - np.uint64(1)
-                    world_count[w] = k
-                    off += k
-                    st[ST_OUT] += k
-                continue
-            for w in range(g0, g0 + nl):
-                off = _batch_world(w, pos_all, rot_all, I, F, W, sap, bp, kp, cap, off, scr, stats, info,
-                                   world_info, world_count, st, 0, ci)
+            off = _lane_group(pos_all, rot_all, g0, g0, min(LANES, w1 - g0), I, F, W, sap, bp, scr, stats, info, Jv,
+                              LW, LB, NWd, ctx, off, st, world_count, world_info, ci)
         for s in range(N_STATS):
             stats[s] = st[s]
         ci[CI_KEYS] = off
