@@ -1636,6 +1636,18 @@ def _batch_world(w, pos_w, rot_w, I, F, W, sap, bp, kp, cap, off, scr, stats, in
     return off + kw if kw > 0 else off
 
 
+@nb.njit(cache=True, inline="always")
+def chunk_buffers(ctxs, chunk_info, c):
+    """Chunk c of a batch kernel: its context row, its `chunk_info` row (cleared) and its buffers
+    (`_buffers`), all pointer-built."""
+    ctx = nb.carray(i64_ptr(np.int64(ctxs.ctypes.data) + 8 * NCTX * c), NCTX)
+    ci = nb.carray(i64_ptr(np.int64(chunk_info.ctypes.data) + 8 * N_CI * c), N_CI)
+    ci[CI_BAD] = -1
+    ci[CI_NEED] = 0
+    I, F, W, sap, bp, scr, stats, info = _buffers(ctx)
+    return ctx, ci, I, F, W, sap, bp, scr, stats, info
+
+
 @nb.njit(cache=True, parallel=True)
 def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_info, S, stats_out):
     """Worlds split into ``C = ctxs.shape[0]`` contiguous chunks handed to numba's threads, each
@@ -1659,11 +1671,7 @@ def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_info, S,
     pos_all = nb.carray(f64_ptr(np.int64(body_pos.ctypes.data)), (B, L, 3))
     rot_all = nb.carray(f64_ptr(np.int64(body_rot.ctypes.data)), (B, L, 3, 3))
     for c in nb.prange(C):
-        ctx = nb.carray(i64_ptr(np.int64(ctxs.ctypes.data) + 8 * NCTX * c), NCTX)
-        ci = nb.carray(i64_ptr(np.int64(chunk_info.ctypes.data) + 8 * N_CI * c), N_CI)
-        ci[CI_BAD] = -1
-        ci[CI_NEED] = 0
-        I, F, W, sap, bp, scr, stats, info = _buffers(ctx)
+        ctx, ci, I, F, W, sap, bp, scr, stats, info = chunk_buffers(ctxs, chunk_info, c)
         cap = ctx[C_NKEYS]
         st = np.zeros(2 * N_STATS, np.int64)
         w0 = (B * c) // C

@@ -19,8 +19,8 @@ import numba as nb
 import numpy as np
 
 from ._ptr import f64_ptr, i64_ptr
-from .broadphase import CI_BAD, CI_KEYS, CI_NEED, N_CI, N_STATS, NCTX, _buffers, gather_batch
-from .lanes import J_NR, LANES, _lane_group
+from .broadphase import CI_KEYS, N_STATS, chunk_buffers, gather_batch
+from .lanes import J_NR, LANES, _lane_group, lane_buffers
 
 JNT_FREE, JNT_BALL, JNT_SLIDE, JNT_HINGE = 0, 1, 2, 3  # mjtJoint
 
@@ -208,14 +208,8 @@ def step_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
     Jv = nb.carray(i64_ptr(np.int64(J.ctypes.data)), J.shape[0])
     NWd = (Jv[J_NR] + 63) // 64
     for c in nb.prange(C):
-        ctx = nb.carray(i64_ptr(np.int64(ctxs.ctypes.data) + 8 * NCTX * c), NCTX)
-        ci = nb.carray(i64_ptr(np.int64(chunk_info.ctypes.data) + 8 * N_CI * c), N_CI)
-        ci[CI_BAD] = -1
-        ci[CI_NEED] = 0
-        I, F, W, sap, bp, scr, stats, info = _buffers(ctx)
-        la = np.int64(LWs.ctypes.data) + 8 * LWs.shape[1] * c
-        LW = nb.carray(f64_ptr(la), LWs.shape[1])
-        LB = nb.carray(i64_ptr(np.int64(LBs.ctypes.data) + 8 * LBs.shape[1] * c), LBs.shape[1])
+        ctx, ci, I, F, W, sap, bp, scr, stats, info = chunk_buffers(ctxs, chunk_info, c)
+        la, LW, LB = lane_buffers(LWs, LBs, c)
         kb = la + 8 * ko
         gpos = nb.carray(f64_ptr(kb), (LANES, NB, 3))  # the group's poses
         grot = nb.carray(f64_ptr(kb + 24 * LANES * NB), (LANES, NB, 3, 3))

@@ -29,10 +29,10 @@ import numpy as np
 
 from ._ptr import f64_ptr, i64_ptr
 from ._simd import aabb_mask8, aabb_merge8
-from .broadphase import (BIG, C_KEYS, C_NKEYS, CI_BAD, CI_KEYS, CI_NEED, N_CI, N_STATS, NCTX, ROW, SLACK_POS,
-                         SLACK_REL, ST_BODY_OBB, ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT,
-                         ST_PLANE, ST_SUBTREE, _batch_world, _buffers, _explicit_hit, _plane_hit_local, _pose_ok,
-                         _views, aabb_slack, bounds_mask, gather_batch, plane_world)
+from .broadphase import (BIG, C_KEYS, C_NKEYS, CI_KEYS, N_STATS, ROW, SLACK_POS, SLACK_REL, ST_BODY_OBB,
+                         ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT, ST_PLANE, ST_SUBTREE,
+                         _batch_world, _explicit_hit, _plane_hit_local, _pose_ok, _views, aabb_slack, bounds_mask,
+                         chunk_buffers, gather_batch, plane_world)
 
 LANES = 8
 MAX_BODY_PAIRS = 4096  # above this many static body pairs, the tree of the per-world kernel culls better
@@ -459,6 +459,15 @@ def kin_workspace_size(NB: int) -> int:
     return LANES * 12 * NB + 4 * NB + 21
 
 
+@nb.njit(cache=True, inline="always")
+def lane_buffers(LWs, LBs, c):
+    """Chunk c's lane workspace: its address, the float64 row ``LWs[c]`` and the int64 row ``LBs[c]``
+    (pointer-built)."""
+    la = np.int64(LWs.ctypes.data) + 8 * LWs.shape[1] * c
+    return (la, nb.carray(f64_ptr(la), LWs.shape[1]),
+            nb.carray(i64_ptr(np.int64(LBs.ctypes.data) + 8 * LBs.shape[1] * c), LBs.shape[1]))
+
+
 @nb.njit(cache=True, parallel=True)
 def step_lanes(body_pos, body_rot, ctxs, J, LWs, LBs, world_count, world_info, chunk_info, S, stats_out):
     """`broadphase.step_batch` through the lanes: each chunk's worlds ``LANES`` at a time, each
@@ -473,13 +482,8 @@ def step_lanes(body_pos, body_rot, ctxs, J, LWs, LBs, world_count, world_info, c
     Jv = nb.carray(i64_ptr(np.int64(J.ctypes.data)), J.shape[0])
     NWd = (Jv[J_NR] + 63) // 64
     for c in nb.prange(C):
-        ctx = nb.carray(i64_ptr(np.int64(ctxs.ctypes.data) + 8 * NCTX * c), NCTX)
-        ci = nb.carray(i64_ptr(np.int64(chunk_info.ctypes.data) + 8 * N_CI * c), N_CI)
-        ci[CI_BAD] = -1
-        ci[CI_NEED] = 0
-        I, F, W, sap, bp, scr, stats, info = _buffers(ctx)
-        LW = nb.carray(f64_ptr(np.int64(LWs.ctypes.data) + 8 * LWs.shape[1] * c), LWs.shape[1])
-        LB = nb.carray(i64_ptr(np.int64(LBs.ctypes.data) + 8 * LBs.shape[1] * c), LBs.shape[1])
+        ctx, ci, I, F, W, sap, bp, scr, stats, info = chunk_buffers(ctxs, chunk_info, c)
+        la, LW, LB = lane_buffers(LWs, LBs, c)
         st = np.zeros(N_STATS, np.int64)
         w0 = (B * c) // C
         w1 = (B * (c + 1)) // C
