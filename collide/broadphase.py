@@ -706,7 +706,7 @@ class BroadPhase:
         # poses itself.
         # More chunks than threads, handed out one at a time (parallel_chunksize 1): a thread
         # that the OS pauses does not hold up the whole call.
-        # The lane kernel takes worlds _lanes.LANES at a time: no chunk of fewer.
+        # The lane kernel takes worlds _lanes.LANES at a time: no more chunks than groups of them.
         C = max(1, min(4 * numba.get_num_threads(), B if self._J is None else -(-B // _lanes.LANES)))
         per = (B + C - 1) // C
         if self._batch is None or self._batch["ctx"].shape[0] != C:

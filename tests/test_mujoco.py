@@ -528,6 +528,21 @@ def test_pairs_batch_poses_in_the_call_equal_kinematics_then_batch(xml):
         assert np.array_equal(bp.pairs_batch(model, qpos), bp.broadphase.pairs_batch(*cm.kinematics_batch(model, qpos)))
 
 
+def test_pairs_batch_calls_an_overridden_kinematics_batch():
+    # A subclass's own kinematics is used on every path, the lanes' included.
+    model = mujoco.MjModel.from_xml_string(CHAIN.format(fp="enable"))
+    calls = []
+
+    class Logged(cm.BroadPhase):
+        def kinematics_batch(self, model, qpos):
+            calls.append(len(qpos))
+            return super().kinematics_batch(model, qpos)
+
+    qpos = _random_qpos(model, 9, np.random.default_rng(12))
+    got = Logged(model).pairs_batch(model, qpos)
+    assert calls == [9] and np.array_equal(got, cm.BroadPhase(model).pairs_batch(model, qpos)) and len(got)
+
+
 @pytest.mark.parametrize("scene", ["kinematics_mjcf"] + SCENES)
 def test_kinematics_batch_matches_mj_kinematics(scene):
     if scene == "kinematics_mjcf":

@@ -2,7 +2,8 @@
 only), and the batched broad phase fed by it straight into the lanes.
 
 `kinematics_worlds` fills pose arrays; `step_lanes_kin` computes each group of `lanes.LANES` worlds'
-poses into a small buffer of its thread and runs `lanes._lane_group` on them: no pose array of the
+poses into a small buffer of its chunk (in the chunk's lane workspace) and runs `lanes._lane_group` on
+them: no pose array of the
 whole batch written and read back (1024 humanoid worlds: 1.7 MB), and one parallel region per call
 instead of two (a second one wakes a sleeping thread). Both compute the same poses with the same
 operations (`_kinematics_world`), so the fused call gives the rows of `step_lanes` on
@@ -194,7 +195,7 @@ def kinematics_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr
 @nb.njit(cache=True, parallel=True)
 def step_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr,
                    jnt_pos, jnt_axis, ctxs, J, LWs, ko, LBs, world_count, world_info, chunk_info, S, stats_out):
-    """`lanes.step_lanes` on the poses of ``qpos (B, nq)``, each group's computed into its thread's
+    """`lanes.step_lanes` on the poses of ``qpos (B, nq)``, each group's computed into its chunk's
     workspace just before its tests (see the module docstring): each row of ``LWs`` holds
     `lanes.kin_workspace_size` float64 from column ``ko`` on. Same result as `lanes.step_lanes` on
     `kinematics_worlds`' poses."""
