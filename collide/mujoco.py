@@ -564,9 +564,10 @@ class BroadPhase:
             ``(world, geom1, geom2)`` rows, sorted: those of `kinematics_batch` followed by
             `collide.BroadPhase.pairs_batch`. On a model the lanes run (`collide._kernels.lanes`)
             each chunk of worlds computes a group's poses in its own workspace just before testing
-            them, none of the batch's poses written out (humanoid, 1024 worlds, 2 threads,
-            alternating with the two calls in one process: 0.98 -> 0.83 us a world). A subclass
-            that overrides the `kinematics_batch` method gets the two calls.
+            them, none of the batch's poses written out (humanoid, 1024 worlds, 2 threads, called
+            back to back: 0.96-0.99 -> 0.82-0.83 us a world; on 1 thread 1.54-1.60 -> 1.46-1.56;
+            with other batch calls in between, about even). A subclass that overrides the
+            `kinematics_batch` method gets the two calls.
         """
         if not isinstance(model, mujoco.MjModel):
             raise ValueError(f"model: expected a mujoco.MjModel, got {type(model).__name__}")
