@@ -1614,11 +1614,11 @@ def step_bound():
 @nb.njit(cache=True, inline="always")
 def _batch_world(w, pos_w, rot_w, I, F, W, sap, bp, kp, cap, off, scr, stats, info, world_info, world_count, st,
                  so, ci):
-    # World w of a batch (poses pos_w, rot_w) through `_world`, its sorted keys at offset off of the chunk's keys (at
-    # address kp, capacity cap), its count and stats (into st[so:]) recorded, its status in
-    # world_info[w] when bad and in its chunk's summary ci (CI_BAD, CI_NEED); returns the next
-    # offset. Beyond capacity it keeps counting (on a zero-length tail) so the caller learns the
-    # size.
+    # World w of a batch (poses pos_w, rot_w) through `_world`, its sorted keys at offset off of
+    # the chunk's keys (at address kp, capacity cap), its count and stats (into st[so:]) recorded,
+    # its status in world_info[w] when bad and in its chunk's summary ci (CI_BAD, CI_NEED); returns
+    # the next offset. Beyond capacity it keeps counting (on a zero-length tail) so the caller
+    # learns the size.
     start = off if off < cap else cap
     keys = nb.carray(i64_ptr(kp + 8 * start), cap - start)
     info[0] = OK
@@ -1656,10 +1656,10 @@ def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_info, S,
     ``world_count[w]`` is its pair count (-1 with ``world_info[w]`` = (status, body, ...) on a bad
     pose; ``world_info`` is written for bad worlds only). ``chunk_info[c]`` (int64, 3) sums up chunk
     c (`CI_KEYS`: its key count, which may exceed the keys' capacity; `CI_BAD`: its first bad world
-    or -1; `CI_NEED`: the body-pair capacity a world lacked, or 0): the caller reads C rows, not B
-    (rows that the other core wrote cost a cache-line transfer each: the 64-link chain's 1024
-    worlds, 35 us a call to read ``world_info``). Returns `gather_batch`'s rows (``stats_out``:
-    the chunks' stats summed). ``body_pos`` and ``body_rot`` must be C-contiguous.
+    or -1; `CI_NEED`: the body-pair capacity a world lacked, or 0), and `gather_batch` reads them
+    here, in the same call, then returns its rows (``stats_out``: the chunks' stats summed): the
+    caller has nothing left to do on the arrays of B rows (see `gather_batch`). ``body_pos`` and
+    ``body_rot`` must be C-contiguous.
 
     Every view here is pointer-built (no reference count): views of a shared reference-counted
     array would bump its counter atomically on every world, from both cores (measured: two
@@ -1688,10 +1688,10 @@ def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_info, S,
 
 @nb.njit(cache=True)
 def gather_batch(ctxs, world_count, chunk_info, S, stats):
-    """After `step_batch` or `lanes.step_lanes`, in the same call: rows ``(world, g1, g2)`` int32
-    from the chunks' keys, world by world, and ``stats`` (N_STATS,) = the chunks' stats summed;
-    ``(0, 3)`` rows when a chunk holds a bad world or ran out of room (the caller reads
-    ``chunk_info`` then).
+    """At the end of a batch kernel (`step_batch`, `lanes.step_lanes`, `kinematics.step_lanes_kin`), in
+    its call: rows ``(world, g1, g2)`` int32 from the chunks' keys, world by world, and ``stats``
+    (N_STATS,) = the chunks' stats summed; ``(0, 3)`` rows when a chunk holds a bad world or ran out
+    of room (the caller reads ``chunk_info`` then).
 
     In the parallel kernels' own call rather than the caller's: the first numpy operation after a
     batch took 13 us, the Python and numpy code having left the caches (64-link chain, 1024 worlds,
