@@ -1118,11 +1118,39 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
     for x in range(1, I[H_V] + 1):  # the world's geoms as leaves of their own
         _place(body_rot, body_pos, 0, blocal, x, bw, baabb, saabb, baabb_t, has_flat)
     # 2. subtree AABBs: one reverse sweep, children before parents (each started as its body's AABB).
+    # The box merged last is carried in registers when the next position is its parent (always,
+    # down a chain): through memory, each merge waited for the previous one's store (64-link chain
+    # after mj_step, alternating A/B in three runs: 4.42-6.68 -> 4.13-6.31 us a step). Same min and
+    # max, same order: the same bits.
+    a0 = saabb[L - 1, 0]
+    a1 = saabb[L - 1, 1]
+    a2 = saabb[L - 1, 2]
+    a3 = saabb[L - 1, 3]
+    a4 = saabb[L - 1, 4]
+    a5 = saabb[L - 1, 5]
     for x in range(L - 1, 0, -1):
         q = parent_pos[x]
-        for i in range(3):
-            saabb[q, i] = min(saabb[q, i], saabb[x, i])
-            saabb[q, 3 + i] = max(saabb[q, 3 + i], saabb[x, 3 + i])
+        b0 = min(saabb[q, 0], a0)
+        b1 = min(saabb[q, 1], a1)
+        b2 = min(saabb[q, 2], a2)
+        b3 = max(saabb[q, 3], a3)
+        b4 = max(saabb[q, 4], a4)
+        b5 = max(saabb[q, 5], a5)
+        saabb[q, 0] = b0
+        saabb[q, 1] = b1
+        saabb[q, 2] = b2
+        saabb[q, 3] = b3
+        saabb[q, 4] = b4
+        saabb[q, 5] = b5
+        if q == x - 1:
+            a0, a1, a2, a3, a4, a5 = b0, b1, b2, b3, b4, b5
+        else:
+            a0 = saabb[x - 1, 0]
+            a1 = saabb[x - 1, 1]
+            a2 = saabb[x - 1, 2]
+            a3 = saabb[x - 1, 3]
+            a4 = saabb[x - 1, 4]
+            a5 = saabb[x - 1, 5]
     # 3. candidate body pairs down the tree.
     nbp = _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap, bp, stats, filter_parent,
                     baabb_t, flat_root, flat_n, flat_mask)
