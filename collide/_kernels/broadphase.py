@@ -1119,38 +1119,26 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
         _place(body_rot, body_pos, 0, blocal, x, bw, baabb, saabb, baabb_t, has_flat)
     # 2. subtree AABBs: one reverse sweep, children before parents (each started as its body's AABB).
     # The box merged last is carried in registers when the next position is its parent (always,
-    # down a chain): through memory, each merge waited for the previous one's store (64-link chain
-    # after mj_step, alternating A/B in three runs: 4.42-6.68 -> 4.13-6.31 us a step). Same min and
-    # max, same order: the same bits.
-    a0 = saabb[L - 1, 0]
-    a1 = saabb[L - 1, 1]
-    a2 = saabb[L - 1, 2]
-    a3 = saabb[L - 1, 3]
-    a4 = saabb[L - 1, 4]
-    a5 = saabb[L - 1, 5]
+    # down a chain): through memory, each merge waits for the previous one's store. 64-link chain
+    # after mj_step, alternating A/B: 4.42-6.68 -> 4.13-6.31 us a step in three runs, then on a
+    # disturbed machine 4.15-6.43 against 4.46-6.41 (even); hot even. Same min and max, same
+    # order: the same bits.
     for x in range(L - 1, 0, -1):
+        if x == L - 1 or parent_pos[x + 1] != x:  # else saabb[x] was merged last: a0..a5 hold it
+            a0, a1, a2, a3, a4, a5 = saabb[x, 0], saabb[x, 1], saabb[x, 2], saabb[x, 3], saabb[x, 4], saabb[x, 5]
         q = parent_pos[x]
-        b0 = min(saabb[q, 0], a0)
-        b1 = min(saabb[q, 1], a1)
-        b2 = min(saabb[q, 2], a2)
-        b3 = max(saabb[q, 3], a3)
-        b4 = max(saabb[q, 4], a4)
-        b5 = max(saabb[q, 5], a5)
-        saabb[q, 0] = b0
-        saabb[q, 1] = b1
-        saabb[q, 2] = b2
-        saabb[q, 3] = b3
-        saabb[q, 4] = b4
-        saabb[q, 5] = b5
-        if q == x - 1:
-            a0, a1, a2, a3, a4, a5 = b0, b1, b2, b3, b4, b5
-        else:
-            a0 = saabb[x - 1, 0]
-            a1 = saabb[x - 1, 1]
-            a2 = saabb[x - 1, 2]
-            a3 = saabb[x - 1, 3]
-            a4 = saabb[x - 1, 4]
-            a5 = saabb[x - 1, 5]
+        a0 = min(saabb[q, 0], a0)
+        a1 = min(saabb[q, 1], a1)
+        a2 = min(saabb[q, 2], a2)
+        a3 = max(saabb[q, 3], a3)
+        a4 = max(saabb[q, 4], a4)
+        a5 = max(saabb[q, 5], a5)
+        saabb[q, 0] = a0
+        saabb[q, 1] = a1
+        saabb[q, 2] = a2
+        saabb[q, 3] = a3
+        saabb[q, 4] = a4
+        saabb[q, 5] = a5
     # 3. candidate body pairs down the tree.
     nbp = _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap, bp, stats, filter_parent,
                     baabb_t, flat_root, flat_n, flat_mask)
