@@ -88,9 +88,10 @@ N_STATS = 9
 
 # Header of I: counts. Positions (``H_L``) are the bodies in depth-first order plus, when the world
 # has several solid geoms, one leaf per world geom (``H_V`` of them, at positions 1..V; see
-# BroadPhase): bodies (``H_NB``) index the pose arrays, positions everything else.
-H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP, H_KS, H_NB, H_V = range(10)
-HEADER = 10
+# BroadPhase): bodies (``H_NB``) index the pose arrays, positions everything else. ``H_FLAT``: 1 when
+# some subtree is flat (``flat_root``), so that the step writes ``baabb_t`` (see `_place`).
+H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP, H_KS, H_NB, H_V, H_FLAT = range(11)
+HEADER = 11
 
 
 def pack(order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor, caor,
@@ -106,8 +107,8 @@ def pack(order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb
     """
     L, G, Gs, Q, E, P = len(order), len(geom_bid), len(pgeoms), len(planes), len(ex_other), len(pair_keys)
     head = np.zeros(HEADER, np.int64)
-    head[[H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP, H_KS, H_NB, H_V]] = (
-        L, G, Gs, Q, E, P, int(filter_parent), key_shift(G), len(pos_of), n_virtual)
+    head[[H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP, H_KS, H_NB, H_V, H_FLAT]] = (
+        L, G, Gs, Q, E, P, int(filter_parent), key_shift(G), len(pos_of), n_virtual, int(np.any(flat_root)))
     parts = [head, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
              caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca,
              np.asarray(pair_g).reshape(-1), pair_keys, flat_root, flat_n, flat_mask]
@@ -1100,9 +1101,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
                         info[0] = BAD_NONFINITE
             info[1] = b
             return -1
-    has_flat = False
-    for x in range(L):
-        has_flat |= flat_root[x] != 0
+    has_flat = I[H_FLAT] != 0
     for b in range(NB):
         x = pos_of[b]
         if hasb[x]:
