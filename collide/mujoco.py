@@ -424,6 +424,9 @@ class BroadPhase:
         Read once, here: geometry, filter rules and flags (``mjDSBL_CONTACT``,
         ``mjDSBL_CONSTRAINT``, ``mjDSBL_FILTERPARENT``, ``mjENBL_OVERRIDE``). Build a new
         BroadPhase after changing them (reading ``model.opt`` costs ~3 us a call in the bindings).
+    coherent : bool, default True
+        Keep the body pairs of fat boxes between steps (`collide.BroadPhase`'s ``coherent``):
+        the same pairs, less time in a simulation loop.
 
     Attributes
     ----------
@@ -435,10 +438,10 @@ class BroadPhase:
     As `collide.BroadPhase`: one thread at a time per instance (``copy.copy`` for another thread).
     """
 
-    def __init__(self, model: mujoco.MjModel):
+    def __init__(self, model: mujoco.MjModel, coherent: bool = True):
         self.model = model
         self.articulation = articulation(model)
-        self.broadphase = _BroadPhase(self.articulation)
+        self.broadphase = _BroadPhase(self.articulation, coherent)
         self._empty2 = np.zeros((0, 2), dtype=np.int32)
         self._empty3 = np.zeros((0, 3), dtype=np.int32)
         self._disabled = _contacts_disabled(model)
@@ -454,7 +457,7 @@ class BroadPhase:
     def __reduce__(self):
         # Rebuilt from the model (see collide.BroadPhase.__reduce__): the kernel's context holds
         # raw addresses of this object's buffers and of the last MjData's arrays.
-        return (BroadPhase, (self.model,))
+        return (BroadPhase, (self.model, self.broadphase.coherent))
 
     def _drop_null(self, pairs: np.ndarray, first: int) -> np.ndarray:
         if self._no_function is None or len(pairs) == 0:

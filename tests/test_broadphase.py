@@ -931,7 +931,7 @@ def test_traversal_paths_equal_bounds_twin():
     n = 70
     parent = np.r_[0, 0, np.arange(1, n), 0, np.arange(n + 1, 2 * n)]
     a = Articulation(parent, np.arange(1, 2 * n + 1), [PointCloud([[0, 0, 0], [0.1, 0, 0]], 0.04)] * (2 * n))
-    bp = BroadPhase(a)
+    bp = BroadPhase(a, coherent=False)  # the walk itself (its subtree AABBs are read below)
     assert n * n > _kern.FLAT_MAX and not _kern._views(bp._I, bp._F, bp._W)[-3].any()
     total = 0
     for _ in range(5):
@@ -1280,3 +1280,108 @@ def test_planes_on_nearly_orthonormal_bodies_are_moved_exactly():
         n, d = wb.plane[0, :3], wb.plane[0, 3]
         for y in ([far, 0, 0], [0, far, 0], [-far, 0, 0], [0, -far, 0]):
             assert n @ (R @ np.array(y)) - d <= 1e-15 * far  # the moved boundary lies in the halfspace
+
+
+# --------------------------------------------------------------------------- frame coherence
+
+COHERENT_SCENES = [
+    ("chain", lambda: testing.chain(64, seed=21, planes=1, joint_range=1.6), 0.001),  # the tip moves 64 joints' worth
+    ("tree", lambda: testing.branching_tree(60, seed=22, planes=1), 0.01),
+    ("robots", lambda: testing.many_robots(10, 6, seed=23, spread=0.6, planes=1), 0.01),  # flat roots
+    ("hulls_sweep", lambda: testing.free_hulls(40, seed=24, filters=True, planes=1), 0.01),
+    ("hulls_grid", lambda: testing.free_hulls(125, seed=25, filters=True), 0.01),
+]
+
+
+def _coherence_state(bp):
+    a = bp.articulation
+    L, Q = bp.position_count, int(bp._I[_kern.H_Q])
+    o = _kern.coherence_offset(L, a.geom_count, Q) + 18 * L
+    return bp._W[o:o + _kern.N_COH]
+
+
+def _motion(sc, rng, steps, step=0.01):
+    if sc.meta.get("home_pos") is not None:
+        return testing.hull_motion(sc, rng, steps, step)
+    return testing.scene_motion(sc, rng, steps, step)
+
+
+@pytest.mark.parametrize("make, step", [s[1:] for s in COHERENT_SCENES], ids=[s[0] for s in COHERENT_SCENES])
+def test_coherent_calls_equal_the_walk_along_motions_and_jumps(make, step):
+    # Along a smooth motion the kept list is reused (and rebuilt when a body leaves its fat box);
+    # every 40 calls the poses jump to an unrelated configuration. Each call must equal the walk's
+    # (coherent=False) and, every tenth, the bounds twin.
+    sc = make()
+    a = sc.articulation
+    coh, walk = BroadPhase(a), BroadPhase(a, coherent=False)
+    assert coh.coherent and not walk.coherent
+    rng = np.random.default_rng(7)
+    pos, rot = _motion(sc, rng, 120, step)
+    reused = pairs = 0
+    for s in range(len(pos)):
+        p, r = (pos[s], rot[s]) if s % 40 != 39 else sc.poses(rng)
+        got = coh.pairs(p, r)
+        reused += coh.stats["reused"]
+        assert np.array_equal(got, walk.pairs(p, r)), s
+        assert walk.stats["reused"] == 0
+        if s % 10 == 0:
+            assert np.array_equal(got, testing.brute_force_bound_pairs(a, p, r)), s
+        pairs += len(got)
+    assert pairs > 100  # the scenes had hits
+    assert 0.5 * len(pos) < reused < len(pos) - 3  # the list was reused, and rebuilt
+
+
+def test_coherence_gives_way_to_the_walk_when_bodies_keep_leaving_their_boxes():
+    # Unrelated poses at every call: after a few rebuilds the walk runs for a spell (COH_SKIP),
+    # longer each time; a smooth motion afterwards brings the list back. The same pairs throughout.
+    sc = testing.many_robots(10, 6, seed=26, spread=0.6, planes=1)
+    a = sc.articulation
+    coh, walk = BroadPhase(a), BroadPhase(a, coherent=False)
+    rng = np.random.default_rng(8)
+    pos, rot = sc.poses(rng, worlds=60)
+    spells = []  # the length of each spell on the walk, as it starts
+    total = 0
+    for s in range(len(pos)):
+        got = coh.pairs(pos[s], rot[s])
+        assert coh.stats["reused"] == 0
+        assert np.array_equal(got, walk.pairs(pos[s], rot[s]))
+        total += len(got)
+        st = _coherence_state(coh)
+        if st[_kern.COH_SKIP] > 0 and st[_kern.COH_SKIP] == st[_kern.COH_BACKOFF] - 1:
+            spells.append(st[_kern.COH_BACKOFF])
+    assert total > 500
+    assert len(spells) >= 2 and spells[0] == _kern.COH_BACKOFF_MIN and spells[1] == 2 * spells[0]
+    pos, rot = _motion(sc, rng, 80)
+    reused = 0
+    for s in range(len(pos)):
+        got = coh.pairs(pos[s], rot[s])
+        reused += coh.stats["reused"]
+        assert np.array_equal(got, walk.pairs(pos[s], rot[s]))
+    assert reused > 10
+
+
+def test_coherence_survives_new_buffers_and_bad_poses():
+    sc = testing.free_hulls(64, seed=27, filters=True, planes=1)
+    a = sc.articulation
+    coh, walk = BroadPhase(a), BroadPhase(a, coherent=False)
+    pos, rot = testing.hull_motion(sc, np.random.default_rng(9), 40, 0.01)
+    total = 0
+    for s in range(len(pos)):
+        if s == 10:
+            coh._set_buffers(1, 1)  # a new, tiny list: cleared, rebuilt, grown and rerun
+        if s == 20:
+            bad = pos[s].copy()
+            bad[5, 1] = np.nan
+            with pytest.raises(ValueError, match="body 5"):
+                coh.pairs(bad, rot[s])
+        got = coh.pairs(pos[s], rot[s])
+        assert np.array_equal(got, walk.pairs(pos[s], rot[s])), s
+        total += len(got)
+        if s in (10, 11, 21):
+            assert coh.stats["reused"] == (s != 10)  # rebuilt after new buffers, then kept
+    assert total > 40 * 20
+
+
+def test_coherent_must_be_a_bool():
+    with pytest.raises(ValueError, match="coherent"):
+        BroadPhase(testing.chain(4, seed=1).articulation, coherent="no")

@@ -83,8 +83,29 @@ MAX_POSITION = 1e150
 
 # stats slots
 (ST_SUBTREE, ST_BODY_AABB, ST_BODY_SPHERE, ST_BODY_OBB, ST_GEOM_SPHERE, ST_GEOM_OBB, ST_PLANE, ST_OUT,
- ST_GEOM_AABB) = range(9)
-N_STATS = 9
+ ST_GEOM_AABB, ST_REUSED) = range(10)
+N_STATS = 10
+
+# Frame coherence (`_world`, single-world calls only): the body pairs whose *fat* boxes (each body's
+# AABB grown by FAT_GROW of its largest extent on every side) overlap and pass the static filter are
+# kept between calls; while every body's AABB stays inside its fat box, a call tests that list's
+# exact AABBs instead of walking the tree: two AABBs inside two fat boxes can only meet if the fat
+# boxes do (the broad phase of Bullet's and Box2D's dynamic trees: fat AABBs; Catto, "Dynamic
+# AABB Trees", GDC 2019). The answer is the walk's, bit for bit. State, float64, in the workspace
+# after the fat boxes (`coherence_offset`): the list is valid, its length, a decayed count of
+# recent rebuilds (x COH_DECAY a call, +1 a rebuild), calls left on the exact walk, and the length
+# of the next such spell.
+FAT_GROW = 0.2
+COH_VALID, COH_N, COH_SCORE, COH_SKIP, COH_BACKOFF = range(5)
+N_COH = 8
+COH_DECAY = 0.875
+# Above this decayed count (rebuilds in more than about half the calls: bodies leave their fat boxes
+# all the time, as 22 falling humanoids do), rebuilding costs more than the list saves: the exact
+# walk runs for COH_BACKOFF calls (8, doubled each time up to COH_BACKOFF_MAX, halved by each
+# call that reuses the list) before the list is tried again.
+COH_SCORE_MAX = 4.0
+COH_BACKOFF_MIN = 8.0
+COH_BACKOFF_MAX = 1024.0
 
 # Header of I: counts. Positions (``H_L``) are the bodies in depth-first order plus, when the world
 # has several solid geoms, one leaf per world geom (``H_V`` of them, at positions 1..V; see
@@ -122,9 +143,15 @@ def key_shift(G: int) -> int:
     return max(1, int(G - 1).bit_length())
 
 
+def coherence_offset(L: int, G: int, Q: int) -> int:
+    """Where the frame-coherence part of ``W`` starts: fat boxes (L, 6), fat subtree boxes (L, 6),
+    fat boxes transposed (6, L), then ``N_COH`` of state (see ``FAT_GROW``)."""
+    return ROW * L + ROW * G + 18 * L + 4 * max(Q, 1) + 2 * ROW + 6 * G + L + 1
+
+
 def workspace_size(L: int, G: int, Q: int) -> int:
     """Length of the float64 workspace ``W`` of one world (``L`` positions)."""
-    return ROW * L + ROW * G + 18 * L + 4 * max(Q, 1) + 2 * ROW + 6 * G + L + 1
+    return coherence_offset(L, G, Q) + 18 * L + N_COH
 
 
 @nb.njit(cache=True, inline="always")
@@ -225,6 +252,21 @@ def _views(I, F, W):
             pair_keys,
             blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp, baabb_t,
             flat_root, flat_n, flat_mask)
+
+
+@nb.njit(cache=True, inline="always")
+def _fat_views(I, W):
+    # The frame-coherence part of W (see coherence_offset): fat_b (L, 6), fat_s (L, 6), fat_t (6, L),
+    # state (N_COH).
+    L = I[H_L]
+    G = I[H_G]
+    w = ROW * L + ROW * G + 18 * L + 4 * max(I[H_Q], 1) + 2 * ROW + 6 * G + L + 1
+    wa = np.int64(W.ctypes.data) + 8 * w
+    fat_b = nb.carray(f64_ptr(wa), (L, 6))
+    fat_s = nb.carray(f64_ptr(wa + 48 * L), (L, 6))
+    fat_t = nb.carray(f64_ptr(wa + 96 * L), (6, L))
+    state = nb.carray(f64_ptr(wa + 144 * L), N_COH)
+    return fat_b, fat_s, fat_t, state
 
 
 # ------------------------------------------------------------------------------- small tests
@@ -713,7 +755,7 @@ def _subtree_pair(A, B, end, baabb, saabb, hasb, bp, nb_, stats, lst):
 
 
 @nb.njit(cache=True)
-def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stats, lst):
+def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stats, lst, use_sph):
     """Pairs of overlapping child subtrees of a wide node through a uniform hash grid.
 
     A sweep on one axis tests O(k^(5/3)) pairs when k children fill a volume (a scene of free
@@ -721,7 +763,8 @@ def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stat
     sits in the cell of its AABB's min corner, and two overlapping AABBs have min corners at most
     one cell apart per axis, so a child's own cell and its 13 forward neighbours cover every pair
     exactly once. Children much larger than the mean (4x) would inflate the cell; they are tested
-    against every child instead.
+    against every child instead. Without ``use_sph`` (a walk over fat boxes, see ``FAT_GROW``), two
+    leaf bodies are paired on their boxes alone: the spheres in ``bw`` are the exact ones.
     """
     ext = np.empty(kc)
     total = 0.0
@@ -844,7 +887,7 @@ def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stat
                     if nb_ < cap:
                         bp[nb_, 0] = ~ci
                         bp[nb_, 1] = cj
-                    nb_ += np.int64(sph & hit)
+                    nb_ += np.int64((sph | (not use_sph)) & hit)
                 elif hit:
                     nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats, lst)
     stats[ST_SUBTREE] += ntest
@@ -867,10 +910,12 @@ def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stat
 
 @nb.njit(cache=True)
 def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap, bp, stats, filter_parent,
-              baabb_t, flat_root, flat_n, flat_mask):
+              baabb_t, flat_root, flat_n, flat_mask, use_sph):
     """Candidate body pairs (world AABBs overlap) into ``bp``; returns their count (may exceed cap).
 
     ``sap`` (`sap_state`): the sweep orders of the children lists, then scratch for `_subtree_pair`.
+    ``baabb``, ``saabb``, ``baabb_t``: the exact boxes, or the fat ones with ``use_sph`` false (see
+    `_grid_pairs`).
     """
     nb_ = 0
     lst = sap[L - 1:]
@@ -987,7 +1032,7 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
                 if w > 0.0:
                     sumw += w
             if sumw > GRID_SWEEP * best:
-                nb_ = _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stats, lst)
+                nb_ = _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stats, lst, use_sph)
                 continue
         swaps = 0
         limit = 16 * kc + 64
@@ -1045,13 +1090,99 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
 # ------------------------------------------------------------------------------- one world
 
 @nb.njit(cache=True)
-def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
+def _sweep(saabb, parent_pos, L):
+    """Subtree AABBs: one reverse sweep over the positions, children before parents, each row of
+    ``saabb`` started as its body's AABB.
+
+    The box merged last is carried in registers when the next position is its parent (always,
+    down a chain): through memory, each merge waits for the previous one's store. 64-link chain
+    after mj_step, alternating A/B: 4.42-6.68 -> 4.13-6.31 us a step in three runs, then on a
+    disturbed machine 4.15-6.43 against 4.46-6.41 (even); hot even. Same min and max, same
+    order: the same bits.
+    """
+    for x in range(L - 1, 0, -1):
+        if x == L - 1 or parent_pos[x + 1] != x:  # else saabb[x] was merged last: a0..a5 hold it
+            a0, a1, a2, a3, a4, a5 = saabb[x, 0], saabb[x, 1], saabb[x, 2], saabb[x, 3], saabb[x, 4], saabb[x, 5]
+        q = parent_pos[x]
+        a0 = min(saabb[q, 0], a0)
+        a1 = min(saabb[q, 1], a1)
+        a2 = min(saabb[q, 2], a2)
+        a3 = max(saabb[q, 3], a3)
+        a4 = max(saabb[q, 4], a4)
+        a5 = max(saabb[q, 5], a5)
+        saabb[q, 0] = a0
+        saabb[q, 1] = a1
+        saabb[q, 2] = a2
+        saabb[q, 3] = a3
+        saabb[q, 4] = a4
+        saabb[q, 5] = a5
+
+
+@nb.njit(cache=True)
+def _filter(bp, nbp, ctor, caor, weld, parent_pos, filter_parent, ex_start, ex_other, single):
+    """The static filter over the traversal's ``bp[:nbp]``, compacting ``bp`` in place; returns
+    the count kept. Each kept pair is written lower position first, its second as ``~y`` when
+    loose (a multi-geom body whose bounds are mostly empty space, ``single < 0``)."""
+    m = 0
+    for t in range(nbp):
+        x = bp[t, 0]
+        y = bp[t, 1]
+        if x < 0:
+            x = ~x  # the grid's sphere test mark: redone below with the OBB test, at no cost
+        if y < 0:
+            y = ~y  # a flat root's pair: the static filter passed at set-up
+        else:
+            if (ctor[x] & caor[y]) == 0 and (ctor[y] & caor[x]) == 0:
+                continue
+            if weld[x] == weld[y]:
+                continue
+            if filter_parent and ((parent_pos[x] == y and y != 0) or (parent_pos[y] == x and x != 0)):
+                continue
+            excluded = False
+            for e in range(ex_start[x], ex_start[x + 1]):
+                if ex_other[e] == y:
+                    excluded = True
+            if excluded:
+                continue
+        # A multi-geom body whose bounds are mostly empty space (walls around an arena, the world's
+        # scattered static geoms: single < 0, see BroadPhase) passes every body-level test; its
+        # pairs go straight to its geoms' AABBs.
+        # Lower position first: the OBB test is not bitwise symmetric in its two boxes, and the
+        # batch's lanes test each pair in this order (a sweep or the grid may hand it reversed).
+        x, y = min(x, y), max(x, y)
+        bp[m, 0] = x
+        bp[m, 1] = ~y if (single[x] < 0 or single[y] < 0) else y
+        m += 1
+    return m
+
+
+@nb.njit(cache=True, inline="always")
+def _scan(cl, n, baabb, bp):
+    # The pairs of the kept list cl[:n] whose exact AABBs overlap, into bp (written, counted by the
+    # outcome: no branch on it).
+    m = 0
+    for t in range(n):
+        x = cl[t, 0]
+        yy = cl[t, 1]
+        y = yy ^ (yy >> 63)  # ~y -> y
+        bp[m, 0] = x
+        bp[m, 1] = yy
+        m += np.int64((baabb[x, 0] <= baabb[y, 3]) & (baabb[y, 0] <= baabb[x, 3]) & (baabb[x, 1] <= baabb[y, 4])
+                      & (baabb[y, 1] <= baabb[x, 4]) & (baabb[x, 2] <= baabb[y, 5]) & (baabb[y, 2] <= baabb[x, 5]))
+    return m
+
+
+@nb.njit(cache=True)
+def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coherent):
     """One world: validate poses, world bounds, tree culling, filters; returns the pair count.
 
     ``scr`` is int64 scratch for the output sort (`scratch_size`). On a bad pose, ``info[0]`` gets
     the status code, ``info[1]`` the body id, and -1 is returned.
     Body pairs beyond ``bp``'s capacity set ``info[3]`` to the count needed (the caller grows
     ``bp`` and reruns); keys beyond ``keys.shape[0]`` are counted but not written (likewise).
+    With ``coherent``, the body-pair list is kept between calls in ``cl`` (``bp``'s shape; see
+    ``FAT_GROW``): a caller that replaces ``cl`` clears ``W``'s ``COH_VALID``
+    (`coherence_offset`). A batch's worlds are unrelated: no coherence there.
     """
     (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
      caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
@@ -1116,66 +1247,75 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info):
                 saabb[x, 3 + i] = -BIG
     for x in range(1, I[H_V] + 1):  # the world's geoms as leaves of their own
         _place(body_rot, body_pos, 0, blocal, x, bw, baabb, saabb, baabb_t, has_flat)
-    # 2. subtree AABBs: one reverse sweep, children before parents (each started as its body's AABB).
-    # The box merged last is carried in registers when the next position is its parent (always,
-    # down a chain): through memory, each merge waits for the previous one's store. 64-link chain
-    # after mj_step, alternating A/B: 4.42-6.68 -> 4.13-6.31 us a step in three runs, then on a
-    # disturbed machine 4.15-6.43 against 4.46-6.41 (even); hot even. Same min and max, same
-    # order: the same bits.
-    for x in range(L - 1, 0, -1):
-        if x == L - 1 or parent_pos[x + 1] != x:  # else saabb[x] was merged last: a0..a5 hold it
-            a0, a1, a2, a3, a4, a5 = saabb[x, 0], saabb[x, 1], saabb[x, 2], saabb[x, 3], saabb[x, 4], saabb[x, 5]
-        q = parent_pos[x]
-        a0 = min(saabb[q, 0], a0)
-        a1 = min(saabb[q, 1], a1)
-        a2 = min(saabb[q, 2], a2)
-        a3 = max(saabb[q, 3], a3)
-        a4 = max(saabb[q, 4], a4)
-        a5 = max(saabb[q, 5], a5)
-        saabb[q, 0] = a0
-        saabb[q, 1] = a1
-        saabb[q, 2] = a2
-        saabb[q, 3] = a3
-        saabb[q, 4] = a4
-        saabb[q, 5] = a5
-    # 3. candidate body pairs down the tree.
-    nbp = _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap, bp, stats, filter_parent,
-                    baabb_t, flat_root, flat_n, flat_mask)
-    if nbp > bp.shape[0]:
-        info[3] = nbp
-        return 0
-    # 4. body pairs -> filter -> sphere and OBB (64 pairs at a time, vectorised) -> geom pairs.
-    # 4a. the static filter, compacting bp in place; a loose pair (see below) is marked ~y.
-    m = 0
-    for t in range(nbp):
-        x = bp[t, 0]
-        y = bp[t, 1]
-        if x < 0:
-            x = ~x  # the grid's sphere test mark: redone below with the OBB test, at no cost
-        if y < 0:
-            y = ~y  # a flat root's pair: the static filter passed at set-up
+    # 2-4a. the body pairs whose AABBs overlap and that pass the static filter, into bp[:m] (lower
+    # position first; a loose pair, see _filter, as ~y): from the list kept by earlier calls while
+    # every body stays inside its fat box (see FAT_GROW), else down the tree.
+    m = -1
+    if coherent:
+        fat_b, fat_s, fat_t, cs = _fat_views(I, W)
+        if cs[COH_SKIP] > 0.0:
+            cs[COH_SKIP] -= 1.0
         else:
-            if (ctor[x] & caor[y]) == 0 and (ctor[y] & caor[x]) == 0:
-                continue
-            if weld[x] == weld[y]:
-                continue
-            if filter_parent and ((parent_pos[x] == y and y != 0) or (parent_pos[y] == x and x != 0)):
-                continue
-            excluded = False
-            for e in range(ex_start[x], ex_start[x + 1]):
-                if ex_other[e] == y:
-                    excluded = True
-            if excluded:
-                continue
-        # A multi-geom body whose bounds are mostly empty space (walls around an arena, the world's
-        # scattered static geoms: single < 0, see BroadPhase) passes every body-level test; its
-        # pairs go straight to its geoms' AABBs.
-        # Lower position first: the OBB test is not bitwise symmetric in its two boxes, and the
-        # batch's lanes test each pair in this order (a sweep or the grid may hand it reversed).
-        x, y = min(x, y), max(x, y)
-        bp[m, 0] = x
-        bp[m, 1] = ~y if (single[x] < 0 or single[y] < 0) else y
-        m += 1
+            out = False
+            for x in range(L):  # branch-free: vectorised
+                out |= ((baabb[x, 0] < fat_b[x, 0]) | (baabb[x, 1] < fat_b[x, 1]) | (baabb[x, 2] < fat_b[x, 2])
+                        | (baabb[x, 3] > fat_b[x, 3]) | (baabb[x, 4] > fat_b[x, 4]) | (baabb[x, 5] > fat_b[x, 5]))
+            if cs[COH_VALID] != 0.0 and not out:
+                stats[ST_REUSED] = 1
+                cs[COH_SCORE] *= COH_DECAY
+                cs[COH_BACKOFF] *= 0.5
+                n = np.int64(cs[COH_N])
+                stats[ST_BODY_AABB] += n
+                m = _scan(cl, n, baabb, bp)
+            else:
+                score = cs[COH_SCORE] * COH_DECAY + 1.0
+                cs[COH_VALID] = 0.0  # until rebuilt (an overflow below returns first)
+                if score > COH_SCORE_MAX:
+                    back = min(max(2.0 * cs[COH_BACKOFF], COH_BACKOFF_MIN), COH_BACKOFF_MAX)
+                    cs[COH_SKIP] = back - 1.0  # this call is the spell's first
+                    cs[COH_BACKOFF] = back
+                    cs[COH_SCORE] = 0.0
+                else:
+                    cs[COH_SCORE] = score
+                    # Rebuild: fat boxes (a body without bounds keeps its empty box), their subtree
+                    # boxes, the walk over them, the filter; the list kept, then tested as above.
+                    for x in range(L):
+                        g = max(FAT_GROW * max(baabb[x, 3] - baabb[x, 0], baabb[x, 4] - baabb[x, 1],
+                                               baabb[x, 5] - baabb[x, 2]), 0.0)
+                        for i in range(3):
+                            fat_b[x, i] = baabb[x, i] - g
+                            fat_b[x, 3 + i] = baabb[x, 3 + i] + g
+                        for i in range(6):
+                            fat_s[x, i] = fat_b[x, i]
+                    if has_flat:
+                        for i in range(6):
+                            for x in range(L):
+                                fat_t[i, x] = fat_b[x, i]
+                    _sweep(fat_s, parent_pos, L)
+                    nbp = _traverse(L, end, nchild, child_start, children, hasb, fat_b, fat_s, bw, sap, bp, stats,
+                                    filter_parent, fat_t, flat_root, flat_n, flat_mask, False)
+                    if nbp > bp.shape[0]:
+                        info[3] = nbp
+                        return 0
+                    n = _filter(bp, nbp, ctor, caor, weld, parent_pos, filter_parent, ex_start, ex_other, single)
+                    for t in range(n):
+                        cl[t, 0] = bp[t, 0]
+                        cl[t, 1] = bp[t, 1]
+                    cs[COH_N] = n
+                    cs[COH_VALID] = 1.0
+                    stats[ST_BODY_AABB] += n
+                    m = _scan(cl, n, baabb, bp)
+    if m < 0:
+        _sweep(saabb, parent_pos, L)  # 2. subtree AABBs
+        # 3. candidate body pairs down the tree.
+        nbp = _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap, bp, stats, filter_parent,
+                        baabb_t, flat_root, flat_n, flat_mask, True)
+        if nbp > bp.shape[0]:
+            info[3] = nbp
+            return 0
+        # 4a. the static filter
+        m = _filter(bp, nbp, ctor, caor, weld, parent_pos, filter_parent, ex_start, ex_other, single)
+    # 4. body pairs -> sphere and OBB (64 pairs at a time, vectorised) -> geom pairs.
     # 4b. sphere and OBB tests of the body bounds, 64 pairs at a time: one loop without a branch,
     # which the compiler vectorises, into a bit mask; a loose pair (~y) passes.
     for c0 in range(0, m, 64):
@@ -1492,10 +1632,11 @@ def _explicit_hit(i, pair_g, pair_m, gmargin, gplane, geom_bid, glocal, body_pos
 # Context: one int64 array of buffer addresses and lengths (see `_ptr`); the owner keeps the
 # buffers alive and rebuilds the context when it replaces one. C_POS, C_ROT may hold the addresses of
 # pose arrays bound to it (for `step_bound`, see BroadPhase.bind); C_OUT, C_NOUT, C_OFF an output
-# arena of (C_NOUT, 2) int32 rows filled from C_OFF on (see `_step`). `context` leaves these five.
+# arena of (C_NOUT, 2) int32 rows filled from C_OFF on (see `_step`). `context` leaves these five; C_CL:
+# the address of the kept body-pair list (0: no frame coherence, see ``FAT_GROW``).
 (C_I, C_NI, C_F, C_NF, C_W, C_NW, C_SAP, C_NSAP, C_BP, C_NBP, C_KEYS, C_NKEYS, C_SCR, C_NSCR, C_STATS,
- C_INFO, C_POS, C_ROT, C_OUT, C_NOUT, C_OFF) = range(21)
-NCTX = 21
+ C_INFO, C_POS, C_ROT, C_OUT, C_NOUT, C_OFF, C_CL) = range(22)
+NCTX = 22
 # A batch chunk's summary (`step_batch`'s chunk_info rows): its key count, its first bad world (-1:
 # none), the body-pair capacity a world lacked (0: none).
 CI_KEYS, CI_BAD, CI_NEED = range(3)
@@ -1507,10 +1648,12 @@ RET_OVERFLOW = -2
 RET_BAD_SHAPE = -3
 
 
-def context(I, F, W, sap, bp, keys, scr, stats, info, out=None) -> np.ndarray:
+def context(I, F, W, sap, bp, keys, scr, stats, info, out=None, cl=None) -> np.ndarray:
     """The context of one world's buffers (written into ``out`` when given, for a batch row).
 
-    ``scr`` must hold at least ``scratch_size(G, keys.size)`` entries.
+    ``scr`` must hold at least ``scratch_size(G, keys.size)`` entries. ``cl``, int64 of ``bp``'s
+    shape, turns frame coherence on (the body-pair list kept between calls, see ``FAT_GROW``; its
+    state in ``W`` is cleared here).
     """
     ctx = np.zeros(NCTX, np.int64) if out is None else out
     for arr, dt in ((I, np.int64), (F, np.float64), (W, np.float64), (sap, np.int64), (bp, np.int64),
@@ -1519,9 +1662,14 @@ def context(I, F, W, sap, bp, keys, scr, stats, info, out=None) -> np.ndarray:
             raise ValueError("context: buffers must be C-contiguous arrays of the kernel's dtypes")
     if scr.size < scratch_size(int(I[H_G]), keys.size):
         raise ValueError("context: the sort scratch is shorter than scratch_size(G, keys)")
+    if cl is not None and (cl.dtype != np.int64 or not cl.flags.c_contiguous or cl.shape != bp.shape):
+        raise ValueError("context: the kept body-pair list must be C-contiguous int64 of bp's shape")
     ctx[:C_POS] = (I.ctypes.data, I.size, F.ctypes.data, F.size, W.ctypes.data, W.size, sap.ctypes.data,
                    sap.size, bp.ctypes.data, bp.shape[0], keys.ctypes.data, keys.size, scr.ctypes.data, scr.size,
                    stats.ctypes.data, info.ctypes.data)
+    ctx[C_CL] = 0 if cl is None else cl.ctypes.data
+    # the list (if any) starts empty: the next call rebuilds it
+    W[coherence_offset(int(I[H_L]), int(I[H_G]), int(I[H_Q])) + 18 * int(I[H_L]) + COH_VALID] = 0.0
     return ctx
 
 
@@ -1575,7 +1723,9 @@ def _step_impl(body_pos, body_rot, ctx):
     I, F, W, sap, bp, scr, stats, info = _buffers(ctx)
     keys = nb.carray(i64_ptr(ctx[C_KEYS]), ctx[C_NKEYS])
     info[0] = OK
-    k = _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info)
+    coherent = ctx[C_CL] != 0
+    cl = nb.carray(i64_ptr(ctx[C_CL] if coherent else ctx[C_BP]), (ctx[C_NBP], 2))
+    k = _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coherent)
     info[2] = k
     if k < 0:
         return RET_BAD_POSE
@@ -1644,7 +1794,7 @@ def _batch_world(w, pos_w, rot_w, I, F, W, sap, bp, kp, cap, off, scr, stats, in
     start = off if off < cap else cap
     keys = nb.carray(i64_ptr(kp + 8 * start), cap - start)
     info[0] = OK
-    kw = _world(pos_w, rot_w, I, F, W, sap, bp, keys, scr, stats, info)
+    kw = _world(pos_w, rot_w, I, F, W, sap, bp, keys, scr, stats, info, bp, False)
     world_count[w] = kw
     if kw < 0:
         for i in range(4):

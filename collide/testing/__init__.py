@@ -9,6 +9,6 @@ from .brute import (brute_force_bound_pairs, brute_force_pairs, filter_passing_p
                     hulls_intersect_lp, world_bounds)
 from .csg import brute_force_raycast, random_scene
 from .scenes import (Scene, branching_tree, chain, free_hulls, hull_motion, make_plane, many_robots,
-                     random_hull)
+                     random_hull, scene_motion)
 from .surfaces import (SHAPE_KINDS, apply_affine, random_affine, random_polygon, random_rigid,
                        random_rotation, random_shape_params, random_similarity, sample_surface)

@@ -303,3 +303,31 @@ def hull_motion(scene: Scene, rng: np.random.Generator, steps: int, step_size: f
         cur = inc[s] @ cur
         rot[s] = cur
     return pos, rot
+
+
+def scene_motion(scene: Scene, rng: np.random.Generator, steps: int, step_size: float = 0.01):
+    """Poses of any `Scene` along a smooth random motion: joint angles and free bodies on random
+    walks from a random configuration (angles by ``step_size`` of their range a step, free bodies
+    by ``step_size`` of ``free_extent`` and ``step_size`` radians), as a simulation moves them.
+
+    Returns
+    -------
+    body_pos : (steps, L, 3) float64
+    body_rot : (steps, L, 3, 3) float64
+    """
+    L = scene.articulation.body_count
+    r = np.asarray(scene.body_range, float)
+    angle = rng.uniform(-1, 1, L) * r + np.cumsum(rng.normal(size=(steps, L)) * step_size * r, axis=0)
+    free_pos = rng.uniform(-1, 1, (1, L, 3)) * scene.free_extent
+    free_pos = free_pos + np.cumsum(rng.normal(size=(steps, L, 3)) * step_size * scene.free_extent, axis=0)
+    w = rng.normal(size=(steps, L, 3)) * step_size
+    ang = np.linalg.norm(w, axis=-1)
+    ax = w / np.maximum(ang, 1e-300)[..., None]
+    ax[ang == 0] = [0, 0, 1]
+    inc = axis_angle(ax, ang)
+    free_rot = np.empty((steps, L, 3, 3))
+    cur = random_rotation(rng, L)
+    for s in range(steps):
+        cur = inc[s] @ cur
+        free_rot[s] = cur
+    return scene.forward(angle, free_pos, free_rot)
