@@ -38,6 +38,9 @@ One step, for one world (`_world`):
    *Real-Time Collision Detection* §4.4.1), 64 body pairs at a time with every axis evaluated
    (`_pairs_mask`: one loop without a branch, vectorised, the rows gathered where they lie) ->
    geom pairs, the same tests one by one on the geoms' bounds;
+Steps 2-3 and the static filter are skipped while the body pairs kept from earlier calls stand:
+with frame coherence (single-world calls), each body's AABB is checked against its fat box and,
+when every one is inside, only the kept pairs' AABBs are tested (``FAT_GROW``);
 5. planes (halfspaces) down the tree, the static filter of every (plane, body) pair precomputed,
    a multi-geom body's geoms tested in the body's frame; explicit pairs last; keys ``g1 << S | g2`` sorted (``S`` bits
    hold any geom id: decoding is a shift and a mask, not an integer division per pair), the

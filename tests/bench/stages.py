@@ -1,6 +1,6 @@
 """Where one broad-phase step spends its time, stage by stage: hot, and in the simulation loop.
 
-    python tests/bench/stages.py [SCENE] [--steps N] [--calls N] [--stages entry,world,...]
+    python tests/bench/stages.py [SCENE] [--steps N] [--calls N] [--stages entry,world,...] [--walk]
 
 SCENE is a folder of ../shared/models (``humanoid``, ``22_humanoids``, ...) or an MJCF file; by
 default the built-in scene (`collide.mujoco.default_scene`). A developer's tool for finding what to
@@ -49,15 +49,16 @@ KERNEL = Path("_kernels") / "broadphase.py"
 # (stage, the start of the kernel line it ends before): cutting there times everything up to its end.
 MARKS = [
     ("entry", "    # 1. poses -> world bounds"),
-    ("world bounds", "    # 2. subtree AABBs"),
-    ("subtree AABBs", "    # 3. candidate body pairs down the tree."),
-    ("traversal", "    # 4. body pairs -> filter"),
-    ("static filter", "    # 4b. sphere and OBB"),
+    ("world bounds", "    # 2-4a. the body pairs"),
+    # inside the tree walk's block: cut only in the calls that walk (all of them with --walk)
+    ("subtree AABBs", "        # 3. candidate body pairs down the tree."),
+    ("traversal", "        # 4a. the static filter"),
+    ("body pairs", "    # 4. body pairs -> sphere and OBB"),
     ("sphere, OBB, geoms", "    k4 = min(k, keys.shape[0])"),
     ("planes", "    # 5b. explicit pairs"),
     ("explicit pairs", "    stats[ST_OUT] = k"),
 ]
-GUARD = "    if I[H_L] > 0:  # always true; the compiler cannot tell\n        return 0\n"
+GUARD = "if I[H_L] > 0:  # always true; the compiler cannot tell\n    return 0\n"  # at the mark's indentation
 
 
 def _copy(stage: str, line: str, root: Path) -> str:
@@ -66,7 +67,9 @@ def _copy(stage: str, line: str, root: Path) -> str:
     if len(at) != 1:
         sys.exit(f"stages.py: no single line of {KERNEL} starts with the mark of stage '{stage}' "
                  f"({line.strip()!r}); update MARKS")
-    cut = "".join(lines[:at[0]] + [GUARD] + lines[at[0]:])
+    ind = line[:len(line) - len(line.lstrip())]
+    guard = "".join(ind + g + "\n" for g in GUARD.splitlines())
+    cut = "".join(lines[:at[0]] + [guard] + lines[at[0]:])
     name = "collide_cut_" + hashlib.sha1(cut.encode()).hexdigest()[:12]
     dst = root / name
     if not dst.is_dir():
@@ -92,6 +95,7 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=1000, help="simulation steps timed in the loop")
     ap.add_argument("--calls", type=int, default=2000, help="calls per repeat, hot")
     ap.add_argument("--stages", default=None, help="comma-separated stage names (default: all)")
+    ap.add_argument("--walk", action="store_true", help="coherent=False: every call walks the tree")
     args = ap.parse_args()
     name, model = _load(args.scene)
     marks = MARKS
@@ -106,11 +110,11 @@ def main() -> None:
     sys.path.insert(0, str(root))
     mods = {stage: importlib.import_module(_copy(stage, line, root) + ".mujoco") for stage, line in marks}
     mods["full step"] = cm
-    print(f"# {name}: {model.nbody} bodies, {model.ngeom} geoms; building and compiling {len(mods)} copies...",
-          flush=True)
+    print(f"# {name}: {model.nbody} bodies, {model.ngeom} geoms{' (coherent=False)' if args.walk else ''}; "
+          f"building and compiling {len(mods)} copies...", flush=True)
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    bps = {stage: m.BroadPhase(model) for stage, m in mods.items()}
+    bps = {stage: m.BroadPhase(model, coherent=not args.walk) for stage, m in mods.items()}
     for bp in bps.values():
         bp.pairs(data)
     hold = 100  # as `collide.mujoco.compare`: random extreme controls, held for 100 steps
