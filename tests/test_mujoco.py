@@ -623,6 +623,28 @@ def test_copies_and_pickles_are_rebuilt():
     gc.collect()
     for c in copies:
         assert np.array_equal(c.pairs(data), want)
+    walk = copy.copy(cm.BroadPhase(model, coherent=False))
+    assert not walk.broadphase.coherent and np.array_equal(walk.pairs(data), want)
+
+
+def test_coherent_steps_equal_the_walk_in_a_simulation():
+    # The built-in scene (a figure falling onto a pile): MuJoCo's own steps, the kept body-pair list
+    # reused in most of them, the same pairs as a broad phase that walks the tree every step.
+    model = cm.default_scene(seed=3)
+    data = mujoco.MjData(model)
+    coh, walk = cm.BroadPhase(model), cm.BroadPhase(model, coherent=False)
+    rng = np.random.default_rng(0)
+    reused = total = 0
+    for step in range(400):
+        if step % 50 == 0 and model.nu:
+            data.ctrl[:] = rng.uniform(-1, 1, model.nu)
+        mujoco.mj_step(model, data)
+        got = coh.pairs(data)
+        reused += coh.stats["reused"]
+        assert np.array_equal(got, walk.pairs(data)), step
+        total += len(got)
+    assert total > 400 * 5  # the pile and the figure touch
+    assert reused > 200
 
 
 # ----------------------------------------------------------------------------------- real scenes
