@@ -153,10 +153,11 @@ class BroadPhase:
         ``_k.FAT_GROW``), and while every body's AABB stays inside its fat box test only those
         pairs' AABBs instead of culling down the tree. The answer is the same whatever the poses
         (any sequence of calls, unrelated poses included); only the time differs: a simulation
-        step usually moves every body less than that (the MuJoCo models: 3-17 % of steps rebuild
-        the list), and a scene where bodies leave their boxes in more than about a third of the calls (22 falling
-        humanoids) is detected and culled down the tree again. False: every call culls down the
-        tree. `pairs_batch` never keeps a list (its worlds are unrelated).
+        step usually moves every body less than that (the MuJoCo models under moderate random
+        controls: 3-17 % of the steps rebuild the list), and a scene where bodies leave their
+        boxes in more than about a third of the calls (22 falling humanoids) is detected and
+        culled down the tree again. False: every call culls down the tree. `pairs_batch` never
+        keeps a list (its worlds are unrelated).
 
     Attributes
     ----------

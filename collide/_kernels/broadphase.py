@@ -1302,6 +1302,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
                                     filter_parent, fat_t, flat_root, flat_n, flat_mask, False)
                     if nbp > bp.shape[0]:
                         info[3] = nbp
+                        cs[COH_SCORE] = score - 1.0  # the caller grows bp and reruns: one rebuild
                         return 0
                     n = _filter(bp, nbp, ctor, caor, weld, parent_pos, filter_parent, ex_start, ex_other, single)
                     for t in range(n):
