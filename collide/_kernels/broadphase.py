@@ -149,15 +149,17 @@ def key_shift(G: int) -> int:
     return max(1, int(G - 1).bit_length())
 
 
+@nb.njit(cache=True)
 def coherence_offset(L: int, G: int, Q: int) -> int:
     """Where the frame-coherence part of ``W`` starts: fat boxes (L, 6), fat subtree boxes (L, 6),
-    fat boxes transposed (6, L), then ``N_COH`` of state (see ``FAT_GROW``)."""
+    fat boxes transposed (6, L), then ``N_COH`` of state (see ``FAT_GROW``). Compiled: the kernel
+    (`_fat_views`) and the Python side (`workspace_size`, `context`) share this one formula."""
     return ROW * L + ROW * G + 18 * L + 4 * max(Q, 1) + 2 * ROW + 6 * G + L + 1
 
 
 def workspace_size(L: int, G: int, Q: int) -> int:
     """Length of the float64 workspace ``W`` of one world (``L`` positions)."""
-    return coherence_offset(L, G, Q) + 18 * L + N_COH
+    return int(coherence_offset(L, G, Q)) + 18 * L + N_COH
 
 
 @nb.njit(cache=True, inline="always")
@@ -265,9 +267,7 @@ def _fat_views(I, W):
     # The frame-coherence part of W (see coherence_offset): fat_b (L, 6), fat_s (L, 6), fat_t (6, L),
     # state (N_COH).
     L = I[H_L]
-    G = I[H_G]
-    w = ROW * L + ROW * G + 18 * L + 4 * max(I[H_Q], 1) + 2 * ROW + 6 * G + L + 1
-    wa = np.int64(W.ctypes.data) + 8 * w
+    wa = np.int64(W.ctypes.data) + 8 * coherence_offset(L, I[H_G], I[H_Q])
     fat_b = nb.carray(f64_ptr(wa), (L, 6))
     fat_s = nb.carray(f64_ptr(wa + 48 * L), (L, 6))
     fat_t = nb.carray(f64_ptr(wa + 96 * L), (6, L))
