@@ -1296,7 +1296,7 @@ COHERENT_SCENES = [
 def _coherence_state(bp):
     a = bp.articulation
     L, Q = bp.position_count, int(bp._I[_kern.H_Q])
-    o = _kern.coherence_offset(L, a.geom_count, Q) + 18 * L
+    o = _kern.coherence_state_offset(L, a.geom_count, Q)
     return bp._W[o:o + _kern.N_COH]
 
 

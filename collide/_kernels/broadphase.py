@@ -95,7 +95,7 @@ N_STATS = 10
 # exact AABBs instead of walking the tree: two AABBs inside two fat boxes can only meet if the fat
 # boxes do (the broad phase of Bullet's and Box2D's dynamic trees: fat AABBs; Catto, "Dynamic
 # AABB Trees", GDC 2019). The answer is the walk's, bit for bit. State, float64, in the workspace
-# after the fat boxes (`coherence_offset`): the list is valid, its length, a decayed count of
+# after the fat boxes (`coherence_state_offset`): the list is valid, its length, a decayed count of
 # recent rebuilds (x COH_DECAY a call, +1 a rebuild), calls left on the exact walk, and the length
 # of the next such spell.
 FAT_GROW = 0.2
@@ -157,9 +157,15 @@ def coherence_offset(L: int, G: int, Q: int) -> int:
     return ROW * L + ROW * G + 18 * L + 4 * max(Q, 1) + 2 * ROW + 6 * G + L + 1
 
 
+@nb.njit(cache=True)
+def coherence_state_offset(L: int, G: int, Q: int) -> int:
+    """Where the ``N_COH`` frame-coherence state slots start in ``W``: after the fat boxes."""
+    return coherence_offset(L, G, Q) + 18 * L
+
+
 def workspace_size(L: int, G: int, Q: int) -> int:
     """Length of the float64 workspace ``W`` of one world (``L`` positions)."""
-    return int(coherence_offset(L, G, Q)) + 18 * L + N_COH
+    return int(coherence_state_offset(L, G, Q)) + N_COH
 
 
 @nb.njit(cache=True, inline="always")
@@ -271,7 +277,7 @@ def _fat_views(I, W):
     fat_b = nb.carray(f64_ptr(wa), (L, 6))
     fat_s = nb.carray(f64_ptr(wa + 48 * L), (L, 6))
     fat_t = nb.carray(f64_ptr(wa + 96 * L), (6, L))
-    state = nb.carray(f64_ptr(wa + 144 * L), N_COH)
+    state = nb.carray(f64_ptr(np.int64(W.ctypes.data) + 8 * coherence_state_offset(L, I[H_G], I[H_Q])), N_COH)
     return fat_b, fat_s, fat_t, state
 
 
@@ -1188,7 +1194,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
     ``bp`` and reruns); keys beyond ``keys.shape[0]`` are counted but not written (likewise).
     With ``coherent``, the body-pair list is kept between calls in ``cl`` (``bp``'s shape; see
     ``FAT_GROW``): a caller that replaces ``cl`` clears ``W``'s ``COH_VALID``
-    (`coherence_offset`). A batch's worlds are unrelated: no coherence there.
+    (`coherence_state_offset`). A batch's worlds are unrelated: no coherence there.
     """
     (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
      caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
@@ -1676,7 +1682,7 @@ def context(I, F, W, sap, bp, keys, scr, stats, info, out=None, cl=None) -> np.n
                    stats.ctypes.data, info.ctypes.data)
     ctx[C_CL] = 0 if cl is None else cl.ctypes.data
     # the list (if any) starts empty: the next call rebuilds it
-    W[coherence_offset(int(I[H_L]), int(I[H_G]), int(I[H_Q])) + 18 * int(I[H_L]) + COH_VALID] = 0.0
+    W[coherence_state_offset(int(I[H_L]), int(I[H_G]), int(I[H_Q])) + COH_VALID] = 0.0
     return ctx
 
 
