@@ -125,9 +125,11 @@ class Leaf(Node):
         ``cone(radius, height, planes=16)`` (base at z = 0, apex at z = height),
         ``ellipsoid(radii, planes=16)``; ``mesh(mesh)`` takes a closed ``trimesh.Trimesh`` or a
         ``(vertices (n, 3), faces (m, 3) int)`` pair (ray tests need the faces; a mesh's inside
-        is between odd and even crossings, so it should be closed). A ray through a shared edge
-        or vertex is counted once per triangle (Möller-Trumbore is not watertight), which can
-        swap inside and outside along that one ray.
+        is between odd and even crossings, so it should be closed and consistently wound). Rays
+        meet triangles by a watertight test (Woop, Benthin & Wald 2013): a crossing on an edge
+        or a vertex shared by several triangles counts once. A ray running along the surface
+        (grazing a face, or along an edge) enters no volume; whether it reports a touch there
+        depends on the triangulation.
     """
 
     __slots__ = ("kind", "params", "_cloud", "_vertices", "_faces")

@@ -301,6 +301,45 @@ def test_bvh_raycast_equals_brute_force_on_128x128(seed):
     assert t_hits.bound_tests.sum() <= l_hits.bound_tests.sum() * 1.05
 
 
+def test_mesh_rays_through_shared_edges_and_vertices_hit_once():
+    # Review reproducer (2026-11-22): an axis ray through the centre of a box mesh's face runs
+    # along the diagonal its two triangles share; Moller-Trumbore counted the entry (and the
+    # exit) in both, the pairs of equal crossings made empty spans, and the ray missed the box.
+    # The watertight test counts a crossing on a shared edge or vertex once. The twin classifies
+    # such rays by the winding number, so it does not share the kernel's tie rule.
+    box = csg.mesh(trimesh.creation.box([1.0, 1.0, 1.0]))
+    g = np.linspace(-0.4, 0.4, 9)  # strictly inside each face: edges, diagonal, centre included
+    o, d = [], []
+    for ax in range(3):
+        for sgn in (-1.0, 1.0):
+            for a in g:
+                for b in g:
+                    p = np.zeros(3)
+                    p[ax], p[(ax + 1) % 3], p[(ax + 2) % 3] = -5.0 * sgn, a, b
+                    o.append(p)
+                    d.append(np.eye(3)[ax] * sgn)
+    o, d = np.array(o), np.array(d)
+    hits = csg.raycast(csg.build_bvh(box), o, d)
+    assert hits.hit.all()
+    np.testing.assert_allclose(hits.distance, 4.5, rtol=0, atol=1e-12)
+    dist, leaf = tcsg.brute_force_raycast(box, o, d)
+    assert_same_hits(hits, dist, leaf)
+    # Rays at an icosphere's vertices (a fan of five or six triangles), edge midpoints and face
+    # centres, from 5x out towards the centre: every one enters at t = 4.
+    ico = trimesh.creation.icosphere(2, radius=0.8)
+    for pts in (ico.vertices, ico.vertices[ico.edges_unique].mean(axis=1), ico.triangles_center):
+        o, d = 5.0 * pts, -pts
+        hits = csg.raycast(csg.build_bvh(csg.mesh(ico)), o, d)
+        assert hits.hit.all()
+        np.testing.assert_allclose(hits.distance, 4.0, rtol=0, atol=1e-12)
+        dist, leaf = tcsg.brute_force_raycast(csg.mesh(ico), o, d)
+        assert_same_hits(hits, dist, leaf)
+    # The twin's own classification: inside, outside, and on the surface.
+    w, on = tcsg.winding_number(box.triangles(), np.array([[0.0, 0, 0], [3.0, 0, 0], [0.5, 0.1, 0.2]]))
+    np.testing.assert_allclose(np.abs(w[:2]), [1.0, 0.0], atol=1e-12)
+    assert on.tolist() == [False, False, True]
+
+
 @pytest.mark.parametrize("seed", (1, 5))
 def test_rays_from_inside_the_scene_equal_brute_force(seed):
     scene = tcsg.random_scene(seed)

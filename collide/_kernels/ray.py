@@ -270,35 +270,81 @@ def leaf_interval(prim, p, ol, dl):
 
 
 @njit(cache=True)
-def _tri_hit(ol, dl, v0, v1, v2):
-    # Möller-Trumbore on the full line (any sign of t); (t, hit).
-    e1x = v1[0] - v0[0]
-    e1y = v1[1] - v0[1]
-    e1z = v1[2] - v0[2]
-    e2x = v2[0] - v0[0]
-    e2y = v2[1] - v0[1]
-    e2z = v2[2] - v0[2]
-    px = dl[1] * e2z - dl[2] * e2y
-    py = dl[2] * e2x - dl[0] * e2z
-    pz = dl[0] * e2y - dl[1] * e2x
-    det = e1x * px + e1y * py + e1z * pz
-    if det == 0.0:
+def _shear(dl):
+    # Watertight ray/triangle intersection (Woop, Benthin & Wald 2013, JCGT 2(1)), per ray: the
+    # dominant axis kz of d, the other two in the order that keeps a triangle's winding, and the
+    # shear (sx, sy, sz) taking d to +z. ok is False for a zero direction (no hit).
+    ax = abs(dl[0])
+    ay = abs(dl[1])
+    az = abs(dl[2])
+    kz = 0 if (ax >= ay and ax >= az) else (1 if ay >= az else 2)
+    kx = (kz + 1) % 3
+    ky = (kx + 1) % 3
+    if dl[kz] < 0.0:
+        kx, ky = ky, kx
+    if dl[kz] == 0.0:
+        return kx, ky, kz, 0.0, 0.0, 0.0, False
+    sz = 1.0 / dl[kz]
+    return kx, ky, kz, dl[kx] * sz, dl[ky] * sz, sz, True
+
+
+@njit(cache=True, inline="always")
+def _owns(px, py, qx, qy):
+    # Tie rule for a ray exactly on the projected edge p -> q (edge function 0): of p -> q and
+    # q -> p exactly one owns it (the top-left rule of rasterisers), so the two triangles sharing
+    # the edge count the crossing once; around a shared vertex, one triangle of the fan does.
+    dy = qy - py
+    return dy > 0.0 or (dy == 0.0 and qx - px > 0.0)
+
+
+@njit(cache=True)
+def _tri_hit(ol, kx, ky, kz, sx, sy, sz, v0, v1, v2):
+    """(t, hit) of the full line ``ol + t dl`` and a triangle (any sign of t), `_shear`'s frame.
+
+    Woop, Benthin & Wald (2013), §3: the vertices relative to the origin, sheared so the ray runs
+    along +z; the edge functions U, V, W are 2D cross products of the projected vertices. Two
+    triangles sharing an edge compute that edge's function from the same two projected points
+    in opposite order: exactly negated values (a product difference, rounded once), so a ray
+    never slips between them or hits both, except exactly on the edge (0 in both), where
+    `_owns` picks one. Moller-Trumbore, used before, hit both triangles or neither there: a
+    ray through a box mesh's face diagonal (its centre, say) saw two entries and two exits,
+    paired into empty spans, and missed the box (review, 2026-11-22). A triangle seen from
+    behind (det < 0) applies the rule to its edges reversed, so a ray grazing a silhouette edge
+    counts both of its triangles or neither (an entry and an exit at one t, or nothing).
+    """
+    ax = v0[kx] - ol[kx]
+    ay = v0[ky] - ol[ky]
+    az = v0[kz] - ol[kz]
+    bx = v1[kx] - ol[kx]
+    by = v1[ky] - ol[ky]
+    bz = v1[kz] - ol[kz]
+    cx = v2[kx] - ol[kx]
+    cy = v2[ky] - ol[ky]
+    cz = v2[kz] - ol[kz]
+    Ax = ax - sx * az
+    Ay = ay - sy * az
+    Bx = bx - sx * bz
+    By = by - sy * bz
+    Cx = cx - sx * cz
+    Cy = cy - sy * cz
+    U = Cx * By - Cy * Bx  # edge B -> C
+    V = Ax * Cy - Ay * Cx  # edge C -> A
+    W = Bx * Ay - By * Ax  # edge A -> B
+    det = U + V + W
+    if det > 0.0:
+        inside = ((U > 0.0 or (U == 0.0 and _owns(Bx, By, Cx, Cy)))
+                  and (V > 0.0 or (V == 0.0 and _owns(Cx, Cy, Ax, Ay)))
+                  and (W > 0.0 or (W == 0.0 and _owns(Ax, Ay, Bx, By))))
+    elif det < 0.0:
+        inside = ((U < 0.0 or (U == 0.0 and _owns(Cx, Cy, Bx, By)))
+                  and (V < 0.0 or (V == 0.0 and _owns(Ax, Ay, Cx, Cy)))
+                  and (W < 0.0 or (W == 0.0 and _owns(Bx, By, Ax, Ay))))
+    else:
+        return 0.0, False  # edge-on in the projection: a crossing there is its neighbours'
+    if not inside:
         return 0.0, False
-    inv = 1.0 / det
-    sx = ol[0] - v0[0]
-    sy = ol[1] - v0[1]
-    sz = ol[2] - v0[2]
-    u = (sx * px + sy * py + sz * pz) * inv
-    if u < 0.0 or u > 1.0:
-        return 0.0, False
-    qx = sy * e1z - sz * e1y
-    qy = sz * e1x - sx * e1z
-    qz = sx * e1y - sy * e1x
-    v = (dl[0] * qx + dl[1] * qy + dl[2] * qz) * inv
-    if v < 0.0 or u + v > 1.0:
-        return 0.0, False
-    t = (e2x * qx + e2y * qy + e2z * qz) * inv
-    return t, True
+    T = U * (sz * az) + V * (sz * bz) + W * (sz * cz)
+    return T / det, True
 
 
 @njit(cache=True)
@@ -347,9 +393,10 @@ def _leaf_spans(lf, o, d, leaf_prim, leaf_param, leaf_inv, leaf_tri_first, leaf_
         return 1
     first = leaf_tri_first[lf]
     m = 0
-    for k in range(leaf_tri_count[lf]):
+    kx, ky, kz, sx, sy, sz, ok = _shear(dl)
+    for k in range(leaf_tri_count[lf] if ok else 0):
         j = first + k
-        t, ok = _tri_hit(ol, dl, tri[j, 0], tri[j, 1], tri[j, 2])
+        t, ok = _tri_hit(ol, kx, ky, kz, sx, sy, sz, tri[j, 0], tri[j, 1], tri[j, 2])
         if ok:
             # insertion sort by t (meshes are small; a hit list is short)
             q = m
