@@ -330,10 +330,14 @@ class Articulation:
         for g, c in enumerate(self.geom_cloud):
             R, t = self.geom_rot[g], self.geom_pos[g]
             if self.geom_is_plane[g]:
+                # The image of {y : n . y <= offset} under x = R y + t is {x : m . x <= offset + m . t}
+                # with m = R^-T n. R is orthonormal only within ORTHO_TOL: R n tilted the plane by
+                # that much, and a sphere 100 away sinking 1e-7 into it was missed (review, 2026-11-22).
                 n = np.asarray(c.normal, float)
-                n = R @ (n / np.linalg.norm(n))
-                self.geom_plane[g, :3] = n
-                self.geom_plane[g, 3] = float(c.offset) + float(n @ t)
+                m = np.linalg.solve(R.T, n / np.linalg.norm(n))
+                k = float(np.linalg.norm(m))
+                self.geom_plane[g, :3] = m / k
+                self.geom_plane[g, 3] = (float(c.offset) + float(m @ t)) / k
                 continue
             try:
                 local = c.transform(R, t)
