@@ -39,6 +39,9 @@ _ROUNDING_PAD = 8.0 * np.finfo(np.float64).eps
 
 # How far from orthonormal an OBB's rotation may be (max |R^T R - I|) before it is rejected.
 ROTATION_TOL = 1e-6
+# Up to this, a rotation is orthonormal within rounding and kept as given; beyond it (and up to
+# ROTATION_TOL) an OBB replaces it by the nearest rotation, grown to contain the box as given.
+_EXACT_ROTATION = 64.0 * np.finfo(np.float64).eps
 
 
 # Corner signs of a box, x slowest: corner i = centre + signs[i] * half (in the box's axes).
@@ -233,7 +236,10 @@ class OBB:
     center : (3,) float64
         Read-only.
     rotation : (3, 3) float64
-        Read-only, a rotation (orthonormal, determinant +1); its columns are the box axes.
+        Read-only, a rotation (orthonormal, determinant +1); its columns are the box axes. One
+        given within `ROTATION_TOL` of orthonormal but not within rounding (a float32 rotation)
+        is replaced by the nearest rotation, and ``half_extents`` grown so that the box contains
+        the one given.
     half_extents : (3,) float64
         Read-only, ``>= 0``: half side lengths along the axes.
     """
@@ -244,10 +250,22 @@ class OBB:
 
     def __post_init__(self):
         object.__setattr__(self, "center", _vec3(self.center, "center"))
-        object.__setattr__(self, "rotation", _rotation(self.rotation, "rotation"))
+        rot = _rotation(self.rotation, "rotation")
         half = _vec3(self.half_extents, "half_extents")
         if np.any(half < 0.0):
             raise ValueError(f"half_extents: must be >= 0, got {half}")
+        if float(np.abs(rot.T @ rot - np.eye(3)).max()) > _EXACT_ROTATION:
+            # Accepted (within ROTATION_TOL: float32 rotations) but not orthonormal: the box it
+            # describes, centre + R [-h, h], is held as the box with the nearest rotation that
+            # contains it. Every test here reads axes as orthonormal (R^T for R^-1): with the
+            # matrix as given, a box missed a point at its own corner (review, 2026-11-22).
+            axes = _orthonormal(rot)
+            grown = np.abs(axes.T @ rot) @ half
+            half = grown + _ROUNDING_PAD * float(np.sum(grown))
+            half.setflags(write=False)
+            axes.setflags(write=False)
+            rot = axes
+        object.__setattr__(self, "rotation", rot)
         object.__setattr__(self, "half_extents", half)
 
     def volume(self) -> float:
@@ -324,12 +342,14 @@ def box_from_axes(points: np.ndarray, radius: float, rotation: np.ndarray) -> OB
     points : (n, 3) float64
     radius : float
     rotation : (3, 3) float64
-        Orthonormal; columns are the axes.
+        Orthonormal (within `ROTATION_TOL`: the nearest rotation is used); columns are the axes.
     """
     points = as_points(points, "points")
     radius = as_radius(radius, "radius")
     _require_points(points, "points", radius)
     rotation = _rotation(rotation, "rotation")
+    if float(np.abs(rotation.T @ rotation - np.eye(3)).max()) > _EXACT_ROTATION:
+        rotation = _orthonormal(rotation)  # the axes are a choice: take the nearest orthonormal ones
     local = points @ rotation
     lo, hi = local.min(axis=0), local.max(axis=0)
     center = rotation @ ((lo + hi) / 2.0)
