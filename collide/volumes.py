@@ -36,6 +36,10 @@ OVERLAP_RTOL = 1e-12
 
 # Inflation of fitted OBBs and spheres, relative to the coordinates' size (8 ulps).
 _ROUNDING_PAD = 8.0 * np.finfo(np.float64).eps
+# ... plus this much: among subnormal coordinates (below 2.2e-308) rounding is absolute, a few
+# multiples of 5e-324, and a relative pad alone lost points of a cloud scaled by 1e-310 (review,
+# 2026-11-22).
+_PAD_FLOOR = 64.0 * float(np.finfo(np.float64).smallest_subnormal)
 
 # How far from orthonormal an OBB's rotation may be (max |R^T R - I|) before it is rejected.
 ROTATION_TOL = 1e-6
@@ -726,7 +730,7 @@ def fit_obb(points: np.ndarray, radius: float = 0.0, method: str = "optimal") ->
     # A few ulps of the coordinates' size: moving the centre back by ``offset`` and a later
     # containment test in world coordinates each round by about eps * |x| (DESIGN.md: a tiny
     # conservative inflation rather than an exact comparison that rounding can break).
-    pad = _ROUNDING_PAD * (float(np.abs(offset).max()) + float(np.abs(local).max()))
+    pad = _ROUNDING_PAD * (float(np.abs(offset).max()) + float(np.abs(local).max())) + _PAD_FLOOR
     return OBB(box.center + offset, box.rotation, box.half_extents + pad)
 
 
@@ -933,7 +937,7 @@ def fit_sphere(points: np.ndarray, radius: float = 0.0, method: str = "exact") -
     else:
         raise ValueError(f"method: expected 'exact' or 'ritter', got {method!r}")
     dist = float(np.sqrt(np.max(np.sum((points - center) ** 2, axis=1))))
-    pad = _ROUNDING_PAD * float(np.abs(points).max())  # see fit_obb
+    pad = _ROUNDING_PAD * float(np.abs(points).max()) + _PAD_FLOOR  # see fit_obb
     return Sphere(center, dist + pad + radius)
 
 
@@ -1077,7 +1081,7 @@ def fit_kdop(points: np.ndarray, radius: float = 0.0, k: int = 26) -> KDOP:
     _require_points(points, "kdop", radius)
     d = _kdop_directions(k)
     proj = points @ d.T
-    pad = _ROUNDING_PAD * float(np.abs(points).max())  # see fit_obb
+    pad = _ROUNDING_PAD * float(np.abs(points).max()) + _PAD_FLOOR  # see fit_obb
     return KDOP(proj.min(axis=0) - radius - pad, proj.max(axis=0) + radius + pad)
 
 
@@ -1127,7 +1131,7 @@ def transform(volume, rotation, translation):
     if isinstance(volume, Sphere):
         center = rot @ volume.center + t
         stretch = max(1.0, float(np.linalg.norm(rot, 2)))
-        pad = _ROUNDING_PAD * (volume.radius + _moved_size(rot, volume.center, t))
+        pad = _ROUNDING_PAD * (volume.radius + _moved_size(rot, volume.center, t)) + _PAD_FLOOR
         return Sphere(center, volume.radius * stretch + pad)
     if isinstance(volume, AABB):
         if volume.is_empty:
@@ -1138,7 +1142,7 @@ def transform(volume, rotation, translation):
         image = rot @ volume.rotation  # the box's axes under the map, nearly orthonormal
         axes = _orthonormal(image)
         half = np.abs(axes.T @ image) @ volume.half_extents
-        half += _ROUNDING_PAD * (float(np.sum(volume.half_extents)) + _moved_size(rot, volume.center, t))
+        half += _ROUNDING_PAD * (float(np.sum(volume.half_extents)) + _moved_size(rot, volume.center, t)) + _PAD_FLOOR
         return OBB(center, axes, half)
     raise ValueError(f"volume: expected an AABB, Sphere, OBB or KDOP, got {type(volume).__name__}")
 

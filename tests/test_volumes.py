@@ -313,6 +313,21 @@ def test_obb_degenerate_clouds():
         assert _is_rotation(box.rotation) and np.all(box.contains(pts, RTOL))
 
 
+def test_clouds_of_subnormal_coordinates_are_contained():
+    # Below 2.2e-308 rounding is absolute (multiples of 5e-324): a purely relative pad lost 2 of
+    # 10 points of a cloud scaled by 1e-310, and both points of [[1e-310, 0, 0], [0, 1e-310, 0]]
+    # (review, 2026-11-22). Every fit is padded by a floor of 64 subnormal steps as well.
+    rng = np.random.default_rng(14)
+    for scale in (1e-310, 1e-315, 1e-322):
+        for _ in range(20):
+            pts = rng.normal(size=(10, 3)) * scale
+            cloud = PointCloud(pts)
+            for vol in (cloud.obb(), cloud.sphere(), cloud.aabb(), V.fit_kdop(pts, 0.0, 14)):
+                assert np.all(vol.contains(pts)), (scale, type(vol).__name__)
+    pts = np.array([[1e-310, 0.0, 0.0], [0.0, 1e-310, 0.0]])
+    assert np.all(PointCloud(pts).obb().contains(pts))
+
+
 def test_containment_random_clouds_and_radii():
     rng = np.random.default_rng(7)
     for trial in range(300):
