@@ -1051,7 +1051,13 @@ def raycast(bvh: BVH, origins, directions) -> RayHits:
                             bvh.span_capacity, bvh.height, bvh.max_children, bvh.max_tri,
                             out_t, out_leaf, out_n, out_b, out_p)
     if np.any(expo):
-        out_t = np.ldexp(out_t, -expo)
+        with np.errstate(over="ignore"):
+            out_t = np.ldexp(out_t, -expo)  # inf past the float range (a direction of length 1e-320)
+        lost = (out_leaf >= 0) & ~np.isfinite(out_t)
+        # A hit farther than the largest float along the direction given is a miss, as `RayHits`
+        # says inf is (it was leaf 0 at distance inf; review, 2026-11-22).
+        out_leaf[lost] = -1
+        out_n[lost] = 0.0
     return RayHits(out_t, out_leaf, out_n, out_b, out_p)
 
 

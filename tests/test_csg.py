@@ -470,6 +470,9 @@ def test_raycast_directions_of_extreme_length():
     lengths = np.abs(d).max(axis=1) * np.linalg.norm(d / np.abs(d).max(axis=1)[:, None], axis=1)
     np.testing.assert_allclose(hits.distance * lengths, unit.distance, rtol=1e-12)
     np.testing.assert_allclose(hits.normal, unit.normal, atol=1e-12)
+    # A hit beyond the float range along a direction of length 1e-320 is a miss, not leaf 0 at inf.
+    far = csg.raycast(bvh, o[:1], np.array([[-1e-320, 0, 0]]))
+    assert far.leaf.tolist() == [-1] and not far.hit.any() and np.isinf(far.distance[0])
 
 
 def test_exact_intersection_flag_must_be_a_bool():
