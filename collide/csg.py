@@ -43,7 +43,7 @@ from .volumes import AABB, aabb_corners
 __all__ = [
     "BVH", "Difference", "Instances", "Intersection", "Leaf", "Node", "RayHits", "Recursive", "Ref",
     "Transform", "Union", "box", "build_bvh", "capsule", "cone", "cylinder", "ellipsoid",
-    "leaves", "mesh", "pinhole_rays", "raycast", "sphere",
+    "leaves", "mesh", "pinhole_rays", "raycast", "sphere", "unrolled_leaf_count",
 ]
 
 # Relative inflation of every BVH box: rounding in the slab test must never miss a leaf that
@@ -466,6 +466,58 @@ def _key_env(node, env, ctx):
     return env if env and _free_refs(node, ctx.free) else ()
 
 
+# The most leaves `leaves` and `build_bvh` unroll: a graph past it is refused before unrolling
+# (a Recursive whose body refers to itself twice doubles per level: 40 levels are 2^40 leaves,
+# which unrolled for hours; review, 2026-11-22). The flower demo has 6641.
+MAX_LEAVES = 1_000_000
+
+
+def unrolled_leaf_count(node: "Node") -> int:
+    """Leaves of the unrolled graph (the length of `leaves` ``(node)``), counted without unrolling.
+
+    Each distinct (node, recursion state) is counted once and reused, so a graph of exponential
+    size is counted in time linear in its depth.
+    """
+    _check_node(node, "node")
+    memo: dict = {}
+    sigs: dict = {}
+
+    def sig(env):
+        # A hashable form of a recursion state (the envs themselves hold nodes by identity).
+        got = sigs.get(id(env))
+        if got is None:
+            got = (tuple((name, id(rec), level, sig(outer)) for name, rec, level, outer in env), env)
+            sigs[id(env)] = got  # env kept alive with it: its id is not reused during the count
+        return got[0]
+
+    def count(n, env):
+        n, env = _resolve(n, env)
+        key = (id(n), sig(env))
+        got = memo.get(key)
+        if got is None:
+            if isinstance(n, Leaf):
+                got = 1
+            elif isinstance(n, Transform):
+                got = count(n.child, env)
+            elif isinstance(n, Instances):
+                got = len(n.matrices) * count(n.child, env)
+            else:
+                got = sum(count(c, env) for c in n.children())
+            memo[key] = (got, n)
+            return got
+        return got[0]
+
+    with _deep_recursion():
+        return count(node, ())
+
+
+def _check_leaf_count(node) -> None:
+    n = unrolled_leaf_count(node)
+    if n > MAX_LEAVES:
+        raise ValueError(f"node: the unrolled graph has {n:.4g} leaves, more than MAX_LEAVES = {MAX_LEAVES:,} "
+                         "(a Recursive whose body holds several Refs multiplies per level); lower its depth")
+
+
 class _deep_recursion:
     # Unrolling recurses once per graph level; deep recursive graphs need more than Python's
     # default 1000 frames.
@@ -589,6 +641,7 @@ def leaves(node: Node, stop_at: tuple = ()) -> list[tuple[Node, np.ndarray]]:
     """
     _check_node(node, "node")
     stop_at = tuple(stop_at)
+    _check_leaf_count(node)
     out = []
 
     def walk(n, env, w):
@@ -879,6 +932,7 @@ def build_bvh(node: Node, volume: str = "aabb", method: str = "pointcloud", tigh
     for flag, value in (("tighten", tighten), ("exact_intersection", exact_intersection)):
         if not isinstance(value, (bool, np.bool_)):
             raise ValueError(f"{flag}: expected True or False, got {value!r}")
+    _check_leaf_count(node)
     ctx = _Context(as_count(threshold, "threshold", 1), bool(exact_intersection), {})
     leaf_list: list = []
     with _deep_recursion():

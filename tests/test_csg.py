@@ -523,6 +523,25 @@ def test_zero_radius_capsule_and_cylinder_are_never_entered():
         assert hits.leaf.tolist() == [1] and hits.distance[0] == pytest.approx(7.5) == dist[0]
 
 
+def test_leaf_counts_without_unrolling_and_exponential_graphs_are_refused():
+    # A Recursive whose body refers to itself twice doubles per level: 40 levels are 2^40 leaves,
+    # and build_bvh unrolled them for hours (review, 2026-11-22). Counted first, refused fast.
+    half = csg.Transform(np.diag([0.5, 0.5, 0.5, 1.0]), csg.Ref("t"))
+    body = csg.Union(csg.box([1.0, 1.0, 1.0]), half, csg.Transform(move(1.0), half))
+    for depth in (1, 2, 5, 8):
+        g = csg.Recursive("t", body, depth)
+        assert csg.unrolled_leaf_count(g) == len(csg.leaves(g)) == 2 ** depth - 1 == csg.build_bvh(g).n_leaves
+    for seed in SEEDS:
+        scene = tcsg.random_scene(seed)
+        assert csg.unrolled_leaf_count(scene) == len(csg.leaves(scene))
+    huge = csg.Recursive("t", body, 40)
+    assert csg.unrolled_leaf_count(huge) == 2 ** 40 - 1
+    for unroll in (csg.build_bvh, csg.leaves):
+        with pytest.raises(ValueError, match="MAX_LEAVES"):
+            unroll(huge)
+    assert huge.point_cloud().points.shape[1] == 3  # clouds are memoised per level: no unrolling
+
+
 def test_too_deep_graphs_and_rewired_nodes_are_refused():
     # 7000 levels pass the 20000 frames unrolling may use: a clear ValueError, not RecursionError.
     tower = csg.Recursive("t", csg.Union(csg.box([1, 1, 0.1]), csg.Transform(move(0, 0, 0.2), csg.Ref("t"))),
