@@ -454,6 +454,10 @@ class BroadPhase:
         if np.any(types == _GEOM.mjGEOM_HFIELD):
             self._no_function = (types == _GEOM.mjGEOM_HFIELD) | (types == _GEOM.mjGEOM_PLANE)
 
+    def __repr__(self) -> str:
+        return (f"collide.mujoco.BroadPhase({self.model.nbody} bodies, {self.model.ngeom} geoms"
+                f"{'' if self.broadphase.coherent else ', coherent=False'})")
+
     def __reduce__(self):
         # Rebuilt from the model (see collide.BroadPhase.__reduce__): the kernel's context holds
         # raw addresses of this object's buffers and of the last MjData's arrays.

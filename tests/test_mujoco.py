@@ -59,6 +59,8 @@ def test_contype_conaffinity():
     expected = _pairs("a-c", "b-c", "a-e", "b-e", "c-e")
     assert mj == expected
     assert ours == expected
+    model = mujoco.MjModel.from_xml_string(CLUSTER.format(body))
+    assert repr(cm.BroadPhase(model)) == "collide.mujoco.BroadPhase(6 bodies, 5 geoms)"
 
 
 CHAIN = """<mujoco><option><flag filterparent="{fp}"/></option><worldbody>
