@@ -64,13 +64,17 @@ def as_points(value, name: str = "points") -> np.ndarray:
     except (TypeError, ValueError) as exc:
         raise ValueError(f"{name}: cannot be read as a float64 array ({exc})") from None
     if arr.size == 0:
+        # An empty list (any nesting of empty lists) is the empty cloud; an empty array of
+        # another shape ((3, 0), (0, 4)) is a shape error, as a full one would be.
+        if arr.ndim == 2 and arr.shape[1] != 3 or arr.ndim > 2:
+            raise ValueError(f"{name}: expected shape (n, 3), got {arr.shape}")
         return np.zeros((0, 3))
     return as_array(arr, name, (None, 3))
 
 
-def as_radius(value, name: str = "radius") -> float:
-    """Return ``value`` as a finite float ``>= 0``."""
-    if isinstance(value, (str, bytes)):
+def _as_finite(value, name: str) -> float:
+    # A finite real number (not a string, not a bool: radius=True meant nothing).
+    if isinstance(value, (str, bytes, bool, np.bool_)):
         raise ValueError(f"{name}: expected a number, got {value!r}")
     try:
         r = float(value)
@@ -78,6 +82,12 @@ def as_radius(value, name: str = "radius") -> float:
         raise ValueError(f"{name}: expected a number, got {value!r}") from None
     if not np.isfinite(r):
         raise ValueError(f"{name}: must be finite, got {r}")
+    return r
+
+
+def as_radius(value, name: str = "radius") -> float:
+    """Return ``value`` as a finite float ``>= 0``."""
+    r = _as_finite(value, name)
     if r < 0.0:
         raise ValueError(f"{name}: must be >= 0, got {r}")
     return r
@@ -85,7 +95,7 @@ def as_radius(value, name: str = "radius") -> float:
 
 def as_positive(value, name: str) -> float:
     """Return ``value`` as a finite float ``> 0``."""
-    r = as_radius(value, name)
+    r = _as_finite(value, name)
     if r <= 0.0:
         raise ValueError(f"{name}: must be > 0, got {r}")
     return r

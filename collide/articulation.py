@@ -382,7 +382,11 @@ class Articulation:
             # before the geom tests): fit to their corners, one level only.
             corners = np.concatenate([_volumes.obb_corners(self.geom_obb_center[g], self.geom_obb_rot[g],
                                                    self.geom_obb_half[g] + m[i]) for i, g in enumerate(gs)])
-            obb = fit_local_obb(PointCloud(corners))
+            try:
+                obb = fit_local_obb(PointCloud(corners))
+            except ValueError as exc:  # the inflated geoms' corners beyond the fits' range
+                raise ValueError(f"body {b}: the bounds of its geoms {gs.tolist()}, inflated by geom_margin "
+                                 f"(largest {float(m.max()):.3g}), cannot be fitted: {exc}") from None
             # Its sphere must contain the geoms' inflated spheres: try the body hull's centre and
             # the geom spheres' centres' centre, keep the smaller enclosing radius.
             cs, rs = self.geom_sphere_center[gs], self.geom_sphere_radius[gs] + m

@@ -28,6 +28,7 @@ array([1. , 1. , 2.5])
 
 from __future__ import annotations
 
+import inspect
 import sys
 from dataclasses import dataclass, field
 
@@ -100,6 +101,8 @@ class Node:
         """
         if not isinstance(exact_intersection, (bool, np.bool_)):
             raise ValueError(f"exact_intersection: expected True or False, got {exact_intersection!r}")
+        if cache is not None and not isinstance(cache, dict):
+            raise ValueError(f"cache: expected a dict (or None), got {type(cache).__name__}")
         ctx = _Context(as_count(threshold, "threshold", 1), bool(exact_intersection),
                        {} if cache is None else cache)
         with _deep_recursion():
@@ -163,8 +166,15 @@ class Leaf(Node):
             self.params = {}
             self._cloud = _shapes.mesh(v)
         else:
-            # shapes validates and raises ValueError naming the bad parameter.
-            self._cloud = getattr(_shapes, kind)(*args, **kwargs)
+            # shapes validates and raises ValueError naming the bad parameter; a wrong number or
+            # name of arguments is a TypeError there, told here with the signature.
+            ctor = getattr(_shapes, kind)
+            try:
+                inspect.signature(ctor).bind(*args, **kwargs)
+            except TypeError as exc:
+                raise ValueError(f"Leaf({kind!r}, ...): {exc}; expected the arguments of "
+                                 f"collide.shapes.{kind}{inspect.signature(ctor)}") from None
+            self._cloud = ctor(*args, **kwargs)
             self.params = self._normalise(kind, args, kwargs)
             self._vertices = self._faces = None
 
@@ -640,6 +650,11 @@ def leaves(node: Node, stop_at: tuple = ()) -> list[tuple[Node, np.ndarray]]:
     list of (Leaf or stop_at node, (4, 4) float64)
     """
     _check_node(node, "node")
+    if isinstance(stop_at, type):
+        stop_at = (stop_at,)
+    if (isinstance(stop_at, (str, bytes)) or not hasattr(stop_at, "__iter__")
+            or not all(isinstance(t, type) and issubclass(t, Node) for t in stop_at)):
+        raise ValueError(f"stop_at: expected a tuple of Node subclasses (e.g. (csg.Intersection,)), got {stop_at!r}")
     stop_at = tuple(stop_at)
     _check_leaf_count(node)
     out = []

@@ -119,37 +119,45 @@ def geom_clouds(model: mujoco.MjModel) -> list:
     """
     clouds = []
     for g in range(model.ngeom):
-        t, size = int(model.geom_type[g]), model.geom_size[g]
-        if t == _GEOM.mjGEOM_SPHERE:
-            clouds.append(shapes.sphere(float(size[0])))
-        elif t == _GEOM.mjGEOM_CAPSULE:
-            clouds.append(shapes.capsule(float(size[0]), float(size[1])))
-        elif t == _GEOM.mjGEOM_CYLINDER:
-            clouds.append(shapes.cylinder(float(size[0]), float(size[1])))
-        elif t == _GEOM.mjGEOM_ELLIPSOID:
-            clouds.append(shapes.ellipsoid(size[:3].astype(np.float64)))
-        elif t == _GEOM.mjGEOM_BOX:
-            clouds.append(shapes.box(size[:3].astype(np.float64)))
-        elif t == _GEOM.mjGEOM_MESH:
-            mid = int(model.geom_dataid[g])
-            adr, num = int(model.mesh_vertadr[mid]), int(model.mesh_vertnum[mid])
-            # mesh_vert is float32 in the mesh frame, which the compiler made the geom frame
-            # (it recentres the mesh and folds the offset into geom_pos/geom_quat).
-            clouds.append(shapes.mesh(model.mesh_vert[adr:adr + num].astype(np.float64)))
-        elif t == _GEOM.mjGEOM_PLANE:
-            clouds.append(shapes.plane())
-        elif t == _GEOM.mjGEOM_HFIELD:
-            sx, sy, top, base = model.hfield_size[int(model.geom_dataid[g])]
-            clouds.append(PointCloud(aabb_corners(np.array([-sx, -sy, -base]), np.array([sx, sy, top]))))
-        elif t == _GEOM.mjGEOM_SDF:
-            # MuJoCo's box comes from a mesh sampled from the SDF, which can fall short of the
-            # true surface (mujoco.sdf.torus 0.35/0.15: half extent 0.49995, not 0.5): pad it.
-            c, h = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
-            pad = SDF_PAD * float(np.max(h))
-            clouds.append(PointCloud(aabb_corners(c - h - pad, c + h + pad)))
-        else:
-            raise ValueError(f"geom {g} ({_geom_name(model, g)}): unsupported geom type {t}")
+        try:
+            clouds.append(_geom_cloud(model, g))
+        except ValueError as exc:  # name the geom (a size edited into the model after compiling)
+            raise ValueError(f"geom {g} ({_geom_name(model, g)}): {exc}") from None
     return clouds
+
+
+def _geom_cloud(model: mujoco.MjModel, g: int):
+    """One geom's cloud or plane, in its geom frame (see `geom_clouds`)."""
+    t, size = int(model.geom_type[g]), model.geom_size[g]
+    if t == _GEOM.mjGEOM_SPHERE:
+        return shapes.sphere(float(size[0]))
+    elif t == _GEOM.mjGEOM_CAPSULE:
+        return shapes.capsule(float(size[0]), float(size[1]))
+    elif t == _GEOM.mjGEOM_CYLINDER:
+        return shapes.cylinder(float(size[0]), float(size[1]))
+    elif t == _GEOM.mjGEOM_ELLIPSOID:
+        return shapes.ellipsoid(size[:3].astype(np.float64))
+    elif t == _GEOM.mjGEOM_BOX:
+        return shapes.box(size[:3].astype(np.float64))
+    elif t == _GEOM.mjGEOM_MESH:
+        mid = int(model.geom_dataid[g])
+        adr, num = int(model.mesh_vertadr[mid]), int(model.mesh_vertnum[mid])
+        # mesh_vert is float32 in the mesh frame, which the compiler made the geom frame
+        # (it recentres the mesh and folds the offset into geom_pos/geom_quat).
+        return shapes.mesh(model.mesh_vert[adr:adr + num].astype(np.float64))
+    elif t == _GEOM.mjGEOM_PLANE:
+        return shapes.plane()
+    elif t == _GEOM.mjGEOM_HFIELD:
+        sx, sy, top, base = model.hfield_size[int(model.geom_dataid[g])]
+        return PointCloud(aabb_corners(np.array([-sx, -sy, -base]), np.array([sx, sy, top])))
+    elif t == _GEOM.mjGEOM_SDF:
+        # MuJoCo's box comes from a mesh sampled from the SDF, which can fall short of the
+        # true surface (mujoco.sdf.torus 0.35/0.15: half extent 0.49995, not 0.5): pad it.
+        c, h = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
+        pad = SDF_PAD * float(np.max(h))
+        return PointCloud(aabb_corners(c - h - pad, c + h + pad))
+    else:
+        raise ValueError(f"unsupported geom type {t}")
 
 
 def geom_inflation(model: mujoco.MjModel) -> np.ndarray:
@@ -168,24 +176,35 @@ def geom_inflation(model: mujoco.MjModel) -> np.ndarray:
     (1e-6 by default), so a pair carries twice the bound.
     """
     if model.opt.enableflags & _ENBL.mjENBL_OVERRIDE:
-        margin = np.full(model.ngeom, 0.5 * float(model.opt.o_margin))
+        margin = np.full(model.ngeom, 0.5 * float(_finite(model.opt.o_margin, "model.opt.o_margin")))
     else:
-        margin = np.asarray(model.geom_margin, dtype=np.float64)
-    return np.maximum(margin + np.asarray(model.geom_gap, dtype=np.float64), 0.0) + _ccd_slack(model)
+        margin = _finite(model.geom_margin, "model.geom_margin")
+    return np.maximum(margin + _finite(model.geom_gap, "model.geom_gap"), 0.0) + _ccd_slack(model)
 
 
 def pair_inflation(model: mujoco.MjModel) -> np.ndarray:
     """``(P,) float64``: contact distance of each explicit ``<pair>``: ``margin + gap``, plus
     ``opt.ccd_tolerance`` for each of its two geoms (see `geom_inflation`)."""
     if model.opt.enableflags & _ENBL.mjENBL_OVERRIDE:
-        margin = np.full(model.npair, float(model.opt.o_margin))
+        margin = np.full(model.npair, float(_finite(model.opt.o_margin, "model.opt.o_margin")))
     else:
-        margin = np.asarray(model.pair_margin, dtype=np.float64)
-    return np.maximum(margin + np.asarray(model.pair_gap, dtype=np.float64), 0.0) + 2.0 * _ccd_slack(model)
+        margin = _finite(model.pair_margin, "model.pair_margin")
+    return np.maximum(margin + _finite(model.pair_gap, "model.pair_gap"), 0.0) + 2.0 * _ccd_slack(model)
 
 
 def _ccd_slack(model: mujoco.MjModel) -> float:
-    return max(float(model.opt.ccd_tolerance), 0.0)
+    tol = float(model.opt.ccd_tolerance)
+    if not np.isfinite(tol):
+        raise ValueError(f"model.opt.ccd_tolerance: must be finite, got {tol}")
+    return max(tol, 0.0)
+
+
+def _finite(values, name: str) -> np.ndarray:
+    # A model's margins and gaps, named where one is not finite (edited after compiling).
+    arr = np.asarray(values, dtype=np.float64)
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: non-finite value at index {int(np.flatnonzero(~np.isfinite(arr))[0])}")
+    return arr
 
 
 def geom_frames(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:

@@ -53,6 +53,11 @@ class PointCloud:
         self._points = pts
         self._radius = as_radius(radius, "radius")
 
+    def __reduce__(self):
+        # Rebuilt through __init__ (copy, pickle): the points stay a read-only copy (the default
+        # protocol restored writable arrays; review, 2026-11-22).
+        return (PointCloud, (self._points, self._radius))
+
     @classmethod
     def empty(cls) -> "PointCloud":
         """The empty cloud: no points, bounds nothing."""

@@ -160,6 +160,8 @@ def mesh(vertices_or_trimesh, reduce: bool = True) -> PointCloud:
     ValueError
         An empty mesh (it would bound nothing), non-finite or wrongly shaped vertices.
     """
+    if not isinstance(reduce, (bool, np.bool_)):
+        raise ValueError(f"reduce: expected True or False, got {reduce!r}")
     verts = getattr(vertices_or_trimesh, "vertices", vertices_or_trimesh)
     pts = as_points(verts, "vertices")
     if len(pts) == 0:
@@ -655,6 +657,9 @@ class Plane:
             object.__setattr__(self, "offset", float(self.offset))
         except (TypeError, ValueError):
             raise ValueError(f"offset: expected a number, got {type(self.offset).__name__}") from None
+        given = float(self.offset)
+        if not math.isfinite(given):
+            raise ValueError(f"offset: must be finite, got {given}")
         big = float(np.abs(n).max())
         if big > 0.0 and not 1e-150 < big < 1e150:
             # Divide by the largest component first: |n| overflowed for (1e308, 1e308, 0) and
@@ -666,7 +671,10 @@ class Plane:
             raise ValueError("normal: must be non-zero")
         d = float(self.offset)
         if not math.isfinite(d):
-            raise ValueError(f"offset: must be finite, got {d}")
+            # finite as given: the normal's length, far below 1, scaled it past the float range
+            raise ValueError(f"normal: too short for its offset (largest component {big:.3g}, offset "
+                             f"{given:.3g}: the same halfspace needs offset / |normal|, beyond the float "
+                             "range); scale both")
         if abs(length - 1.0) > 1e-12:
             n, d = n / length, d / length
         n = np.array(n, dtype=np.float64)

@@ -106,6 +106,10 @@ class AABB:
     lo: np.ndarray
     hi: np.ndarray
 
+    def __reduce__(self):
+        # Rebuilt through __post_init__ (copy, pickle): arrays stay read-only copies.
+        return (AABB, (self.lo, self.hi))
+
     def __post_init__(self):
         lo, hi = _float_vec(self.lo, "lo"), _float_vec(self.hi, "hi")
         empty = lo.shape == hi.shape == (3,) and np.all(lo == np.inf) and np.all(hi == -np.inf)
@@ -192,6 +196,10 @@ class Sphere:
     center: np.ndarray
     radius: float
 
+    def __reduce__(self):
+        # Rebuilt through __post_init__ (copy, pickle): arrays stay read-only copies.
+        return (Sphere, (self.center, self.radius))
+
     def __post_init__(self):
         object.__setattr__(self, "center", _vec3(self.center, "center"))
         object.__setattr__(self, "radius", as_radius(self.radius, "radius"))
@@ -251,6 +259,10 @@ class OBB:
     center: np.ndarray
     rotation: np.ndarray
     half_extents: np.ndarray
+
+    def __reduce__(self):
+        # Rebuilt through __post_init__ (copy, pickle): arrays stay read-only copies.
+        return (OBB, (self.center, self.rotation, self.half_extents))
 
     def __post_init__(self):
         object.__setattr__(self, "center", _vec3(self.center, "center"))
@@ -983,6 +995,10 @@ class KDOP:
 
     lo: np.ndarray
     hi: np.ndarray
+
+    def __reduce__(self):
+        # Rebuilt through __post_init__ (copy, pickle): arrays stay read-only copies.
+        return (KDOP, (self.lo, self.hi))
 
     def __post_init__(self):
         lo = as_array(self.lo, "lo", (None,)).copy()

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from collide import Articulation, PointCloud, testing
+from collide import Articulation, PointCloud, shapes, testing
 
 BOX = PointCloud(np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * [0.3, 0.2, 0.1])
 BALL = PointCloud([[0, 0, 0]], 0.25)
@@ -180,3 +180,9 @@ def test_degenerate_geoms_work():
     rot = np.tile(np.eye(3), (5, 1, 1))
     got = BroadPhase(a).pairs(pos, rot)
     assert {tuple(r) for r in got.tolist()} == {(1, 2), (1, 3), (2, 3)}  # the point at (0.1, 0.2, 0.3) touches none
+
+
+def test_a_huge_margin_on_a_multi_geom_body_names_the_body():
+    # Review, 2026-11-22: the error named only the OBB fit ("obb: coordinates plus radius reach ...").
+    with pytest.raises(ValueError, match=r"body 1: the bounds of its geoms \[0, 1\], inflated by geom_margin"):
+        Articulation([0, 0], [1, 1], [shapes.sphere(1.0), shapes.sphere(1.0)], geom_margin=[1e200, 0.0])

@@ -578,3 +578,18 @@ def test_pinhole_field_of_view_below_180():
         csg.pinhole_rays([0, -5.0, 0], [0, 0, 0.0], 4, 4, fov_deg=270.0)
     o, d = csg.pinhole_rays([0, -5.0, 0], [0, 0, 0.0], 4, 4, fov_deg=179.0)
     assert np.all(np.isfinite(d)) and np.all(d[:, 1] > 0)  # every ray looks towards the target
+
+
+def test_review_arguments_get_clear_errors():
+    # Review, 2026-11-22: these raised AttributeError / TypeError from inside, or were accepted.
+    b = csg.box([1.0, 1.0, 1.0])
+    with pytest.raises(ValueError, match="cache: expected a dict"):
+        b.point_cloud(cache=[])
+    for bad in (5, "Union", ("Union",)):
+        with pytest.raises(ValueError, match="stop_at: expected a tuple of Node subclasses"):
+            csg.leaves(b, stop_at=bad)
+    assert len(csg.leaves(b, stop_at=csg.Intersection)) == len(csg.leaves(b, stop_at=())) == 1
+    with pytest.raises(ValueError, match=r"Leaf\('box', \.\.\.\): too many positional arguments"):
+        csg.Leaf("box", [1, 1, 1], 5)
+    with pytest.raises(ValueError, match="unexpected keyword argument 'foo'"):
+        csg.Leaf("sphere", radius=1.0, foo=2)

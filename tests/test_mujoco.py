@@ -840,3 +840,21 @@ def test_compare_counts_resets_and_keeps_the_timer_right(monkeypatch, tmp_path):
     assert min(result["time_mujoco_broad_us_per_step"]) > 0 and result["recall"] == 1.0
     calm = cm.compare(cm.default_scene(seed=1), steps=30, seed=0)
     assert calm["unstable_resets"] == 0 and min(calm["time_mujoco_broad_us_per_step"]) > 0
+
+
+def test_bad_values_edited_into_a_model_are_named():
+    # Review, 2026-11-22: a negative size said "radius: must be >= 0" without the geom; a NaN
+    # ccd_tolerance blamed geom_margin.
+    model = mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><body><freejoint/><geom name="ball" size=".1"/></body></worldbody></mujoco>')
+    model.geom_size[0, 0] = -1.0
+    with pytest.raises(ValueError, match=r"geom 0 \(ball\): radius: must be >= 0"):
+        cm.articulation(model)
+    model.geom_size[0, 0] = 0.1
+    model.opt.ccd_tolerance = float("nan")
+    with pytest.raises(ValueError, match="model.opt.ccd_tolerance: must be finite"):
+        cm.articulation(model)
+    model.opt.ccd_tolerance = 1e-6
+    model.geom_gap[0] = float("inf")
+    with pytest.raises(ValueError, match="model.geom_gap: non-finite value at index 0"):
+        cm.articulation(model)

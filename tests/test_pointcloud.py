@@ -272,3 +272,38 @@ def test_intersection_exact_flag_must_be_a_bool():
     with pytest.raises(ValueError, match="exact"):
         collide.intersection(cloud, cloud, exact="no")
     assert len(collide.intersection(cloud, cloud, exact=np.bool_(False))) == 8
+
+
+def test_review_inputs_get_clear_errors_and_copies_stay_read_only():
+    # Review, 2026-11-22: empty arrays of the wrong shape became the empty cloud, radius=True was
+    # radius 1, a bad `reduce` was accepted, a superquadric exponent's rule was misstated, a
+    # plane with a subnormal normal blamed its finite offset; copies and pickles of clouds and
+    # volumes came back writable.
+    import copy
+    import pickle
+
+    from collide import shapes
+    from collide import volumes as V
+
+    for bad in (np.zeros((3, 0)), np.zeros((0, 4)), [[]]):
+        with pytest.raises(ValueError, match=r"points: expected shape \(n, 3\)"):
+            PointCloud(bad)
+    assert PointCloud([]).is_empty and PointCloud(np.zeros((0, 3))).is_empty
+    with pytest.raises(ValueError, match="radius: expected a number, got True"):
+        PointCloud([[0, 0, 0]], radius=True)
+    with pytest.raises(ValueError, match="reduce: expected True or False"):
+        shapes.mesh([[0, 0, 0]], reduce="x")
+    with pytest.raises(ValueError, match="e1: must be > 0"):
+        shapes.superquadric([1, 1, 1], -1, 1)
+    with pytest.raises(ValueError, match="normal: too short for its offset"):
+        shapes.plane([5e-324, 0, 0], 1.0)
+    assert shapes.plane([5e-324, 0, 0], 0.0).normal.tolist() == [1.0, 0.0, 0.0]
+    rng = np.random.default_rng(0)
+    cases = [(PointCloud(rng.random((5, 3)), 0.5), ("points",)), (V.OBB(np.zeros(3), np.eye(3), [1, 2, 3]),
+             ("center", "rotation", "half_extents")), (V.AABB(np.zeros(3), np.ones(3)), ("lo", "hi")),
+             (V.AABB.empty(), ("lo", "hi")), (V.Sphere([1, 2, 3], 2.0), ("center",)),
+             (V.fit_kdop(rng.random((10, 3)), 0.0, 14), ("lo", "hi"))]
+    for vol, names in cases:
+        for twin in (copy.copy(vol), copy.deepcopy(vol), pickle.loads(pickle.dumps(vol))):
+            for a in names:
+                assert not getattr(twin, a).flags.writeable and np.array_equal(getattr(twin, a), getattr(vol, a))

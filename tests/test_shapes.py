@@ -409,7 +409,7 @@ BAD = [
     (lambda: PointCloud([[0.0, 0.0, 0.0]], "1"), "radius: expected a number"),
     (lambda: shapes.box(1.0), r"half_extents: expected shape \(3\), got \(\)"),
     (lambda: shapes.superquadric_support(np.zeros((2, 2)), 1.0, 1.0), r"directions: expected shape \(n, 3\)"),
-    (lambda: shapes.superquadric_support(np.ones((2, 3)), -1.0, 1.0), "e1: must be >= 0"),
+    (lambda: shapes.superquadric_support(np.ones((2, 3)), -1.0, 1.0), "e1: must be > 0"),
     (lambda: collide.volumes.min_sphere_center([[0.0, np.nan, 0.0]]), "points: non-finite"),
     (lambda: collide.volumes.min_sphere_center(np.zeros((0, 3))), "points: the cloud is empty"),
     # Tessellation counts that would exhaust memory or run for minutes (review, 2026-11-22).
