@@ -114,7 +114,15 @@ class PointCloud:
             else:
                 pts = _hull.minkowski_ball(pts, radius, BALL_LEVEL)
                 radius = 0.0
-        return PointCloud(pts @ linear.T + t, radius)
+        with np.errstate(over="ignore", invalid="ignore"):
+            moved = pts @ linear.T + t
+            radius = float(radius)
+        if not (np.all(np.isfinite(moved)) and np.isfinite(radius)):
+            # The user's arrays were finite: name the map, not "points" (review, 2026-11-22).
+            raise ValueError("transform: the moved cloud overflows float64 (the map's scale times the "
+                             f"coordinates passes 1.8e308; largest |coordinate| {float(np.abs(pts).max()):.3g}, "
+                             f"map norm {float(np.abs(linear).max()):.3g})")
+        return PointCloud(moved, radius)
 
     def reduced(self) -> "PointCloud":
         """The same set with only the points that span the hull (robust to degenerate input)."""

@@ -347,7 +347,12 @@ def fit_aabb(points: np.ndarray, radius: float = 0.0) -> AABB:
     radius = as_radius(radius, "radius")
     if len(points) == 0:
         return AABB.empty()
-    return AABB(points.min(axis=0) - radius, points.max(axis=0) + radius)
+    with np.errstate(over="ignore"):
+        lo, hi = points.min(axis=0) - radius, points.max(axis=0) + radius
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+        raise ValueError(f"aabb: coordinates plus radius overflow float64 (largest |coordinate| "
+                         f"{float(np.abs(points).max()):.3g}, radius {radius:.3g})")
+    return AABB(lo, hi)
 
 
 def box_from_axes(points: np.ndarray, radius: float, rotation: np.ndarray) -> OBB:

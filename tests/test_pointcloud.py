@@ -298,6 +298,11 @@ def test_review_inputs_get_clear_errors_and_copies_stay_read_only():
     with pytest.raises(ValueError, match="normal: too short for its offset"):
         shapes.plane([5e-324, 0, 0], 1.0)
     assert shapes.plane([5e-324, 0, 0], 0.0).normal.tolist() == [1.0, 0.0, 0.0]
+    # Overflow inside a computation names the computation, not an argument the user never gave.
+    with pytest.raises(ValueError, match="aabb: coordinates plus radius overflow"):
+        PointCloud([[1e308, 0, 0]], 1e308).aabb()
+    with pytest.raises(ValueError, match="transform: the moved cloud overflows"):
+        PointCloud([[1e200, 0, 0]]).transform(np.eye(3) * 1e200)
     rng = np.random.default_rng(0)
     cases = [(PointCloud(rng.random((5, 3)), 0.5), ("points",)), (V.OBB(np.zeros(3), np.eye(3), [1, 2, 3]),
              ("center", "rotation", "half_extents")), (V.AABB(np.zeros(3), np.ones(3)), ("lo", "hi")),
