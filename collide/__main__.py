@@ -47,8 +47,6 @@ def _plot_formats() -> set[str] | None:
 
 def compare_main(args: argparse.Namespace) -> int:
     """Run ``compare``; returns the exit status."""
-    import mujoco
-
     from . import mujoco as cm
 
     if args.steps < 1:
@@ -81,16 +79,11 @@ def compare_main(args: argparse.Namespace) -> int:
                 print(f"error: cannot create the folder of {out}: {exc}", file=sys.stderr)
                 return 2
     if args.model:
-        path = Path(args.model)
-        if not path.is_file():
-            print(f"error: no such model file: {path}", file=sys.stderr)
-            return 2
         try:
-            model = mujoco.MjModel.from_xml_path(str(path))
+            model, name = cm.load_model(args.model)
         except ValueError as exc:
-            print(f"error: MuJoCo cannot load {path}: {exc}", file=sys.stderr)
+            print(f"error: {exc}", file=sys.stderr)
             return 2
-        name = path.parent.name if path.stem == "scene" else path.stem
     else:
         model = cm.default_scene(seed=args.seed)
         name = "built-in scene (figure falling on a pile)"

@@ -53,6 +53,7 @@ import ctypes
 import time
 import warnings
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import mujoco
 import numba
@@ -1023,6 +1024,24 @@ def _add_limb(parent, name: str, pos, axes, segments) -> None:
         child.add_geom(name=f"{name}{k}", type=_GEOM.mjGEOM_CAPSULE, size=[0.045, 0, 0],
                        fromto=[0, 0, 0, *end], density=800)
         body = child
+
+
+def load_model(path) -> tuple[mujoco.MjModel, str]:
+    """A model from an MJCF file, and a short name for reports (the folder of a ``scene.xml``).
+
+    Raises
+    ------
+    ValueError
+        No such file, or MuJoCo cannot load it (its message included).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"no such model file: {path}")
+    try:
+        model = mujoco.MjModel.from_xml_path(str(path))
+    except ValueError as exc:
+        raise ValueError(f"MuJoCo cannot load {path}: {exc}") from None
+    return model, (path.parent.name if path.stem == "scene" else path.stem)
 
 
 def default_scene(seed: int = 0, objects: int = 40) -> mujoco.MjModel:

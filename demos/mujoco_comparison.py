@@ -84,16 +84,11 @@ def main(argv: list[str] | None = None) -> int:
 
     # 1. The model.
     if args.model:
-        path = Path(args.model)
-        if not path.is_file():
-            print(f"error: no such model file: {path}", file=sys.stderr)
-            return 2
         try:
-            model = mujoco.MjModel.from_xml_path(str(path))
+            model, name = cm.load_model(args.model)
         except ValueError as exc:
-            print(f"error: MuJoCo cannot load {path}: {exc}", file=sys.stderr)
+            print(f"error: {exc}", file=sys.stderr)
             return 2
-        name = Path(args.model).parent.name if Path(args.model).stem == "scene" else Path(args.model).stem
     else:
         model = cm.default_scene(seed=args.seed)
         name = "built-in scene"
