@@ -177,20 +177,20 @@ def geom_inflation(model: mujoco.MjModel) -> np.ndarray:
     (1e-6 by default), so a pair carries twice the bound.
     """
     if model.opt.enableflags & _ENBL.mjENBL_OVERRIDE:
-        margin = np.full(model.ngeom, 0.5 * float(_finite(model.opt.o_margin, "model.opt.o_margin")))
+        margin = np.full(model.ngeom, 0.5 * float(as_array(model.opt.o_margin, "model.opt.o_margin", ())))
     else:
-        margin = _finite(model.geom_margin, "model.geom_margin")
-    return np.maximum(margin + _finite(model.geom_gap, "model.geom_gap"), 0.0) + _ccd_slack(model)
+        margin = as_array(model.geom_margin, "model.geom_margin", (None,))
+    return np.maximum(margin + as_array(model.geom_gap, "model.geom_gap", (None,)), 0.0) + _ccd_slack(model)
 
 
 def pair_inflation(model: mujoco.MjModel) -> np.ndarray:
     """``(P,) float64``: contact distance of each explicit ``<pair>``: ``margin + gap``, plus
     ``opt.ccd_tolerance`` for each of its two geoms (see `geom_inflation`)."""
     if model.opt.enableflags & _ENBL.mjENBL_OVERRIDE:
-        margin = np.full(model.npair, float(_finite(model.opt.o_margin, "model.opt.o_margin")))
+        margin = np.full(model.npair, float(as_array(model.opt.o_margin, "model.opt.o_margin", ())))
     else:
-        margin = _finite(model.pair_margin, "model.pair_margin")
-    return np.maximum(margin + _finite(model.pair_gap, "model.pair_gap"), 0.0) + 2.0 * _ccd_slack(model)
+        margin = as_array(model.pair_margin, "model.pair_margin", (None,))
+    return np.maximum(margin + as_array(model.pair_gap, "model.pair_gap", (None,)), 0.0) + 2.0 * _ccd_slack(model)
 
 
 def _ccd_slack(model: mujoco.MjModel) -> float:
@@ -199,13 +199,6 @@ def _ccd_slack(model: mujoco.MjModel) -> float:
         raise ValueError(f"model.opt.ccd_tolerance: must be finite, got {tol}")
     return max(tol, 0.0)
 
-
-def _finite(values, name: str) -> np.ndarray:
-    # A model's margins and gaps, named where one is not finite (edited after compiling).
-    arr = np.asarray(values, dtype=np.float64)
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: non-finite value at index {int(np.flatnonzero(~np.isfinite(arr))[0])}")
-    return arr
 
 
 def geom_frames(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
