@@ -84,6 +84,19 @@ class WorldBounds(NamedTuple):
     plane: np.ndarray
 
 
+def _lane_rows_zeros(rows: int, n: int) -> np.ndarray:
+    """Zeroed float64 ``(rows, >= n)`` whose rows start on 64-byte boundaries.
+
+    The lane kernels read and write (LANES,) float64 rows, 64 bytes each, as vectors; numpy aligns
+    its buffers to 16 bytes only, and a row straddling two cache lines costs two accesses (64-link
+    chain, 1024 worlds on one thread: 1.52 -> 1.41 us a world).
+    """
+    n = -(-n // 8) * 8
+    buf = np.zeros(rows * n + 8)
+    o = (-buf.ctypes.data % 64) // 8
+    return buf[o:o + rows * n].reshape(rows, n)
+
+
 def check_pose_values(body_pos: np.ndarray, body_rot: np.ndarray, where: str = "") -> None:
     """Raise ``ValueError`` naming the first body whose pose the kernel refuses (`_k._pose_ok`).
 
@@ -734,7 +747,7 @@ class BroadPhase:
             if self._J is not None:
                 # the lanes' workspace, then room for a group's poses computed in the call
                 ko = _lanes.lane_workspace_size(L, self.position_count, G, int(self._I[_k.H_Q]))
-                self._batch["LW"] = np.zeros((C, ko + _lanes.kin_workspace_size(L)))
+                self._batch["LW"] = _lane_rows_zeros(C, ko + _lanes.kin_workspace_size(L))
                 self._batch["ko"] = ko
                 self._batch["LB"] = np.zeros((C, _lanes.lane_bits_size(self.position_count,
                                                                         int(self._J[_lanes.J_NR]))), np.int64)
