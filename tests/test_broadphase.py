@@ -749,6 +749,7 @@ def test_lane_workspace_rows_are_cache_line_aligned():
     out = bp.pairs_batch(pos, rot)
     LW = bp._batch["LW"]
     assert LW.ctypes.data % 64 == 0 and LW.strides[0] % 64 == 0 and LW.shape[0] > 1
+    assert bp._batch["ko"] % lanes.LANES == 0  # the poses computed in a call (collide.mujoco) follow
     assert len(out) > 0
     for w in range(B):
         assert np.array_equal(out[out[:, 0] == w, 1:], bp.pairs(pos[w], rot[w]))

@@ -61,8 +61,10 @@ def pack_lanes(body_pairs, row_start, pair_geoms, pair_gstart, plane_pos, plane_
 
 def lane_workspace_size(NB: int, L: int, G: int, Q: int) -> int:
     """float64 workspace of one thread: poses, body and geom rows and AABBs, planes (all x LANES),
-    two scratch rows."""
-    return LANES * (12 * NB + (ROW + 12) * L + (ROW + 6) * G + 4 * max(Q, 1)) + 2 * ROW
+    two scratch rows; rounded up to whole (LANES,) rows, so that what follows it in a row of the
+    batch's workspace (`kin_workspace_size`) starts on a cache line as the row does."""
+    n = LANES * (12 * NB + (ROW + 12) * L + (ROW + 6) * G + 4 * max(Q, 1)) + 2 * ROW
+    return -(-n // LANES) * LANES
 
 
 def lane_bits_size(L: int, NR: int) -> int:
