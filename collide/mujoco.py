@@ -414,7 +414,7 @@ def kinematics_batch(model: mujoco.MjModel, qpos) -> tuple[np.ndarray, np.ndarra
     b, n = len(q), model.nbody
     pos, rot = np.empty((b, n, 3)), np.empty((b, n, 3, 3))
     chunks = max(1, min(4 * numba.get_num_threads(), b))
-    scratch = np.empty((chunks, _kin.scratch_size(n)))
+    scratch = np.empty((chunks, _kin.scratch_size(n, model.njnt)))
     with numba.parallel_chunksize(1):
         _kin.kinematics_worlds(q, *_kinematics_arrays(model), pos, rot, scratch)
     return pos, rot
@@ -610,8 +610,9 @@ class BroadPhase:
             arrays = _kinematics_arrays(model)
 
             def launch(bt, world_count, world_info, chunk_info, S):
-                return _kin.step_lanes_kin(q, *arrays, bt["ctx"], bp._J, bt["LW"], bt["ko"], bt["LB"], world_count,
-                                           world_info, chunk_info, S, bp._stats)
+                scratch = np.empty((bt["ctx"].shape[0], _kin.scratch_size(model.nbody, model.njnt)))
+                return _kin.step_lanes_kin(q, *arrays, bt["ctx"], bp._J, bt["LW"], bt["ko"], bt["LB"], scratch,
+                                           world_count, world_info, chunk_info, S, bp._stats)
 
             out = bp._run_batch(len(q), launch)
         return out if self._no_function is None else self._drop_null(out, 1)

@@ -27,49 +27,60 @@ JNT_FREE, JNT_BALL, JNT_SLIDE, JNT_HINGE = 0, 1, 2, 3  # mjtJoint
 
 
 @nb.njit(cache=True, inline="always")
-def _mul_quat(a, b, out):
-    w = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3]
-    x = a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2]
-    y = a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1]
-    z = a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0]
-    out[0], out[1], out[2], out[3] = w, x, y, z
+def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
+    # mju_mulQuat
+    return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
 
 
 @nb.njit(cache=True, inline="always")
-def _rot_vec_quat(v, q, out):
+def _qrot(v0, v1, v2, q0, q1, q2, q3):
     # v + 2 q_v x (q_w v + q_v x v): mju_rotVecQuat for a unit quaternion.
-    t0 = q[0] * v[0] + q[2] * v[2] - q[3] * v[1]
-    t1 = q[0] * v[1] + q[3] * v[0] - q[1] * v[2]
-    t2 = q[0] * v[2] + q[1] * v[1] - q[2] * v[0]
-    out[0] = v[0] + 2.0 * (q[2] * t2 - q[3] * t1)
-    out[1] = v[1] + 2.0 * (q[3] * t0 - q[1] * t2)
-    out[2] = v[2] + 2.0 * (q[1] * t1 - q[2] * t0)
+    t0 = q0 * v0 + q2 * v2 - q3 * v1
+    t1 = q0 * v1 + q3 * v0 - q1 * v2
+    t2 = q0 * v2 + q1 * v1 - q2 * v0
+    return (v0 + 2.0 * (q2 * t2 - q3 * t1),
+            v1 + 2.0 * (q3 * t0 - q1 * t2),
+            v2 + 2.0 * (q1 * t1 - q2 * t0))
 
 
 @nb.njit(cache=True, inline="always")
-def _normalize4(q):
-    n = np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+def _qnorm(q0, q1, q2, q3):
+    # mju_normalize4 (mjMINVAL = 1e-15). Whether |n - 1| exceeds 1e-15 comes out either way on
+    # rounding alone, so a branch there mispredicts in about every other body: a select instead,
+    # and a division by exactly 1.0, which changes no bit.
+    n = np.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
     if n < 1e-15:
-        q[0], q[1], q[2], q[3] = 1.0, 0.0, 0.0, 0.0
-    elif abs(n - 1.0) > 1e-15:
-        q[0] /= n
-        q[1] /= n
-        q[2] /= n
-        q[3] /= n
+        return 1.0, 0.0, 0.0, 0.0
+    f = n if abs(n - 1.0) > 1e-15 else 1.0
+    return q0 / f, q1 / f, q2 / f, q3 / f
+
+
+@nb.njit(cache=True, inline="always")
+def _half_angles(q, qpos0, jnt_type, jnt_qposadr, sc):
+    # sin and cos of every hinge's half angle (mju_axisAngle2Quat), before the walk down the tree:
+    # a call to libm inside it spills every live value of the pose chain around the call (all
+    # float registers are caller-saved); out here the calls have nothing to spill.
+    for j in range(jnt_type.shape[0]):
+        if jnt_type[j] == JNT_HINGE:
+            a = jnt_qposadr[j]
+            half = 0.5 * (q[a] - qpos0[a])
+            sc[j, 0] = np.sin(half)
+            sc[j, 1] = np.cos(half)
 
 
 @nb.njit(cache=True, inline="always")
 def _kinematics_world(q, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr,
-                      jnt_pos, jnt_axis, out_pos, out_rot, xquat, v):
+                      jnt_pos, jnt_axis, out_pos, out_rot, xquat, sc):
     # Body poses out_pos (L, 3), out_rot (L, 3, 3) of one configuration q (nq,). Scratch: xquat
-    # (L, 4), v (21,).
+    # (L, 4), sc (nj, 2). The running pose is held in locals, not in a scratch array: through
+    # memory each step of the chain waited for the previous one's store (humanoid, 1024 worlds,
+    # one thread: 1.2 -> 0.9 us a world with the half angles and the select in _qnorm, the same
+    # bits).
     L = out_pos.shape[0]
-    pos = v[0:3]
-    quat = v[3:7]
-    qloc = v[7:11]
-    qprev = v[11:15]
-    tmp = v[15:18]
-    anchor = v[18:21]
+    _half_angles(q, qpos0, jnt_type, jnt_qposadr, sc)
     xquat[0, 0], xquat[0, 1], xquat[0, 2], xquat[0, 3] = 1.0, 0.0, 0.0, 0.0
     for i in range(3):
         out_pos[0, i] = 0.0
@@ -79,63 +90,58 @@ def _kinematics_world(q, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
         ja, jn = body_jntadr[b], body_jntnum[b]
         if jn == 1 and jnt_type[ja] == JNT_FREE:
             a = jnt_qposadr[ja]
-            for i in range(3):
-                pos[i] = q[a + i]
-            for i in range(4):
-                quat[i] = q[a + 3 + i]
-            _normalize4(quat)
+            p0, p1, p2 = q[a], q[a + 1], q[a + 2]
+            c0, c1, c2, c3 = _qnorm(q[a + 3], q[a + 4], q[a + 5], q[a + 6])
         else:
             p = body_parent[b]
-            for i in range(3):
-                pos[i] = (out_pos[p, i] + out_rot[p, i, 0] * body_pos[b, 0]
-                          + out_rot[p, i, 1] * body_pos[b, 1]
-                          + out_rot[p, i, 2] * body_pos[b, 2])
-            _mul_quat(xquat[p], body_quat[b], quat)
+            bx, by, bz = body_pos[b, 0], body_pos[b, 1], body_pos[b, 2]
+            p0 = out_pos[p, 0] + out_rot[p, 0, 0] * bx + out_rot[p, 0, 1] * by + out_rot[p, 0, 2] * bz
+            p1 = out_pos[p, 1] + out_rot[p, 1, 0] * bx + out_rot[p, 1, 1] * by + out_rot[p, 1, 2] * bz
+            p2 = out_pos[p, 2] + out_rot[p, 2, 0] * bx + out_rot[p, 2, 1] * by + out_rot[p, 2, 2] * bz
+            c0, c1, c2, c3 = _qmul(xquat[p, 0], xquat[p, 1], xquat[p, 2], xquat[p, 3],
+                                   body_quat[b, 0], body_quat[b, 1], body_quat[b, 2], body_quat[b, 3])
             for j in range(ja, ja + jn):
                 a = jnt_qposadr[j]
                 t = jnt_type[j]
-                _rot_vec_quat(jnt_pos[j], quat, anchor)
-                for i in range(3):
-                    anchor[i] += pos[i]
+                jx, jy, jz = jnt_pos[j, 0], jnt_pos[j, 1], jnt_pos[j, 2]
+                r0, r1, r2 = _qrot(jx, jy, jz, c0, c1, c2, c3)
+                n0, n1, n2 = r0 + p0, r1 + p1, r2 + p2  # the joint's anchor in the world
                 if t == JNT_SLIDE:
-                    _rot_vec_quat(jnt_axis[j], quat, tmp)
+                    u0, u1, u2 = _qrot(jnt_axis[j, 0], jnt_axis[j, 1], jnt_axis[j, 2], c0, c1, c2, c3)
                     d = q[a] - qpos0[a]
-                    for i in range(3):
-                        pos[i] += tmp[i] * d
+                    p0 += u0 * d
+                    p1 += u1 * d
+                    p2 += u2 * d
                 else:
                     if t == JNT_BALL:
-                        for i in range(4):
-                            qloc[i] = q[a + i]
-                        _normalize4(qloc)
+                        l0, l1, l2, l3 = _qnorm(q[a], q[a + 1], q[a + 2], q[a + 3])
                     else:
-                        half = 0.5 * (q[a] - qpos0[a])
-                        s = np.sin(half)
-                        qloc[0] = np.cos(half)
-                        qloc[1] = jnt_axis[j, 0] * s
-                        qloc[2] = jnt_axis[j, 1] * s
-                        qloc[3] = jnt_axis[j, 2] * s
-                    for i in range(4):
-                        qprev[i] = quat[i]
-                    _mul_quat(qprev, qloc, quat)
+                        s = sc[j, 0]
+                        l0 = sc[j, 1]
+                        l1 = jnt_axis[j, 0] * s
+                        l2 = jnt_axis[j, 1] * s
+                        l3 = jnt_axis[j, 2] * s
+                    c0, c1, c2, c3 = _qmul(c0, c1, c2, c3, l0, l1, l2, l3)
                     # Off-centre rotation: keep the joint anchor fixed.
-                    _rot_vec_quat(jnt_pos[j], quat, tmp)
-                    for i in range(3):
-                        pos[i] = anchor[i] - tmp[i]
-        _normalize4(quat)
-        for i in range(4):
-            xquat[b, i] = quat[i]
-        for i in range(3):
-            out_pos[b, i] = pos[i]
-        q0, q1, q2, q3 = quat[0], quat[1], quat[2], quat[3]
-        out_rot[b, 0, 0] = q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3
-        out_rot[b, 1, 1] = q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3
-        out_rot[b, 2, 2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
-        out_rot[b, 0, 1] = 2.0 * (q1 * q2 - q0 * q3)
-        out_rot[b, 0, 2] = 2.0 * (q1 * q3 + q0 * q2)
-        out_rot[b, 1, 0] = 2.0 * (q1 * q2 + q0 * q3)
-        out_rot[b, 1, 2] = 2.0 * (q2 * q3 - q0 * q1)
-        out_rot[b, 2, 0] = 2.0 * (q1 * q3 - q0 * q2)
-        out_rot[b, 2, 1] = 2.0 * (q2 * q3 + q0 * q1)
+                    r0, r1, r2 = _qrot(jx, jy, jz, c0, c1, c2, c3)
+                    p0, p1, p2 = n0 - r0, n1 - r1, n2 - r2
+        c0, c1, c2, c3 = _qnorm(c0, c1, c2, c3)
+        xquat[b, 0] = c0
+        xquat[b, 1] = c1
+        xquat[b, 2] = c2
+        xquat[b, 3] = c3
+        out_pos[b, 0] = p0
+        out_pos[b, 1] = p1
+        out_pos[b, 2] = p2
+        out_rot[b, 0, 0] = c0 * c0 + c1 * c1 - c2 * c2 - c3 * c3
+        out_rot[b, 1, 1] = c0 * c0 - c1 * c1 + c2 * c2 - c3 * c3
+        out_rot[b, 2, 2] = c0 * c0 - c1 * c1 - c2 * c2 + c3 * c3
+        out_rot[b, 0, 1] = 2.0 * (c1 * c2 - c0 * c3)
+        out_rot[b, 0, 2] = 2.0 * (c1 * c3 + c0 * c2)
+        out_rot[b, 1, 0] = 2.0 * (c1 * c2 + c0 * c3)
+        out_rot[b, 1, 2] = 2.0 * (c2 * c3 - c0 * c1)
+        out_rot[b, 2, 0] = 2.0 * (c1 * c3 - c0 * c2)
+        out_rot[b, 2, 1] = 2.0 * (c2 * c3 + c0 * c1)
 
 
 @nb.njit(cache=True, inline="always")
@@ -159,50 +165,56 @@ def _model_views(qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntn
             nb.carray(f64_ptr(np.int64(jnt_axis.ctypes.data)), (nj, 3)))
 
 
-def scratch_size(L: int) -> int:
-    """float64 of kinematics scratch per thread (`kinematics_worlds`' rows)."""
-    return 4 * L + 21
+def scratch_size(L: int, nj: int) -> int:
+    """float64 of kinematics scratch per chunk of worlds (a row of `kinematics_worlds`' and
+    `step_lanes_kin`'s ``scratch``), ``L`` bodies, ``nj`` joints."""
+    return 4 * L + 2 * nj
 
 
 @nb.njit(cache=True, inline="always")
-def _scratch(at, L):
-    # xquat (L, 4) and v (21,) at address at (pointer-built: no reference count).
-    return nb.carray(f64_ptr(at), (L, 4)), nb.carray(f64_ptr(at + 32 * L), 21)
+def _scratch(scratch, c, L, nj):
+    # Row c of scratch: xquat (L, 4), then sc (nj, 2) (pointer-built: no reference count).
+    at = np.int64(scratch.ctypes.data) + 8 * scratch.shape[1] * c
+    return nb.carray(f64_ptr(at), (L, 4)), nb.carray(f64_ptr(at + 32 * L), (nj, 2))
 
 
 @nb.njit(cache=True, parallel=True)
 def kinematics_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr,
                       jnt_pos, jnt_axis, out_pos, out_rot, scratch):
     """Poses ``out_pos (B, L, 3)``, ``out_rot (B, L, 3, 3)`` of the configurations ``qpos (B, nq)``,
-    threads over ``C = scratch.shape[0]`` chunks of worlds, ``scratch (C, scratch_size(L))``. Every
-    array is C-contiguous."""
+    threads over ``C = scratch.shape[0]`` chunks of worlds, ``scratch (C, scratch_size(L, nj))``.
+    Every array is C-contiguous."""
     B, L = out_pos.shape[0], out_pos.shape[1]
     nq = qpos0.shape[0]
     C = scratch.shape[0]
+    nj = jnt_type.shape[0]
     (q0, par, bpos, bquat, jadr, jnum, jtype, jqadr, jpos, jaxis) = _model_views(
         qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr, jnt_pos, jnt_axis)
     qp = nb.carray(f64_ptr(np.int64(qpos.ctypes.data)), (B, nq))
     opos = nb.carray(f64_ptr(np.int64(out_pos.ctypes.data)), (B, L, 3))
     orot = nb.carray(f64_ptr(np.int64(out_rot.ctypes.data)), (B, L, 3, 3))
     for c in nb.prange(C):
-        xquat, v = _scratch(np.int64(scratch.ctypes.data) + 8 * scratch.shape[1] * c, L)
+        xquat, sc = _scratch(scratch, c, L, nj)
         for w in range((B * c) // C, (B * (c + 1)) // C):
             _kinematics_world(qp[w], q0, par, bpos, bquat, jadr, jnum, jtype, jqadr, jpos, jaxis, opos[w], orot[w],
-                              xquat, v)
+                              xquat, sc)
     return 0
 
 
 @nb.njit(cache=True, parallel=True)
 def step_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr,
-                   jnt_pos, jnt_axis, ctxs, J, LWs, ko, LBs, world_count, world_info, chunk_info, S, stats_out):
+                   jnt_pos, jnt_axis, ctxs, J, LWs, ko, LBs, scratch, world_count, world_info, chunk_info, S,
+                   stats_out):
     """`lanes.step_lanes` on the poses of ``qpos (B, nq)``, each group's computed into its chunk's
     workspace just before its tests (see the module docstring): each row of ``LWs`` holds
-    `lanes.kin_workspace_size` float64 from column ``ko`` on. Same result as `lanes.step_lanes` on
-    `kinematics_worlds`' poses."""
+    `lanes.kin_workspace_size` float64 from column ``ko`` on; ``scratch`` has a row of
+    `scratch_size` per chunk (at least ``ctxs.shape[0]`` rows). Same result as `lanes.step_lanes`
+    on `kinematics_worlds`' poses."""
     B = qpos.shape[0]
     nq = qpos0.shape[0]
     NB = body_parent.shape[0]
     C = ctxs.shape[0]
+    nj = jnt_type.shape[0]
     (q0, par, bpos, bquat, jadr, jnum, jtype, jqadr, jpos, jaxis) = _model_views(
         qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr, jnt_pos, jnt_axis)
     qp = nb.carray(f64_ptr(np.int64(qpos.ctypes.data)), (B, nq))
@@ -214,7 +226,7 @@ def step_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
         kb = la + 8 * ko
         gpos = nb.carray(f64_ptr(kb), (LANES, NB, 3))  # the group's poses
         grot = nb.carray(f64_ptr(kb + 24 * LANES * NB), (LANES, NB, 3, 3))
-        xquat, v = _scratch(kb + 96 * LANES * NB, NB)
+        xquat, sc = _scratch(scratch, c, NB, nj)
         st = np.zeros(N_STATS, np.int64)
         off = 0
         w0 = (B * c) // C
@@ -223,7 +235,7 @@ def step_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
             nl = min(LANES, w1 - g0)
             for l in range(nl):
                 _kinematics_world(qp[g0 + l], q0, par, bpos, bquat, jadr, jnum, jtype, jqadr, jpos, jaxis, gpos[l],
-                                  grot[l], xquat, v)
+                                  grot[l], xquat, sc)
             off = _lane_group(gpos, grot, 0, g0, nl, I, F, W, sap, bp, scr, stats, info, Jv, LW, LB, NWd, ctx, off, st,
                               world_count, world_info, ci)
         for s in range(N_STATS):

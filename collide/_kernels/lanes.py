@@ -457,8 +457,8 @@ def _lane_group(pos_src, rot_src, l0, g0, nl, I, F, W, sap, bp, scr, stats, info
 
 def kin_workspace_size(NB: int) -> int:
     """float64 a thread needs after `lane_workspace_size` when the poses are computed in the call
-    (`kinematics.step_lanes_kin`): a group's poses and the kinematics' scratch."""
-    return LANES * 12 * NB + 4 * NB + 21
+    (`kinematics.step_lanes_kin`): a group's poses (the kinematics' scratch is passed apart)."""
+    return LANES * 12 * NB
 
 
 @nb.njit(cache=True, inline="always")
