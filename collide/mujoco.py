@@ -610,7 +610,7 @@ class BroadPhase:
             arrays = _kinematics_arrays(model)
 
             def launch(bt, world_count, world_info, chunk_info, S):
-                scratch = np.empty((bt["ctx"].shape[0], _kin.scratch_size(model.nbody, model.njnt)))
+                scratch = np.empty((bt["ctx"].shape[0], _kin.lanes_scratch_size(model.nbody, model.njnt)))
                 return _kin.step_lanes_kin(q, *arrays, bt["ctx"], bp._J, bt["LW"], bt["ko"], bt["LB"], scratch,
                                            world_count, world_info, chunk_info, S, bp._stats)
 

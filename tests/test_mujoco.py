@@ -10,10 +10,13 @@ import json
 from pathlib import Path
 
 import mujoco
+import numba
 import numpy as np
 import pytest
 
 import collide.mujoco as cm
+from collide._kernels import kinematics as _kin
+from collide._kernels.lanes import LANES
 
 MODELS = Path(__file__).resolve().parents[1] / ".." / "shared" / "models"
 SCENES = sorted(p.name for p in MODELS.iterdir() if (p / "scene.xml").is_file()) if MODELS.is_dir() else []
@@ -530,6 +533,38 @@ def test_pairs_batch_poses_in_the_call_equal_kinematics_then_batch(xml):
         qpos[13, slide] = 0.0
         again = bp.pairs_batch(model, qpos)
         assert len(again) > 0 and np.array_equal(again, bp.broadphase.pairs_batch(*cm.kinematics_batch(model, qpos)))
+
+
+@numba.njit(cache=True)
+def _lane_poses(qp, arrays, ps, scratch):
+    # every group of LANES worlds of qp through `_kinematics_lanes`, into ps (groups, L, 12, LANES)
+    (q0, par, bpos, bquat, jadr, jnum, jtype, jqadr, jpos, jaxis) = arrays
+    for g in range(ps.shape[0]):
+        g0 = g * LANES
+        _kin._kinematics_lanes(qp, g0, min(LANES, qp.shape[0] - g0), LANES, q0, par, bpos, bquat, jadr, jnum, jtype,
+                               jqadr, jpos, jaxis, ps[g], np.int64(scratch.ctypes.data))
+
+
+@pytest.mark.parametrize("scene", ["kinematics_mjcf"] + SCENES)
+def test_lane_kinematics_equal_world_kinematics_bit_for_bit(scene):
+    # The fused batch computes the poses lanes at a time (`_kinematics_lanes`, into the lanes'
+    # (L, 12, LANES) block) and kinematics_batch world by world (`_kinematics_world`): the same
+    # operations in the same order, so the same bits, over full and partial groups of lanes.
+    if scene == "kinematics_mjcf":
+        model = mujoco.MjModel.from_xml_string(KIN)
+    else:
+        model = mujoco.MjModel.from_xml_path(str(MODELS / scene / "scene.xml"))
+    qpos = _random_qpos(model, 2 * LANES + 3, np.random.default_rng(17))
+    pos, rot = cm.kinematics_batch(model, qpos)
+    groups = -(-len(qpos) // LANES)
+    ps = np.empty((groups, model.nbody, 12, LANES))
+    _lane_poses(qpos, cm._kinematics_arrays(model), ps, np.empty(_kin.lanes_scratch_size(model.nbody, model.njnt)))
+    for w in range(len(qpos)):
+        g, lane = divmod(w, LANES)
+        assert np.array_equal(ps[g, :, :3, lane], pos[w]) and np.array_equal(ps[g, :, 3:, lane], rot[w].reshape(-1, 9))
+    # lanes past the last world repeat its group's first
+    g, last = divmod(len(qpos) - 1, LANES)
+    assert np.array_equal(ps[g, :, :3, last + 1], pos[g * LANES])
 
 
 def test_pairs_batch_calls_an_overridden_kinematics_batch():

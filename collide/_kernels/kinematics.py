@@ -1,13 +1,13 @@
 """Batched forward kinematics of MuJoCo models (``mj_kinematics``, engine_core_smooth.c, body poses
 only), and the batched broad phase fed by it straight into the lanes.
 
-`kinematics_worlds` fills pose arrays; `step_lanes_kin` computes each group of `lanes.LANES` worlds'
-poses into a small buffer of its chunk (in the chunk's lane workspace) and runs `lanes._lane_group` on
-them: no pose array of the
-whole batch written and read back (1024 humanoid worlds: 1.7 MB), and one parallel region per call
-instead of two (a second one wakes a sleeping thread). Both compute the same poses with the same
-operations (`_kinematics_world`), so the fused call gives the rows of `step_lanes` on
-`kinematics_worlds`' poses, bit for bit.
+`kinematics_worlds` fills pose arrays, world by world (`_kinematics_world`); `step_lanes_kin`
+computes each group of `lanes.LANES` worlds' poses straight into the lanes of its chunk's workspace
+(`_kinematics_lanes`: the worlds in SIMD lanes, where the tests read them) and runs
+`lanes._lane_group` on them: no pose array of the whole batch written and read back (1024 humanoid
+worlds: 1.7 MB), and one parallel region per call instead of two (a second one wakes a sleeping
+thread). Both compute the same poses with the same operations in the same order, so the fused call
+gives the rows of `step_lanes` on `kinematics_worlds`' poses, bit for bit.
 
 Model arrays (``mujoco.MjModel``'s, as contiguous float64 / int64; ``L`` bodies, ``nj`` joints):
 ``qpos0 (nq,)``, ``body_parent (L,)``, ``body_pos (L, 3)``, ``body_quat (L, 4)``, ``body_jntadr (L,)``,
@@ -21,7 +21,7 @@ import numpy as np
 
 from ._ptr import f64_ptr, i64_ptr
 from .broadphase import CI_KEYS, N_STATS, chunk_buffers, gather_batch
-from .lanes import J_NR, LANES, _lane_group, lane_buffers
+from .lanes import J_NR, J_NV, LANES, _lane_group, lane_buffers, lane_poses
 
 JNT_FREE, JNT_BALL, JNT_SLIDE, JNT_HINGE = 0, 1, 2, 3  # mjtJoint
 
@@ -144,6 +144,104 @@ def _kinematics_world(q, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
         out_rot[b, 2, 1] = 2.0 * (c2 * c3 + c0 * c1)
 
 
+def lanes_scratch_size(L: int, nj: int) -> int:
+    """float64 of `_kinematics_lanes`' scratch per chunk of worlds (a row of `step_lanes_kin`'s
+    ``scratch``), ``L`` bodies, ``nj`` joints."""
+    return LANES * (4 * L + 2 * nj + 7)
+
+
+@nb.njit(cache=True, inline="always")
+def _kinematics_lanes(qp, g0, nl, nv, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type,
+                      jnt_qposadr, jnt_pos, jnt_axis, ps, at):
+    # `_kinematics_world` of the worlds g0 .. g0 + nl - 1 of qp (B, nq), lane by lane into the lanes'
+    # poses ps (L, 12, LANES) (`lanes.lane_poses`; lanes past nl repeat world g0, as lanes._group
+    # does). Every world has the same tree and joints, so each branch holds for all the lanes, and
+    # each step is a loop over them without one, which vectorises: the same operations in the same
+    # order as `_kinematics_world` (the same bits), only the libm sin and cos stay scalar.
+    # Scratch at address at (`lanes_scratch_size`): xq (L, 4, LANES), sc (nj, 2, LANES), the running
+    # pose st (7, LANES).
+    L = body_parent.shape[0]
+    nj = jnt_type.shape[0]
+    xq = nb.carray(f64_ptr(at), (L, 4, LANES))
+    sc = nb.carray(f64_ptr(at + 32 * LANES * L), (nj, 2, LANES))
+    st = nb.carray(f64_ptr(at + 32 * LANES * L + 16 * LANES * nj), (7, LANES))
+    for j in range(nj):
+        if jnt_type[j] == JNT_HINGE:
+            a = jnt_qposadr[j]
+            for l in range(nv):
+                half = 0.5 * (qp[g0 + l if l < nl else g0, a] - qpos0[a])
+                sc[j, 0, l] = np.sin(half)
+                sc[j, 1, l] = np.cos(half)
+    for l in range(nv):
+        xq[0, 0, l], xq[0, 1, l], xq[0, 2, l], xq[0, 3, l] = 1.0, 0.0, 0.0, 0.0
+        for i in range(12):
+            ps[0, i, l] = 1.0 if i == 3 or i == 7 or i == 11 else 0.0
+    for b in range(1, L):
+        ja, jn = body_jntadr[b], body_jntnum[b]
+        if jn == 1 and jnt_type[ja] == JNT_FREE:
+            a = jnt_qposadr[ja]
+            for l in range(nv):
+                w = g0 + l if l < nl else g0
+                st[0, l], st[1, l], st[2, l] = qp[w, a], qp[w, a + 1], qp[w, a + 2]
+                st[3, l], st[4, l], st[5, l], st[6, l] = _qnorm(qp[w, a + 3], qp[w, a + 4], qp[w, a + 5],
+                                                                qp[w, a + 6])
+        else:
+            p = body_parent[b]
+            bx, by, bz = body_pos[b, 0], body_pos[b, 1], body_pos[b, 2]
+            e0, e1, e2, e3 = body_quat[b, 0], body_quat[b, 1], body_quat[b, 2], body_quat[b, 3]
+            for l in range(nv):
+                st[0, l] = ps[p, 0, l] + ps[p, 3, l] * bx + ps[p, 4, l] * by + ps[p, 5, l] * bz
+                st[1, l] = ps[p, 1, l] + ps[p, 6, l] * bx + ps[p, 7, l] * by + ps[p, 8, l] * bz
+                st[2, l] = ps[p, 2, l] + ps[p, 9, l] * bx + ps[p, 10, l] * by + ps[p, 11, l] * bz
+                st[3, l], st[4, l], st[5, l], st[6, l] = _qmul(xq[p, 0, l], xq[p, 1, l], xq[p, 2, l], xq[p, 3, l],
+                                                               e0, e1, e2, e3)
+            for j in range(ja, ja + jn):
+                a = jnt_qposadr[j]
+                t = jnt_type[j]
+                jx, jy, jz = jnt_pos[j, 0], jnt_pos[j, 1], jnt_pos[j, 2]
+                u0, u1, u2 = jnt_axis[j, 0], jnt_axis[j, 1], jnt_axis[j, 2]
+                if t == JNT_SLIDE:
+                    for l in range(nv):
+                        d = qp[g0 + l if l < nl else g0, a] - qpos0[a]
+                        v0, v1, v2 = _qrot(u0, u1, u2, st[3, l], st[4, l], st[5, l], st[6, l])
+                        st[0, l] += v0 * d
+                        st[1, l] += v1 * d
+                        st[2, l] += v2 * d
+                    continue
+                for l in range(nv):
+                    if t == JNT_BALL:
+                        w = g0 + l if l < nl else g0
+                        l0, l1, l2, l3 = _qnorm(qp[w, a], qp[w, a + 1], qp[w, a + 2], qp[w, a + 3])
+                    else:
+                        s = sc[j, 0, l]
+                        l0, l1, l2, l3 = sc[j, 1, l], u0 * s, u1 * s, u2 * s
+                    c0, c1, c2, c3 = st[3, l], st[4, l], st[5, l], st[6, l]
+                    r0, r1, r2 = _qrot(jx, jy, jz, c0, c1, c2, c3)
+                    n0, n1, n2 = r0 + st[0, l], r1 + st[1, l], r2 + st[2, l]
+                    c0, c1, c2, c3 = _qmul(c0, c1, c2, c3, l0, l1, l2, l3)
+                    r0, r1, r2 = _qrot(jx, jy, jz, c0, c1, c2, c3)
+                    st[0, l], st[1, l], st[2, l] = n0 - r0, n1 - r1, n2 - r2
+                    st[3, l], st[4, l], st[5, l], st[6, l] = c0, c1, c2, c3
+        for l in range(nv):
+            c0, c1, c2, c3 = _qnorm(st[3, l], st[4, l], st[5, l], st[6, l])
+            xq[b, 0, l] = c0
+            xq[b, 1, l] = c1
+            xq[b, 2, l] = c2
+            xq[b, 3, l] = c3
+            ps[b, 0, l] = st[0, l]
+            ps[b, 1, l] = st[1, l]
+            ps[b, 2, l] = st[2, l]
+            ps[b, 3, l] = c0 * c0 + c1 * c1 - c2 * c2 - c3 * c3
+            ps[b, 4, l] = 2.0 * (c1 * c2 - c0 * c3)
+            ps[b, 5, l] = 2.0 * (c1 * c3 + c0 * c2)
+            ps[b, 6, l] = 2.0 * (c1 * c2 + c0 * c3)
+            ps[b, 7, l] = c0 * c0 - c1 * c1 + c2 * c2 - c3 * c3
+            ps[b, 8, l] = 2.0 * (c2 * c3 - c0 * c1)
+            ps[b, 9, l] = 2.0 * (c1 * c3 - c0 * c2)
+            ps[b, 10, l] = 2.0 * (c2 * c3 + c0 * c1)
+            ps[b, 11, l] = c0 * c0 - c1 * c1 - c2 * c2 + c3 * c3
+
+
 @nb.njit(cache=True, inline="always")
 def _model_views(qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr, jnt_pos,
                  jnt_axis):
@@ -208,36 +306,35 @@ def step_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
     """`lanes.step_lanes` on the poses of ``qpos (B, nq)``, each group's computed into its chunk's
     workspace just before its tests (see the module docstring): each row of ``LWs`` holds
     `lanes.kin_workspace_size` float64 from column ``ko`` on; ``scratch`` has a row of
-    `scratch_size` per chunk (at least ``ctxs.shape[0]`` rows). Same result as `lanes.step_lanes`
-    on `kinematics_worlds`' poses."""
+    `lanes_scratch_size` per chunk (at least ``ctxs.shape[0]`` rows). Same result as
+    `lanes.step_lanes` on `kinematics_worlds`' poses (`_kinematics_lanes`: the same bits)."""
     B = qpos.shape[0]
     nq = qpos0.shape[0]
     NB = body_parent.shape[0]
     C = ctxs.shape[0]
-    nj = jnt_type.shape[0]
     (q0, par, bpos, bquat, jadr, jnum, jtype, jqadr, jpos, jaxis) = _model_views(
         qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr, jnt_pos, jnt_axis)
     qp = nb.carray(f64_ptr(np.int64(qpos.ctypes.data)), (B, nq))
     Jv = nb.carray(i64_ptr(np.int64(J.ctypes.data)), J.shape[0])
     NWd = (Jv[J_NR] + 63) // 64
+    nv = Jv[J_NV]  # LANES, unknown to the compiler (as in lanes._group)
     for c in nb.prange(C):
         ctx, ci, I, F, W, sap, bp, scr, stats, info = chunk_buffers(ctxs, chunk_info, c)
         la, LW, LB = lane_buffers(LWs, LBs, c)
         kb = la + 8 * ko
         gpos = nb.carray(f64_ptr(kb), (LANES, NB, 3))  # the group's poses
         grot = nb.carray(f64_ptr(kb + 24 * LANES * NB), (LANES, NB, 3, 3))
-        xquat, sc = _scratch(scratch, c, NB, nj)
+        ksa = np.int64(scratch.ctypes.data) + 8 * scratch.shape[1] * c
+        ps = lane_poses(LW, NB)
         st = np.zeros(N_STATS, np.int64)
         off = 0
         w0 = (B * c) // C
         w1 = (B * (c + 1)) // C
         for g0 in range(w0, w1, LANES):
             nl = min(LANES, w1 - g0)
-            for l in range(nl):
-                _kinematics_world(qp[g0 + l], q0, par, bpos, bquat, jadr, jnum, jtype, jqadr, jpos, jaxis, gpos[l],
-                                  grot[l], xquat, sc)
+            _kinematics_lanes(qp, g0, nl, nv, q0, par, bpos, bquat, jadr, jnum, jtype, jqadr, jpos, jaxis, ps, ksa)
             off = _lane_group(gpos, grot, 0, g0, nl, I, F, W, sap, bp, scr, stats, info, Jv, LW, LB, NWd, ctx, off, st,
-                              world_count, world_info, ci)
+                              world_count, world_info, ci, True)
         for s in range(N_STATS):
             stats[s] = st[s]
         ci[CI_KEYS] = off

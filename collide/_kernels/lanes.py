@@ -29,7 +29,7 @@ import numpy as np
 
 from ._ptr import f64_ptr, i64_ptr
 from ._simd import aabb_mask8, aabb_merge8
-from .broadphase import (BIG, C_KEYS, C_NKEYS, CI_KEYS, N_STATS, ROW, SLACK_POS, SLACK_REL, ST_BODY_OBB,
+from .broadphase import (BIG, C_KEYS, C_NKEYS, CI_KEYS, H_NB, N_STATS, ROW, SLACK_POS, SLACK_REL, ST_BODY_OBB,
                          ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT, ST_PLANE, ST_SUBTREE,
                          _batch_world, _explicit_hit, _plane_hit_local, _pose_ok, _views, aabb_slack, bounds_mask,
                          chunk_buffers, gather_batch, plane_world)
@@ -70,6 +70,13 @@ def lane_workspace_size(NB: int, L: int, G: int, Q: int) -> int:
 def lane_bits_size(L: int, NR: int) -> int:
     """int64 scratch of one thread: the lanes' bitsets over the ranks, then a stamp per position."""
     return LANES * ((NR + 63) // 64) + L
+
+
+@nb.njit(cache=True, inline="always")
+def lane_poses(LW, NB):
+    """The lanes' poses ``(NB, 12, LANES)``, the first block of a thread's lane workspace ``LW``: per
+    body, position (3) then rotation (9, row-major), each entry a row over the lanes."""
+    return nb.carray(f64_ptr(np.int64(LW.ctypes.data)), (NB, 12, LANES))
 
 
 @nb.njit(cache=True, inline="always")
@@ -171,9 +178,10 @@ def _lane_pair(p, m, x, y, single, wb, wa_at, stamp, order, gstart, pgeoms, gloc
 # ------------------------------------------------------------------------------- one group
 
 @nb.njit(cache=True)
-def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats):
+def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
     """Worlds ``w0 .. w0 + nl - 1`` (nl <= LANES) into the bitsets ``LB[:LANES * NWd]``; returns
-    False (nothing written) when a pose is bad."""
+    False (nothing written) when a pose is bad. ``posed``: the poses are in the lanes already (the
+    workspace's first block, `lane_poses`; ``pos_all`` and ``rot_all`` are not read)."""
     (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
      caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
      pair_keys,
@@ -182,13 +190,12 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats):
     Q = planes.shape[0]
     (body_pairs, row_start, pair_gstart, pair_geoms, plane_start, plane_pos, plane_gstart, plane_geoms,
      explicit_rank, rank_keys) = _lane_views(J, L, Q, np.int64(J.ctypes.data))
-    NB = pos_all.shape[1]
+    NB = I[H_NB]
     NR = rank_keys.shape[0]
     NWd = (NR + 63) // 64
     la = np.int64(LW.ctypes.data)
-    o = 0
-    ps = nb.carray(f64_ptr(la + 8 * o), (NB, 12, LANES))
-    o += 12 * LANES * NB
+    ps = lane_poses(LW, NB)
+    o = 12 * LANES * NB
     wb = nb.carray(f64_ptr(la + 8 * o), (L, ROW, LANES))
     o += ROW * LANES * L
     wa = nb.carray(f64_ptr(la + 8 * o), (L, 6, LANES))
@@ -211,7 +218,7 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats):
 
     # 1. poses into lanes (lanes past nl repeat world w0: valid poses, results ignored), checked
     # as `_world` checks them, and the bounds of every position.
-    for b in range(NB):
+    for b in range(0 if posed else NB):
         for l in range(nv):
             w = w0 + l if l < nl else w0
             for i in range(3):
@@ -421,10 +428,12 @@ def _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gmargin, ps, gwl, gal, 
 
 @nb.njit(cache=True, inline="always")
 def _lane_group(pos_src, rot_src, l0, g0, nl, I, F, W, sap, bp, scr, stats, info, Jv, LW, LB, NWd, ctx, off, st,
-                world_count, world_info, ci):
+                world_count, world_info, ci, posed=False):
     """Worlds ``g0 .. g0 + nl - 1`` (poses ``pos_src[l0 + l]``, ``rot_src[l0 + l]``) of a chunk whose
     keys (in ``ctx``) run to ``off``: `_group`, then each world's keys read from the bitsets, or on a
-    bad pose world by world through `broadphase._world`; returns the new ``off``."""
+    bad pose world by world through `broadphase._world`; returns the new ``off``. ``posed``: the
+    poses are in the lanes already (`lane_poses`), copied out to ``pos_src[l0:]``, ``rot_src[l0:]``
+    only for a group that holds a bad pose."""
     bits = nb.carray(i64_ptr(np.int64(LB.ctypes.data)), (NWd, LANES))
     NR = Jv[J_NR]
     rank_keys = Jv[Jv.shape[0] - NR:]
@@ -433,7 +442,7 @@ def _lane_group(pos_src, rot_src, l0, g0, nl, I, F, W, sap, bp, scr, stats, info
     keys_all = nb.carray(i64_ptr(kp), cap)
     for s in range(N_STATS):
         stats[s] = 0
-    if _group(pos_src, rot_src, l0, nl, I, F, W, Jv, LW, LB, stats):
+    if _group(pos_src, rot_src, l0, nl, I, F, W, Jv, LW, LB, stats, posed):
         for s in range(N_STATS):
             st[s] += stats[s]
         for l in range(nl):
@@ -449,6 +458,14 @@ def _lane_group(pos_src, rot_src, l0, g0, nl, I, F, W, sap, bp, scr, stats, info
             off += k
             st[ST_OUT] += k
         return off
+    if posed:
+        ps = lane_poses(LW, I[H_NB])
+        for l in range(nl):
+            for b in range(I[H_NB]):
+                for i in range(3):
+                    pos_src[l0 + l, b, i] = ps[b, i, l]
+                    for j in range(3):
+                        rot_src[l0 + l, b, i, j] = ps[b, 3 + 3 * i + j, l]
     for l in range(nl):
         off = _batch_world(g0 + l, pos_src[l0 + l], rot_src[l0 + l], I, F, W, sap, bp, kp, cap, off, scr, stats, info,
                            world_info, world_count, st, 0, ci)
