@@ -541,8 +541,8 @@ def _lane_poses(qp, arrays, ps, scratch):
     (q0, par, bpos, bquat, jadr, jnum, jtype, jqadr, jpos, jaxis) = arrays
     for g in range(ps.shape[0]):
         g0 = g * LANES
-        _kin._kinematics_lanes(qp, g0, min(LANES, qp.shape[0] - g0), LANES, q0, par, bpos, bquat, jadr, jnum, jtype,
-                               jqadr, jpos, jaxis, ps[g], np.int64(scratch.ctypes.data))
+        _kin._kinematics_lanes(qp, g0, min(LANES, qp.shape[0] - g0), q0, par, bpos, bquat, jadr, jnum, jtype, jqadr,
+                               jpos, jaxis, ps[g], np.int64(scratch.ctypes.data))
 
 
 @pytest.mark.parametrize("scene", ["kinematics_mjcf"] + SCENES)

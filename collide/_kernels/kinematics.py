@@ -20,42 +20,12 @@ import numba as nb
 import numpy as np
 
 from ._ptr import f64_ptr, i64_ptr
+from ._quat import _frame_point, _qmat, _qmul, _qnorm, _rotate_about, _slide
+from ._simd import kin_ball8, kin_finish8, kin_hinge8, kin_slide8, kin_start8
 from .broadphase import CI_KEYS, N_STATS, chunk_buffers, gather_batch
-from .lanes import J_NR, J_NV, LANES, _lane_group, lane_buffers, lane_poses
+from .lanes import J_NR, LANES, _lane_group, lane_buffers, lane_poses
 
 JNT_FREE, JNT_BALL, JNT_SLIDE, JNT_HINGE = 0, 1, 2, 3  # mjtJoint
-
-
-@nb.njit(cache=True, inline="always")
-def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
-    # mju_mulQuat
-    return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
-            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
-            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
-            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
-
-
-@nb.njit(cache=True, inline="always")
-def _qrot(v0, v1, v2, q0, q1, q2, q3):
-    # v + 2 q_v x (q_w v + q_v x v): mju_rotVecQuat for a unit quaternion.
-    t0 = q0 * v0 + q2 * v2 - q3 * v1
-    t1 = q0 * v1 + q3 * v0 - q1 * v2
-    t2 = q0 * v2 + q1 * v1 - q2 * v0
-    return (v0 + 2.0 * (q2 * t2 - q3 * t1),
-            v1 + 2.0 * (q3 * t0 - q1 * t2),
-            v2 + 2.0 * (q1 * t1 - q2 * t0))
-
-
-@nb.njit(cache=True, inline="always")
-def _qnorm(q0, q1, q2, q3):
-    # mju_normalize4 (mjMINVAL = 1e-15). Whether |n - 1| exceeds 1e-15 comes out either way on
-    # rounding alone, so a branch there mispredicts in about every other body: a select instead,
-    # and a division by exactly 1.0, which changes no bit.
-    n = np.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
-    if n < 1e-15:
-        return 1.0, 0.0, 0.0, 0.0
-    f = n if abs(n - 1.0) > 1e-15 else 1.0
-    return q0 / f, q1 / f, q2 / f, q3 / f
 
 
 @nb.njit(cache=True, inline="always")
@@ -94,37 +64,26 @@ def _kinematics_world(q, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
             c0, c1, c2, c3 = _qnorm(q[a + 3], q[a + 4], q[a + 5], q[a + 6])
         else:
             p = body_parent[b]
-            bx, by, bz = body_pos[b, 0], body_pos[b, 1], body_pos[b, 2]
-            p0 = out_pos[p, 0] + out_rot[p, 0, 0] * bx + out_rot[p, 0, 1] * by + out_rot[p, 0, 2] * bz
-            p1 = out_pos[p, 1] + out_rot[p, 1, 0] * bx + out_rot[p, 1, 1] * by + out_rot[p, 1, 2] * bz
-            p2 = out_pos[p, 2] + out_rot[p, 2, 0] * bx + out_rot[p, 2, 1] * by + out_rot[p, 2, 2] * bz
+            p0, p1, p2 = _frame_point(out_pos[p, 0], out_pos[p, 1], out_pos[p, 2], out_rot[p, 0, 0], out_rot[p, 0, 1],
+                                      out_rot[p, 0, 2], out_rot[p, 1, 0], out_rot[p, 1, 1], out_rot[p, 1, 2],
+                                      out_rot[p, 2, 0], out_rot[p, 2, 1], out_rot[p, 2, 2], body_pos[b, 0],
+                                      body_pos[b, 1], body_pos[b, 2])
             c0, c1, c2, c3 = _qmul(xquat[p, 0], xquat[p, 1], xquat[p, 2], xquat[p, 3],
                                    body_quat[b, 0], body_quat[b, 1], body_quat[b, 2], body_quat[b, 3])
             for j in range(ja, ja + jn):
                 a = jnt_qposadr[j]
                 t = jnt_type[j]
-                jx, jy, jz = jnt_pos[j, 0], jnt_pos[j, 1], jnt_pos[j, 2]
-                r0, r1, r2 = _qrot(jx, jy, jz, c0, c1, c2, c3)
-                n0, n1, n2 = r0 + p0, r1 + p1, r2 + p2  # the joint's anchor in the world
                 if t == JNT_SLIDE:
-                    u0, u1, u2 = _qrot(jnt_axis[j, 0], jnt_axis[j, 1], jnt_axis[j, 2], c0, c1, c2, c3)
-                    d = q[a] - qpos0[a]
-                    p0 += u0 * d
-                    p1 += u1 * d
-                    p2 += u2 * d
+                    p0, p1, p2 = _slide(p0, p1, p2, c0, c1, c2, c3, jnt_axis[j, 0], jnt_axis[j, 1], jnt_axis[j, 2],
+                                        q[a] - qpos0[a])
+                    continue
+                if t == JNT_BALL:
+                    l0, l1, l2, l3 = _qnorm(q[a], q[a + 1], q[a + 2], q[a + 3])
                 else:
-                    if t == JNT_BALL:
-                        l0, l1, l2, l3 = _qnorm(q[a], q[a + 1], q[a + 2], q[a + 3])
-                    else:
-                        s = sc[j, 0]
-                        l0 = sc[j, 1]
-                        l1 = jnt_axis[j, 0] * s
-                        l2 = jnt_axis[j, 1] * s
-                        l3 = jnt_axis[j, 2] * s
-                    c0, c1, c2, c3 = _qmul(c0, c1, c2, c3, l0, l1, l2, l3)
-                    # Off-centre rotation: keep the joint anchor fixed.
-                    r0, r1, r2 = _qrot(jx, jy, jz, c0, c1, c2, c3)
-                    p0, p1, p2 = n0 - r0, n1 - r1, n2 - r2
+                    s = sc[j, 0]
+                    l0, l1, l2, l3 = sc[j, 1], jnt_axis[j, 0] * s, jnt_axis[j, 1] * s, jnt_axis[j, 2] * s
+                p0, p1, p2, c0, c1, c2, c3 = _rotate_about(p0, p1, p2, c0, c1, c2, c3, l0, l1, l2, l3, jnt_pos[j, 0],
+                                                           jnt_pos[j, 1], jnt_pos[j, 2])
         c0, c1, c2, c3 = _qnorm(c0, c1, c2, c3)
         xquat[b, 0] = c0
         xquat[b, 1] = c1
@@ -133,46 +92,48 @@ def _kinematics_world(q, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
         out_pos[b, 0] = p0
         out_pos[b, 1] = p1
         out_pos[b, 2] = p2
-        out_rot[b, 0, 0] = c0 * c0 + c1 * c1 - c2 * c2 - c3 * c3
-        out_rot[b, 1, 1] = c0 * c0 - c1 * c1 + c2 * c2 - c3 * c3
-        out_rot[b, 2, 2] = c0 * c0 - c1 * c1 - c2 * c2 + c3 * c3
-        out_rot[b, 0, 1] = 2.0 * (c1 * c2 - c0 * c3)
-        out_rot[b, 0, 2] = 2.0 * (c1 * c3 + c0 * c2)
-        out_rot[b, 1, 0] = 2.0 * (c1 * c2 + c0 * c3)
-        out_rot[b, 1, 2] = 2.0 * (c2 * c3 - c0 * c1)
-        out_rot[b, 2, 0] = 2.0 * (c1 * c3 - c0 * c2)
-        out_rot[b, 2, 1] = 2.0 * (c2 * c3 + c0 * c1)
+        m = _qmat(c0, c1, c2, c3)  # written out: a loop over a tuple indexes it at run time
+        out_rot[b, 0, 0], out_rot[b, 0, 1], out_rot[b, 0, 2] = m[0], m[1], m[2]
+        out_rot[b, 1, 0], out_rot[b, 1, 1], out_rot[b, 1, 2] = m[3], m[4], m[5]
+        out_rot[b, 2, 0], out_rot[b, 2, 1], out_rot[b, 2, 2] = m[6], m[7], m[8]
 
 
 def lanes_scratch_size(L: int, nj: int) -> int:
     """float64 of `_kinematics_lanes`' scratch per chunk of worlds (a row of `step_lanes_kin`'s
     ``scratch``), ``L`` bodies, ``nj`` joints."""
-    return LANES * (4 * L + 2 * nj + 7)
+    return LANES * (4 * L + 2 * nj + 11)
 
 
 @nb.njit(cache=True, inline="always")
-def _kinematics_lanes(qp, g0, nl, nv, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type,
+def _kinematics_lanes(qp, g0, nl, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type,
                       jnt_qposadr, jnt_pos, jnt_axis, ps, at):
-    # `_kinematics_world` of the worlds g0 .. g0 + nl - 1 of qp (B, nq), lane by lane into the lanes'
+    # `_kinematics_world` of the worlds g0 .. g0 + nl - 1 of qp (B, nq), one a lane, into the lanes'
     # poses ps (L, 12, LANES) (`lanes.lane_poses`; lanes past nl repeat world g0, as lanes._group
     # does). Every world has the same tree and joints, so each branch holds for all the lanes, and
-    # each step is a loop over them without one, which vectorises: the same operations in the same
-    # order as `_kinematics_world` (the same bits), only the libm sin and cos stay scalar.
-    # Scratch at address at (`lanes_scratch_size`): xq (L, 4, LANES), sc (nj, 2, LANES), the running
-    # pose st (7, LANES).
+    # each step runs on all of them at once (`_simd.kin_start8` ...: the scalar steps' operations,
+    # the same bits); what reads qpos (free and ball joints, slides, the hinges' sin and cos in libm)
+    # fills its block lane by lane first. Scratch at address at (`lanes_scratch_size`): xq
+    # (L, 4, LANES), sc (nj, 2, LANES), the running pose st (7, LANES), a block tmp (4, LANES).
     L = body_parent.shape[0]
     nj = jnt_type.shape[0]
-    xq = nb.carray(f64_ptr(at), (L, 4, LANES))
-    sc = nb.carray(f64_ptr(at + 32 * LANES * L), (nj, 2, LANES))
-    st = nb.carray(f64_ptr(at + 32 * LANES * L + 16 * LANES * nj), (7, LANES))
+    R = 8 * LANES  # bytes of a row over the lanes
+    xqa = at
+    sca = at + 4 * R * L
+    sta = sca + 2 * R * nj
+    tma = sta + 7 * R
+    psa = np.int64(ps.ctypes.data)
+    xq = nb.carray(f64_ptr(xqa), (L, 4, LANES))
+    sc = nb.carray(f64_ptr(sca), (nj, 2, LANES))
+    st = nb.carray(f64_ptr(sta), (7, LANES))
+    tmp = nb.carray(f64_ptr(tma), (4, LANES))
     for j in range(nj):
         if jnt_type[j] == JNT_HINGE:
             a = jnt_qposadr[j]
-            for l in range(nv):
+            for l in range(LANES):
                 half = 0.5 * (qp[g0 + l if l < nl else g0, a] - qpos0[a])
                 sc[j, 0, l] = np.sin(half)
                 sc[j, 1, l] = np.cos(half)
-    for l in range(nv):
+    for l in range(LANES):
         xq[0, 0, l], xq[0, 1, l], xq[0, 2, l], xq[0, 3, l] = 1.0, 0.0, 0.0, 0.0
         for i in range(12):
             ps[0, i, l] = 1.0 if i == 3 or i == 7 or i == 11 else 0.0
@@ -180,66 +141,32 @@ def _kinematics_lanes(qp, g0, nl, nv, qpos0, body_parent, body_pos, body_quat, b
         ja, jn = body_jntadr[b], body_jntnum[b]
         if jn == 1 and jnt_type[ja] == JNT_FREE:
             a = jnt_qposadr[ja]
-            for l in range(nv):
+            for l in range(LANES):
                 w = g0 + l if l < nl else g0
                 st[0, l], st[1, l], st[2, l] = qp[w, a], qp[w, a + 1], qp[w, a + 2]
                 st[3, l], st[4, l], st[5, l], st[6, l] = _qnorm(qp[w, a + 3], qp[w, a + 4], qp[w, a + 5],
                                                                 qp[w, a + 6])
         else:
             p = body_parent[b]
-            bx, by, bz = body_pos[b, 0], body_pos[b, 1], body_pos[b, 2]
-            e0, e1, e2, e3 = body_quat[b, 0], body_quat[b, 1], body_quat[b, 2], body_quat[b, 3]
-            for l in range(nv):
-                st[0, l] = ps[p, 0, l] + ps[p, 3, l] * bx + ps[p, 4, l] * by + ps[p, 5, l] * bz
-                st[1, l] = ps[p, 1, l] + ps[p, 6, l] * bx + ps[p, 7, l] * by + ps[p, 8, l] * bz
-                st[2, l] = ps[p, 2, l] + ps[p, 9, l] * bx + ps[p, 10, l] * by + ps[p, 11, l] * bz
-                st[3, l], st[4, l], st[5, l], st[6, l] = _qmul(xq[p, 0, l], xq[p, 1, l], xq[p, 2, l], xq[p, 3, l],
-                                                               e0, e1, e2, e3)
+            kin_start8(sta, psa + 12 * R * p, xqa + 4 * R * p, body_pos[b, 0], body_pos[b, 1], body_pos[b, 2],
+                       body_quat[b, 0], body_quat[b, 1], body_quat[b, 2], body_quat[b, 3])
             for j in range(ja, ja + jn):
                 a = jnt_qposadr[j]
                 t = jnt_type[j]
-                jx, jy, jz = jnt_pos[j, 0], jnt_pos[j, 1], jnt_pos[j, 2]
-                u0, u1, u2 = jnt_axis[j, 0], jnt_axis[j, 1], jnt_axis[j, 2]
-                if t == JNT_SLIDE:
-                    for l in range(nv):
-                        d = qp[g0 + l if l < nl else g0, a] - qpos0[a]
-                        v0, v1, v2 = _qrot(u0, u1, u2, st[3, l], st[4, l], st[5, l], st[6, l])
-                        st[0, l] += v0 * d
-                        st[1, l] += v1 * d
-                        st[2, l] += v2 * d
-                    continue
-                for l in range(nv):
-                    if t == JNT_BALL:
+                if t == JNT_HINGE:
+                    kin_hinge8(sta, sca + 2 * R * j, jnt_pos[j, 0], jnt_pos[j, 1], jnt_pos[j, 2], jnt_axis[j, 0],
+                               jnt_axis[j, 1], jnt_axis[j, 2])
+                elif t == JNT_BALL:
+                    for l in range(LANES):
                         w = g0 + l if l < nl else g0
-                        l0, l1, l2, l3 = _qnorm(qp[w, a], qp[w, a + 1], qp[w, a + 2], qp[w, a + 3])
-                    else:
-                        s = sc[j, 0, l]
-                        l0, l1, l2, l3 = sc[j, 1, l], u0 * s, u1 * s, u2 * s
-                    c0, c1, c2, c3 = st[3, l], st[4, l], st[5, l], st[6, l]
-                    r0, r1, r2 = _qrot(jx, jy, jz, c0, c1, c2, c3)
-                    n0, n1, n2 = r0 + st[0, l], r1 + st[1, l], r2 + st[2, l]
-                    c0, c1, c2, c3 = _qmul(c0, c1, c2, c3, l0, l1, l2, l3)
-                    r0, r1, r2 = _qrot(jx, jy, jz, c0, c1, c2, c3)
-                    st[0, l], st[1, l], st[2, l] = n0 - r0, n1 - r1, n2 - r2
-                    st[3, l], st[4, l], st[5, l], st[6, l] = c0, c1, c2, c3
-        for l in range(nv):
-            c0, c1, c2, c3 = _qnorm(st[3, l], st[4, l], st[5, l], st[6, l])
-            xq[b, 0, l] = c0
-            xq[b, 1, l] = c1
-            xq[b, 2, l] = c2
-            xq[b, 3, l] = c3
-            ps[b, 0, l] = st[0, l]
-            ps[b, 1, l] = st[1, l]
-            ps[b, 2, l] = st[2, l]
-            ps[b, 3, l] = c0 * c0 + c1 * c1 - c2 * c2 - c3 * c3
-            ps[b, 4, l] = 2.0 * (c1 * c2 - c0 * c3)
-            ps[b, 5, l] = 2.0 * (c1 * c3 + c0 * c2)
-            ps[b, 6, l] = 2.0 * (c1 * c2 + c0 * c3)
-            ps[b, 7, l] = c0 * c0 - c1 * c1 + c2 * c2 - c3 * c3
-            ps[b, 8, l] = 2.0 * (c2 * c3 - c0 * c1)
-            ps[b, 9, l] = 2.0 * (c1 * c3 - c0 * c2)
-            ps[b, 10, l] = 2.0 * (c2 * c3 + c0 * c1)
-            ps[b, 11, l] = c0 * c0 - c1 * c1 - c2 * c2 + c3 * c3
+                        tmp[0, l], tmp[1, l], tmp[2, l], tmp[3, l] = _qnorm(qp[w, a], qp[w, a + 1], qp[w, a + 2],
+                                                                            qp[w, a + 3])
+                    kin_ball8(sta, tma, jnt_pos[j, 0], jnt_pos[j, 1], jnt_pos[j, 2])
+                else:  # slide (a free joint is a body's only joint)
+                    for l in range(LANES):
+                        tmp[0, l] = qp[g0 + l if l < nl else g0, a] - qpos0[a]
+                    kin_slide8(sta, tma, jnt_axis[j, 0], jnt_axis[j, 1], jnt_axis[j, 2])
+        kin_finish8(sta, xqa + 4 * R * b, psa + 12 * R * b)
 
 
 @nb.njit(cache=True, inline="always")
@@ -317,7 +244,6 @@ def step_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
     qp = nb.carray(f64_ptr(np.int64(qpos.ctypes.data)), (B, nq))
     Jv = nb.carray(i64_ptr(np.int64(J.ctypes.data)), J.shape[0])
     NWd = (Jv[J_NR] + 63) // 64
-    nv = Jv[J_NV]  # LANES, unknown to the compiler (as in lanes._group)
     for c in nb.prange(C):
         ctx, ci, I, F, W, sap, bp, scr, stats, info = chunk_buffers(ctxs, chunk_info, c)
         la, LW, LB = lane_buffers(LWs, LBs, c)
@@ -332,7 +258,7 @@ def step_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
         w1 = (B * (c + 1)) // C
         for g0 in range(w0, w1, LANES):
             nl = min(LANES, w1 - g0)
-            _kinematics_lanes(qp, g0, nl, nv, q0, par, bpos, bquat, jadr, jnum, jtype, jqadr, jpos, jaxis, ps, ksa)
+            _kinematics_lanes(qp, g0, nl, q0, par, bpos, bquat, jadr, jnum, jtype, jqadr, jpos, jaxis, ps, ksa)
             off = _lane_group(gpos, grot, 0, g0, nl, I, F, W, sap, bp, scr, stats, info, Jv, LW, LB, NWd, ctx, off, st,
                               world_count, world_info, ci, True)
         for s in range(N_STATS):

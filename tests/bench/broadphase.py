@@ -13,11 +13,12 @@ Scenes (issue 3):
 Per step, on the same poses: ours = ``BroadPhase.pairs()`` on MjData's ``xpos`` and ``xmat``
 bound once with `BroadPhase.bind` (the simulation-loop path: Python call included,
 perf_counter_ns around it), and ``pairs(xpos, xmat)`` with the arrays passed each call ("passed"),
-MuJoCo colliding each state before each of the two calls, their order alternating by state; MuJoCo = ``mjTIMER_COL_BROAD`` after ``mj_kinematics`` +
-``mj_collision`` (compiled clock callback from `collide.mujoco.mujoco_timer`, so no Python runs in
-MuJoCo's interval; the header names the clock); fcl / coal = set every object's transform from
-Python, update the DynamicAABBTree manager and collect its pairs (no narrow phase), and the
-manager alone ("mgr": update and collide), which is the libraries' own work. Medians over steps.
+MuJoCo colliding each state before each of the two calls, their order alternating by state; MuJoCo
+= ``mjTIMER_COL_BROAD`` after ``mj_kinematics`` + ``mj_collision`` (compiled clock callback from
+`collide.mujoco.mujoco_timer`, so no Python runs in MuJoCo's interval; the header names the clock);
+fcl / coal = set every object's transform from Python, update the DynamicAABBTree manager and
+collect its pairs (no narrow phase), and the manager alone ("mgr": update and collide), which is
+the libraries' own work. Medians over steps.
 Candidates per step: ours (pairs out) against MuJoCo's broad-phase candidates, counted in a
 separate run by a contact-filter callback that records and rejects every pair.
 """
@@ -372,8 +373,8 @@ def main(argv=None):
           f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS')}")
     print("# per step, medians; ours = BroadPhase.pairs() on MjData's xpos/xmat bound once (Python call included),")
     print(f"# MuJoCo's timer on a {timer_clock()} clock;")
-    print("# passed = pairs(xpos, xmat) on the same states (each state collided by MuJoCo before each of the two calls,")
-    print("# their order alternating by state); MuJoCo = mjTIMER_COL_BROAD;")
+    print("# passed = pairs(xpos, xmat) on the same states (each state collided by MuJoCo before each of")
+    print("# the two calls, their order alternating by state); MuJoCo = mjTIMER_COL_BROAD;")
     print("# fcl/coal = DynamicAABBTreeCollisionManager (transforms set from Python, update, collect pairs);")
     print("# mgr = the manager alone (update and collide, after the transforms were set): the libraries' own work;")
     print("# every ratio column = that library's time / MuJoCo's;")
