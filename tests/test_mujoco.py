@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import collide.mujoco as cm
+from collide._kernels import _quat
 from collide._kernels import kinematics as _kin
 from collide._kernels.lanes import LANES
 
@@ -555,6 +556,9 @@ def test_lane_kinematics_equal_world_kinematics_bit_for_bit(scene):
     else:
         model = mujoco.MjModel.from_xml_path(str(MODELS / scene / "scene.xml"))
     qpos = _random_qpos(model, 2 * LANES + 3, np.random.default_rng(17))
+    hinges = model.jnt_qposadr[model.jnt_type == mujoco.mjtJoint.mjJNT_HINGE]
+    if len(hinges):  # one lane's half angle past _quat.SINCOS_MAX: libm there, in both
+        qpos[LANES + 2, hinges[0]] = 3.5e6
     pos, rot = cm.kinematics_batch(model, qpos)
     groups = -(-len(qpos) // LANES)
     ps = np.empty((groups, model.nbody, 12, LANES))
@@ -565,6 +569,32 @@ def test_lane_kinematics_equal_world_kinematics_bit_for_bit(scene):
     # lanes past the last world repeat its group's first
     g, last = divmod(len(qpos) - 1, LANES)
     assert np.array_equal(ps[g, :, :3, last + 1], pos[g * LANES])
+
+
+@numba.njit(cache=True)
+def _sincos_all(x, out):
+    for i in range(x.size):
+        out[i, 0], out[i, 1] = _quat._sincos(x[i])
+
+
+def test_kinematics_sincos_within_two_ulps_of_libm():
+    # The hinges' half angles go through _quat._sincos (vectorisable, unlike libm): within 1 ulp of
+    # libm's sin and cos up to |x| = 100, 2 ulp up to SINCOS_MAX; libm itself beyond, and for NaN
+    # and inf. Quadrant boundaries (odd multiples of pi/4) and signed zeros included.
+    rng = np.random.default_rng(3)
+    for scale, ulps in ((1.0, 1), (4.0, 1), (100.0, 1), (_quat.SINCOS_MAX, 2)):
+        x = np.concatenate([rng.uniform(-scale, scale, 100_000), np.pi / 4 * np.arange(-9, 10),
+                            np.nextafter(np.pi / 4 * np.arange(-9, 10, 2), np.inf), [0.0, -0.0]])
+        got = np.empty((x.size, 2))
+        _sincos_all(x, got)
+        want = np.stack([np.sin(x), np.cos(x)], axis=1)
+        assert np.all(np.abs(got - want) <= ulps * np.spacing(np.abs(want)) + 1e-300), scale
+    x = np.array([np.nan, np.inf, -np.inf, 2e6, -1e300])
+    got = np.empty((x.size, 2))
+    _sincos_all(x, got)
+    with np.errstate(invalid="ignore"):
+        want = np.stack([np.sin(x), np.cos(x)], axis=1)
+    assert np.array_equal(got, want, equal_nan=True)
 
 
 def test_pairs_batch_calls_an_overridden_kinematics_batch():

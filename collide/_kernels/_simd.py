@@ -18,7 +18,7 @@ from numba.core import cgutils, types
 from numba.core.dispatcher import Dispatcher
 from numba.extending import intrinsic
 
-from ._quat import _frame_point, _qmat, _qmul, _rotate_about, _slide
+from ._quat import INV_PIO2, SINCOS_MAX, _frame_point, _qmat, _qmul, _rotate_about, _sincos_reduced, _slide
 
 LANES = 8
 
@@ -236,6 +236,29 @@ def _finish(builder, st, xqb, psb):
     _put(builder, psb, S[:3] + list(_py(_qmat)(*c)))
 
 
+def _sincos(builder, dst, src):
+    """dst (2, LANES) = sin and cos of the row at src (`_quat._sincos`; a lane beyond SINCOS_MAX, or
+    NaN, gets a value to be replaced by libm's: its quadrant taken as 0, never an out-of-range
+    conversion)."""
+    (x,) = _get(builder, src, 1)
+    k = _Vec(builder, _vcall(builder, "llvm.floor", (x * INV_PIO2 + 0.5).v))
+    s, c = _py(_sincos_reduced)(x, k)
+    ok = builder.fcmp_ordered("<=", _vcall(builder, "llvm.fabs", x.v), ir.Constant(_V, [SINCOS_MAX] * LANES))
+    i64v = ir.VectorType(ir.IntType(64), LANES)
+
+    def ones(n):
+        return ir.Constant(i64v, [n] * LANES)
+
+    q = builder.fptosi(builder.select(ok, k.v, ir.Constant(_V, [0.0] * LANES)), i64v)
+    odd = builder.icmp_signed("!=", builder.and_(q, ones(1)), ones(0))
+    # `_quat._sincos`: 1.0 - 2.0 * ((q >> 1) & 1), and with q + 1
+    fs = 1.0 - 2.0 * _Vec(builder, builder.sitofp(builder.and_(builder.ashr(q, ones(1)), ones(1)), _V))
+    fc = 1.0 - 2.0 * _Vec(builder, builder.sitofp(builder.and_(builder.ashr(builder.add(q, ones(1)), ones(1)),
+                                                                ones(1)), _V))
+    _put(builder, dst, [_Vec(builder, builder.select(odd, c.v, s.v)) * fs,
+                        _Vec(builder, builder.select(odd, s.v, c.v)) * fc])
+
+
 def _kin_sig(addrs, scalars):
     # The intrinsics' signature: addresses (integers), then float64 scalars; None (no match, a
     # typing error) for anything else.
@@ -272,3 +295,8 @@ def kin_slide8(typingctx, st, dq, u0, u1, u2):
 @intrinsic
 def kin_finish8(typingctx, st, xqb, psb):
     return _kin_intrinsic(_kin_sig((st, xqb, psb), ()), _finish)
+
+
+@intrinsic
+def sincos8(typingctx, dst, src):
+    return _kin_intrinsic(_kin_sig((dst, src), ()), _sincos)

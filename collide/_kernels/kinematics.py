@@ -20,8 +20,8 @@ import numba as nb
 import numpy as np
 
 from ._ptr import f64_ptr, i64_ptr
-from ._quat import _frame_point, _qmat, _qmul, _qnorm, _rotate_about, _slide
-from ._simd import kin_ball8, kin_finish8, kin_hinge8, kin_slide8, kin_start8
+from ._quat import SINCOS_MAX, _frame_point, _qmat, _qmul, _qnorm, _rotate_about, _sincos, _slide
+from ._simd import kin_ball8, kin_finish8, kin_hinge8, kin_slide8, kin_start8, sincos8
 from .broadphase import CI_KEYS, N_STATS, chunk_buffers, gather_batch
 from .lanes import J_NR, LANES, _lane_group, lane_buffers, lane_poses
 
@@ -31,14 +31,13 @@ JNT_FREE, JNT_BALL, JNT_SLIDE, JNT_HINGE = 0, 1, 2, 3  # mjtJoint
 @nb.njit(cache=True, inline="always")
 def _half_angles(q, qpos0, jnt_type, jnt_qposadr, sc):
     # sin and cos of every hinge's half angle (mju_axisAngle2Quat), before the walk down the tree:
-    # a call to libm inside it spills every live value of the pose chain around the call (all
-    # float registers are caller-saved); out here the calls have nothing to spill.
+    # a call to libm inside it spilled every live value of the pose chain around the call (all
+    # float registers are caller-saved). `_quat._sincos`, not libm: the lanes compute the same bits
+    # eight at a time (`_simd.sincos8`), which libm, called one value at a time, cannot.
     for j in range(jnt_type.shape[0]):
         if jnt_type[j] == JNT_HINGE:
             a = jnt_qposadr[j]
-            half = 0.5 * (q[a] - qpos0[a])
-            sc[j, 0] = np.sin(half)
-            sc[j, 1] = np.cos(half)
+            sc[j, 0], sc[j, 1] = _sincos(0.5 * (q[a] - qpos0[a]))
 
 
 @nb.njit(cache=True, inline="always")
@@ -111,8 +110,8 @@ def _kinematics_lanes(qp, g0, nl, qpos0, body_parent, body_pos, body_quat, body_
     # poses ps (L, 12, LANES) (`lanes.lane_poses`; lanes past nl repeat world g0, as lanes._group
     # does). Every world has the same tree and joints, so each branch holds for all the lanes, and
     # each step runs on all of them at once (`_simd.kin_start8` ...: the scalar steps' operations,
-    # the same bits); what reads qpos (free and ball joints, slides, the hinges' sin and cos in libm)
-    # fills its block lane by lane first. Scratch at address at (`lanes_scratch_size`): xq
+    # the same bits); what reads qpos (free and ball joints, slides, the hinges' half angles) fills
+    # its block lane by lane first. Scratch at address at (`lanes_scratch_size`): xq
     # (L, 4, LANES), sc (nj, 2, LANES), the running pose st (7, LANES), a block tmp (4, LANES).
     L = body_parent.shape[0]
     nj = jnt_type.shape[0]
@@ -129,10 +128,14 @@ def _kinematics_lanes(qp, g0, nl, qpos0, body_parent, body_pos, body_quat, body_
     for j in range(nj):
         if jnt_type[j] == JNT_HINGE:
             a = jnt_qposadr[j]
+            far = False
             for l in range(LANES):
-                half = 0.5 * (qp[g0 + l if l < nl else g0, a] - qpos0[a])
-                sc[j, 0, l] = np.sin(half)
-                sc[j, 1, l] = np.cos(half)
+                tmp[0, l] = 0.5 * (qp[g0 + l if l < nl else g0, a] - qpos0[a])
+                far |= not abs(tmp[0, l]) <= SINCOS_MAX
+            sincos8(sca + 2 * R * j, tma)
+            for l in range(LANES if far else 0):
+                if not abs(tmp[0, l]) <= SINCOS_MAX:
+                    sc[j, 0, l], sc[j, 1, l] = np.sin(tmp[0, l]), np.cos(tmp[0, l])
     for l in range(LANES):
         xq[0, 0, l], xq[0, 1, l], xq[0, 2, l], xq[0, 3, l] = 1.0, 0.0, 0.0, 0.0
         for i in range(12):
