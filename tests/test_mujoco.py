@@ -7,6 +7,7 @@ collision (``mj_forward``) and demand: MuJoCo's contact pairs are the pairs its 
 """
 
 import json
+import math
 from pathlib import Path
 
 import mujoco
@@ -546,13 +547,20 @@ def _lane_poses(qp, arrays, ps, scratch):
                                jpos, jaxis, ps[g], np.int64(scratch.ctypes.data))
 
 
-@pytest.mark.parametrize("scene", ["kinematics_mjcf"] + SCENES)
+@pytest.mark.parametrize("scene", ["kinematics_mjcf", "no_hinge", "no_joint"] + SCENES)
 def test_lane_kinematics_equal_world_kinematics_bit_for_bit(scene):
     # The fused batch computes the poses lanes at a time (`_kinematics_lanes`, into the lanes'
     # (L, 12, LANES) block) and kinematics_batch world by world (`_kinematics_world`): the same
     # operations in the same order, so the same bits, over full and partial groups of lanes.
     if scene == "kinematics_mjcf":
         model = mujoco.MjModel.from_xml_string(KIN)
+    elif scene == "no_hinge":  # slide and ball joints only
+        model = mujoco.MjModel.from_xml_string(KIN.replace('type="hinge" axis="0 1 1"', 'type="slide" axis="0 1 1"'))
+    elif scene == "no_joint":  # static and mocap bodies: no joint at all
+        model = mujoco.MjModel.from_xml_string(KIN.replace("<freejoint/>", "").replace(
+            '<joint type="hinge" axis="0 1 1" pos=".05 0 0"/>', "").replace('<joint type="slide" axis="1 0 0"/>', "")
+            .replace('<joint type="ball" pos="0 0 .1"/>', ""))
+        assert model.njnt == 0
     else:
         model = mujoco.MjModel.from_xml_path(str(MODELS / scene / "scene.xml"))
     qpos = _random_qpos(model, 2 * LANES + 3, np.random.default_rng(17))
@@ -569,6 +577,7 @@ def test_lane_kinematics_equal_world_kinematics_bit_for_bit(scene):
     # lanes past the last world repeat its group's first
     g, last = divmod(len(qpos) - 1, LANES)
     assert np.array_equal(ps[g, :, :3, last + 1], pos[g * LANES])
+    assert np.array_equal(ps[g, :, 3:, last + 1], rot[g * LANES].reshape(-1, 9))
 
 
 @numba.njit(cache=True)
@@ -579,22 +588,22 @@ def _sincos_all(x, out):
 
 def test_kinematics_sincos_within_two_ulps_of_libm():
     # The hinges' half angles go through _quat._sincos (vectorisable, unlike libm): within 1 ulp of
-    # libm's sin and cos up to |x| = 100, 2 ulp up to SINCOS_MAX; libm itself beyond, and for NaN
-    # and inf. Quadrant boundaries (odd multiples of pi/4) and signed zeros included.
+    # libm's sin and cos (math.sin, math.cos: numpy's may be another implementation) up to
+    # |x| = 100, 2 ulp up to SINCOS_MAX; libm itself beyond, and for NaN and inf. Quadrant
+    # boundaries (multiples of pi/4 and their neighbours) and signed zeros included.
     rng = np.random.default_rng(3)
     for scale, ulps in ((1.0, 1), (4.0, 1), (100.0, 1), (_quat.SINCOS_MAX, 2)):
-        x = np.concatenate([rng.uniform(-scale, scale, 100_000), np.pi / 4 * np.arange(-9, 10),
+        x = np.concatenate([rng.uniform(-scale, scale, 50_000), np.pi / 4 * np.arange(-9, 10),
                             np.nextafter(np.pi / 4 * np.arange(-9, 10, 2), np.inf), [0.0, -0.0]])
         got = np.empty((x.size, 2))
         _sincos_all(x, got)
-        want = np.stack([np.sin(x), np.cos(x)], axis=1)
-        assert np.all(np.abs(got - want) <= ulps * np.spacing(np.abs(want)) + 1e-300), scale
+        want = np.array([(math.sin(v), math.cos(v)) for v in x])
+        assert np.all(np.abs(got - want) <= ulps * np.spacing(np.abs(want))), scale
+        assert np.array_equal(np.signbit(got[want == 0]), np.signbit(want[want == 0]))  # sin(-0) = -0
     x = np.array([np.nan, np.inf, -np.inf, 2e6, -1e300])
     got = np.empty((x.size, 2))
     _sincos_all(x, got)
-    with np.errstate(invalid="ignore"):
-        want = np.stack([np.sin(x), np.cos(x)], axis=1)
-    assert np.array_equal(got, want, equal_nan=True)
+    assert np.all(np.isnan(got[:3])) and np.array_equal(got[3:], [[math.sin(v), math.cos(v)] for v in x[3:]])
 
 
 def test_pairs_batch_calls_an_overridden_kinematics_batch():

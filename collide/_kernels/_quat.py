@@ -83,10 +83,11 @@ def _slide(p0, p1, p2, c0, c1, c2, c3, u0, u1, u2, d):
 
 
 # sin and cos of a half angle (`kinematics._half_angles`, `_simd.sincos8`): Cody-Waite reduction by
-# pi/2 (Cody & Waite 1980; pi/2 split in 33 + 33 + 53 bits, so that k * PIO2_1 and k * PIO2_2 are
-# exact for |k| < 2**20), then the Taylor series on |r| <= pi/4, whose first omitted terms are below
-# 1e-19 of the result: within 1 ulp of libm for |x| <= 100, 2 ulp up to SINCOS_MAX (a test holds
-# them to that). Beyond SINCOS_MAX, and for NaN and inf, libm. One implementation for both the
+# pi/2 (Cody & Waite 1980; PIO2_1 and PIO2_2 carry 31 and 32 significant bits, so that k * PIO2_1
+# and k * PIO2_2 are exact for |k| < 2**21, and |k| < 6.4e5 here), then the Taylor series on
+# |r| <= pi/4, whose first omitted terms are below 1e-19 of the result: within 1 ulp of libm for
+# |x| <= 100, 2 ulp up to SINCOS_MAX (a test holds them to that); sin(+-0) = +-0. Beyond
+# SINCOS_MAX, and for NaN and inf, libm. One implementation for both the
 # world-by-world kinematics and the lanes', so that both give the same bits; libm has no vector
 # form numba can call.
 PIO2_1 = 1.5707963267341256
@@ -123,4 +124,5 @@ def _sincos(x):
     odd = (q & 1) != 0
     fs = 1.0 - 2.0 * ((q >> 1) & 1)  # sin(r + q pi/2): s, c, -s, -c; cos: c, -s, -c, s
     fc = 1.0 - 2.0 * (((q + 1) >> 1) & 1)
-    return (c if odd else s) * fs, (s if odd else c) * fc
+    # x = -0: r + r z (...) is +0, sin(-0) is -0 (a select in the lanes)
+    return x if x == 0.0 else (c if odd else s) * fs, (s if odd else c) * fc

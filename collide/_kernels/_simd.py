@@ -255,7 +255,9 @@ def _sincos(builder, dst, src):
     fs = 1.0 - 2.0 * _Vec(builder, builder.sitofp(builder.and_(builder.ashr(q, ones(1)), ones(1)), _V))
     fc = 1.0 - 2.0 * _Vec(builder, builder.sitofp(builder.and_(builder.ashr(builder.add(q, ones(1)), ones(1)),
                                                                 ones(1)), _V))
-    _put(builder, dst, [_Vec(builder, builder.select(odd, c.v, s.v)) * fs,
+    sin = (_Vec(builder, builder.select(odd, c.v, s.v)) * fs).v
+    zero = builder.fcmp_ordered("==", x.v, ir.Constant(_V, [0.0] * LANES))
+    _put(builder, dst, [_Vec(builder, builder.select(zero, x.v, sin)),
                         _Vec(builder, builder.select(odd, s.v, c.v)) * fc])
 
 

@@ -46,8 +46,8 @@ def _kinematics_world(q, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
     # Body poses out_pos (L, 3), out_rot (L, 3, 3) of one configuration q (nq,). Scratch: xquat
     # (L, 4), sc (nj, 2). The running pose is held in locals, not in a scratch array: through
     # memory each step of the chain waited for the previous one's store (humanoid, 1024 worlds,
-    # one thread, AMD EPYC: 1.47 -> 1.28 us a world, with libm's sin and cos ahead of the walk and
-    # the select in _qnorm; the same bits as before).
+    # one thread, AMD EPYC: 1.47 -> 1.28 us a world, with the sin and cos ahead of the walk and the
+    # select in _qnorm, then still libm's, and the same bits as the code before).
     L = out_pos.shape[0]
     _half_angles(q, qpos0, jnt_type, jnt_qposadr, sc)
     xquat[0, 0], xquat[0, 1], xquat[0, 2], xquat[0, 3] = 1.0, 0.0, 0.0, 0.0
@@ -194,8 +194,8 @@ def _model_views(qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntn
 
 
 def scratch_size(L: int, nj: int) -> int:
-    """float64 of kinematics scratch per chunk of worlds (a row of `kinematics_worlds`' and
-    `step_lanes_kin`'s ``scratch``), ``L`` bodies, ``nj`` joints."""
+    """float64 of kinematics scratch per chunk of worlds (a row of `kinematics_worlds`'
+    ``scratch``), ``L`` bodies, ``nj`` joints."""
     return 4 * L + 2 * nj
 
 
