@@ -537,6 +537,26 @@ def test_pairs_batch_poses_in_the_call_equal_kinematics_then_batch(xml):
         assert len(again) > 0 and np.array_equal(again, bp.broadphase.pairs_batch(*cm.kinematics_batch(model, qpos)))
 
 
+def test_pairs_batch_names_every_non_finite_qpos_entry():
+    # A float64 C-contiguous qpos goes to the lane kernel unchecked (`pairs_batch`): every NaN or
+    # inf entry, of every joint type (free position and quaternion, hinge, slide, ball), must make
+    # a pose the kernel refuses, and the error then names the qpos entry, as the full check does
+    # for any other input (a list, a float32 or strided array).
+    model = mujoco.MjModel.from_xml_string(KIN.replace('size=".1"', 'size=".25"'))
+    bp = cm.BroadPhase(model)
+    assert bp.broadphase._J is not None  # the lanes run it
+    good = _random_qpos(model, 11, np.random.default_rng(5))
+    assert len(bp.pairs_batch(model, good)) > 0
+    for j in range(model.nq):
+        for value in (np.nan, np.inf, -np.inf):
+            qpos = good.copy()
+            qpos[9, j] = value
+            for arg in (qpos, qpos.tolist(), np.asfortranarray(qpos)):
+                with pytest.raises(ValueError, match=rf"qpos: non-finite value \(NaN or inf\) at index \(9, {j}\)"):
+                    bp.pairs_batch(model, arg)
+    assert np.array_equal(bp.pairs_batch(model, good), bp.broadphase.pairs_batch(*cm.kinematics_batch(model, good)))
+
+
 @numba.njit(cache=True)
 def _lane_poses(qp, arrays, ps, scratch):
     # every group of LANES worlds of qp through `_kinematics_lanes`, into ps (groups, L, 12, LANES)
