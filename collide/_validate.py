@@ -1,7 +1,10 @@
 """Input checks shared by every module: clear ``ValueError`` s, never a crash deeper down.
 
 Every public entry point funnels user arrays through these helpers, so a NaN pose or a wrongly
-shaped array is reported with the argument's name before scipy, manifold3d or numba sees it.
+shaped array is reported with the argument's name before scipy, manifold3d or numba sees it. One
+exception, for speed: `collide.mujoco.BroadPhase.pairs_batch` hands a float64 C-contiguous qpos to
+its kernel unchecked and checks it here only when the kernel refuses a pose (every non-finite
+qpos entry makes one; tested), so the error still names the entry.
 """
 
 from __future__ import annotations

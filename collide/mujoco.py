@@ -631,7 +631,10 @@ class BroadPhase:
                 out = bp._run_batch(len(q), launch)
             except ValueError:
                 if unchecked:
-                    as_array(q, "qpos", (None, model.nq))  # a non-finite qpos is named as such
+                    try:
+                        as_array(q, "qpos", (None, model.nq))
+                    except ValueError as named:  # a non-finite qpos is named as such, alone
+                        raise named from None
                 raise
         return out if self._no_function is None else self._drop_null(out, 1)
 

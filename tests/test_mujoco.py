@@ -541,19 +541,27 @@ def test_pairs_batch_names_every_non_finite_qpos_entry():
     # A float64 C-contiguous qpos goes to the lane kernel unchecked (`pairs_batch`): every NaN or
     # inf entry, of every joint type (free position and quaternion, hinge, slide, ball), must make
     # a pose the kernel refuses, and the error then names the qpos entry, as the full check does
-    # for any other input (a list, a float32 or strided array).
-    model = mujoco.MjModel.from_xml_string(KIN.replace('size=".1"', 'size=".25"'))
+    # for any other input (a list, a float32 or strided array). A hinge on a body without geoms
+    # too (its pose is checked all the same), in a full group of lanes (world 3) and a partial one.
+    xml = KIN.replace('size=".1"', 'size=".25"').replace(
+        '<body name="d" pos="0 0 .2" quat="0 1 0 0"><geom size=".25"/></body>',
+        '<body name="d" pos="0 0 .2" quat="0 1 0 0"><geom size=".25"/></body>'
+        '<body name="e" pos="0 .2 0"><joint type="hinge" axis="1 0 0"/>'
+        '<inertial pos="0 0 0" mass="1" diaginertia=".1 .1 .1"/></body>')
+    model = mujoco.MjModel.from_xml_string(xml)
+    assert model.nbody == 7 and model.body_geomnum[6] == 0 and model.body_jntnum[6] == 1
     bp = cm.BroadPhase(model)
     assert bp.broadphase._J is not None  # the lanes run it
     good = _random_qpos(model, 11, np.random.default_rng(5))
     assert len(bp.pairs_batch(model, good)) > 0
     for j in range(model.nq):
         for value in (np.nan, np.inf, -np.inf):
-            qpos = good.copy()
-            qpos[9, j] = value
-            for arg in (qpos, qpos.tolist(), np.asfortranarray(qpos)):
-                with pytest.raises(ValueError, match=rf"qpos: non-finite value \(NaN or inf\) at index \(9, {j}\)"):
-                    bp.pairs_batch(model, arg)
+            for w in (3, 9):
+                qpos = good.copy()
+                qpos[w, j] = value
+                for arg in (qpos, qpos.tolist(), np.asfortranarray(qpos)):
+                    with pytest.raises(ValueError, match=rf"qpos: non-finite value \(NaN or inf\) at index \({w}, {j}\)"):
+                        bp.pairs_batch(model, arg)
     assert np.array_equal(bp.pairs_batch(model, good), bp.broadphase.pairs_batch(*cm.kinematics_batch(model, good)))
 
 
