@@ -721,11 +721,12 @@ class BroadPhase:
         body_pos, body_rot = self._check(body_pos, body_rot, (B,))
 
         def launch(bt, world_count, world_info, chunk_info, S):
-            if self._J is None:
-                return _k.step_batch(body_pos, body_rot, bt["ctx"], world_count, world_info, chunk_info, S,
-                                     self._stats)
-            return _lanes.step_lanes(body_pos, body_rot, bt["ctx"], self._J, bt["LW"], bt["LB"], world_count,
-                                     world_info, chunk_info, S, self._stats)
+            with numba.parallel_chunksize(1):  # see _run_batch
+                if self._J is None:
+                    return _k.step_batch(body_pos, body_rot, bt["ctx"], world_count, world_info, chunk_info, S,
+                                         self._stats)
+                return _lanes.step_lanes(body_pos, body_rot, bt["ctx"], self._J, bt["LW"], bt["LB"], world_count,
+                                         world_info, chunk_info, S, self._stats)
 
         return self._run_batch(B, launch)
 
@@ -734,8 +735,9 @@ class BroadPhase:
         # (one of the batch kernels) until no buffer is short: its rows, or the first bad world's
         # error. `collide.mujoco.BroadPhase.pairs_batch` launches the kernel that computes the
         # poses itself.
-        # More chunks than threads, handed out one at a time (parallel_chunksize 1): a thread
-        # that the OS pauses does not hold up the whole call.
+        # More chunks than threads, handed out one at a time (parallel_chunksize 1, which each launch
+        # sets: `_kernels.kinematics.step_lanes_kin` inside): a thread that the OS pauses does not
+        # hold up the whole call.
         # The lane kernel takes worlds _lanes.LANES at a time: no more chunks than groups of them.
         C = max(1, min(4 * numba.get_num_threads(), B if self._J is None else -(-B // _lanes.LANES)))
         per = (B + C - 1) // C
@@ -762,8 +764,7 @@ class BroadPhase:
         while True:
             # The kernels sum the chunks' stats into self._stats (`stats` reads it) and return the
             # rows, or none when a chunk holds a bad world or ran out of room.
-            with numba.parallel_chunksize(1):
-                out = launch(bt, world_count, world_info, chunk_info, S)
+            out = launch(bt, world_count, world_info, chunk_info, S)
             if len(out):
                 return out
             bad = chunk_info[:, _k.CI_BAD]

@@ -565,6 +565,26 @@ def test_pairs_batch_names_every_non_finite_qpos_entry():
     assert np.array_equal(bp.pairs_batch(model, good), bp.broadphase.pairs_batch(*cm.kinematics_batch(model, good)))
 
 
+def test_pairs_batch_leaves_the_parallel_chunk_size_as_it_found_it():
+    # The fused kernel sets numba's chunk size to 1 for its own loop and puts the caller's back
+    # (`_kernels.kinematics._set_chunksize`), on a good batch and on one with a bad world.
+    model = mujoco.MjModel.from_xml_string(CHAIN.format(fp="enable"))
+    bp = cm.BroadPhase(model)
+    assert bp.broadphase._J is not None  # the fused kernel runs it
+    qpos = _random_qpos(model, 20, np.random.default_rng(2))
+    before = numba.get_parallel_chunksize()
+    try:
+        numba.set_parallel_chunksize(5)
+        assert len(bp.pairs_batch(model, qpos)) > 0
+        assert numba.get_parallel_chunksize() == 5
+        qpos[7, 0] = 1e200  # the free joint's x: every body beyond MAX_POSITION in world 7
+        with pytest.raises(ValueError, match="world 7, body 1: "):
+            bp.pairs_batch(model, qpos)
+        assert numba.get_parallel_chunksize() == 5
+    finally:
+        numba.set_parallel_chunksize(before)
+
+
 @numba.njit(cache=True)
 def _lane_poses(qp, arrays, ps, scratch):
     # every group of LANES worlds of qp through `_kinematics_lanes`, into ps (groups, L, 12, LANES)

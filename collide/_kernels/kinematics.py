@@ -9,17 +9,21 @@ worlds: 1.7 MB), and one parallel region per call instead of two (a second one w
 thread). Both compute the same poses with the same operations in the same order, so the fused call
 gives the rows of `step_lanes` on `kinematics_worlds`' poses, bit for bit.
 
-Model arrays (``mujoco.MjModel``'s, as contiguous float64 / int64; ``L`` bodies, ``nj`` joints):
-``qpos0 (nq,)``, ``body_parent (L,)``, ``body_pos (L, 3)``, ``body_quat (L, 4)``, ``body_jntadr (L,)``,
-``body_jntnum (L,)``, ``jnt_type (nj,)``, ``jnt_qposadr (nj,)``, ``jnt_pos (nj, 3)``, ``jnt_axis (nj, 3)``.
+Model arrays (``mujoco.MjModel``'s, contiguous: float64, the index arrays int32 as MuJoCo keeps them;
+``L`` bodies, ``nj`` joints): ``qpos0 (nq,)``, ``body_parent (L,)``, ``body_pos (L, 3)``,
+``body_quat (L, 4)``, ``body_jntadr (L,)``, ``body_jntnum (L,)``, ``jnt_type (nj,)``, ``jnt_qposadr (nj,)``,
+``jnt_pos (nj, 3)``, ``jnt_axis (nj, 3)``.
 """
 
 from __future__ import annotations
 
+from llvmlite import ir
 import numba as nb
+from numba.core import cgutils, types
+from numba.extending import intrinsic
 import numpy as np
 
-from ._ptr import f64_ptr, i64_ptr
+from ._ptr import f64_ptr, i32_ptr, i64_ptr
 from ._quat import SINCOS_MAX, _frame_point, _qmat, _qmul, _qnorm, _rotate_about, _sincos, _slide
 from ._simd import kin_ball8, kin_finish8, kin_hinge8, kin_slide8, kin_start8, sincos8
 from .broadphase import CI_KEYS, N_STATS, chunk_buffers, gather_batch
@@ -177,20 +181,43 @@ def _model_views(qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntn
                  jnt_axis):
     # Pointer-built views of the model arrays: views of a reference-counted array shared by the
     # threads would bump its counter atomically on every world from both cores (measured before:
-    # 7.5 us per humanoid world with 2 threads, 0.9 with one).
+    # 7.5 us per humanoid world with 2 threads, 0.9 with one). The index arrays are MuJoCo's own
+    # int32 (`collide.mujoco._kinematics_arrays`): no conversion per call.
     L = body_parent.shape[0]
     nq = qpos0.shape[0]
     nj = jnt_type.shape[0]
     return (nb.carray(f64_ptr(np.int64(qpos0.ctypes.data)), nq),
-            nb.carray(i64_ptr(np.int64(body_parent.ctypes.data)), L),
+            nb.carray(i32_ptr(np.int64(body_parent.ctypes.data)), L),
             nb.carray(f64_ptr(np.int64(body_pos.ctypes.data)), (L, 3)),
             nb.carray(f64_ptr(np.int64(body_quat.ctypes.data)), (L, 4)),
-            nb.carray(i64_ptr(np.int64(body_jntadr.ctypes.data)), L),
-            nb.carray(i64_ptr(np.int64(body_jntnum.ctypes.data)), L),
-            nb.carray(i64_ptr(np.int64(jnt_type.ctypes.data)), nj),
-            nb.carray(i64_ptr(np.int64(jnt_qposadr.ctypes.data)), nj),
+            nb.carray(i32_ptr(np.int64(body_jntadr.ctypes.data)), L),
+            nb.carray(i32_ptr(np.int64(body_jntnum.ctypes.data)), L),
+            nb.carray(i32_ptr(np.int64(jnt_type.ctypes.data)), nj),
+            nb.carray(i32_ptr(np.int64(jnt_qposadr.ctypes.data)), nj),
             nb.carray(f64_ptr(np.int64(jnt_pos.ctypes.data)), (nj, 3)),
             nb.carray(f64_ptr(np.int64(jnt_axis.ctypes.data)), (nj, 3)))
+
+
+@intrinsic
+def _set_chunksize(typingctx, n):
+    # numba.set_parallel_chunksize(n), returning the previous size, as calls of the threading
+    # layer's own symbols, declared as numba's parfor lowering declares them (uintp get(), void
+    # set(uintp)): numba's overload calls them through ctypes pointers, dynamic globals, and a
+    # function holding one is never cached.
+    if not isinstance(n, types.Integer):
+        return None
+
+    def codegen(context, builder, signature, args):
+        u = ir.IntType(64)
+        get = cgutils.get_or_insert_function(builder.module, ir.FunctionType(u, []), "get_parallel_chunksize")
+        put = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [u]),
+                                             "set_parallel_chunksize")
+        old = builder.call(get, [])
+        v = args[0]  # an integer of n's width (a literal's too), as 64 bits
+        builder.call(put, [builder.zext(v, u) if v.type.width < 64 else v])
+        return old
+
+    return types.uint64(n), codegen
 
 
 def scratch_size(L: int, nj: int) -> int:
@@ -247,6 +274,10 @@ def step_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
     qp = nb.carray(f64_ptr(np.int64(qpos.ctypes.data)), (B, nq))
     Jv = nb.carray(i64_ptr(np.int64(J.ctypes.data)), J.shape[0])
     NWd = (Jv[J_NR] + 63) // 64
+    # Chunks handed to the threads one at a time (see `collide.BroadPhase._run_batch`), set here
+    # rather than by the caller's ``with numba.parallel_chunksize(1)``: four locked Python calls,
+    # 12-26 us a call (AMD EPYC, 2 threads).
+    chunksize = _set_chunksize(1)
     for c in nb.prange(C):
         ctx, ci, I, F, W, sap, bp, scr, stats, info = chunk_buffers(ctxs, chunk_info, c)
         la, LW, LB = lane_buffers(LWs, LBs, c)
@@ -267,4 +298,5 @@ def step_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
         for s in range(N_STATS):
             stats[s] = st[s]
         ci[CI_KEYS] = off
+    _set_chunksize(chunksize)
     return gather_batch(ctxs, world_count, chunk_info, S, stats_out)
