@@ -203,21 +203,24 @@ def _set_chunksize(typingctx, n):
     # numba.set_parallel_chunksize(n), returning the previous size, as calls of the threading
     # layer's own symbols, declared as numba's parfor lowering declares them (uintp get(), void
     # set(uintp)): numba's overload calls them through ctypes pointers, dynamic globals, and a
-    # function holding one is never cached.
+    # function holding one is never cached. Only inside a parallel kernel: loading its cached code
+    # starts the threading layer, which registers the symbols (a cached plain njit function calling
+    # this could be linked before, and fail).
     if not isinstance(n, types.Integer):
         return None
 
     def codegen(context, builder, signature, args):
-        u = ir.IntType(64)
+        u = context.get_value_type(types.uintp)
         get = cgutils.get_or_insert_function(builder.module, ir.FunctionType(u, []), "get_parallel_chunksize")
         put = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [u]),
                                              "set_parallel_chunksize")
         old = builder.call(get, [])
-        v = args[0]  # an integer of n's width (a literal's too), as 64 bits
-        builder.call(put, [builder.zext(v, u) if v.type.width < 64 else v])
+        v = args[0]  # an integer of n's width (a literal's too), as uintp
+        w = v.type.width
+        builder.call(put, [builder.zext(v, u) if w < u.width else builder.trunc(v, u) if w > u.width else v])
         return old
 
-    return types.uint64(n), codegen
+    return types.uintp(n), codegen
 
 
 def scratch_size(L: int, nj: int) -> int:
