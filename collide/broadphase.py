@@ -721,12 +721,11 @@ class BroadPhase:
         body_pos, body_rot = self._check(body_pos, body_rot, (B,))
 
         def launch(bt, world_count, world_info, chunk_info, S):
-            with numba.parallel_chunksize(1):  # see _run_batch
-                if self._J is None:
-                    return _k.step_batch(body_pos, body_rot, bt["ctx"], world_count, world_info, chunk_info, S,
-                                         self._stats)
-                return _lanes.step_lanes(body_pos, body_rot, bt["ctx"], self._J, bt["LW"], bt["LB"], world_count,
-                                         world_info, chunk_info, S, self._stats)
+            if self._J is None:
+                return _k.step_batch(body_pos, body_rot, bt["ctx"], world_count, world_info, chunk_info, S,
+                                     self._stats)
+            return _lanes.step_lanes(body_pos, body_rot, bt["ctx"], self._J, bt["LW"], bt["LB"], world_count,
+                                     world_info, chunk_info, S, self._stats)
 
         return self._run_batch(B, launch)
 
@@ -735,8 +734,8 @@ class BroadPhase:
         # (one of the batch kernels) until no buffer is short: its rows, or the first bad world's
         # error. `collide.mujoco.BroadPhase.pairs_batch` launches the kernel that computes the
         # poses itself.
-        # More chunks than threads, handed out one at a time (parallel_chunksize 1, which each launch
-        # sets: `_kernels.kinematics.step_lanes_kin` inside): a thread that the OS pauses does not
+        # More chunks than threads, handed out one at a time (numba's parallel chunk size 1, which
+        # each batch kernel sets itself: `_kernels._threads`): a thread that the OS pauses does not
         # hold up the whole call.
         # The lane kernel takes worlds _lanes.LANES at a time: no more chunks than groups of them.
         C = max(1, min(4 * numba.get_num_threads(), B if self._J is None else -(-B // _lanes.LANES)))

@@ -416,8 +416,7 @@ def kinematics_batch(model: mujoco.MjModel, qpos) -> tuple[np.ndarray, np.ndarra
     pos, rot = np.empty((b, n, 3)), np.empty((b, n, 3, 3))
     chunks = max(1, min(4 * numba.get_num_threads(), b))
     scratch = np.empty((chunks, _kin.scratch_size(n, model.njnt)))
-    with numba.parallel_chunksize(1):
-        _kin.kinematics_worlds(q, *_kinematics_arrays(model), pos, rot, scratch)
+    _kin.kinematics_worlds(q, *_kinematics_arrays(model), pos, rot, scratch)
     return pos, rot
 
 

@@ -565,21 +565,33 @@ def test_pairs_batch_names_every_non_finite_qpos_entry():
     assert np.array_equal(bp.pairs_batch(model, good), bp.broadphase.pairs_batch(*cm.kinematics_batch(model, good)))
 
 
-def test_pairs_batch_leaves_the_parallel_chunk_size_as_it_found_it():
-    # The fused kernel sets numba's chunk size to 1 for its own loop and puts the caller's back
-    # (`_kernels.kinematics._set_chunksize`), on a good batch and on one with a bad world.
+def test_batch_kernels_leave_the_parallel_chunk_size_as_they_found_it():
+    # Each batch kernel sets numba's chunk size to 1 for its own loop and puts the caller's back
+    # (`_kernels._threads.set_chunksize`), on a good batch and on one with a bad world: the fused
+    # kernel (pairs_batch on qpos), the lanes and the per-world kernel (collide.BroadPhase.pairs_batch
+    # on poses), the kinematics (kinematics_batch).
     model = mujoco.MjModel.from_xml_string(CHAIN.format(fp="enable"))
     bp = cm.BroadPhase(model)
     assert bp.broadphase._J is not None  # the fused kernel runs it
     qpos = _random_qpos(model, 20, np.random.default_rng(2))
+    bad = qpos.copy()
+    bad[7, 0] = 1e200  # the free joint's x: every body beyond MAX_POSITION in world 7
+    pos, rot = cm.kinematics_batch(model, qpos)
+    per_world = cm.BroadPhase(model).broadphase
+    per_world._J = None  # step_batch, world by world
     before = numba.get_parallel_chunksize()
     try:
         numba.set_parallel_chunksize(5)
-        assert len(bp.pairs_batch(model, qpos)) > 0
-        assert numba.get_parallel_chunksize() == 5
-        qpos[7, 0] = 1e200  # the free joint's x: every body beyond MAX_POSITION in world 7
-        with pytest.raises(ValueError, match="world 7, body 1: "):
-            bp.pairs_batch(model, qpos)
+        calls = [lambda q: bp.pairs_batch(model, q),
+                 lambda q: bp.broadphase.pairs_batch(*cm.kinematics_batch(model, q)),
+                 lambda q: per_world.pairs_batch(*cm.kinematics_batch(model, q))]
+        for call in calls:
+            assert len(call(qpos)) > 0
+            assert numba.get_parallel_chunksize() == 5
+            with pytest.raises(ValueError, match="world 7, body 1: "):
+                call(bad)
+            assert numba.get_parallel_chunksize() == 5
+        assert np.array_equal(cm.kinematics_batch(model, qpos)[0], pos)
         assert numba.get_parallel_chunksize() == 5
     finally:
         numba.set_parallel_chunksize(before)

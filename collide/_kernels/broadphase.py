@@ -54,6 +54,7 @@ from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
 import numpy as np
 
 from ._ptr import f64_ptr, i32_ptr, i64_ptr
+from ._threads import set_chunksize
 
 ROW = 19
 BIG = 1e300  # empty AABB: lo = BIG, hi = -BIG (finite, so n . lo never meets inf - inf)
@@ -1855,6 +1856,7 @@ def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_info, S,
     C = ctxs.shape[0]
     pos_all = nb.carray(f64_ptr(np.int64(body_pos.ctypes.data)), (B, L, 3))
     rot_all = nb.carray(f64_ptr(np.int64(body_rot.ctypes.data)), (B, L, 3, 3))
+    chunksize = set_chunksize(1)  # chunks handed out one at a time (`_threads`)
     for c in nb.prange(C):
         ctx, ci, I, F, W, sap, bp, scr, stats, info = chunk_buffers(ctxs, chunk_info, c)
         cap = ctx[C_NKEYS]
@@ -1868,6 +1870,7 @@ def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_info, S,
         for s in range(N_STATS):
             stats[s] = st[N_STATS + s]
         ci[CI_KEYS] = off
+    set_chunksize(chunksize)
     return gather_batch(ctxs, world_count, chunk_info, S, stats_out)
 
 

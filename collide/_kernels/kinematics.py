@@ -17,15 +17,13 @@ Model arrays (``mujoco.MjModel``'s, contiguous: float64, the index arrays int32 
 
 from __future__ import annotations
 
-from llvmlite import ir
 import numba as nb
-from numba.core import cgutils, types
-from numba.extending import intrinsic
 import numpy as np
 
 from ._ptr import f64_ptr, i32_ptr, i64_ptr
 from ._quat import SINCOS_MAX, _frame_point, _qmat, _qmul, _qnorm, _rotate_about, _sincos, _slide
 from ._simd import kin_ball8, kin_finish8, kin_hinge8, kin_slide8, kin_start8, sincos8
+from ._threads import set_chunksize
 from .broadphase import CI_KEYS, N_STATS, chunk_buffers, gather_batch
 from .lanes import J_NR, LANES, _lane_group, lane_buffers, lane_poses
 
@@ -198,31 +196,6 @@ def _model_views(qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntn
             nb.carray(f64_ptr(np.int64(jnt_axis.ctypes.data)), (nj, 3)))
 
 
-@intrinsic
-def _set_chunksize(typingctx, n):
-    # numba.set_parallel_chunksize(n), returning the previous size, as calls of the threading
-    # layer's own symbols, declared as numba's parfor lowering declares them (uintp get(), void
-    # set(uintp)): numba's overload calls them through ctypes pointers, dynamic globals, and a
-    # function holding one is never cached. Only inside a parallel kernel: loading its cached code
-    # starts the threading layer, which registers the symbols (a cached plain njit function calling
-    # this could be linked before, and fail).
-    if not isinstance(n, types.Integer):
-        return None
-
-    def codegen(context, builder, signature, args):
-        u = context.get_value_type(types.uintp)
-        get = cgutils.get_or_insert_function(builder.module, ir.FunctionType(u, []), "get_parallel_chunksize")
-        put = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [u]),
-                                             "set_parallel_chunksize")
-        old = builder.call(get, [])
-        v = args[0]  # an integer of n's width (a literal's too), as uintp
-        w = v.type.width
-        builder.call(put, [builder.zext(v, u) if w < u.width else builder.trunc(v, u) if w > u.width else v])
-        return old
-
-    return types.uintp(n), codegen
-
-
 def scratch_size(L: int, nj: int) -> int:
     """float64 of kinematics scratch per chunk of worlds (a row of `kinematics_worlds`'
     ``scratch``), ``L`` bodies, ``nj`` joints."""
@@ -251,11 +224,13 @@ def kinematics_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr
     qp = nb.carray(f64_ptr(np.int64(qpos.ctypes.data)), (B, nq))
     opos = nb.carray(f64_ptr(np.int64(out_pos.ctypes.data)), (B, L, 3))
     orot = nb.carray(f64_ptr(np.int64(out_rot.ctypes.data)), (B, L, 3, 3))
+    chunksize = set_chunksize(1)  # chunks handed out one at a time (`_threads`)
     for c in nb.prange(C):
         xquat, sc = _scratch(scratch, c, L, nj)
         for w in range((B * c) // C, (B * (c + 1)) // C):
             _kinematics_world(qp[w], q0, par, bpos, bquat, jadr, jnum, jtype, jqadr, jpos, jaxis, opos[w], orot[w],
                               xquat, sc)
+    set_chunksize(chunksize)
     return 0
 
 
@@ -277,10 +252,7 @@ def step_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
     qp = nb.carray(f64_ptr(np.int64(qpos.ctypes.data)), (B, nq))
     Jv = nb.carray(i64_ptr(np.int64(J.ctypes.data)), J.shape[0])
     NWd = (Jv[J_NR] + 63) // 64
-    # Chunks handed to the threads one at a time (see `collide.BroadPhase._run_batch`), set here
-    # rather than by the caller's ``with numba.parallel_chunksize(1)``: four locked Python calls,
-    # 12-26 us a call (AMD EPYC, 2 threads).
-    chunksize = _set_chunksize(1)
+    chunksize = set_chunksize(1)  # chunks handed out one at a time (`_threads`)
     for c in nb.prange(C):
         ctx, ci, I, F, W, sap, bp, scr, stats, info = chunk_buffers(ctxs, chunk_info, c)
         la, LW, LB = lane_buffers(LWs, LBs, c)
@@ -301,5 +273,5 @@ def step_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
         for s in range(N_STATS):
             stats[s] = st[s]
         ci[CI_KEYS] = off
-    _set_chunksize(chunksize)
+    set_chunksize(chunksize)
     return gather_batch(ctxs, world_count, chunk_info, S, stats_out)

@@ -29,6 +29,7 @@ import numpy as np
 
 from ._ptr import f64_ptr, i64_ptr
 from ._simd import aabb_mask8, aabb_merge8
+from ._threads import set_chunksize
 from .broadphase import (BIG, C_KEYS, C_NKEYS, CI_KEYS, H_NB, N_STATS, ROW, SLACK_POS, SLACK_REL, ST_BODY_OBB,
                          ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT, ST_PLANE, ST_SUBTREE,
                          _batch_world, _explicit_hit, _plane_hit_local, _pose_ok, _views, aabb_slack, bounds_mask,
@@ -500,6 +501,7 @@ def step_lanes(body_pos, body_rot, ctxs, J, LWs, LBs, world_count, world_info, c
     rot_all = nb.carray(f64_ptr(np.int64(body_rot.ctypes.data)), (B, NB, 3, 3))
     Jv = nb.carray(i64_ptr(np.int64(J.ctypes.data)), J.shape[0])
     NWd = (Jv[J_NR] + 63) // 64
+    chunksize = set_chunksize(1)  # chunks handed out one at a time (`_threads`)
     for c in nb.prange(C):
         ctx, ci, I, F, W, sap, bp, scr, stats, info = chunk_buffers(ctxs, chunk_info, c)
         la, LW, LB = lane_buffers(LWs, LBs, c)
@@ -513,4 +515,5 @@ def step_lanes(body_pos, body_rot, ctxs, J, LWs, LBs, world_count, world_info, c
         for s in range(N_STATS):
             stats[s] = st[s]
         ci[CI_KEYS] = off
+    set_chunksize(chunksize)
     return gather_batch(ctxs, world_count, chunk_info, S, stats_out)
