@@ -20,7 +20,9 @@ Batched: ``BroadPhase.pairs_batch(model, qpos)`` on B humanoid configurations ta
 simulated trajectory: time per world of the whole call (our numba forward kinematics included),
 of the kinematics, and of the broad-phase kernel alone (poses already computed), with 1 numba
 thread and with the default count, against MuJoCo's single-world broad-phase time on the same
-configurations (and the whole call against MuJoCo's ``mj_kinematics`` plus broad phase). On a model of
+configurations (and the whole call against MuJoCo's ``mj_kinematics`` plus broad phase); in rounds,
+each a MuJoCo pass over the configurations then our calls, and each ratio taken within its round,
+so that a drift of the machine's speed moves both sides of it. On a model of
 few body pairs the whole call computes each group of worlds' poses in the lane kernel
 (`collide._kernels.kinematics`), so it may take less than the two parts timed apart.
 """
@@ -80,7 +82,7 @@ def _loop_us(f, *args, n: int = 20000, passes: int = 7) -> float:
     return float(np.median(per)) * 1e-3
 
 
-def bench_batch(path: Path, worlds: int, repeats: int = 5) -> dict:
+def bench_batch(path: Path, worlds: int, rounds: int = 11) -> dict:
     model = mujoco.MjModel.from_xml_path(str(path))
     bp = cm.BroadPhase(model)
     # Configurations from a simulated trajectory with random controls (one per step).
@@ -92,15 +94,19 @@ def bench_batch(path: Path, worlds: int, repeats: int = 5) -> dict:
         data.ctrl[:] = rng.uniform(lo, hi)
         mujoco.mj_step(model, data)
         qpos[i] = data.qpos
-    # MuJoCo's single-world broad phase on the same configurations.
-    mj_times = []
-    with cm.mujoco_timer():
-        timer = data.timer[cm._TIMER_BROAD]
-        for i in range(worlds):
-            data.qpos[:] = qpos[i]
-            d0, n0 = timer.duration, timer.number
-            mujoco.mj_fwdPosition(model, data)
-            mj_times.append((timer.duration - d0) / max(timer.number - n0, 1))
+
+    def mujoco_pass() -> float:
+        # MuJoCo's single-world broad phase on the same configurations: the median per world.
+        times = []
+        with cm.mujoco_timer():
+            timer = data.timer[cm._TIMER_BROAD]
+            for i in range(worlds):
+                data.qpos[:] = qpos[i]
+                d0, n0 = timer.duration, timer.number
+                mujoco.mj_fwdPosition(model, data)
+                times.append((timer.duration - d0) / max(timer.number - n0, 1))
+        return float(np.median(times))
+
     # And mj_kinematics alone, what our kinematics computes (MuJoCo's kinematics timer also covers
     # mj_comPos, mj_camlight, mj_flex and mj_tendon: review, 2026-11-22). No timer of its own: on
     # each configuration a hot Python loop of calls, less the same loop on an empty model (the
@@ -117,26 +123,38 @@ def bench_batch(path: Path, worlds: int, repeats: int = 5) -> dict:
     bp.broadphase.pairs_batch(pos, rot)
     import numba
 
-    rows = {}
+    # Rounds interleave MuJoCo's pass and our calls, so that both see the same phases of a shared
+    # machine (its speed drifts by up to 2x over minutes); each ratio is taken within a round.
     default = numba.get_num_threads()
-    for threads in sorted({1, default}):
-        numba.set_num_threads(threads)
-        full, kern, kin = [], [], []
-        for _ in range(repeats):
+    counts = sorted({1, default})
+    mj_rounds = []
+    per = {n: {"full_us": [], "kernel_us": [], "kinematics_us": [], "ratio": [], "ratio_alone": []}
+           for n in counts}
+    for _ in range(rounds):
+        mj = mujoco_pass()
+        mj_rounds.append(mj)
+        for threads in counts:
+            numba.set_num_threads(threads)
             t0 = time.perf_counter_ns()
             out = bp.pairs_batch(model, qpos)
-            full.append((time.perf_counter_ns() - t0) * 1e-3 / worlds)
+            full = (time.perf_counter_ns() - t0) * 1e-3 / worlds
             t0 = time.perf_counter_ns()
             pos, rot = bp.kinematics_batch(model, qpos)
-            kin.append((time.perf_counter_ns() - t0) * 1e-3 / worlds)
+            kin = (time.perf_counter_ns() - t0) * 1e-3 / worlds
             t0 = time.perf_counter_ns()
             bp.broadphase.pairs_batch(pos, rot)
-            kern.append((time.perf_counter_ns() - t0) * 1e-3 / worlds)
-        rows[threads] = {"full_us": float(np.median(full)), "kernel_us": float(np.median(kern)),
-                         "kinematics_us": float(np.median(kin))}
-    numba.set_num_threads(default)
-    return {"worlds": worlds, "pairs": len(out), "threads": rows,
-            "mujoco_us": float(np.median(mj_times)), "mujoco_kinematics_us": float(np.median(mj_kin))}
+            kern = (time.perf_counter_ns() - t0) * 1e-3 / worlds
+            r = per[threads]
+            r["full_us"].append(full)
+            r["kinematics_us"].append(kin)
+            r["kernel_us"].append(kern)
+            r["ratio"].append(full / mj)
+            r["ratio_alone"].append(kern / mj)
+        numba.set_num_threads(default)
+    rows = {n: {k: float(np.median(v)) for k, v in r.items()} for n, r in per.items()}
+    return {"worlds": worlds, "pairs": len(out), "threads": rows, "rounds": rounds,
+            "mujoco_us": float(np.median(mj_rounds)), "mujoco_us_range": (min(mj_rounds), max(mj_rounds)),
+            "mujoco_kinematics_us": float(np.median(mj_kin))}
 
 
 def main(argv=None) -> int:
@@ -186,16 +204,19 @@ def main(argv=None) -> int:
     humanoid = MODELS / "humanoid" / "scene.xml"
     if humanoid.is_file() and args.worlds > 0:
         b = bench_batch(humanoid, args.worlds)
-        print(f"# batched: humanoid, {b['worlds']} worlds in one pairs_batch call, "
-              f"{b['pairs']} pairs out; per world, medians of 5 calls; MuJoCo single world "
-              f"{b['mujoco_us']:.2f} us (mjTIMER_COL_BROAD in mj_fwdPosition, same configurations)")
+        lo_mj, hi_mj = b["mujoco_us_range"]
+        print(f"# batched: humanoid, {b['worlds']} worlds in one pairs_batch call, {b['pairs']} pairs out; "
+              f"per world, medians over {b['rounds']} rounds, each a MuJoCo pass over the configurations "
+              f"then our calls; MuJoCo single world {b['mujoco_us']:.2f} us (mjTIMER_COL_BROAD in "
+              f"mj_fwdPosition, same configurations; per round {lo_mj:.2f}-{hi_mj:.2f})")
         print(f"{'numba threads':<16}{'pairs_batch(model, qpos)':>26}{'ratio':>7}{'kinematics':>12}"
               f"{'broad phase alone':>19}{'ratio (alone)':>15}")
         for threads, t in b["threads"].items():
-            print(f"{threads:<16}{t['full_us']:>23.2f} us{t['full_us'] / b['mujoco_us']:>7.2f}"
-                  f"{t['kinematics_us']:>9.2f} us{t['kernel_us']:>16.2f} us{t['kernel_us'] / b['mujoco_us']:>15.2f}")
+            print(f"{threads:<16}{t['full_us']:>23.2f} us{t['ratio']:>7.2f}"
+                  f"{t['kinematics_us']:>9.2f} us{t['kernel_us']:>16.2f} us{t['ratio_alone']:>15.2f}")
         print("# ratio: the whole call (issue 4's .pairs_batch: our kinematics included) over MuJoCo's "
-              "broad phase alone; ratio (alone): our broad phase alone, like for like")
+              "broad phase alone, the median of the rounds' ratios; ratio (alone): our broad phase alone, "
+              "like for like")
         mk = b["mujoco_kinematics_us"]
         whole = ", ".join(f"{t['full_us'] / (mk + b['mujoco_us']):.2f} on {n} thread{'s' if n > 1 else ''}"
                           for n, t in b["threads"].items())
