@@ -124,17 +124,23 @@ def bench_batch(path: Path, worlds: int, rounds: int = 11) -> dict:
     import numba
 
     # Rounds interleave MuJoCo's pass and our calls, so that both see the same phases of a shared
-    # machine (its speed drifts by up to 2x over minutes); each ratio is taken within a round.
+    # machine (its speed drifts by up to 2x over minutes); each ratio is taken within a round. The
+    # first call after MuJoCo's pass (~30 ms on one core) is timed apart ("after idle"): it wakes the
+    # sleeping second thread (OMP_WAIT_POLICY=PASSIVE) and finds its caches cold; the others follow
+    # it back to back, as batches in a loop do.
     default = numba.get_num_threads()
     counts = sorted({1, default})
     mj_rounds = []
-    per = {n: {"full_us": [], "kernel_us": [], "kinematics_us": [], "ratio": [], "ratio_alone": []}
+    per = {n: {"full_us": [], "kernel_us": [], "kinematics_us": [], "ratio": [], "ratio_alone": [], "idle_us": []}
            for n in counts}
     for _ in range(rounds):
         mj = mujoco_pass()
         mj_rounds.append(mj)
         for threads in counts:
             numba.set_num_threads(threads)
+            t0 = time.perf_counter_ns()
+            bp.pairs_batch(model, qpos)
+            per[threads]["idle_us"].append((time.perf_counter_ns() - t0) * 1e-3 / worlds)
             t0 = time.perf_counter_ns()
             out = bp.pairs_batch(model, qpos)
             full = (time.perf_counter_ns() - t0) * 1e-3 / worlds
@@ -210,13 +216,14 @@ def main(argv=None) -> int:
               f"then our calls; MuJoCo single world {b['mujoco_us']:.2f} us (mjTIMER_COL_BROAD in "
               f"mj_fwdPosition, same configurations; per round {lo_mj:.2f}-{hi_mj:.2f})")
         print(f"{'numba threads':<16}{'pairs_batch(model, qpos)':>26}{'ratio':>7}{'kinematics':>12}"
-              f"{'broad phase alone':>19}{'ratio (alone)':>15}")
+              f"{'broad phase alone':>19}{'ratio (alone)':>15}{'after idle':>12}")
         for threads, t in b["threads"].items():
             print(f"{threads:<16}{t['full_us']:>23.2f} us{t['ratio']:>7.2f}"
-                  f"{t['kinematics_us']:>9.2f} us{t['kernel_us']:>16.2f} us{t['ratio_alone']:>15.2f}")
+                  f"{t['kinematics_us']:>9.2f} us{t['kernel_us']:>16.2f} us{t['ratio_alone']:>15.2f}"
+                  f"{t['idle_us']:>9.2f} us")
         print("# ratio: the whole call (issue 4's .pairs_batch: our kinematics included) over MuJoCo's "
               "broad phase alone, the median of the rounds' ratios; ratio (alone): our broad phase alone, "
-              "like for like")
+              "like for like; after idle: the whole call, the first after MuJoCo's pass (not in the ratios)")
         mk = b["mujoco_kinematics_us"]
         whole = ", ".join(f"{t['full_us'] / (mk + b['mujoco_us']):.2f} on {n} thread{'s' if n > 1 else ''}"
                           for n, t in b["threads"].items())
