@@ -172,7 +172,7 @@ def workspace_size(L: int, G: int, Q: int) -> int:
 @nb.njit(cache=True, inline="always")
 def _views(I, F, W):
     # Views built from pointers, not slices: a slice's bounds handling (negative ends, clamping) is
-    # ~25 instructions and a few branches, 30 of them on every call (humanoid after mj_step: 1,130
+    # ~25 instructions and a few branches, 28 of them on every call (humanoid after mj_step: 1,130
     # instructions and 77 instruction-cache misses fewer a step; tests/bench/footprint.py). The
     # layout is `pack`'s, so every view's extent is known exactly.
     L = I[H_L]

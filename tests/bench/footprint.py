@@ -6,23 +6,28 @@ A developer's tool, like `stages.py`, whose output is not committed. It runs the
 (random controls, ``BroadPhase.pairs(data)`` after every ``mj_step``) under valgrind's cachegrind
 twice, with and without our call, and prints the difference per call: instructions executed, L1
 instruction and data cache misses, conditional and indirect branch mispredictions (cachegrind's
-simulated 32 KB L1s and simple predictors), in total and for the functions that differ most.
-numba's compiled code has no symbols there: it is the ``???`` row; the rest is Python, numpy and
-MuJoCo. Unlike timings on a shared machine, these counts repeat run after run (``PYTHONHASHSEED``
-is fixed), so a change to the kernel's code size or layout can be judged on them.
+simulated 32 KB L1s and simple predictors), in total and for the functions that differ most in L1
+instruction misses. numba's compiled code has no symbols there: it is the ``???`` row, and that row
+repeats from run to run (``PYTHONHASHSEED`` is fixed); the Python rows also carry the two runs'
+import noise (up to ~2,000 instructions a call at 3000 steps), and the difference also holds what our
+call costs the engine's next step (its code evicted by ours). Counts, not time: a change to the
+kernel's code size or layout is judged on them, its speed still by timing.
 
-What the timings alone did not show (humanoid, session 30): a call after ``mj_step`` executes
-~22,300 instructions and misses the L1 instruction cache ~810 times (~590 in the compiled kernel,
-whose ``_world`` is ~58 KB of machine code; ~220 in Python and numpy): most of the difference
-between a call in the loop (~8 us) and the same call repeated hot (~3.4 us) is code fetched again.
+What the timings alone did not show (humanoid, session 30, before the pointer views of
+`broadphase._views`): a call after ``mj_step`` executes ~17,300 instructions of compiled code and
+misses the L1 instruction cache ~590 times there (~810 with Python and numpy); ``_world`` is ~58 KB
+of machine code, ~7,700 distinct instructions of it run per call, most of them once. The same call
+repeated hot takes ~3.4 us, in the loop ~8: code fetched again, we believe, is most of the gap.
 
 numba compiles for the processor it detects, and under valgrind it detects another one (valgrind
 emulates fewer features): the kernels would be compiled again inside valgrind, which takes hours.
-Both runs therefore pin ``NUMBA_CPU_NAME`` and ``NUMBA_CPU_FEATURES`` to the host's, and a native
-run with the same settings fills numba's cache first. SCENE is a folder of ../shared/models
-(default ``humanoid``). ``--root DIR``: import ``collide`` from DIR (a folder holding a changed copy
-of the package) instead of this checkout. Needs ``valgrind`` on the PATH; each run takes a few
-minutes (and a copy's first native run compiles its kernels).
+Both runs therefore pin ``NUMBA_CPU_NAME`` and ``NUMBA_CPU_FEATURES`` to the host's, AVX-512 turned
+off (valgrind 3.19 cannot run it), and a native run with the same settings fills numba's cache
+first (on an AVX-512 host that compiles the kernels once more). SCENE is a folder of
+../shared/models (default ``humanoid``). ``--root DIR``: import ``collide`` from DIR (a folder
+holding a changed copy of the package) instead of this checkout. Needs ``valgrind`` on the PATH
+(the table is read from 3.19's ``cg_annotate``; later versions print another layout); each run
+takes a few minutes (and a copy's first native run compiles its kernels).
 """
 
 from __future__ import annotations
@@ -71,7 +76,9 @@ def _env() -> dict:
     ll.initialize_native_target()
     env = dict(os.environ)
     env["NUMBA_CPU_NAME"] = ll.get_host_cpu_name()
-    env["NUMBA_CPU_FEATURES"] = ll.get_host_cpu_features().flatten()
+    # AVX-512 off: valgrind (3.19) cannot execute it
+    env["NUMBA_CPU_FEATURES"] = ",".join(("-" + f[1:]) if f.startswith("+avx512") else f
+                                         for f in ll.get_host_cpu_features().flatten().split(","))
     env["PYTHONHASHSEED"] = "0"
     env.setdefault("OMP_WAIT_POLICY", "PASSIVE")
     return env
@@ -135,7 +142,7 @@ def main(argv=None) -> int:
           "with the call less without it (the Python rows also carry the two runs' import noise, up to ~2,000 instructions a call at 3000 steps: compare the ??? row)")
     print("  ".join(f"{lab} {v:,.0f}" for lab, v in zip(LABELS, total)))
     print()
-    print("".join(f"{e:>10}" for e in EVENTS) + "  function (??? = numba's compiled code)")
+    print("".join(f"{e:>10}" for e in EVENTS) + "  function (??? = numba's compiled code), by I1 misses")
     for name, v in sorted(diff.items(), key=lambda t: -abs(t[1][1]))[:args.top]:
         print("".join(f"{x:>10.1f}" for x in v) + f"  {name[:90]}")
     return 0

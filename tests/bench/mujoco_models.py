@@ -22,7 +22,8 @@ of the kinematics, and of the broad-phase kernel alone (poses already computed),
 thread and with the default count, against MuJoCo's single-world broad-phase time on the same
 configurations (and the whole call against MuJoCo's ``mj_kinematics`` plus broad phase); in rounds,
 each a MuJoCo pass over the configurations then our calls, and each ratio taken within its round,
-so that a drift of the machine's speed moves both sides of it. On a model of
+so that a drift of the machine's speed moves both sides of it (MuJoCo's ``mj_kinematics`` alone is
+timed once, before the rounds). On a model of
 few body pairs the whole call computes each group of worlds' poses in the lane kernel
 (`collide._kernels.kinematics`), so it may take less than the two parts timed apart.
 """
@@ -124,19 +125,19 @@ def bench_batch(path: Path, worlds: int, rounds: int = 11) -> dict:
     import numba
 
     # Rounds interleave MuJoCo's pass and our calls, so that both see the same phases of a shared
-    # machine (its speed drifts by up to 2x over minutes); each ratio is taken within a round. The
-    # first call after MuJoCo's pass (~30 ms on one core) is timed apart ("after idle"): it wakes the
-    # sleeping second thread (OMP_WAIT_POLICY=PASSIVE) and finds its caches cold; the others follow
-    # it back to back, as batches in a loop do.
+    # machine (its speed drifts by up to 2x over minutes); each ratio is taken within a round, one
+    # round per thread count. The first call after MuJoCo's pass (~30 ms on one core) is timed
+    # apart ("after idle"): its caches are cold, and with 2 threads it wakes the sleeping second
+    # one (OMP_WAIT_POLICY=PASSIVE); the others follow it back to back, as batches in a loop do.
     default = numba.get_num_threads()
     counts = sorted({1, default})
     mj_rounds = []
     per = {n: {"full_us": [], "kernel_us": [], "kinematics_us": [], "ratio": [], "ratio_alone": [], "idle_us": []}
            for n in counts}
     for _ in range(rounds):
-        mj = mujoco_pass()
-        mj_rounds.append(mj)
         for threads in counts:
+            mj = mujoco_pass()
+            mj_rounds.append(mj)
             numba.set_num_threads(threads)
             t0 = time.perf_counter_ns()
             bp.pairs_batch(model, qpos)
@@ -212,8 +213,8 @@ def main(argv=None) -> int:
         b = bench_batch(humanoid, args.worlds)
         lo_mj, hi_mj = b["mujoco_us_range"]
         print(f"# batched: humanoid, {b['worlds']} worlds in one pairs_batch call, {b['pairs']} pairs out; "
-              f"per world, medians over {b['rounds']} rounds, each a MuJoCo pass over the configurations "
-              f"then our calls; MuJoCo single world {b['mujoco_us']:.2f} us (mjTIMER_COL_BROAD in "
+              f"per world, medians over {b['rounds']} rounds per thread count, each a MuJoCo pass over the "
+              f"configurations then our calls; MuJoCo single world {b['mujoco_us']:.2f} us (mjTIMER_COL_BROAD in "
               f"mj_fwdPosition, same configurations; per round {lo_mj:.2f}-{hi_mj:.2f})")
         print(f"{'numba threads':<16}{'pairs_batch(model, qpos)':>26}{'ratio':>7}{'kinematics':>12}"
               f"{'broad phase alone':>19}{'ratio (alone)':>15}{'after idle':>12}")
@@ -227,9 +228,9 @@ def main(argv=None) -> int:
         mk = b["mujoco_kinematics_us"]
         whole = ", ".join(f"{t['full_us'] / (mk + b['mujoco_us']):.2f} on {n} thread{'s' if n > 1 else ''}"
                           for n, t in b["threads"].items())
-        print(f"# MuJoCo's mj_kinematics alone {mk:.2f} us (median over the configurations, each a hot Python "
-              f"loop less the binding's cost on an empty model): the whole call over MuJoCo's kinematics + broad "
-              f"phase ({mk + b['mujoco_us']:.2f} us), {whole}")
+        print(f"# MuJoCo's mj_kinematics alone {mk:.2f} us (timed once, before the rounds: the median over the "
+              f"configurations, each a hot Python loop less the binding's cost on an empty model): the whole call "
+              f"over MuJoCo's kinematics + broad phase ({mk + b['mujoco_us']:.2f} us), {whole}")
     return 0 if all(not r["missed"] for r in rows) else 1
 
 
