@@ -139,7 +139,8 @@ def main(argv=None) -> int:
     diff = {k: [(a - b) / n for a, b in zip(on.get(k, zero), off.get(k, zero))] for k in set(on) | set(off)}
     total = [sum(v[i] for v in diff.values()) for i in range(len(EVENTS))]
     print(f"# {args.scene}: one pairs(data) after each mj_step, {n} steps; per call, cachegrind's counts "
-          "with the call less without it (the Python rows also carry the two runs' import noise, up to ~2,000 instructions a call at 3000 steps: compare the ??? row)")
+          "with the call less without it (the Python rows also carry the two runs' import noise, up to "
+          "~2,000 instructions a call at 3000 steps: compare the ??? row)")
     print("  ".join(f"{lab} {v:,.0f}" for lab, v in zip(LABELS, total)))
     print()
     print("".join(f"{e:>10}" for e in EVENTS) + "  function (??? = numba's compiled code), by I1 misses")
