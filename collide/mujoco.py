@@ -384,9 +384,10 @@ def weld_groups(model: mujoco.MjModel) -> np.ndarray:
 # ----------------------------------------------------------------------------------------------
 
 def _kinematics_arrays(model: mujoco.MjModel) -> tuple:
-    # The model arrays `_kernels.kinematics` reads, contiguous, read afresh at every call (a body's
-    # model pose may be changed between calls, as mj_kinematics would see it); the index arrays as
-    # MuJoCo keeps them, int32 (views, no copy: converting them to int64 cost ~10 us a call).
+    # The model arrays `_kernels.kinematics` reads, contiguous: views of the model's own buffers
+    # (a body's model pose changed in place between calls reaches the next one, as it reaches
+    # mj_kinematics; `BroadPhase.pairs_batch` keeps them per MjModel); the index arrays as MuJoCo
+    # keeps them, int32 (no copy: converting them to int64 cost ~10 us a call).
     def c(x, dt=np.float64):
         return np.ascontiguousarray(x, dtype=dt)
 
@@ -461,6 +462,8 @@ class BroadPhase:
         self._views_of = _NOT_BOUND  # the MjData whose arrays are bound (none yet; None is not an MjData)
         self._views = None
         self._kin_scratch = None  # pairs_batch's kinematics scratch (see there)
+        self._kin_model = None  # the MjModel whose arrays pairs_batch last read, and those views
+        self._kin_arrays = None
         # MuJoCo has no collision function for plane-hfield and hfield-hfield (mjCOLLISIONFUNC
         # is NULL there): such pairs never make contacts and are removed after the kernel.
         types = np.asarray(model.geom_type)
@@ -617,7 +620,13 @@ class BroadPhase:
             # A small one: each group of worlds' poses computed by the chunk that tests them, in its
             # workspace (`_kernels.kinematics.step_lanes_kin`); the same rows as `kinematics_batch`
             # then `collide.BroadPhase.pairs_batch`, without the batch's poses written and read back.
-            arrays = _kinematics_arrays(model)
+            # The model's arrays as views (`_kinematics_arrays`), made once per MjModel: its buffer
+            # never moves, so the views see every change made to it in place, as mj_kinematics
+            # would; made afresh they cost ~6 us a call (ten binding accesses; humanoid, AMD EPYC).
+            if model is not self._kin_model:
+                self._kin_arrays = _kinematics_arrays(model)
+                self._kin_model = model
+            arrays = self._kin_arrays
 
             def launch(bt, world_count, world_info, chunk_info, S):
                 # the kinematics' scratch, a row per chunk, kept between calls (22 humanoids: 1.2 MB)

@@ -537,6 +537,28 @@ def test_pairs_batch_poses_in_the_call_equal_kinematics_then_batch(xml):
         assert len(again) > 0 and np.array_equal(again, bp.broadphase.pairs_batch(*cm.kinematics_batch(model, qpos)))
 
 
+def test_pairs_batch_sees_the_models_arrays_changed_in_place():
+    # pairs_batch keeps views of the model's arrays between calls (made once per MjModel): a body
+    # pose or qpos0 changed in place must reach the next call, as it reaches mj_kinematics.
+    model = mujoco.MjModel.from_xml_string(KIN.replace('size=".1"', 'size=".25"'))
+    bp = cm.BroadPhase(model)
+    assert bp.broadphase._J is not None  # the lanes run it
+    qpos = _random_qpos(model, 9, np.random.default_rng(3))
+    before = bp.pairs_batch(model, qpos)
+    assert len(before) > 0
+    b = model.body("b").id
+    slide = model.jnt_qposadr[np.flatnonzero(model.jnt_type == mujoco.mjtJoint.mjJNT_SLIDE)[0]]
+    # b and its subtree moved far away: by its pose in its parent, then by its slide's reference
+    for array, at in ((model.body_pos, (b, 0)), (model.qpos0, slide)):
+        old = array[at]
+        array[at] = old + 5.0 if array is model.body_pos else old - 5.0
+        got = bp.pairs_batch(model, qpos)
+        assert np.array_equal(got, bp.broadphase.pairs_batch(*cm.kinematics_batch(model, qpos)))
+        assert len(got) < len(before)
+        array[at] = old
+        assert np.array_equal(bp.pairs_batch(model, qpos), before)
+
+
 def test_pairs_batch_names_every_non_finite_qpos_entry():
     # A float64 C-contiguous qpos goes to the lane kernel unchecked (`pairs_batch`): every NaN or
     # inf entry, of every joint type (free position and quaternion, hinge, slide, ball), must make
