@@ -549,14 +549,21 @@ def test_pairs_batch_sees_the_models_arrays_changed_in_place():
     b = model.body("b").id
     slide = model.jnt_qposadr[np.flatnonzero(model.jnt_type == mujoco.mjtJoint.mjJNT_SLIDE)[0]]
     # b and its subtree moved far away: by its pose in its parent, then by its slide's reference
-    for array, at in ((model.body_pos, (b, 0)), (model.qpos0, slide)):
+    for array, at, shift in ((model.body_pos, (b, 0), 5.0), (model.qpos0, slide, -5.0)):
         old = array[at]
-        array[at] = old + 5.0 if array is model.body_pos else old - 5.0
+        array[at] = old + shift
         got = bp.pairs_batch(model, qpos)
         assert np.array_equal(got, bp.broadphase.pairs_batch(*cm.kinematics_batch(model, qpos)))
         assert len(got) < len(before)
         array[at] = old
         assert np.array_equal(bp.pairs_batch(model, qpos), before)
+    # a second MjModel of the same geometry, its body moved: each call reads the model it is given
+    other = mujoco.MjModel.from_xml_string(KIN.replace('size=".1"', 'size=".25"'))
+    other.body_pos[b, 0] += 5.0
+    far = bp.pairs_batch(other, qpos)
+    assert np.array_equal(far, bp.broadphase.pairs_batch(*cm.kinematics_batch(other, qpos)))
+    assert len(far) < len(before)
+    assert np.array_equal(bp.pairs_batch(model, qpos), before)
 
 
 def test_pairs_batch_names_every_non_finite_qpos_entry():
