@@ -81,10 +81,11 @@ def aabb_merge8(typingctx, pq, px):
         # every load before the first store (the blocks may be one)
         rows = [(_load(builder, aq[i]), _load(builder, ax[i])) for i in range(6)]
         # The stores go through the same address made opaque (an empty inline asm: no instruction).
-        # Seeing store(select(c, x, load p), p), the x86 back end emits a masked store (vmaskmovpd),
-        # slow on AMD Zen; opaque, the select stays vminpd / vmaxpd and the store a plain one, the
-        # same bits (humanoid, 1024 worlds, one thread, AMD EPYC: the twelve masked stores of each
-        # merge held ~8 % of `lanes._group`'s samples, `tests/bench/jitprof.py`).
+        # Seeing store(select(c, x, load p), p), LLVM's back ends emit masked stores (AVX2's
+        # vmaskmovpd, slow on AMD Zen; AVX-512 and SVE have their own); opaque, the select stays
+        # vminpd / vmaxpd and the store a plain one, the same bits (humanoid, 1024 worlds, one
+        # thread, AMD EPYC: the twelve masked stores of each merge held ~8 % of `lanes._group`'s
+        # samples, `tests/bench/jitprof.py`).
         i64 = ir.IntType(64)
         (aw,) = _row_pointers(builder, [builder.asm(ir.FunctionType(i64, [i64]), "", "=r,0", [args[0]], False)])
         for i, (q, x) in enumerate(rows):

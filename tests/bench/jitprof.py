@@ -2,8 +2,9 @@
 instruction.
 
     python tests/bench/jitprof.py [SCENE] [--batch B] [--calls N] [--threads T] [--function NAME]
+                                  [--frequency HZ]
 
-SCENE is a folder of ../shared/models (default ``humanoid``). Without ``--batch``: one
+SCENE is a folder of ../shared/models (default ``humanoid``) or an MJCF file. Without ``--batch``: one
 ``BroadPhase.pairs(data)`` after each ``mj_step`` with random controls (``--calls`` steps), as in a
 simulation loop. With ``--batch B``: ``BroadPhase.pairs_batch(model, qpos)`` on B configurations,
 ``--calls`` times. A developer's tool for finding what to speed up, not a benchmark of record.
@@ -20,10 +21,12 @@ printed with the samples of each instruction. Only samples taken while the workl
 
 numba's cache keeps machine code without the symbols, so the child compiles every kernel afresh
 into a temporary cache folder: each run takes a few minutes before it samples anything. Needs
-``perf`` (linux-tools) and ``objdump`` on the PATH, and ``kernel.perf_event_paranoid`` <= 2.
-Session 27 (2026-11-27, AMD EPYC, humanoid, 1024 worlds, one thread): 64 % of the compiled code's
-samples in `lanes._group`, 33 % in the parallel loop of `kinematics.step_lanes_kin` (the lane
-kinematics, inlined there), 1.6 % in `broadphase.gather_batch`: no stretch of code above 8 %.
+``perf`` (linux-tools) and ``objdump`` on the PATH, ``kernel.perf_event_paranoid`` <= 2, and an
+x86-64 processor (the disassembly). Session 27 (2026-11-27, AMD EPYC, humanoid, 1024 worlds, one
+thread, before `_simd.aabb_merge8` lost its masked stores): 62 % of the compiled code's samples in
+`lanes._group`, 35 % in the parallel loop of `kinematics.step_lanes_kin` (the lane kinematics,
+inlined there), 1.9 % in `broadphase.gather_batch`; in `_group`, the merge's stretches 8 % and the
+walk's box test with its branch 5 %, nothing else above 3 %.
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ import bisect
 import collections
 import json
 import os
+import platform
 import re
 import shutil
 import subprocess
@@ -50,7 +54,6 @@ import mujoco, numba, numpy as np
 sys.path.insert(0, {root!r})
 import collide.mujoco as cm
 from numba.core.registry import CPUDispatcher
-from collide._kernels import broadphase, kinematics, lanes
 path, batch, calls, threads, out = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), sys.argv[5]
 numba.set_num_threads(threads)
 model = mujoco.MjModel.from_xml_path(path)
@@ -80,9 +83,11 @@ else:
         mujoco.mj_step(model, data)
         pairs(data)
 t1 = clock(time.CLOCK_MONOTONIC)
-syms = []
+syms = []  # [address, LLVM name, the dispatcher whose library holds it]
 seen = set()
-for mod in (broadphase, kinematics, lanes):
+for mname, mod in list(sys.modules.items()):
+    if not mname.startswith("collide._kernels"):
+        continue
     for name, d in vars(mod).items():
         if not isinstance(d, CPUDispatcher):
             continue
@@ -95,19 +100,21 @@ for mod in (broadphase, kinematics, lanes):
                 if not fn.is_declaration:
                     addr = lib.get_pointer_to_function(fn.name)
                     if addr:
-                        syms.append([addr, fn.name])
+                        syms.append([addr, fn.name, mname.rsplit(".", 1)[-1] + "." + name])
 regions = []
 for line in open("/proc/self/maps"):
     parts = line.split()
-    if "x" in parts[1] and len(parts) < 6:  # executable, anonymous
+    if "r" in parts[1] and "x" in parts[1] and len(parts) < 6:  # readable, executable, anonymous
         a, b = (int(v, 16) for v in parts[0].split("-"))
         with open(os.path.join(out, f"{{a:x}}.bin"), "wb") as f:
             f.write(ctypes.string_at(a, b - a))
         regions.append([a, b])
-json.dump({{"t0": t0, "t1": t1, "syms": syms, "regions": regions}}, open(os.path.join(out, "child.json"), "w"))
+with open(os.path.join(out, "child.json"), "w") as f:
+    json.dump({{"t0": t0, "t1": t1, "syms": syms, "regions": regions}}, f)
 """
 
-def _readable(name: str) -> str:
+
+def _readable(name: str, owner: str = "") -> str:
     # numba's mangled names: _ZN, then length-prefixed parts (module path, function), then B<n>v...;
     # "cfunc." and a "cpython" part mark the C and Python entry wrappers
     i = name.find("_ZN")
@@ -119,9 +126,10 @@ def _readable(name: str) -> str:
         k = int(n.group())
         parts.append(s[n.end():n.end() + k])
         s = s[n.end() + k:]
+    wrapper = (" (C entry)" if name.startswith("cfunc.") else " (Python entry)" if "cpython" in parts
+               else " (gufunc entry)" if name.startswith("__gufunc__.") else "")
     if any("parfor_gufunc" in p for p in parts):
-        return "parallel loop (numba's parfor gufunc)"
-    wrapper = " (C entry)" if name.startswith("cfunc.") else " (Python entry)" if "cpython" in parts else ""
+        return f"parallel loop of {owner}{wrapper}"
     return ".".join(p for p in parts if p not in ("collide", "_kernels", "cpython")) + wrapper
 
 
@@ -131,15 +139,26 @@ def main() -> None:
     ap.add_argument("--batch", type=int, default=0, help="worlds a pairs_batch call (default: the loop)")
     ap.add_argument("--calls", type=int, default=None, help="calls sampled (default: 20000 steps or 2000 batches)")
     ap.add_argument("--threads", type=int, default=1)
-    ap.add_argument("--function", default=None, help="print the hottest code of the function whose name holds this")
+    ap.add_argument("--function", default=None, help="print the hottest code of this function (a name of the table: _group, lanes._group, "
+                    "'parallel loop of kinematics.step_lanes_kin')")
     ap.add_argument("--frequency", type=int, default=4000, help="samples a second")
     args = ap.parse_args()
     for tool in ("perf", "objdump"):
         if shutil.which(tool) is None:
             sys.exit(f"jitprof: needs {tool} on the PATH")
-    path = MODELS / args.scene / "scene.xml"
+    if platform.machine() not in ("x86_64", "AMD64"):
+        sys.exit(f"jitprof: disassembles x86-64 code only (this is {platform.machine()})")
+    path = Path(args.scene) if args.scene.endswith(".xml") else MODELS / args.scene / "scene.xml"
     if not path.is_file():
         sys.exit(f"jitprof: no model at {path}")
+    for name in ("batch", "calls", "threads", "frequency"):
+        v = getattr(args, name)
+        if v is not None and (v < 0 or (v == 0 and name != "batch")):
+            sys.exit(f"jitprof: --{name} must be {'>= 0' if name == 'batch' else '>= 1'}, got {v}")
+    import numba
+
+    if args.threads > numba.config.NUMBA_NUM_THREADS:
+        sys.exit(f"jitprof: --threads at most {numba.config.NUMBA_NUM_THREADS} here, got {args.threads}")
     calls = args.calls or (2000 if args.batch else 20000)
     with tempfile.TemporaryDirectory() as tmp:
         env = dict(os.environ, NUMBA_CACHE_DIR=os.path.join(tmp, "cache"), PYTHONHASHSEED="0")
@@ -152,15 +171,18 @@ def main() -> None:
         subprocess.run(["perf", "record", "-q", "-k", "CLOCK_MONOTONIC", "-e", "cpu-clock", "-F", str(args.frequency),
                         "-o", data, sys.executable, child, str(path), str(args.batch), str(calls), str(args.threads),
                         tmp], env=env, check=True)
-        info = json.load(open(os.path.join(tmp, "child.json")))
+        info = json.loads(Path(tmp, "child.json").read_text())
         text = subprocess.run(["perf", "script", "-i", data, "-F", "time,ip,dso"], capture_output=True, text=True,
                               check=True).stdout
         t0, t1 = info["t0"], info["t1"]
         in_jit = [(a, b) for a, b in info["regions"]]
-        starts = sorted({a for a, _ in info["syms"]})
+        starts = sorted({sym[0] for sym in info["syms"]})
         names: dict[int, str] = {}
-        for a, n in info["syms"]:
+        owners: dict[int, str] = {}
+        for a, n, o in info["syms"]:
             names.setdefault(a, n)
+            owners.setdefault(a, o)
+        region_of = {a: next((r for r in in_jit if r[0] <= a < r[1]), None) for a in starts}
         by_dso: collections.Counter = collections.Counter()
         by_fn: collections.Counter = collections.Counter()
         ips: collections.Counter = collections.Counter()
@@ -171,37 +193,48 @@ def main() -> None:
                 continue
             total += 1
             ip = int(m.group(2), 16)
-            if any(a <= ip < b for a, b in in_jit):
+            region = next((r for r in in_jit if r[0] <= ip < r[1]), None)
+            if region is not None:
                 i = bisect.bisect_right(starts, ip) - 1
-                by_fn[starts[i] if i >= 0 else 0] += 1
+                # a function starting in another region is not this code's: unnamed (code compiled
+                # outside collide._kernels)
+                by_fn[starts[i] if i >= 0 and region_of[starts[i]] == region else 0] += 1
                 ips[ip] += 1
                 by_dso["numba's compiled code"] += 1
             else:
                 by_dso[os.path.basename(m.group(3))] += 1
         if total == 0:
             sys.exit("jitprof: no samples in the workload (perf_event_paranoid?)")
-        print(f"\n{total} samples over {t1 - t0:.2f} s ({(t1 - t0) / calls * 1e6:.1f} us a call)\n")
+        per = "us a call" if args.batch else "us a step, mj_step included"
+        print(f"\n{total} samples over {t1 - t0:.2f} s ({(t1 - t0) / calls * 1e6:.1f} {per})\n")
         print(f"{'share':>7}  where")
         for k, v in by_dso.most_common(8):
             print(f"{100 * v / total:6.1f}%  {k}")
         jit = sum(by_fn.values())
         print(f"\n{'share':>7}  numba function (share of the compiled code's {jit} samples)")
         for a, v in by_fn.most_common(12):
-            print(f"{100 * v / jit:6.1f}%  {_readable(names.get(a, '?'))}")
+            print(f"{100 * v / jit:6.1f}%  {_readable(names[a], owners[a]) if a else '(unnamed)'}")
         if args.function:
-            hits = [a for a in starts if args.function in _readable(names[a]) and "cpython" not in names[a]
-                    and not names[a].startswith("cfunc.")]
+            # the function itself (no entry wrapper), its name ending with the one asked for
+            want = args.function
+            hits = [a for a in starts if not _readable(names[a], owners[a]).endswith(")")
+                    and (_readable(names[a], owners[a]) == want or _readable(names[a], owners[a]).endswith("." + want))]
             if not hits:
-                sys.exit(f"jitprof: no function named like {args.function!r}")
+                sys.exit(f"jitprof: no compiled function named {want!r} (a name from the table above)")
+            if len(hits) > 1:
+                print(f"\n{len(hits)} functions named {want!r}: the one with the most samples")
             lo = max(hits, key=lambda a: by_fn[a])
-            hi = starts[starts.index(lo) + 1] if starts.index(lo) + 1 < len(starts) else lo + (1 << 20)
-            region = next((a, b) for a, b in in_jit if a <= lo < b)
-            hi = min(hi, region[1])
-            blob = os.path.join(tmp, f"{region[0]:x}.bin")
-            code = open(blob, "rb").read()[lo - region[0]:hi - region[0]]
-            Path(blob + ".fn").write_bytes(code)
+            region = region_of[lo]
+            if region is None:
+                sys.exit(f"jitprof: {want!r} is not in the code the child copied out")
+            k = starts.index(lo) + 1
+            hi = min(starts[k] if k < len(starts) else region[1], region[1])
+            blob = Path(tmp, f"{region[0]:x}.bin")
+            code = blob.read_bytes()[lo - region[0]:hi - region[0]]
+            fn_file = Path(tmp, "function.bin")
+            fn_file.write_bytes(code)
             asm = subprocess.run(["objdump", "-D", "-b", "binary", "-m", "i386:x86-64", f"--adjust-vma={lo:#x}",
-                                  blob + ".fn"], capture_output=True, text=True, check=True).stdout
+                                  str(fn_file)], capture_output=True, text=True, check=True).stdout
             rows = []
             for line in asm.splitlines():
                 m = re.match(r"\s*([0-9a-f]+):\s+(?:[0-9a-f]{2} )+\s*(.*)$", line)
@@ -211,7 +244,8 @@ def main() -> None:
             window = collections.Counter()
             for ad, _ in rows:
                 window[(ad - lo) // 256] += ips.get(ad, 0)
-            print(f"\n{_readable(names[lo])}: {hi - lo} bytes, {fn_samples} samples; the hottest 256-byte stretches:")
+            print(f"\n{_readable(names[lo], owners[lo])}: {hi - lo} bytes, {fn_samples} samples; "
+                  "the hottest 256-byte stretches:")
             for w, v in window.most_common(6):
                 print(f"\n  +{w * 256:#x}: {100 * v / max(fn_samples, 1):.1f}% of the function")
                 for ad, ins in rows:
