@@ -626,7 +626,12 @@ def test_batch_kernels_leave_the_parallel_chunk_size_as_they_found_it():
         numba.set_parallel_chunksize(before)
 
 
-@numba.njit(cache=True)
+# Not cached (no cache=True): numba stamps a test file's cache with that file alone, and these
+# helpers inline the package's kernels, so after a change to `_kernels._quat` the cached helper kept
+# the old code and this test compared old lanes with new worlds (found 2026-11-27: a 1-ulp mismatch
+# that a fresh cache folder did not show). The package's own kernels are stamped with every file
+# they import (`collide._cache`).
+@numba.njit
 def _lane_poses(qp, arrays, ps, scratch):
     # every group of LANES worlds of qp through `_kinematics_lanes`, into ps (groups, L, 12, LANES)
     (q0, par, bpos, bquat, jadr, jnum, jtype, jqadr, jpos, jaxis) = arrays
@@ -669,7 +674,7 @@ def test_lane_kinematics_equal_world_kinematics_bit_for_bit(scene):
     assert np.array_equal(ps[g, :, 3:, last + 1], rot[g * LANES].reshape(-1, 9))
 
 
-@numba.njit(cache=True)
+@numba.njit  # not cached: see _lane_poses
 def _sincos_all(x, out):
     for i in range(x.size):
         out[i, 0], out[i, 1] = _quat._sincos(x[i])
