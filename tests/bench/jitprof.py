@@ -177,11 +177,9 @@ def main() -> None:
         t0, t1 = info["t0"], info["t1"]
         in_jit = [(a, b) for a, b in info["regions"]]
         starts = sorted({sym[0] for sym in info["syms"]})
-        names: dict[int, str] = {}
-        owners: dict[int, str] = {}
+        label: dict[int, str] = {0: "(unnamed)"}  # by start address: the function's readable name
         for a, n, o in info["syms"]:
-            names.setdefault(a, n)
-            owners.setdefault(a, o)
+            label.setdefault(a, _readable(n, o))
         region_of = {a: next((r for r in in_jit if r[0] <= a < r[1]), None) for a in starts}
         by_dso: collections.Counter = collections.Counter()
         by_fn: collections.Counter = collections.Counter()
@@ -213,12 +211,12 @@ def main() -> None:
         jit = sum(by_fn.values())
         print(f"\n{'share':>7}  numba function (share of the compiled code's {jit} samples)")
         for a, v in by_fn.most_common(12):
-            print(f"{100 * v / jit:6.1f}%  {_readable(names[a], owners[a]) if a else '(unnamed)'}")
+            print(f"{100 * v / jit:6.1f}%  {label[a]}")
         if args.function:
             # the function itself (no entry wrapper), its name ending with the one asked for
             want = args.function
-            hits = [a for a in starts if not _readable(names[a], owners[a]).endswith(")")
-                    and (_readable(names[a], owners[a]) == want or _readable(names[a], owners[a]).endswith("." + want))]
+            hits = [a for a in starts if not label[a].endswith(")")
+                    and (label[a] == want or label[a].endswith("." + want))]
             if not hits:
                 sys.exit(f"jitprof: no compiled function named {want!r} (a name from the table above)")
             if len(hits) > 1:
@@ -244,7 +242,7 @@ def main() -> None:
             window = collections.Counter()
             for ad, _ in rows:
                 window[(ad - lo) // 256] += ips.get(ad, 0)
-            print(f"\n{_readable(names[lo], owners[lo])}: {hi - lo} bytes, {fn_samples} samples; "
+            print(f"\n{label[lo]}: {hi - lo} bytes, {fn_samples} samples; "
                   "the hottest 256-byte stretches:")
             for w, v in window.most_common(6):
                 print(f"\n  +{w * 256:#x}: {100 * v / max(fn_samples, 1):.1f}% of the function")
