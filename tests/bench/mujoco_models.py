@@ -16,6 +16,12 @@ reach its narrow phase than this count.
 Recall is checked on the way (every MuJoCo contact pair must be
 among ours).
 
+The floor: the same loop again (same controls) with a `BroadPhase` whose ``pairs(data)`` keeps the
+Python wrapper and the call through numba's dispatcher but does no work (`_Floor`). After
+``mj_step`` that costs 1-4 us on the AMD machine (code and data the engine's step evicted): no
+kernel behind a Python call takes less there, so where the floor ratio nears 1 the target of 1.0x
+MuJoCo's broad phase is out of reach for any such kernel.
+
 Batched: ``BroadPhase.pairs_batch(model, qpos)`` on B humanoid configurations taken from a
 simulated trajectory: time per world of the whole call (our numba forward kinematics included),
 of the kinematics, and of the broad-phase kernel alone (poses already computed), with 1 numba
@@ -45,6 +51,7 @@ os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import mujoco  # noqa: E402
+import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
 import collide.mujoco as cm  # noqa: E402
@@ -62,6 +69,38 @@ def _cpu() -> str:
     return platform.processor() or "unknown cpu"
 
 
+@numba.njit(cache=True)
+def _no_op(addr):
+    # The floor's compiled call: takes the context address as the kernel does, does nothing.
+    return (addr & 0) + 1
+
+
+class _Floor(cm.BroadPhase):
+    """`collide.mujoco.BroadPhase` whose ``pairs(data)`` does everything but the work: the same Python
+    wrapper (its attribute reads and tests), one compiled call on the context address through
+    numba's dispatcher, and a one-row view of the output arena returned (rows never advanced: the
+    arena never fills). What any numba kernel behind a Python call pays after ``mj_step``, cold
+    caches included: timed in the same loop as ours (`collide.mujoco.compare`, same controls), the
+    floor of our per-step time on this machine."""
+
+    def pairs(self, data):
+        bp = self.broadphase
+        if data is not self._views_of or bp._bound is not self._views:
+            self._check_data(data)
+            bp.bind(data.xpos, data.xmat.reshape(-1, 3, 3))
+            self._views_of = data
+            self._views = bp._bound
+        k = _no_op(bp._ctx_addr)
+        if k < 0:
+            raise RuntimeError("unreachable")
+        if k == 0:
+            return self._empty2
+        o = bp._arena_used
+        e = o + k
+        out = bp._arena[o:e] if e <= bp._arena_rows else bp._arena[:k]
+        return out if self._no_function is None else self._drop_null(out, 0)
+
+
 def bench_scene(path: Path, steps: int) -> dict:
     model = mujoco.MjModel.from_xml_path(str(path))
     t0 = time.perf_counter()
@@ -69,6 +108,11 @@ def bench_scene(path: Path, steps: int) -> dict:
     setup = time.perf_counter() - t0
     result = cm.compare(model, steps=steps, seed=0, name=path.parent.name, broadphase=bp)
     result["setup_s"] = setup
+    # The floor, in a loop of its own over the same controls (its recall is meaningless: it
+    # proposes nothing); its ratio against MuJoCo's timer in that loop.
+    floor = cm.compare(model, steps=steps, seed=0, name=path.parent.name, broadphase=_Floor(model))
+    result["floor_us"] = floor["time_ours_us"]
+    result["floor_ratio"] = floor["ratio"]
     return result
 
 
@@ -122,8 +166,6 @@ def bench_batch(path: Path, worlds: int, rounds: int = 11) -> dict:
     bp.pairs_batch(model, qpos[:8])  # compile / warm up
     pos, rot = bp.kinematics_batch(model, qpos)
     bp.broadphase.pairs_batch(pos, rot)
-    import numba
-
     # Rounds interleave MuJoCo's pass and our calls, so that both see the same phases of a shared
     # machine (its speed drifts by up to 2x over minutes); each ratio is taken within a round, one
     # round per thread count. The first call after MuJoCo's pass (~30 ms on one core) is timed
@@ -175,8 +217,6 @@ def main(argv=None) -> int:
         return 1
     scenes = sorted(p for p in MODELS.iterdir() if (p / "scene.xml").is_file()
                     and (not args.scenes or p.name in args.scenes))
-    import numba
-
     print(f"# collide vs MuJoCo {mujoco.__version__}, broad phase per step, {args.steps} steps of "
           f"random controls per scene")
     print(f"# machine: {numba.config.NUMBA_NUM_THREADS} cores, Python "
@@ -189,10 +229,14 @@ def main(argv=None) -> int:
     print("# candidates: geom pairs per step (mean); MuJoCo's = pairs its broad phase and midphase "
           "pass to its contact filter (before its own bounding-sphere test), counted in a second run "
           "with the same controls")
+    print("# floor: the same loop with pairs(data)'s Python wrapper around a compiled call that does "
+          "nothing, returning a one-row view (tests/bench/mujoco_models.py, _Floor): what any numba "
+          "kernel behind a Python call pays after mj_step on this machine; floor ratio: over MuJoCo's "
+          "timer in that loop")
     print()
     head = (f"{'scene':<20}{'bodies':>7}{'geoms':>7}{'contacts':>10}{'ours cand':>10}"
             f"{'MJ cand':>9}{'cand ratio':>11}{'ours us':>9}{'MJ us':>8}{'time ratio':>11}"
-            f"{'recall':>8}{'setup s':>9}")
+            f"{'floor us':>9}{'floor ratio':>12}{'recall':>8}{'setup s':>9}")
     print(head)
     print("-" * len(head))
     rows = []
@@ -204,7 +248,8 @@ def main(argv=None) -> int:
         rows.append(r)
         print(f"{r['model']:<20}{r['nbody']:>7}{r['ngeom']:>7}{c:>10.1f}{o:>10.1f}{mj:>9.1f}"
               f"{o / mj:>11.2f}{r['time_ours_us']:>9.1f}{r['time_mujoco_broad_us']:>8.1f}"
-              f"{r['ratio']:>11.2f}{100 * r['recall']:>7.1f}%{r['setup_s']:>9.2f}", flush=True)
+              f"{r['ratio']:>11.2f}{r['floor_us']:>9.1f}{r['floor_ratio']:>12.2f}"
+              f"{100 * r['recall']:>7.1f}%{r['setup_s']:>9.2f}", flush=True)
         if not r["mujoco_count_replayed"]:
             print(f"# {r['model']}: the counting run did not replay the timed run's contacts", flush=True)
     print()
