@@ -4,7 +4,7 @@ An `Articulation` is built from arrays in MuJoCo's layout (body 0 is the world,
 ``body_parent[0] == 0``). Set-up, done once per model and tuned for tightness rather than speed,
 computes everything the per-step broad phase (`collide.broadphase`) needs:
 
-- each geom's cloud in its body's frame, its local OBB and enclosing sphere;
+- each geom's cloud in its body's frame, its local OBB, enclosing sphere and capsule;
 - each body's hull-reduced cloud (union of its geoms, Stürzlinger 1996 §3.3) and local bounds
   that contain its geoms' bounds (inflated by their margins), so culling a body never culls a
   geom pair whose own bounds overlap;
@@ -12,9 +12,15 @@ computes everything the per-step broad phase (`collide.broadphase`) needs:
 - the static filter: weld groups, parent-child rule, excluded body pairs, explicit geom pairs.
 
 Bounds semantics (what "two geoms' bounds overlap" means everywhere in `collide`): the geoms'
-spheres overlap *and* their OBBs overlap (separating-axis test on all 15 axes), each volume
-inflated by the geom's margin (radius + margin, half extents + margin). A plane is the halfspace
-``{x : normal . x <= offset + margin}``; it overlaps a geom when both of the geom's volumes reach it.
+spheres overlap, their OBBs overlap (separating-axis test on all 15 axes) *and* their world AABBs
+overlap, each volume inflated by the geom's margin (radius + margin, half extents + margin). A
+geom's world AABB is the intersection of its OBB's world AABB and its capsule's: each geom also
+keeps a local capsule (a segment centred on its OBB's centre, along the OBB's longest axis, plus
+a radius) containing its cloud, whose world AABB is exact for a capsule geom -- a limb at 45
+degrees has an OBB whose AABB is half as large again. A plane is the halfspace
+``{x : normal . x <= offset + margin}``; it overlaps a geom when all three of the geom's volumes
+reach it (the AABB: its corner deepest along the normal). Explicit pairs are tested on their
+spheres and OBBs only, inflated by the pair's own margin.
 """
 
 from __future__ import annotations
@@ -77,6 +83,39 @@ def _guarded(obb: _volumes.OBB, sphere: _volumes.Sphere):
     half = obb.half_extents + pad + ROTATION_SLACK * float(np.sum(obb.half_extents))
     radius = (sphere.radius + pad) * (1.0 + 2.0 * POSE_ORTHO_TOL)
     return obb.center.copy(), obb.rotation.copy(), half, sphere.center.copy(), radius
+
+
+def fit_capsule(centers: np.ndarray, radii: np.ndarray, center: np.ndarray, axis: np.ndarray):
+    """A capsule centred on ``center`` along the unit ``axis`` that contains every ball
+    ``(centers[k], radii[k])``, guarded like the other local bounds.
+
+    The half-length ``h`` is chosen among 0, each centre's distance along the axis and 17 even
+    steps up to the largest, minimising ``h / 2 + r``: the mean half-width of the capsule's world
+    AABB over rotations (``h |u_i| + r``, ``E|u_i| = 1/2``). For the two end points of a capsule
+    geom this is the capsule itself.
+
+    Returns
+    -------
+    d : (3,) float64
+        Half segment, ``h * axis``: the capsule is ``{center + s d : |s| <= 1}`` grown by ``r``.
+    r : float
+    """
+    v = np.asarray(centers, np.float64) - center
+    t = v @ axis
+    perp = np.linalg.norm(v - t[:, None] * axis, axis=1)
+    at = np.abs(t)
+    best = None
+    for h in np.unique(np.concatenate([[0.0], at, np.linspace(0.0, float(at.max()), 17)])):
+        r = float(np.max(np.sqrt(np.maximum(at - h, 0.0) ** 2 + perp ** 2) + radii))
+        if best is None or h / 2 + r < best[0]:
+            best = (h / 2 + r, float(h), r)
+    _, h, r = best
+    # The fit's rounding (BOUND_GUARD, as `_guarded`), and rotations accepted within
+    # POSE_ORTHO_TOL of orthonormal: the kernel moves the segment by the same R as the shape's
+    # points, so only distances to it grow, by ||R|| <= 1 + 1.5 tol.
+    scale = max(float(np.abs(center).max()), h, r, 1e-300)
+    r = (r + BOUND_GUARD * scale) * (1.0 + 2.0 * POSE_ORTHO_TOL)
+    return h * np.asarray(axis, np.float64), r
 
 
 def _depth_first(body_parent: np.ndarray):
@@ -162,6 +201,9 @@ class Articulation:
         Local OBB of the body (contains its geoms' OBBs inflated by their margins).
     body_sphere_center, body_sphere_radius : (L, 3), (L,) float64
         Local sphere of the body (contains its geoms' spheres inflated by their margins).
+    body_capsule_half, body_capsule_radius : (L, 3), (L,) float64
+        Local capsule of the body, centred on its OBB's centre (`fit_capsule`): contains its
+        geoms' capsules inflated by their margins (a single geom's: that one, inflated).
     geom_body, geom_contype, geom_conaffinity : (G,) int64
     geom_pos, geom_rot, geom_margin : (G, 3), (G, 3, 3), (G,) float64
     geom_bound_margin : (G,) float64
@@ -176,6 +218,9 @@ class Articulation:
         Local OBB of each geom in its body frame, not inflated by the margin.
     geom_sphere_center, geom_sphere_radius : (G, 3), (G,) float64
         Local enclosing sphere of each geom in its body frame, not inflated.
+    geom_capsule_half, geom_capsule_radius : (G, 3), (G,) float64
+        Local capsule of each geom, ``{geom_obb_center + s half : |s| <= 1}`` grown by the radius,
+        along the OBB's longest axis (`fit_capsule`), not inflated; for the world AABB.
     exclude : (E, 2) int64
         Excluded body pairs, lower id first, sorted, unique.
     pairs : (P, 2) int64
@@ -327,6 +372,8 @@ class Articulation:
         self.geom_sphere_center = np.zeros((G, 3))
         self.geom_sphere_radius = np.zeros(G)
         self.geom_plane = np.zeros((G, 4))
+        self.geom_capsule_half = np.zeros((G, 3))
+        self.geom_capsule_radius = np.zeros(G)
         for g, c in enumerate(self.geom_cloud):
             R, t = self.geom_rot[g], self.geom_pos[g]
             if self.geom_is_plane[g]:
@@ -345,6 +392,10 @@ class Articulation:
                 (self.geom_obb_center[g], self.geom_obb_rot[g], self.geom_obb_half[g],
                  self.geom_sphere_center[g], self.geom_sphere_radius[g]) = _guarded(
                     fit_local_obb(local), fit_local_sphere(local))
+                axis = self.geom_obb_rot[g][:, int(np.argmax(self.geom_obb_half[g]))]
+                pts = local.points
+                self.geom_capsule_half[g], self.geom_capsule_radius[g] = fit_capsule(
+                    pts, np.full(len(pts), float(local.radius)), self.geom_obb_center[g], axis)
             except ValueError as exc:  # name the geom (a fit refusing coordinates beyond its range)
                 raise ValueError(f"geom_cloud[{g}]: {exc}") from None
 
@@ -357,6 +408,8 @@ class Articulation:
         self.body_obb_half = np.zeros((L, 3))
         self.body_sphere_center = np.zeros((L, 3))
         self.body_sphere_radius = np.zeros(L)
+        self.body_capsule_half = np.zeros((L, 3))
+        self.body_capsule_radius = np.zeros(L)
         solid = np.flatnonzero(~self.geom_is_plane)
         by_body = np.argsort(self.geom_body[solid], kind="stable")
         solid = solid[by_body]
@@ -377,6 +430,8 @@ class Articulation:
                 self.body_obb_half[b] = self.geom_obb_half[g] + m[0]
                 self.body_sphere_center[b] = self.geom_sphere_center[g]
                 self.body_sphere_radius[b] = self.geom_sphere_radius[g] + m[0]
+                self.body_capsule_half[b] = self.geom_capsule_half[g]
+                self.body_capsule_radius[b] = self.geom_capsule_radius[g] + m[0]
                 continue
             # The body's OBB must contain its geoms' inflated OBBs (the kernel culls with it
             # before the geom tests): fit to their corners, one level only.
@@ -399,6 +454,13 @@ class Articulation:
             sph = _volumes.Sphere(np.asarray(best[0], float), best[1])
             (self.body_obb_center[b], self.body_obb_rot[b], self.body_obb_half[b],
              self.body_sphere_center[b], self.body_sphere_radius[b]) = _guarded(obb, sph)
+            # Its capsule must contain its geoms' inflated capsules: the balls at their ends.
+            ends = np.concatenate([self.geom_obb_center[gs] + self.geom_capsule_half[gs],
+                                   self.geom_obb_center[gs] - self.geom_capsule_half[gs]])
+            rads = np.tile(self.geom_capsule_radius[gs] + m, 2)
+            axis = self.body_obb_rot[b][:, int(np.argmax(self.body_obb_half[b]))]
+            self.body_capsule_half[b], self.body_capsule_radius[b] = fit_capsule(
+                ends, rads, self.body_obb_center[b], axis)
 
     def __repr__(self) -> str:
         return (f"Articulation({self.body_count} bodies, {self.geom_count} geoms, "

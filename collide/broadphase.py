@@ -66,10 +66,11 @@ class WorldBounds(NamedTuple):
     sphere_center : (n, 3) float64
     sphere_radius : (n,) float64
     aabb_min, aabb_max : (n, 3) float64
-        The intersection of the OBB's and the sphere's world AABBs (each contains the shape, so
-        their intersection does), padded by the broad phase's rounding slack. Derived for the
-        caller: the broad phase tests the spheres and OBBs, so a reported pair may have disjoint
-        AABBs (never a touching one).
+        The intersection of the OBB's, the sphere's and the capsule's world AABBs (each contains
+        the shape, so their intersection does), padded by the broad phase's rounding slack. The
+        broad phase tests the OBB's cut to the capsule's (`collide.articulation`, bounds
+        semantics), not the sphere's: a reported pair may have disjoint AABBs here (never a
+        touching one).
     plane : (n, 4) float64
         For plane geoms, the world halfspace ``{x : plane[:3] . x <= plane[3]}``; zeros otherwise.
     """
@@ -280,6 +281,12 @@ class BroadPhase:
             blocal[1:V + 1] = glocal[world_geoms]
             blocal[1:V + 1, 12:15] += a.geom_bound_margin[world_geoms, None]
             blocal[1:V + 1, 18] += a.geom_bound_margin[world_geoms]
+        # Capsules (half segment, radius) by position and by geom, for the world AABBs.
+        bcap = np.column_stack([a.body_capsule_half, a.body_capsule_radius])[order]
+        gcap = np.column_stack([a.geom_capsule_half, a.geom_capsule_radius])
+        if V:
+            bcap[1:V + 1] = gcap[world_geoms]
+            bcap[1:V + 1, 3] += a.geom_bound_margin[world_geoms]
         pair_keys = (a.pairs[:, 0].astype(i64) << _k.key_shift(G)) | a.pairs[:, 1]
         flat_root, flat_n, flat_mask = self._flat_lists(end, parent_pos, nchild, hasb, weld, ctor, caor,
                                                         ex_start, ex[:, 1], a.filter_parent)
@@ -287,7 +294,8 @@ class BroadPhase:
             order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag,
             ctor, caor, children, gstart, pgeoms, ex_start, ex[:, 1], planes, plane_ok, a.geom_body,
             a.geom_contype, a.geom_conaffinity, a.pairs, pair_keys, a.filter_parent, blocal, glocal,
-            a.geom_plane, a.geom_bound_margin, a.pair_bound_margin, flat_root, flat_n, flat_mask, n_virtual=V)
+            a.geom_plane, a.geom_bound_margin, a.pair_bound_margin, flat_root, flat_n, flat_mask, bcap, gcap,
+            n_virtual=V)
         self.position_count = Lp
         self._nW = _k.workspace_size(Lp, G, len(planes))
         self._sap_init = _k.sap_state(children)
@@ -642,23 +650,27 @@ class BroadPhase:
             sc, sr = a.geom_sphere_center, a.geom_sphere_radius
             m = a.geom_bound_margin if inflate else np.zeros(a.geom_count)
             half, sr = half + m[:, None], sr + m
+            cap_half, cap_r = a.geom_capsule_half, a.geom_capsule_radius + m
             unbounded, empty = a.geom_is_plane, np.zeros(a.geom_count, bool)
         else:
             ids = np.arange(a.body_count)
             center, rot, half = a.body_obb_center, a.body_obb_rot, a.body_obb_half.copy()
             sc, sr = a.body_sphere_center, a.body_sphere_radius.copy()
+            cap_half, cap_r = a.body_capsule_half, a.body_capsule_radius.copy()
             unbounded, empty = np.zeros(a.body_count, bool), ~a.body_has_bounds
         R, p = body_rot[ids], body_pos[ids]
         c = np.einsum("nij,nj->ni", R, center) + p
         obb_rot = R @ rot
         s = np.einsum("nij,nj->ni", R, sc) + p
-        # The kernel's slack (`_k.aabb_slack`, and the sphere test's): rounding never lets a
-        # shape's point out.
+        # The kernel's slack (`_k.aabb_slack`, `_k.capsule_half`, and the sphere test's): rounding
+        # never lets a shape's point out.
         w = np.abs(obb_rot) @ half[:, :, None]
         w = w[:, :, 0] + (_k.SLACK_REL * half.sum(1) + _k.SLACK_POS * np.abs(c).sum(1))[:, None]
         rs = (sr + _k.SLACK_REL * sr + _k.SLACK_POS * np.abs(s).sum(1))[:, None]
-        lo = np.maximum(c - w, s - rs)
-        hi = np.minimum(c + w, s + rs)
+        e = np.abs(np.einsum("nij,nj->ni", R, cap_half))
+        wc = e + (cap_r + _k.SLACK_REL * (e.sum(1) + cap_r) + _k.SLACK_POS * np.abs(c).sum(1))[:, None]
+        lo = np.maximum(np.maximum(c - w, s - rs), c - wc)
+        hi = np.minimum(np.minimum(c + w, s + rs), c + wc)
         plane = np.zeros((len(ids), 4))
         if unbounded.any():
             q = np.flatnonzero(unbounded)

@@ -125,6 +125,14 @@ def _inside_obb(points, c, R, h, tol=1e-9):
     return np.all(np.abs(local) <= h + tol)
 
 
+def _capsule_distance(points, c, d):
+    # Distance of each point to the segment c - d .. c + d.
+    v = points - c
+    dd = float(d @ d)
+    t = np.clip(v @ d / dd, -1.0, 1.0) if dd > 0 else np.zeros(len(v))
+    return np.linalg.norm(v - t[:, None] * d, axis=1)
+
+
 def test_local_bounds_contain_geoms_and_bodies_contain_geom_bounds():
     sc = testing.branching_tree(30, seed=5, planes=1)
     a = sc.articulation
@@ -143,8 +151,30 @@ def test_local_bounds_contain_geoms_and_bodies_contain_geom_bounds():
         assert _inside_obb(corners, a.body_obb_center[b], a.body_obb_rot[b], a.body_obb_half[b])
         reach = np.linalg.norm(a.geom_sphere_center[g] - a.body_sphere_center[b]) + a.geom_sphere_radius[g] + m
         assert reach <= a.body_sphere_radius[b] + 1e-9
+        # the capsule holds the shape; the body's holds the geom's, inflated (its two end balls)
+        c = a.geom_obb_center[g]
+        assert np.all(_capsule_distance(pts, c, a.geom_capsule_half[g]) <= a.geom_capsule_radius[g] + 1e-9)
+        ends = np.stack([c + a.geom_capsule_half[g], c - a.geom_capsule_half[g]])
+        reach = _capsule_distance(ends, a.body_obb_center[b], a.body_capsule_half[b]) + a.geom_capsule_radius[g] + m
+        assert np.all(reach <= a.body_capsule_radius[b] + 1e-9)
     bare = [b for b in range(a.body_count) if not np.any((a.geom_body == b) & ~a.geom_is_plane)]
     assert bare and not np.any(a.body_has_bounds[bare])
+
+
+def test_a_capsule_geom_keeps_its_own_capsule_and_a_tighter_world_aabb():
+    # A limb at 45 degrees: the AABB of its OBB is larger than the capsule's by about (sqrt(2) - 1) r
+    # on each side across it; the world bounds give the capsule's.
+    R = testing.random_rotation(np.random.default_rng(3))
+    a = Articulation([0, 0], [1], [shapes.capsule(0.05, 0.2)], geom_rot=R[None])
+    assert np.isclose(a.geom_capsule_radius[0], 0.05, rtol=1e-5)
+    assert np.isclose(np.linalg.norm(a.geom_capsule_half[0]), 0.2, rtol=1e-5)
+    assert np.allclose(np.abs(a.geom_capsule_half[0] / 0.2), np.abs(R[:, 2]), atol=1e-5)  # MuJoCo's z axis
+    from collide import BroadPhase
+    tilt = testing.random_rotation(np.random.default_rng(4))
+    wb = BroadPhase(a).world_bounds(np.zeros((2, 3)), np.stack([np.eye(3), tilt]))
+    u = tilt @ R[:, 2]
+    exact = 0.2 * np.abs(u) + 0.05
+    assert np.allclose(wb.aabb_max[0], exact, rtol=1e-4) and np.allclose(wb.aabb_min[0], -exact, rtol=1e-4)
 
 
 def test_optimal_obb_is_tighter_than_aabb_for_rotated_boxes():

@@ -5,7 +5,9 @@ addressed by depth-first *position* ``p`` (every subtree is the range ``[p, end[
 their ids. When the world has several solid geoms, each is a leaf of its own at positions 1..V
 (posed by body 0, with the world's rules), so static scenery is culled geom by geom at the root.
 A bounds record ("row") is 19 float64: OBB centre (3), OBB rotation (9, row-major, columns are the
-box axes), OBB half extents (3), sphere centre (3), sphere radius (1).
+box axes), OBB half extents (3), sphere centre (3), sphere radius (1). Each row also has a
+capsule (half segment (3), radius (1): after the rows in ``F``, `_cap_views`) centred on its OBB
+centre: a body's or geom's world AABB is its OBB's cut to its capsule's (`_cap_aabb`).
 
 The static model travels as two flat arrays (``I`` int64 with a header of counts, ``F`` float64)
 and the workspace as one (``W`` float64); one step is a call with three arguments (the two pose
@@ -18,8 +20,8 @@ One step, for one world (`_world`):
 1. validate each body's pose (finite, proper orthonormal rotation: one combined test) and move
    its local bounds to the world (one rotation per body; no point is touched); the geoms of bodies
    with several geoms follow on first use (a single-geom body's bounds *are* its geom's, inflated);
-2. subtree AABBs by one reverse sweep over the positions (each body's AABB of its world OBB,
-   merged into its parent's): the tree is a one-level bounding hierarchy, never boxes of boxes;
+2. subtree AABBs by one reverse sweep over the positions (each body's AABB of its world OBB and
+   capsule, merged into its parent's): the tree is a one-level bounding hierarchy, never boxes of boxes;
 3. every body pair exactly once, at its lowest common ancestor ``n``: body ``n`` against its own
    subtree (one walk over its descendants; under the parent rule a direct child's subtree AABB
    culls but the child is not paired), and each pair of ``n``'s child
@@ -124,7 +126,8 @@ HEADER = 11
 
 def pack(order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor, caor,
          children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g, pair_keys,
-         filter_parent, blocal, glocal, gplane, gmargin, pair_m, flat_root, flat_n, flat_mask, n_virtual=0):
+         filter_parent, blocal, glocal, gplane, gmargin, pair_m, flat_root, flat_n, flat_mask, bcap, gcap,
+         n_virtual=0):
     """Flatten the static model into ``I`` (int64) and ``F`` (float64); see `_views` for the order.
 
     Excluded body pairs travel as lists of partners per position (``ex_other[ex_start[x]:
@@ -141,7 +144,8 @@ def pack(order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb
              caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca,
              np.asarray(pair_g).reshape(-1), pair_keys, flat_root, flat_n, flat_mask]
     I = np.concatenate([np.asarray(p, np.int64).reshape(-1) for p in parts])
-    F = np.concatenate([np.asarray(p, np.float64).reshape(-1) for p in (blocal, glocal, gplane, gmargin, pair_m)])
+    F = np.concatenate([np.asarray(p, np.float64).reshape(-1)
+                        for p in (blocal, glocal, gplane, gmargin, pair_m, bcap, gcap)])
     return I, F
 
 
@@ -275,6 +279,17 @@ def _views(I, F, W):
 
 
 @nb.njit(cache=True, inline="always")
+def _cap_views(I, F):
+    # The capsules after `_views`' blocks of F (`pack`): by position (L, 4) and by geom (G, 4), each
+    # (half segment (3), radius) in the body frame, centred on the row's OBB centre.
+    L = I[H_L]
+    G = I[H_G]
+    f = ROW * L + ROW * G + 5 * G + I[H_P]
+    fa = np.int64(F.ctypes.data)
+    return nb.carray(f64_ptr(fa + 8 * f), (L, 4)), nb.carray(f64_ptr(fa + 8 * (f + 4 * L)), (G, 4))
+
+
+@nb.njit(cache=True, inline="always")
 def _fat_views(I, W):
     # The frame-coherence part of W (see coherence_offset): fat_b (L, 6), fat_s (L, 6), fat_t (6, L),
     # state (N_COH).
@@ -373,6 +388,34 @@ def _world_aabb(w, m, box, k):
 
 
 @nb.njit(cache=True, inline="always")
+def capsule_half(r00, r01, r02, r10, r11, r12, r20, r21, r22, d0, d1, d2, r, c0, c1, c2):
+    """Half widths of the world AABB of a capsule (local half segment ``d``, radius ``r``) under
+    rotation ``R``, centred at the world point ``c``: ``|R d| + r`` per axis, plus the rounding
+    slack of `aabb_slack` (sizes ``|R d|`` and ``r``). The lanes compute the same (same bits)."""
+    e0 = abs(r00 * d0 + r01 * d1 + r02 * d2)
+    e1 = abs(r10 * d0 + r11 * d1 + r12 * d2)
+    e2 = abs(r20 * d0 + r21 * d1 + r22 * d2)
+    tol = SLACK_REL * (e0 + e1 + e2 + r) + SLACK_POS * (abs(c0) + abs(c1) + abs(c2))
+    return e0 + r + tol, e1 + r + tol, e2 + r + tol
+
+
+@nb.njit(cache=True, inline="always")
+def _cap_aabb(rot, b, cap, k, w, m, box, x):
+    # box[x] (an AABB, lo then hi) cut to the world AABB of capsule cap[k] inflated by m, moved by
+    # body b's rotation and centred at the row w's centre: both contain the shape, so their
+    # intersection does.
+    h0, h1, h2 = capsule_half(rot[b, 0, 0], rot[b, 0, 1], rot[b, 0, 2], rot[b, 1, 0], rot[b, 1, 1], rot[b, 1, 2],
+                              rot[b, 2, 0], rot[b, 2, 1], rot[b, 2, 2], cap[k, 0], cap[k, 1], cap[k, 2],
+                              cap[k, 3] + m, w[0], w[1], w[2])
+    box[x, 0] = max(box[x, 0], w[0] - h0)
+    box[x, 1] = max(box[x, 1], w[1] - h1)
+    box[x, 2] = max(box[x, 2], w[2] - h2)
+    box[x, 3] = min(box[x, 3], w[0] + h0)
+    box[x, 4] = min(box[x, 4], w[1] + h1)
+    box[x, 5] = min(box[x, 5], w[2] + h2)
+
+
+@nb.njit(cache=True, inline="always")
 def _pose_ok(r00, r01, r02, r10, r11, r12, r20, r21, r22, p0, p1, p2):
     # One test per body: R^T R = I within ORTHO_TOL, det > 0, a position within MAX_POSITION. Comparisons
     # with NaN are false, and an inf in R makes a product inf or NaN, so a non-finite pose
@@ -399,7 +442,7 @@ def aabb_slack(e0, e1, e2, c0, c1, c2):
 
 
 @nb.njit(cache=True, inline="always")
-def _place(body_rot, body_pos, b, blocal, x, bw, baabb, saabb, baabb_t, has_flat):
+def _place(body_rot, body_pos, b, blocal, bcap, x, bw, baabb, saabb, baabb_t, has_flat):
     # World row of position x (body b's pose) and its AABB: the AABB of the world OBB, also the
     # start of its subtree AABB (stage 2 merges the descendants in), and its column of baabb_t
     # when the model has flat subtrees (`_traverse` reads it there only). Six stores into six
@@ -410,6 +453,7 @@ def _place(body_rot, body_pos, b, blocal, x, bw, baabb, saabb, baabb_t, has_flat
     # would otherwise lose a pair the OBB test keeps (rounding of the centre > its guard).
     w = _world_row(body_rot, body_pos, b, blocal, x, bw, x)
     _world_aabb(w, 0.0, baabb, x)
+    _cap_aabb(body_rot, b, bcap, x, w, 0.0, baabb, x)
     for i in range(6):
         v = baabb[x, i]
         saabb[x, i] = v
@@ -624,9 +668,9 @@ def _pairs_mask(bw, bp, c0, n):
 def _plane_hit_local(n0, n1, n2, lim, scale, Lr, g, mg):
     # Both of Lr[g]'s volumes, inflated by mg, reach the halfspace {n . x <= lim}; ``scale`` is
     # the magnitude of the world coordinates involved (the slack covers their rounding). Also in
-    # a body's frame (n = R^T n_world, lim = d + mq - n_world . p): a multi-geom body's geoms need
-    # no world rows then (anymal's legs: 4-5 geoms each, 3 on the floor), n . (R c + p) =
-    # (R^T n) . c + n . p.
+    # a body's frame (n = R^T n_world, lim = d + mq - n_world . p), n . (R c + p) = (R^T n) . c +
+    # n . p: a multi-geom body's geoms need their world AABBs only (their corner test), not their
+    # sphere and box moved into the world.
     # Both tests always, no branch on the sphere's outcome (a misprediction costs more than the
     # box's dozen flops; see _subtree_pair).
     sc = n0 * Lr[g, 15] + n1 * Lr[g, 16] + n2 * Lr[g, 17]
@@ -1213,6 +1257,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
      flat_root, flat_n, flat_mask) = _views(I, F, W)
     filter_parent = I[H_FP] != 0
     S = I[H_KS]
+    bcap, gcap = _cap_views(I, F)
     # Geom rows of multi-geom bodies are computed on first use in this call (`_geom_rows`):
     # most bodies never reach the geom level (kuka: 47 geoms, no body pair).
     gstamp[L] += 1.0
@@ -1258,7 +1303,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
     for b in range(NB):
         x = pos_of[b]
         if hasb[x]:
-            _place(body_rot, body_pos, b, blocal, x, bw, baabb, saabb, baabb_t, has_flat)
+            _place(body_rot, body_pos, b, blocal, bcap, x, bw, baabb, saabb, baabb_t, has_flat)
         else:
             for i in range(3):
                 baabb[x, i] = BIG
@@ -1268,7 +1313,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
                 saabb[x, i] = BIG
                 saabb[x, 3 + i] = -BIG
     for x in range(1, I[H_V] + 1):  # the world's geoms as leaves of their own
-        _place(body_rot, body_pos, 0, blocal, x, bw, baabb, saabb, baabb_t, has_flat)
+        _place(body_rot, body_pos, 0, blocal, bcap, x, bw, baabb, saabb, baabb_t, has_flat)
     # 2-4a. the body pairs whose AABBs overlap and that pass the static filter, into bp[:m] (lower
     # position first; a loose pair, see _filter, as ~y): from the list kept by earlier calls while
     # every body stays inside its fat box (see FAT_GROW), else down the tree.
@@ -1363,9 +1408,11 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
             sx = single[x] > 0
             sy = single[y] > 0
             if not sx:
-                _geom_rows(x, order, gstart, pgeoms, glocal, gmargin, body_pos, body_rot, gw, gaabb, gstamp, stamp)
+                _geom_rows(x, order, gstart, pgeoms, glocal, gcap, gmargin, body_pos, body_rot, gw, gaabb, gstamp,
+                           stamp)
             if not sy:
-                _geom_rows(y, order, gstart, pgeoms, glocal, gmargin, body_pos, body_rot, gw, gaabb, gstamp, stamp)
+                _geom_rows(y, order, gstart, pgeoms, glocal, gcap, gmargin, body_pos, body_rot, gw, gaabb, gstamp,
+                           stamp)
             cp = check_pairs and pairflag[x] != 0 and pairflag[y] != 0
             for ii in range(gstart[x], gstart[x + 1]):
                 g1 = pgeoms[ii]
@@ -1435,7 +1482,10 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
             elif hit:
                 multi = single[x] <= 0
                 if multi:
-                    # the plane in the body's frame, for its geoms' tests
+                    # the geoms' world AABBs, for their corner tests below
+                    _geom_rows(x, order, gstart, pgeoms, glocal, gcap, gmargin, body_pos, body_rot, gw, gaabb,
+                               gstamp, stamp)
+                    # the plane in the body's frame, for their sphere and OBB tests
                     b = order[x]
                     ln0 = body_rot[b, 0, 0] * n0 + body_rot[b, 1, 0] * n1 + body_rot[b, 2, 0] * n2
                     ln1 = body_rot[b, 0, 1] * n0 + body_rot[b, 1, 1] * n1 + body_rot[b, 2, 1] * n2
@@ -1452,6 +1502,10 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
                             continue
                     if multi:
                         stats[ST_PLANE] += 1
+                        # the geom's AABB corner, as the body's above, then its sphere and OBB
+                        v = n0 * gaabb[g, k0] + n1 * gaabb[g, k1] + n2 * gaabb[g, k2]
+                        if not (v <= lim + SLACK_POS * (abs(v) + abs(pd))):
+                            continue
                         if not _plane_hit_local(ln0, ln1, ln2, llim, lscale + abs(glocal[g, 0])
                                                 + abs(glocal[g, 1]) + abs(glocal[g, 2]), glocal, g, gmargin[g]):
                             continue
@@ -1568,7 +1622,7 @@ def _counting_pass(src, s0, dst, d0, m, shift, mask, G, cnt):
 
 
 @nb.njit(cache=True, inline="always")
-def _geom_rows(x, order, gstart, pgeoms, glocal, gmargin, body_pos, body_rot, gw, gaabb, gstamp, stamp):
+def _geom_rows(x, order, gstart, pgeoms, glocal, gcap, gmargin, body_pos, body_rot, gw, gaabb, gstamp, stamp):
     # World rows and margin-inflated AABBs of the geoms of the multi-geom body at position x, once
     # per call. The AABB gets the same slack as the OBB test: it only ever rejects pairs whose
     # OBBs are apart.
@@ -1580,6 +1634,7 @@ def _geom_rows(x, order, gstart, pgeoms, glocal, gmargin, body_pos, body_rot, gw
         g = pgeoms[ii]
         w = _world_row(body_rot, body_pos, b, glocal, g, gw, g)
         _world_aabb(w, gmargin[g], gaabb, g)
+        _cap_aabb(body_rot, b, gcap, g, w, gmargin[g], gaabb, g)
 
 
 @nb.njit(cache=True, inline="always")

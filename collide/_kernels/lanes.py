@@ -32,8 +32,8 @@ from ._simd import aabb_mask8, aabb_merge8
 from ._threads import set_chunksize
 from .broadphase import (BIG, C_KEYS, C_NKEYS, CI_KEYS, H_NB, N_STATS, ROW, SLACK_POS, SLACK_REL, ST_BODY_OBB,
                          ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT, ST_PLANE, ST_SUBTREE,
-                         _batch_world, _explicit_hit, _plane_hit_local, _pose_ok, _views, aabb_slack, bounds_mask,
-                         chunk_buffers, gather_batch, plane_world)
+                         _batch_world, _cap_views, _explicit_hit, _plane_hit_local, _pose_ok, _views, aabb_slack,
+                         bounds_mask, capsule_half, chunk_buffers, gather_batch, plane_world)
 
 LANES = 8
 MAX_BODY_PAIRS = 4096  # above this many static body pairs, the tree of the per-world kernel culls better
@@ -144,8 +144,8 @@ def _set_bits(bits, r, m, nv):
 
 
 @nb.njit(cache=True, inline="always")
-def _lane_pair(p, m, x, y, single, wb, wa_at, stamp, order, gstart, pgeoms, glocal, gmargin, ps, gwl, gal, gal_at,
-               pair_gstart, pair_geoms, bits, stats, nv):
+def _lane_pair(p, m, x, y, single, wb, wa_at, stamp, order, gstart, pgeoms, glocal, gcap, gmargin, ps, gwl, gal,
+               gal_at, pair_gstart, pair_geoms, bits, stats, nv):
     # Static body pair p = (x, y), whose AABBs meet in the lanes of m: body sphere and OBB, then
     # its geom pairs (`_world`, stage 4), the hits into the lanes' bitsets.
     sx = single[x] > 0
@@ -158,9 +158,9 @@ def _lane_pair(p, m, x, y, single, wb, wa_at, stamp, order, gstart, pgeoms, gloc
         if m == 0:
             return
     if not sx:
-        _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gmargin, ps, gwl, gal, nv)
+        _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gcap, gmargin, ps, gwl, gal, nv)
     if not sy:
-        _lane_geoms(y, stamp, order, gstart, pgeoms, glocal, gmargin, ps, gwl, gal, nv)
+        _lane_geoms(y, stamp, order, gstart, pgeoms, glocal, gcap, gmargin, ps, gwl, gal, nv)
     for e in range(pair_gstart[p], pair_gstart[p + 1]):
         g1 = pair_geoms[e, 0]
         g2 = pair_geoms[e, 1]
@@ -189,6 +189,7 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
      blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp, baabb_t,
      flat_root, flat_n, flat_mask) = _views(I, F, W)
     Q = planes.shape[0]
+    bcap, gcap = _cap_views(I, F)
     (body_pairs, row_start, pair_gstart, pair_geoms, plane_start, plane_pos, plane_gstart, plane_geoms,
      explicit_rank, rank_keys) = _lane_views(J, L, Q, np.int64(J.ctypes.data))
     NB = I[H_NB]
@@ -236,15 +237,20 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
     for x in range(L):
         stamp[x] = 0
         if hasb[x]:
-            _lane_row(ps, order[x], blocal, x, wb, x, nv)
-            for i in range(3):
-                for l in range(nv):
-                    # the OBB test's slack, rounded as in broadphase._world_aabb
-                    tol = aabb_slack(wb[x, 12, l], wb[x, 13, l], wb[x, 14, l], wb[x, 0, l], wb[x, 1, l], wb[x, 2, l])
+            b = order[x]
+            _lane_row(ps, b, blocal, x, wb, x, nv)
+            for l in range(nv):
+                # the OBB test's slack, rounded as in broadphase._world_aabb
+                tol = aabb_slack(wb[x, 12, l], wb[x, 13, l], wb[x, 14, l], wb[x, 0, l], wb[x, 1, l], wb[x, 2, l])
+                hc = capsule_half(ps[b, 3, l], ps[b, 4, l], ps[b, 5, l], ps[b, 6, l], ps[b, 7, l], ps[b, 8, l],
+                                  ps[b, 9, l], ps[b, 10, l], ps[b, 11, l], bcap[x, 0], bcap[x, 1], bcap[x, 2],
+                                  bcap[x, 3] + 0.0, wb[x, 0, l], wb[x, 1, l], wb[x, 2, l])
+                for i in range(3):
                     h = (abs(wb[x, 3 + 3 * i, l]) * wb[x, 12, l] + abs(wb[x, 4 + 3 * i, l]) * wb[x, 13, l]
                          + abs(wb[x, 5 + 3 * i, l]) * wb[x, 14, l] + tol)
-                    lo = wb[x, i, l] - h
-                    hi = wb[x, i, l] + h
+                    # cut to the capsule's AABB, as broadphase._cap_aabb (same order: same bits)
+                    lo = max(wb[x, i, l] - h, wb[x, i, l] - hc[i])
+                    hi = min(wb[x, i, l] + h, wb[x, i, l] + hc[i])
                     wa[x, i, l] = lo
                     wa[x, 3 + i, l] = hi
                     sa[x, i, l] = lo
@@ -291,7 +297,8 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
                     ntest += 1
                     m &= aabb_mask8(pa, wa_at + 384 * q)
                 if m != 0:
-                    _lane_pair(ptr, m, a, q, single, wb, wa_at, stamp, order, gstart, pgeoms, glocal, gmargin, ps, gwl,
+                    _lane_pair(ptr, m, a, q, single, wb, wa_at, stamp, order, gstart, pgeoms, glocal, gcap, gmargin,
+                               ps, gwl,
                                gal, gal_at, pair_gstart, pair_geoms, bits, stats, nv)
             q += 1
     stats[ST_SUBTREE] += ntest * nlanes
@@ -359,7 +366,9 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
                 for f in range(plane_gstart[e], plane_gstart[e + 1]):
                     _set_bits(bits, plane_geoms[f, 1], m, nv)
                 continue
-            # several geoms: each tested in the body's frame, as `_world` does
+            # several geoms: each one's AABB corner, then its sphere and box in the body's frame, as
+            # `_world` does
+            _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gcap, gmargin, ps, gwl, gal, nv)
             bb = order[x]
             for f in range(plane_gstart[e], plane_gstart[e + 1]):
                 g = plane_geoms[f, 0]
@@ -371,13 +380,22 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
                     n2 = pln[i, 2, l]
                     pd = pln[i, 3, l]
                     lim = pd + mq
+                    lo0 = gal[g, 0, l]  # both corners loaded, one selected (see above)
+                    lo1 = gal[g, 1, l]
+                    lo2 = gal[g, 2, l]
+                    hi0 = gal[g, 3, l]
+                    hi1 = gal[g, 4, l]
+                    hi2 = gal[g, 5, l]
+                    v = n0 * (lo0 if n0 > 0 else hi0) + n1 * (lo1 if n1 > 0 else hi1) + n2 * (lo2 if n2 > 0 else hi2)
+                    cok = v <= lim + SLACK_POS * (abs(v) + abs(pd))
                     ln0 = ps[bb, 3, l] * n0 + ps[bb, 6, l] * n1 + ps[bb, 9, l] * n2
                     ln1 = ps[bb, 4, l] * n0 + ps[bb, 7, l] * n1 + ps[bb, 10, l] * n2
                     ln2 = ps[bb, 5, l] * n0 + ps[bb, 8, l] * n1 + ps[bb, 11, l] * n2
                     llim = lim - (n0 * ps[bb, 0, l] + n1 * ps[bb, 1, l] + n2 * ps[bb, 2, l])
                     lscale = abs(ps[bb, 0, l]) + abs(ps[bb, 1, l]) + abs(ps[bb, 2, l]) + abs(pd)
-                    mg |= np.uint64(_plane_hit_local(ln0, ln1, ln2, llim, lscale + abs(glocal[g, 0]) + abs(glocal[g, 1])
-                                                 + abs(glocal[g, 2]), glocal, g, gmargin[g])) << np.uint64(l)
+                    mg |= np.uint64(cok & _plane_hit_local(ln0, ln1, ln2, llim, lscale + abs(glocal[g, 0])
+                                                       + abs(glocal[g, 1]) + abs(glocal[g, 2]), glocal, g,
+                                                       gmargin[g])) << np.uint64(l)
                 _set_bits(bits, plane_geoms[f, 1], m & mg, nv)
 
     # 4. explicit pairs, lane by lane on the worlds' own pose arrays (`_world`, stage 5b).
@@ -402,7 +420,7 @@ def _popcount(m):
 
 
 @nb.njit(cache=True, inline="always")
-def _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gmargin, ps, gwl, gal, nv):
+def _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gcap, gmargin, ps, gwl, gal, nv):
     # World rows and margin-inflated AABBs of the geoms of the multi-geom body at position x in
     # every lane, once per group (`broadphase._geom_rows`).
     if stamp[x] != 0:
@@ -418,11 +436,15 @@ def _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gmargin, ps, gwl, gal, 
             e1 = gwl[g, 13, l] + m
             e2 = gwl[g, 14, l] + m
             tol = aabb_slack(e0, e1, e2, gwl[g, 0, l], gwl[g, 1, l], gwl[g, 2, l])
+            hc = capsule_half(ps[b, 3, l], ps[b, 4, l], ps[b, 5, l], ps[b, 6, l], ps[b, 7, l], ps[b, 8, l],
+                              ps[b, 9, l], ps[b, 10, l], ps[b, 11, l], gcap[g, 0], gcap[g, 1], gcap[g, 2],
+                              gcap[g, 3] + m, gwl[g, 0, l], gwl[g, 1, l], gwl[g, 2, l])
             for i in range(3):
                 h = (abs(gwl[g, 3 + 3 * i, l]) * e0 + abs(gwl[g, 4 + 3 * i, l]) * e1
                      + abs(gwl[g, 5 + 3 * i, l]) * e2 + tol)
-                gal[g, i, l] = gwl[g, i, l] - h
-                gal[g, 3 + i, l] = gwl[g, i, l] + h
+                # the OBB's AABB cut to the capsule's, as broadphase._cap_aabb (same order: same bits)
+                gal[g, i, l] = max(gwl[g, i, l] - h, gwl[g, i, l] - hc[i])
+                gal[g, 3 + i, l] = min(gwl[g, i, l] + h, gwl[g, i, l] + hc[i])
 
 
 # ------------------------------------------------------------------------------- entry point

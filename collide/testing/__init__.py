@@ -6,7 +6,7 @@ here so tests write ``from collide import testing`` and ``testing.<name>``.
 
 from . import csg
 from .brute import (brute_force_bound_pairs, brute_force_pairs, filter_passing_pairs, gjk_distance,
-                    hulls_intersect_lp, world_bounds)
+                    hulls_intersect_lp, world_bounds, world_capsules)
 from .csg import brute_force_raycast, random_scene
 from .scenes import (Scene, branching_tree, chain, free_hulls, hull_motion, make_plane, many_robots,
                      random_hull, scene_motion)

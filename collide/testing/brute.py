@@ -1,8 +1,9 @@
 """Brute-force twins of the broad phase: every filter-passing geom pair, tested without a tree.
 
-- `brute_force_bound_pairs`: the same world bounds as `collide.BroadPhase` (each geom's sphere and
-  OBB, inflated by its margin; planes as halfspaces) compared pairwise in plain numpy: no tree, no
-  sweep-and-prune, no body-level bounds. The broad phase's candidate set must *equal* it.
+- `brute_force_bound_pairs`: the same world bounds as `collide.BroadPhase` (each geom's sphere, OBB
+  and world AABB -- its OBB's cut to its capsule's --, inflated by its margin; planes as
+  halfspaces) compared pairwise in plain numpy: no tree, no sweep-and-prune, no body-level bounds.
+  The broad phase's candidate set must *equal* it.
 - `brute_force_pairs`: the pairs whose exact sets ``hull(points) ⊕ ball(radius + margin)``
   intersect, decided by GJK distance between the two hulls (numba; no bounding volume involved).
   The broad phase must report every one of them.
@@ -82,6 +83,24 @@ def world_bounds(art: Articulation, body_pos, body_rot):
     return center, rot, art.geom_obb_half.copy(), sc, art.geom_sphere_radius.copy(), plane
 
 
+def world_capsules(art: Articulation, body_pos, body_rot):
+    """World capsules of every geom, not inflated: ``(G, 3)`` half segments (``R d``) and ``(G,)``
+    radii, centred on the OBB centres of `world_bounds`."""
+    body_pos, body_rot = _check_poses(art, body_pos, body_rot)
+    Rb = body_rot[art.geom_body]
+    return np.einsum("gij,gj->gi", Rb, art.geom_capsule_half), art.geom_capsule_radius.copy()
+
+
+def _world_aabb(c, R, h, d, r):
+    # The world AABB (lo, hi) of an OBB (centre c, axes R, half extents h) cut to that of the
+    # capsule (centre c, world half segment d, radius r), each with the kernels' rounding slack
+    # (`_k.aabb_slack`, `_k.capsule_half`).
+    w = np.sum(np.abs(R) * h[:, None, :], axis=2) + (_k.SLACK_REL * h.sum(1) + _k.SLACK_POS * np.abs(c).sum(1))[:, None]
+    e = np.abs(d)
+    wc = e + (r + _k.SLACK_REL * (e.sum(1) + r) + _k.SLACK_POS * np.abs(c).sum(1))[:, None]
+    return np.maximum(c - w, c - wc), np.minimum(c + w, c + wc)
+
+
 def _sat_overlap(ca, Ra, ea, cb, Rb, eb) -> np.ndarray:
     # Generic 15-axis SAT, vectorised over n box pairs: project both boxes on each axis.
     A = np.swapaxes(Ra, 1, 2)  # rows = axes
@@ -114,13 +133,20 @@ def _plane_overlap(plane, c, R, h, sc, sr) -> np.ndarray:
     return s_ok & b_ok
 
 
-def _bounds_test(wb, g1, g2, m1, m2, is_plane) -> np.ndarray:
+def _bounds_test(wb, g1, g2, m1, m2, is_plane, caps=None) -> np.ndarray:
+    # caps: `world_capsules`, for the AABB tests of the dynamic path (explicit pairs: None, their
+    # spheres and OBBs only).
     c, R, h, sc, sr, pl = wb
     p1, p2 = is_plane[g1], is_plane[g2]
     out = np.zeros(len(g1), bool)
     both = ~p1 & ~p2
     i, j = g1[both], g2[both]
     ok = _sphere_overlap(sc[i], sr[i] + m1[both], sc[j], sr[j] + m2[both])
+    if caps is not None:
+        d, r = caps
+        lo1, hi1 = _world_aabb(c[i], R[i], h[i] + m1[both, None], d[i], r[i] + m1[both])
+        lo2, hi2 = _world_aabb(c[j], R[j], h[j] + m2[both, None], d[j], r[j] + m2[both])
+        ok &= np.all((lo1 <= hi2) & (lo2 <= hi1), axis=1)
     sel = np.flatnonzero(both)[ok]
     i, j = g1[sel], g2[sel]
     out[sel] = _sat_overlap(c[i], R[i], h[i] + m1[sel, None], c[j], R[j], h[j] + m2[sel, None])
@@ -131,7 +157,15 @@ def _bounds_test(wb, g1, g2, m1, m2, is_plane) -> np.ndarray:
     ms = np.where(p1, m2, m1)[one]
     pl_inf = pl[gp].copy()
     pl_inf[:, 3] += mp
-    out[one] = _plane_overlap(pl_inf, c[gs], R[gs], h[gs] + ms[:, None], sc[gs], sr[gs] + ms)
+    hit = _plane_overlap(pl_inf, c[gs], R[gs], h[gs] + ms[:, None], sc[gs], sr[gs] + ms)
+    if caps is not None:
+        # the AABB's corner deepest along the normal, with the kernels' slack
+        d, r = caps
+        lo, hi = _world_aabb(c[gs], R[gs], h[gs] + ms[:, None], d[gs], r[gs] + ms)
+        n, pd = pl[gp, :3], pl[gp, 3]
+        v = np.sum(n * np.where(n > 0, lo, hi), axis=1)
+        hit &= v <= (pd + mp) + _k.SLACK_POS * (np.abs(v) + np.abs(pd))
+    out[one] = hit
     return out
 
 
@@ -156,11 +190,12 @@ def _as_pairs(g1, g2) -> np.ndarray:
 def brute_force_bound_pairs(art: Articulation, body_pos, body_rot, chunk: int = 200_000) -> np.ndarray:
     """All filter-passing geom pairs whose world bounds (inflated by margins) overlap.
 
-    Overlap is the sphere test and the 15-axis separating-axis test, each with the kernels'
-    rounding slack (``SLACK_REL`` of the sizes plus ``SLACK_POS`` of the coordinates). The fast
-    path equals this set up to pairs inside that slack: it also culls with AABBs carrying the
-    same slack along the world axes, and the 15 axes can under-state a separation along a world
-    axis (vertex-vertex closest features). At ordinary scales the slack is ~1e-12 of a body's
+    Overlap is the sphere test, the world AABBs' test (each the OBB's world AABB cut to the
+    capsule's; against a plane, the corner deepest along its normal) and the 15-axis
+    separating-axis test, each with the kernels' rounding slack (``SLACK_REL`` of the sizes plus
+    ``SLACK_POS`` of the coordinates). The fast path equals this set up to pairs inside that
+    slack: it also culls with body-level bounds (which contain their geoms', up to rounding), and
+    the 15 axes can under-state a separation along a world axis (vertex-vertex closest features). At ordinary scales the slack is ~1e-12 of a body's
     size; it becomes visible only for bodies below ~1e-6 of their distance to the origin.
 
     Parameters
@@ -177,12 +212,13 @@ def brute_force_bound_pairs(art: Articulation, body_pos, body_rot, chunk: int = 
         Lower id first, rows sorted and unique; explicit pairs with their own inflation.
     """
     wb = world_bounds(art, body_pos, body_rot)
+    caps = world_capsules(art, body_pos, body_rot)
     g1, g2 = filter_passing_pairs(art)
     m = art.geom_bound_margin
     keep = []
     for s in range(0, len(g1), chunk):
         a, b = g1[s:s + chunk], g2[s:s + chunk]
-        keep.append(_bounds_test(wb, a, b, m[a], m[b], art.geom_is_plane))
+        keep.append(_bounds_test(wb, a, b, m[a], m[b], art.geom_is_plane, caps))
     keep = np.concatenate(keep) if keep else np.zeros(0, bool)
     e1, e2, em1, em2 = _explicit_margins(art, bound=True)
     ek = _bounds_test(wb, e1, e2, em1, em2, art.geom_is_plane)
