@@ -3,8 +3,9 @@
 All per-step work is one numba kernel call (`collide._kernels.broadphase`); this module lays the
 `Articulation` out as flat arrays once, owns the workspaces, and turns the kernel's status codes
 into ``ValueError`` s. See the kernel module's docstring for the pipeline: validated poses ->
-world OBBs and spheres -> subtree AABBs -> culling down the kinematic tree (a hash grid or
-sweep-and-prune at nodes with many children) -> body sphere and OBB tests -> filter -> geoms.
+world OBBs, spheres and AABBs (each OBB's cut to its capsule's) -> subtree AABBs -> culling down
+the kinematic tree (a hash grid or sweep-and-prune at nodes with many children) -> body sphere and
+OBB tests -> filter -> geoms.
 
 Example
 -------
@@ -191,8 +192,9 @@ class BroadPhase:
 
     Notes
     -----
-    A pair of geoms is reported when their bounds overlap (both spheres and both OBBs, each
-    inflated by its geom's margin; see `collide.articulation`) and the static filter passes:
+    A pair of geoms is reported when their bounds overlap (both spheres, both OBBs and both world
+    AABBs -- each the OBB's cut to the capsule's --, each inflated by its geom's margin; see
+    `collide.articulation`) and the static filter passes:
     geoms of one weld group never pair, a body never pairs with its parent unless the parent is the
     world (``filter_parent``), excluded body pairs never pair, and the masks must match
     (``(ct1 & ca2) or (ct2 & ca1)``). Explicit pairs bypass the filter and are tested with their
@@ -599,7 +601,7 @@ class BroadPhase:
     def world_bounds(self, body_pos: np.ndarray | None = None, body_rot: np.ndarray | None = None,
                      of: str = "geoms", inflate: bool = True) -> WorldBounds:
         """The world bounds of every geom (or body) at these poses: the spheres and OBBs `pairs`
-        tests, their AABBs, and the planes' halfspaces.
+        tests, their AABBs (cut to the spheres' and the capsules'), and the planes' halfspaces.
 
         For drawing the bounds, debugging a candidate pair, or feeding another spatial structure.
         Computed in numpy from the articulation's local bounds (not on the per-step path).

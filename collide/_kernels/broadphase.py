@@ -44,7 +44,8 @@ Steps 2-3 and the static filter are skipped while the body pairs kept from earli
 with frame coherence (single-world calls), each body's AABB is checked against its fat box and,
 when every one is inside, only the kept pairs' AABBs are tested (``FAT_GROW``);
 5. planes (halfspaces) down the tree, the static filter of every (plane, body) pair precomputed,
-   a multi-geom body's geoms tested in the body's frame; explicit pairs last; keys ``g1 << S | g2`` sorted (``S`` bits
+   a multi-geom body's geoms tested by their world AABBs' corners, then their spheres and boxes in
+   the body's frame; explicit pairs last (spheres and OBBs only); keys ``g1 << S | g2`` sorted (``S`` bits
    hold any geom id: decoding is a shift and a mask, not an integer division per pair), the
    body-level and the plane keys each on its own, then merged (`_sort_keys`).
 """
@@ -128,7 +129,8 @@ def pack(order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb
          children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g, pair_keys,
          filter_parent, blocal, glocal, gplane, gmargin, pair_m, flat_root, flat_n, flat_mask, bcap, gcap,
          n_virtual=0):
-    """Flatten the static model into ``I`` (int64) and ``F`` (float64); see `_views` for the order.
+    """Flatten the static model into ``I`` (int64) and ``F`` (float64); see `_views` for the order
+    (``F`` ends with the capsules ``bcap`` (L, 4) and ``gcap`` (G, 4), read by `_cap_views`).
 
     Excluded body pairs travel as lists of partners per position (``ex_other[ex_start[x]:
     ex_start[x + 1]]``, both directions): a body has none or a few, so a scan of its own list beats
@@ -435,7 +437,7 @@ def _pose_ok(r00, r01, r02, r10, r11, r12, r20, r21, r22, p0, p1, p2):
 @nb.njit(cache=True, inline="always")
 def aabb_slack(e0, e1, e2, c0, c1, c2):
     """The rounding slack added to each half-width of a world AABB (box half extents ``e``, centre
-    ``c``): the OBB test's, so that an AABB test never rejects a pair the OBB test keeps. One
+    ``c``): the OBB test's, so that rounding never lets a point of the box out of its AABB. One
     function for both kernels: the batch's lanes must round every AABB exactly as a single world
     does (a one-ulp difference lost a touching pair in `pairs_batch`)."""
     return SLACK_REL * (e0 + e1 + e2) + SLACK_POS * (abs(c0) + abs(c1) + abs(c2))
@@ -443,7 +445,8 @@ def aabb_slack(e0, e1, e2, c0, c1, c2):
 
 @nb.njit(cache=True, inline="always")
 def _place(body_rot, body_pos, b, blocal, bcap, x, bw, baabb, saabb, baabb_t, has_flat):
-    # World row of position x (body b's pose) and its AABB: the AABB of the world OBB, also the
+    # World row of position x (body b's pose) and its AABB: the AABB of the world OBB cut to its
+    # capsule's (`_cap_aabb`), also the
     # start of its subtree AABB (stage 2 merges the descendants in), and its column of baabb_t
     # when the model has flat subtrees (`_traverse` reads it there only). Six stores into six
     # rows of baabb_t cost the 64-link chain, which has none, 7 % of its step (hot 3.22 ->
@@ -1624,8 +1627,8 @@ def _counting_pass(src, s0, dst, d0, m, shift, mask, G, cnt):
 @nb.njit(cache=True, inline="always")
 def _geom_rows(x, order, gstart, pgeoms, glocal, gcap, gmargin, body_pos, body_rot, gw, gaabb, gstamp, stamp):
     # World rows and margin-inflated AABBs of the geoms of the multi-geom body at position x, once
-    # per call. The AABB gets the same slack as the OBB test: it only ever rejects pairs whose
-    # OBBs are apart.
+    # per call. Each AABB (its OBB's cut to its capsule's, with the OBB test's slack) contains the
+    # inflated shape; the capsule's cut rejects pairs whose OBBs still meet (limbs at an angle).
     if gstamp[x] == stamp:
         return
     gstamp[x] = stamp

@@ -195,8 +195,9 @@ def brute_force_bound_pairs(art: Articulation, body_pos, body_rot, chunk: int = 
     separating-axis test, each with the kernels' rounding slack (``SLACK_REL`` of the sizes plus
     ``SLACK_POS`` of the coordinates). The fast path equals this set up to pairs inside that
     slack: it also culls with body-level bounds (which contain their geoms', up to rounding), and
-    the 15 axes can under-state a separation along a world axis (vertex-vertex closest features). At ordinary scales the slack is ~1e-12 of a body's
-    size; it becomes visible only for bodies below ~1e-6 of their distance to the origin.
+    the 15 axes can under-state a separation along a world axis (vertex-vertex closest features).
+    At ordinary scales the slack is ~1e-12 of a body's size; it becomes visible only for bodies
+    below ~1e-6 of their distance to the origin.
 
     Parameters
     ----------
