@@ -446,11 +446,10 @@ def aabb_slack(e0, e1, e2, c0, c1, c2):
 @nb.njit(cache=True, inline="always")
 def _place(body_rot, body_pos, b, blocal, bcap, x, bw, baabb, saabb, baabb_t, has_flat):
     # World row of position x (body b's pose) and its AABB: the AABB of the world OBB cut to its
-    # capsule's (`_cap_aabb`), also the
-    # start of its subtree AABB (stage 2 merges the descendants in), and its column of baabb_t
-    # when the model has flat subtrees (`_traverse` reads it there only). Six stores into six
-    # rows of baabb_t cost the 64-link chain, which has none, 7 % of its step (hot 3.22 ->
-    # 2.98 us, after mj_step 4.25-4.47 -> 4.07-4.10).
+    # capsule's (`_cap_aabb`), also the start of its subtree AABB (stage 2 merges the descendants
+    # in), and its column of baabb_t when the model has flat subtrees (`_traverse` reads it there
+    # only). Six stores into six rows of baabb_t cost the 64-link chain, which has none, 7 % of its
+    # step (hot 3.22 -> 2.98 us, after mj_step 4.25-4.47 -> 4.07-4.10).
     # The slack of the OBB test (SLACK_REL of the size, SLACK_POS of the centre's magnitude): the
     # tree's AABB tests compare lo <= hi bare, and a tiny body far from the origin (1e-6 at 1e6)
     # would otherwise lose a pair the OBB test keeps (rounding of the centre > its guard).

@@ -135,6 +135,22 @@ def _lane_row(ps, b, src, s, dst, d, nv):
 
 
 @nb.njit(cache=True, inline="always")
+def _corner_in(n0, n1, n2, pd, lim, box, k, l):
+    # Lane l of AABB box[k] ((6, LANES): lo then hi) reaches the halfspace {n . x <= lim} of a
+    # plane at offset pd: its corner deepest along -n, as `broadphase._world`'s stage 5a. Both
+    # corners are loaded and one selected by value (a load under a condition keeps the loop over
+    # the lanes from vectorising).
+    lo0 = box[k, 0, l]
+    lo1 = box[k, 1, l]
+    lo2 = box[k, 2, l]
+    hi0 = box[k, 3, l]
+    hi1 = box[k, 4, l]
+    hi2 = box[k, 5, l]
+    v = n0 * (lo0 if n0 > 0 else hi0) + n1 * (lo1 if n1 > 0 else hi1) + n2 * (lo2 if n2 > 0 else hi2)
+    return v <= lim + SLACK_POS * (abs(v) + abs(pd))
+
+
+@nb.njit(cache=True, inline="always")
 def _set_bits(bits, r, m, nv):
     # Rank r in the bitset of every lane in mask m.
     wi = r >> 6
@@ -298,8 +314,7 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
                     m &= aabb_mask8(pa, wa_at + 384 * q)
                 if m != 0:
                     _lane_pair(ptr, m, a, q, single, wb, wa_at, stamp, order, gstart, pgeoms, glocal, gcap, gmargin,
-                               ps, gwl,
-                               gal, gal_at, pair_gstart, pair_geoms, bits, stats, nv)
+                               ps, gwl, gal, gal_at, pair_gstart, pair_geoms, bits, stats, nv)
             q += 1
     stats[ST_SUBTREE] += ntest * nlanes
 
@@ -327,16 +342,7 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
                 n2 = pln[i, 2, l]
                 pd = pln[i, 3, l]
                 lim = pd + mq
-                # both corners loaded, one selected by value (a load under a condition keeps the
-                # loop from vectorising)
-                lo0 = wa[x, 0, l]
-                lo1 = wa[x, 1, l]
-                lo2 = wa[x, 2, l]
-                hi0 = wa[x, 3, l]
-                hi1 = wa[x, 4, l]
-                hi2 = wa[x, 5, l]
-                v = n0 * (lo0 if n0 > 0 else hi0) + n1 * (lo1 if n1 > 0 else hi1) + n2 * (lo2 if n2 > 0 else hi2)
-                m |= np.uint64(v <= lim + SLACK_POS * (abs(v) + abs(pd))) << np.uint64(l)
+                m |= np.uint64(_corner_in(n0, n1, n2, pd, lim, wa, x, l)) << np.uint64(l)
             m &= valid
             if m == 0:
                 continue
@@ -380,14 +386,7 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
                     n2 = pln[i, 2, l]
                     pd = pln[i, 3, l]
                     lim = pd + mq
-                    lo0 = gal[g, 0, l]  # both corners loaded, one selected (see above)
-                    lo1 = gal[g, 1, l]
-                    lo2 = gal[g, 2, l]
-                    hi0 = gal[g, 3, l]
-                    hi1 = gal[g, 4, l]
-                    hi2 = gal[g, 5, l]
-                    v = n0 * (lo0 if n0 > 0 else hi0) + n1 * (lo1 if n1 > 0 else hi1) + n2 * (lo2 if n2 > 0 else hi2)
-                    cok = v <= lim + SLACK_POS * (abs(v) + abs(pd))
+                    cok = _corner_in(n0, n1, n2, pd, lim, gal, g, l)
                     ln0 = ps[bb, 3, l] * n0 + ps[bb, 6, l] * n1 + ps[bb, 9, l] * n2
                     ln1 = ps[bb, 4, l] * n0 + ps[bb, 7, l] * n1 + ps[bb, 10, l] * n2
                     ln2 = ps[bb, 5, l] * n0 + ps[bb, 8, l] * n1 + ps[bb, 11, l] * n2
