@@ -505,6 +505,14 @@ KIN = """<mujoco><worldbody>
       <body name="c" pos=".2 .1 0"><joint type="ball" pos="0 0 .1"/><geom size=".1"/>
         <body name="d" pos="0 0 .2" quat="0 1 0 0"><geom size=".1"/></body></body></body></body>
 </worldbody></mujoco>"""
+# KIN with both turning joints anchored at their body's origin and body b unrotated in a: the
+# kinematics' shortcuts (`_quat._turn`, `_quat._unit_quat`), beside KIN's general steps.
+KIN_ORIGIN = (KIN.replace(' pos=".05 0 0"', "").replace('<joint type="ball" pos="0 0 .1"/>', '<joint type="ball"/>')
+              .replace(' euler="0 30 0"', ""))
+
+
+def _kin_model(name):
+    return mujoco.MjModel.from_xml_string(KIN if name == "kinematics_mjcf" else KIN_ORIGIN)
 
 
 @pytest.mark.parametrize("xml", ["chain", "kinematics_mjcf"])
@@ -641,13 +649,13 @@ def _lane_poses(qp, arrays, ps, scratch):
                                jpos, jaxis, ps[g], np.int64(scratch.ctypes.data))
 
 
-@pytest.mark.parametrize("scene", ["kinematics_mjcf", "no_hinge", "no_joint"] + SCENES)
+@pytest.mark.parametrize("scene", ["kinematics_mjcf", "anchors_at_origin", "no_hinge", "no_joint"] + SCENES)
 def test_lane_kinematics_equal_world_kinematics_bit_for_bit(scene):
     # The fused batch computes the poses lanes at a time (`_kinematics_lanes`, into the lanes'
     # (L, 12, LANES) block) and kinematics_batch world by world (`_kinematics_world`): the same
     # operations in the same order, so the same bits, over full and partial groups of lanes.
-    if scene == "kinematics_mjcf":
-        model = mujoco.MjModel.from_xml_string(KIN)
+    if scene in ("kinematics_mjcf", "anchors_at_origin"):
+        model = _kin_model(scene)
     elif scene == "no_hinge":  # slide and ball joints only
         model = mujoco.MjModel.from_xml_string(KIN.replace('type="hinge" axis="0 1 1"', 'type="slide" axis="0 1 1"'))
     elif scene == "no_joint":  # static and mocap bodies: no joint at all
@@ -715,10 +723,10 @@ def test_pairs_batch_calls_an_overridden_kinematics_batch():
     assert calls == [9] and np.array_equal(got, cm.BroadPhase(model).pairs_batch(model, qpos)) and len(got)
 
 
-@pytest.mark.parametrize("scene", ["kinematics_mjcf"] + SCENES)
+@pytest.mark.parametrize("scene", ["kinematics_mjcf", "anchors_at_origin"] + SCENES)
 def test_kinematics_batch_matches_mj_kinematics(scene):
-    if scene == "kinematics_mjcf":
-        model = mujoco.MjModel.from_xml_string(KIN)
+    if scene in ("kinematics_mjcf", "anchors_at_origin"):
+        model = _kin_model(scene)
     else:
         model = mujoco.MjModel.from_xml_path(str(MODELS / scene / "scene.xml"))
     qpos = _random_qpos(model, 8, np.random.default_rng(7))

@@ -18,7 +18,8 @@ from numba.core import cgutils, types
 from numba.core.dispatcher import Dispatcher
 from numba.extending import intrinsic
 
-from ._quat import INV_PIO2, SINCOS_MAX, _frame_point, _qmat, _qmul, _rotate_about, _sincos_reduced, _slide
+from ._quat import (INV_PIO2, SINCOS_MAX, _frame_point, _qmat, _qmul, _rotate_about, _sincos_reduced, _slide,
+                    _turn)
 
 LANES = 8
 
@@ -211,13 +212,36 @@ def _start(builder, st, psp, xqp, bx, by, bz, e0, e1, e2, e3):
     _put(builder, st, list(p) + list(c))
 
 
-def _hinge(builder, st, scj, jx, jy, jz, u0, u1, u2):
-    """st turned by a hinge: sin and cos of its half angle at scj (2, LANES), axis u, anchor j."""
-    S = _get(builder, st, 7)
+def _start_unit(builder, st, psp, xqp, bx, by, bz):
+    """`_start` for a body whose quaternion in its parent is the identity (`_quat._unit_quat`): the
+    parent's quaternion as it is."""
+    P = _get(builder, psp, 12)
+    p = _py(_frame_point)(*P, *(_splat(builder, x) for x in (bx, by, bz)))
+    _put(builder, st, list(p) + _get(builder, xqp, 4))
+
+
+def _hinge_lq(builder, scj, u0, u1, u2):
+    # the hinge's local quaternion from sin and cos of its half angle at scj (2, LANES), axis u
     s, c = _get(builder, scj, 2)
     u = [_splat(builder, x) for x in (u0, u1, u2)]
     # `_kinematics_world`: jnt_axis[j, i] * s
-    out = _py(_rotate_about)(*S, c, u[0] * s, u[1] * s, u[2] * s, *(_splat(builder, x) for x in (jx, jy, jz)))
+    return c, u[0] * s, u[1] * s, u[2] * s
+
+
+def _hinge_origin(builder, st, scj, u0, u1, u2):
+    """`_hinge` with the anchor at the frame's origin (`_quat._turn`)."""
+    _put(builder, st, list(_py(_turn)(*_get(builder, st, 7), *_hinge_lq(builder, scj, u0, u1, u2))))
+
+
+def _ball_origin(builder, st, lq):
+    """`_ball` with the anchor at the frame's origin (`_quat._turn`)."""
+    _put(builder, st, list(_py(_turn)(*_get(builder, st, 7), *_get(builder, lq, 4))))
+
+
+def _hinge(builder, st, scj, jx, jy, jz, u0, u1, u2):
+    """st turned by a hinge: sin and cos of its half angle at scj (2, LANES), axis u, anchor j."""
+    S = _get(builder, st, 7)
+    out = _py(_rotate_about)(*S, *_hinge_lq(builder, scj, u0, u1, u2), *(_splat(builder, x) for x in (jx, jy, jz)))
     _put(builder, st, list(out))
 
 
@@ -247,7 +271,7 @@ def _finish(builder, st, xqb, psb):
 def _sincos(builder, dst, src):
     """dst (2, LANES) = sin and cos of the row at src (`_quat._sincos`; a lane beyond SINCOS_MAX, or
     NaN, gets a value to be replaced by libm's: its quadrant taken as 0, never an out-of-range
-    conversion)."""
+    conversion). src may be dst's first row: it is read before anything is written."""
     (x,) = _get(builder, src, 1)
     k = _Vec(builder, _vcall(builder, "llvm.floor", (x * INV_PIO2 + 0.5).v))
     s, c = _py(_sincos_reduced)(x, k)
@@ -285,6 +309,21 @@ def _kin_intrinsic(sig, body):
 @intrinsic
 def kin_start8(typingctx, st, psp, xqp, bx, by, bz, e0, e1, e2, e3):
     return _kin_intrinsic(_kin_sig((st, psp, xqp), (bx, by, bz, e0, e1, e2, e3)), _start)
+
+
+@intrinsic
+def kin_start8_unit(typingctx, st, psp, xqp, bx, by, bz):
+    return _kin_intrinsic(_kin_sig((st, psp, xqp), (bx, by, bz)), _start_unit)
+
+
+@intrinsic
+def kin_hinge8_origin(typingctx, st, scj, u0, u1, u2):
+    return _kin_intrinsic(_kin_sig((st, scj), (u0, u1, u2)), _hinge_origin)
+
+
+@intrinsic
+def kin_ball8_origin(typingctx, st, lq):
+    return _kin_intrinsic(_kin_sig((st, lq), ()), _ball_origin)
 
 
 @intrinsic

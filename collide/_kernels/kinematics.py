@@ -21,8 +21,10 @@ import numba as nb
 import numpy as np
 
 from ._ptr import f64_ptr, i32_ptr, i64_ptr
-from ._quat import SINCOS_MAX, _frame_point, _qmat, _qmul, _qnorm, _rotate_about, _sincos, _slide
-from ._simd import kin_ball8, kin_finish8, kin_hinge8, kin_slide8, kin_start8, sincos8
+from ._quat import (SINCOS_MAX, _frame_point, _qmat, _qmul, _qnorm, _rotate_about, _sincos, _slide, _turn, _unit_quat,
+                    _zero3)
+from ._simd import (kin_ball8, kin_ball8_origin, kin_finish8, kin_hinge8, kin_hinge8_origin, kin_slide8, kin_start8,
+                    kin_start8_unit, sincos8)
 from ._threads import set_chunksize
 from .broadphase import CI_KEYS, N_STATS, chunk_buffers, gather_batch
 from .lanes import J_NR, LANES, _lane_group, lane_buffers, lane_poses
@@ -69,8 +71,11 @@ def _kinematics_world(q, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
                                       out_rot[p, 0, 2], out_rot[p, 1, 0], out_rot[p, 1, 1], out_rot[p, 1, 2],
                                       out_rot[p, 2, 0], out_rot[p, 2, 1], out_rot[p, 2, 2], body_pos[b, 0],
                                       body_pos[b, 1], body_pos[b, 2])
-            c0, c1, c2, c3 = _qmul(xquat[p, 0], xquat[p, 1], xquat[p, 2], xquat[p, 3],
-                                   body_quat[b, 0], body_quat[b, 1], body_quat[b, 2], body_quat[b, 3])
+            if _unit_quat(body_quat, b):
+                c0, c1, c2, c3 = xquat[p, 0], xquat[p, 1], xquat[p, 2], xquat[p, 3]
+            else:
+                c0, c1, c2, c3 = _qmul(xquat[p, 0], xquat[p, 1], xquat[p, 2], xquat[p, 3],
+                                       body_quat[b, 0], body_quat[b, 1], body_quat[b, 2], body_quat[b, 3])
             for j in range(ja, ja + jn):
                 a = jnt_qposadr[j]
                 t = jnt_type[j]
@@ -83,8 +88,11 @@ def _kinematics_world(q, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
                 else:
                     s = sc[j, 0]
                     l0, l1, l2, l3 = sc[j, 1], jnt_axis[j, 0] * s, jnt_axis[j, 1] * s, jnt_axis[j, 2] * s
-                p0, p1, p2, c0, c1, c2, c3 = _rotate_about(p0, p1, p2, c0, c1, c2, c3, l0, l1, l2, l3, jnt_pos[j, 0],
-                                                           jnt_pos[j, 1], jnt_pos[j, 2])
+                if _zero3(jnt_pos, j):
+                    p0, p1, p2, c0, c1, c2, c3 = _turn(p0, p1, p2, c0, c1, c2, c3, l0, l1, l2, l3)
+                else:
+                    p0, p1, p2, c0, c1, c2, c3 = _rotate_about(p0, p1, p2, c0, c1, c2, c3, l0, l1, l2, l3,
+                                                               jnt_pos[j, 0], jnt_pos[j, 1], jnt_pos[j, 2])
         c0, c1, c2, c3 = _qnorm(c0, c1, c2, c3)
         xquat[b, 0] = c0
         xquat[b, 1] = c1
@@ -127,17 +135,28 @@ def _kinematics_lanes(qp, g0, nl, qpos0, body_parent, body_pos, body_quat, body_
     sc = nb.carray(f64_ptr(sca), (nj, 2, LANES))
     st = nb.carray(f64_ptr(sta), (7, LANES))
     tmp = nb.carray(f64_ptr(tma), (4, LANES))
+    # The hinges' half angles, every one written (into its sine's row) before the first is read
+    # back as a vector: a vector load of four scalar stores still in flight waits for all of them
+    # to retire (no store-to-load forwarding; humanoid, AMD EPYC: that load held ~9 % of this
+    # function's samples, `tests/bench/jitprof.py`). Then sin and cos in place.
+    far = False
     for j in range(nj):
         if jnt_type[j] == JNT_HINGE:
             a = jnt_qposadr[j]
-            far = False
             for l in range(LANES):
-                tmp[0, l] = 0.5 * (qp[g0 + l if l < nl else g0, a] - qpos0[a])
-                far |= not abs(tmp[0, l]) <= SINCOS_MAX
-            sincos8(sca + 2 * R * j, tma)
-            for l in range(LANES if far else 0):
-                if not abs(tmp[0, l]) <= SINCOS_MAX:
-                    sc[j, 0, l], sc[j, 1, l] = np.sin(tmp[0, l]), np.cos(tmp[0, l])
+                x = 0.5 * (qp[g0 + l if l < nl else g0, a] - qpos0[a])
+                sc[j, 0, l] = x
+                far |= not abs(x) <= SINCOS_MAX
+    for j in range(nj):
+        if jnt_type[j] == JNT_HINGE:
+            sincos8(sca + 2 * R * j, sca + 2 * R * j)
+    for j in range(nj if far else 0):
+        if jnt_type[j] == JNT_HINGE:
+            a = jnt_qposadr[j]
+            for l in range(LANES):
+                x = 0.5 * (qp[g0 + l if l < nl else g0, a] - qpos0[a])
+                if not abs(x) <= SINCOS_MAX:
+                    sc[j, 0, l], sc[j, 1, l] = np.sin(x), np.cos(x)
     for l in range(LANES):
         xq[0, 0, l], xq[0, 1, l], xq[0, 2, l], xq[0, 3, l] = 1.0, 0.0, 0.0, 0.0
         for i in range(12):
@@ -153,20 +172,29 @@ def _kinematics_lanes(qp, g0, nl, qpos0, body_parent, body_pos, body_quat, body_
                                                                 qp[w, a + 6])
         else:
             p = body_parent[b]
-            kin_start8(sta, psa + 12 * R * p, xqa + 4 * R * p, body_pos[b, 0], body_pos[b, 1], body_pos[b, 2],
-                       body_quat[b, 0], body_quat[b, 1], body_quat[b, 2], body_quat[b, 3])
+            if _unit_quat(body_quat, b):
+                kin_start8_unit(sta, psa + 12 * R * p, xqa + 4 * R * p, body_pos[b, 0], body_pos[b, 1], body_pos[b, 2])
+            else:
+                kin_start8(sta, psa + 12 * R * p, xqa + 4 * R * p, body_pos[b, 0], body_pos[b, 1], body_pos[b, 2],
+                           body_quat[b, 0], body_quat[b, 1], body_quat[b, 2], body_quat[b, 3])
             for j in range(ja, ja + jn):
                 a = jnt_qposadr[j]
                 t = jnt_type[j]
                 if t == JNT_HINGE:
-                    kin_hinge8(sta, sca + 2 * R * j, jnt_pos[j, 0], jnt_pos[j, 1], jnt_pos[j, 2], jnt_axis[j, 0],
-                               jnt_axis[j, 1], jnt_axis[j, 2])
+                    if _zero3(jnt_pos, j):
+                        kin_hinge8_origin(sta, sca + 2 * R * j, jnt_axis[j, 0], jnt_axis[j, 1], jnt_axis[j, 2])
+                    else:
+                        kin_hinge8(sta, sca + 2 * R * j, jnt_pos[j, 0], jnt_pos[j, 1], jnt_pos[j, 2], jnt_axis[j, 0],
+                                   jnt_axis[j, 1], jnt_axis[j, 2])
                 elif t == JNT_BALL:
                     for l in range(LANES):
                         w = g0 + l if l < nl else g0
                         tmp[0, l], tmp[1, l], tmp[2, l], tmp[3, l] = _qnorm(qp[w, a], qp[w, a + 1], qp[w, a + 2],
                                                                             qp[w, a + 3])
-                    kin_ball8(sta, tma, jnt_pos[j, 0], jnt_pos[j, 1], jnt_pos[j, 2])
+                    if _zero3(jnt_pos, j):
+                        kin_ball8_origin(sta, tma)
+                    else:
+                        kin_ball8(sta, tma, jnt_pos[j, 0], jnt_pos[j, 1], jnt_pos[j, 2])
                 else:  # slide (a free joint is a body's only joint)
                     for l in range(LANES):
                         tmp[0, l] = qp[g0 + l if l < nl else g0, a] - qpos0[a]
