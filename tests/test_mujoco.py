@@ -574,13 +574,16 @@ def test_pairs_batch_sees_the_models_arrays_changed_in_place():
     assert np.array_equal(bp.pairs_batch(model, qpos), before)
 
 
-def test_pairs_batch_names_every_non_finite_qpos_entry():
+@pytest.mark.parametrize("kin", ["kinematics_mjcf", "anchors_at_origin"])
+def test_pairs_batch_names_every_non_finite_qpos_entry(kin):
     # A float64 C-contiguous qpos goes to the lane kernel unchecked (`pairs_batch`): every NaN or
     # inf entry, of every joint type (free position and quaternion, hinge, slide, ball), must make
     # a pose the kernel refuses, and the error then names the qpos entry, as the full check does
     # for any other input (a list, a float32 or strided array). A hinge on a body without geoms
     # too (its pose is checked all the same), in a full group of lanes (world 3) and a partial one.
-    xml = KIN.replace('size=".1"', 'size=".25"').replace(
+    # With the joints anchored at their bodies' origins (`_quat._turn`) a NaN angle leaves the
+    # position finite, and the rotation alone carries it to the pose check.
+    xml = (KIN if kin == "kinematics_mjcf" else KIN_ORIGIN).replace('size=".1"', 'size=".25"').replace(
         '<body name="d" pos="0 0 .2" quat="0 1 0 0"><geom size=".25"/></body>',
         '<body name="d" pos="0 0 .2" quat="0 1 0 0"><geom size=".25"/></body>'
         '<body name="e" pos="0 .2 0"><joint type="hinge" axis="1 0 0"/>'
@@ -680,6 +683,50 @@ def test_lane_kinematics_equal_world_kinematics_bit_for_bit(scene):
     g, last = divmod(len(qpos) - 1, LANES)
     assert np.array_equal(ps[g, :, :3, last + 1], pos[g * LANES])
     assert np.array_equal(ps[g, :, 3:, last + 1], rot[g * LANES].reshape(-1, 9))
+
+
+@numba.njit  # not cached: see _lane_poses
+def _shortcuts(q, lq, out):
+    # Row i: `_quat._turn` and `_rotate_about` about a zero anchor, then the product by the
+    # identity quaternion and the quaternion itself (the kinematics' two shortcuts and what they
+    # replace), each frame at position (0.3, -0.2, 0.1).
+    for i in range(q.shape[0]):
+        c0, c1, c2, c3 = q[i, 0], q[i, 1], q[i, 2], q[i, 3]
+        l0, l1, l2, l3 = lq[i, 0], lq[i, 1], lq[i, 2], lq[i, 3]
+        t = _quat._turn(0.3, -0.2, 0.1, c0, c1, c2, c3, l0, l1, l2, l3)
+        r = _quat._rotate_about(0.3, -0.2, 0.1, c0, c1, c2, c3, l0, l1, l2, l3, 0.0, 0.0, 0.0)
+        u = _quat._qmul(c0, c1, c2, c3, 1.0, 0.0, 0.0, 0.0)
+        m = _quat._qmat(c0, c1, c2, c3)
+        for k in range(7):
+            out[i, 0, k] = t[k]
+            out[i, 1, k] = r[k]
+        for k in range(4):
+            out[i, 2, k] = u[k]
+            out[i, 3, k] = q[i, k]
+        for k in range(3):
+            out[i, 2, 4 + k] = m[k]
+
+
+def test_kinematics_shortcuts_give_the_general_steps_values():
+    # A joint anchored at its body's origin turns the quaternion only (`_quat._turn`) and an
+    # identity body quaternion is not multiplied in: the same values as the general steps (a
+    # zero's sign aside) on random unit quaternions. With a NaN in the quaternion the shortcut's
+    # position stays finite, but every entry of the rotation it makes is NaN, so the pose check
+    # refuses the body all the same.
+    rng = np.random.default_rng(23)
+    q = rng.normal(size=(2000, 4))
+    q /= np.linalg.norm(q, axis=1)[:, None]
+    lq = rng.normal(size=(2000, 4))
+    lq /= np.linalg.norm(lq, axis=1)[:, None]
+    q[:5] = [[1, 0, 0, 0], [0, 1, 0, 0], [-0.0, 0, 0, 1], [0.5, -0.5, 0.5, -0.5], [1, -0.0, 0, -0.0]]
+    out = np.zeros((len(q), 4, 7))
+    _shortcuts(q, lq, out)
+    assert np.array_equal(out[:, 0], out[:, 1])  # == on floats: +0 and -0 are equal
+    assert np.array_equal(out[:, 2, :4], out[:, 3, :4])
+    q[:, 1] = np.nan
+    _shortcuts(q, lq, out)
+    assert np.all(np.isfinite(out[:, 0, :3])) and np.all(np.isnan(out[:, 1, :3]))
+    assert np.all(np.isnan(out[:, 0, 3:])) and np.all(np.isnan(out[:, 2, 4:]))
 
 
 @numba.njit  # not cached: see _lane_poses

@@ -136,8 +136,8 @@ def _kinematics_lanes(qp, g0, nl, qpos0, body_parent, body_pos, body_quat, body_
     st = nb.carray(f64_ptr(sta), (7, LANES))
     tmp = nb.carray(f64_ptr(tma), (4, LANES))
     # The hinges' half angles, every one written (into its sine's row) before the first is read
-    # back as a vector: a vector load of four scalar stores still in flight waits for all of them
-    # to retire (no store-to-load forwarding; humanoid, AMD EPYC: that load held ~9 % of this
+    # back as a vector: a vector load of scalar stores still in flight waits for all of them to
+    # retire (no store-to-load forwarding; humanoid, AMD EPYC: that load held ~6 % of this
     # function's samples, `tests/bench/jitprof.py`). Then sin and cos in place.
     far = False
     for j in range(nj):
