@@ -17,7 +17,8 @@ Recall is checked on the way (every MuJoCo contact pair must be
 among ours).
 
 The floor: the same loop again (same controls) with a `BroadPhase` whose ``pairs(data)`` keeps the
-Python wrapper and the call through numba's dispatcher but does no work (`_Floor`). After
+Python wrapper and a compiled call made as ours is made (the compiled function's entry point, past
+numba's dispatcher: `collide._kernels.broadphase.step_bound`) but does no work (`_Floor`). After
 ``mj_step`` that costs 1-4 us on the AMD machine (code and data the engine's step evicted): no
 kernel behind a Python call takes less there, so where the floor ratio nears 1 the target of 1.0x
 MuJoCo's broad phase is out of reach for any such kernel.
@@ -69,19 +70,26 @@ def _cpu() -> str:
     return platform.processor() or "unknown cpu"
 
 
-@numba.njit(cache=True)
+@numba.njit("int64(int64)", cache=True)
 def _no_op(addr):
     # The floor's compiled call: takes the context address as the kernel does, does nothing.
     return (addr & 0) + 1
 
 
+# Called as `pairs(data)` calls the kernel: through the compiled function's entry point, not the
+# dispatcher (`collide._kernels.broadphase.step_bound`). Through the dispatcher the floor read
+# 1.4 us more on humanoid and 8 us more on 22 humanoids after mj_step (a no-op timed both ways in
+# the loop, AMD EPYC, 2026-11-28): more than our call pays.
+_no_op_entry = _no_op.overloads[_no_op.signatures[0]].entry_point
+
+
 class _Floor(cm.BroadPhase):
     """`collide.mujoco.BroadPhase` whose ``pairs(data)`` does everything but the work: the same Python
-    wrapper (its attribute reads and tests), one compiled call on the context address through
-    numba's dispatcher, and a one-row view of the output arena returned (rows never advanced: the
-    arena never fills). What any numba kernel behind a Python call pays after ``mj_step``, cold
-    caches included: timed in the same loop as ours (`collide.mujoco.compare`, same controls), the
-    floor of our per-step time on this machine."""
+    wrapper (its attribute reads and tests), one compiled call on the context address through the
+    compiled function's entry point (as ours), and a one-row view of the output arena returned
+    (rows never advanced: the arena never fills). What any numba kernel behind a Python call pays
+    after ``mj_step``, cold caches included: timed in the same loop as ours
+    (`collide.mujoco.compare`, same controls), the floor of our per-step time on this machine."""
 
     def pairs(self, data):
         bp = self.broadphase
@@ -90,7 +98,7 @@ class _Floor(cm.BroadPhase):
             bp.bind(data.xpos, data.xmat.reshape(-1, 3, 3))
             self._views_of = data
             self._views = bp._bound
-        k = _no_op(bp._ctx_addr)
+        k = _no_op_entry(bp._ctx_addr)
         if k < 0:
             raise RuntimeError("unreachable")
         if k == 0:
