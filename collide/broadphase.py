@@ -491,10 +491,13 @@ class BroadPhase:
 
         Returns
         -------
-        pairs : (K, 2) int32
-            Geom ids, lower id first, rows sorted and unique. A view of rows that this broad phase
-            never writes again (later calls fill other rows), so it may be kept and modified like
-            a copy; its ``base`` is a larger arena, freed with the last view that holds it.
+        pairs : (K, 2) int32, read-only
+            Geom ids, lower id first, rows sorted and unique. A read-only view of rows that this
+            broad phase never writes again (later calls fill other rows), so it may be kept; its
+            ``base`` is a larger arena, freed with the last view that holds it. When the pairs are
+            those of the last call that found any, that call's array is returned again (``is``
+            tells): most steps of a simulation loop, where a new view would cost more than the
+            test (~1-2 us after ``mujoco.mj_step``). Copy it (``np.array(pairs)``) to modify it.
 
         Raises
         ------
@@ -520,12 +523,15 @@ class BroadPhase:
             if k < 0:
                 body_pos, body_rot = self._check(body_pos, body_rot, ())
                 k = self._rerun(body_pos, body_rot, self._step(body_pos, body_rot, self._ctx))
+        if k >= _k.RET_SAME:  # the pairs of the last non-empty result: its array again
+            return self._last
         if k > 0:
             o = self._arena_used  # `_take`, written out: a Python call costs ~0.1 us
             e = o + k
             if e <= self._arena_rows:
                 self._arena_used = e
-                return self._arena[o:e]
+                out = self._last = self._arena[o:e]
+                return out
             return self._take(k)
         return self._empty
 
@@ -561,29 +567,40 @@ class BroadPhase:
 
     def _new_arena(self, rows: int) -> None:
         # The (rows, 2) int32 output arena: each call's pairs are written by the kernel into the next
-        # free rows and handed out as a view. Rows are never written twice; a full arena is left
-        # to the views that hold it (freed with the last of them) and a new one started.
-        self._arena = np.empty((rows, 2), np.int32)
+        # free rows and handed out as a read-only view. Rows are never written twice; a full arena
+        # is left to the views that hold it (freed with the last of them) and a new one started.
+        # The kernel writes through its address; _take through the writable array itself.
+        self._arena_w = np.empty((rows, 2), np.int32)
+        self._arena = self._arena_w.view()
+        self._arena.flags.writeable = False
         self._arena_rows = rows
         self._arena_used = 0
-        self._ctx[_k.C_OUT] = self._arena.ctypes.data
+        self._ctx[_k.C_OUT] = self._arena_w.ctypes.data
         self._ctx[_k.C_NOUT] = rows
         self._ctx[_k.C_OFF] = 0
+        self._ctx[_k.C_LAST] = -1  # no result in this arena to compare with (see `_k._step`)
+        self._ctx[_k.C_NLAST] = -1
+        self._last = None
 
     def _take(self, k: int) -> np.ndarray:
-        # The k > 0 pairs of the step just run, as fresh rows of the arena. The kernel wrote them
-        # there when they fitted (and advanced ctx[C_OFF] as this advances _arena_used), else
-        # over the keys buffer: then they are copied into a new arena.
+        # The k > 0 pairs of the step just run, as fresh rows of the arena, recorded as the last
+        # result (`_last`: the kernel's RET_SAME hands it out again). The kernel wrote them there
+        # when they fitted (and advanced ctx[C_OFF] as this advances _arena_used), else over the
+        # keys buffer: then they are copied into a new arena.
         o = self._arena_used
         e = o + k
         if e <= self._arena_rows:
             self._arena_used = e
-            return self._arena[o:e]
+            out = self._last = self._arena[o:e]
+            return out
         self._new_arena(max(ARENA_ROWS, 4 * k))
-        self._arena[:k] = self._out[:k]
+        self._arena_w[:k] = self._out[:k]
         self._arena_used = k
         self._ctx[_k.C_OFF] = k
-        return self._arena[:k]
+        self._ctx[_k.C_LAST] = 0
+        self._ctx[_k.C_NLAST] = k
+        out = self._last = self._arena[:k]
+        return out
 
     def _rerun(self, body_pos, body_rot, k: int) -> int:
         # A bad pose raises; a full buffer is grown and the step rerun (never drop a pair).

@@ -62,6 +62,7 @@ import numpy as np
 from . import shapes
 from ._kernels import _clock
 from ._kernels import kinematics as _kin
+from ._kernels.broadphase import RET_SAME as _RET_SAME
 from ._validate import as_array, as_count
 from .articulation import Articulation
 from .broadphase import BroadPhase as _BroadPhase
@@ -457,6 +458,7 @@ class BroadPhase:
         self.articulation = articulation(model)
         self.broadphase = _BroadPhase(self.articulation, coherent)
         self._empty2 = np.zeros((0, 2), dtype=np.int32)
+        self._empty2.flags.writeable = False
         self._empty3 = np.zeros((0, 3), dtype=np.int32)
         self._disabled = _contacts_disabled(model)
         self._views_of = _NOT_BOUND  # the MjData whose arrays are bound (none yet; None is not an MjData)
@@ -483,7 +485,9 @@ class BroadPhase:
         if self._no_function is None or len(pairs) == 0:
             return pairs
         nf = self._no_function
-        return pairs[~(nf[pairs[:, first]] & nf[pairs[:, first + 1]])]
+        out = pairs[~(nf[pairs[:, first]] & nf[pairs[:, first + 1]])]
+        out.flags.writeable = False  # read-only as every other result
+        return out
 
     @property
     def stats(self):
@@ -500,8 +504,9 @@ class BroadPhase:
 
         Returns
         -------
-        pairs : (K, 2) int32
-            Geom ids, lower first, rows sorted and unique; rows never written again, as in
+        pairs : (K, 2) int32, read-only
+            Geom ids, lower first, rows sorted and unique; rows never written again, and the last
+            non-empty call's array again when its pairs are the same, as in
             `collide.BroadPhase.pairs`.
         """
         bp = self.broadphase
@@ -526,15 +531,18 @@ class BroadPhase:
                     raise ValueError("data: body poses are all zero; run mujoco.mj_kinematics, "
                                      "mj_forward or mj_step on it first") from exc
                 raise
-        if k == 0:
+        if k >= _RET_SAME:  # the pairs of the last non-empty result: its array again
+            out = bp._last
+        elif k == 0:
             return self._empty2
-        o = bp._arena_used  # BroadPhase._take, written out
-        e = o + k
-        if e <= bp._arena_rows:
-            bp._arena_used = e
-            out = bp._arena[o:e]
         else:
-            out = bp._take(k)
+            o = bp._arena_used  # BroadPhase._take, written out
+            e = o + k
+            if e <= bp._arena_rows:
+                bp._arena_used = e
+                out = bp._last = bp._arena[o:e]
+            else:
+                out = bp._take(k)
         return out if self._no_function is None else self._drop_null(out, 0)
 
     def world_bounds(self, data: mujoco.MjData, of: str = "geoms", inflate: bool = True):

@@ -554,7 +554,9 @@ def test_wrong_shapes_and_dtypes_raise(robot_bp):
 def test_results_are_not_overwritten_by_the_next_call(robot_bp, monkeypatch):
     # The kernel writes each call's pairs into fresh rows of an output arena and a full arena is
     # replaced: every result must stay as it was through later calls, whatever the arena's size
-    # (7 rows: replaced every call or two; 1 row: every result is copied into a new one).
+    # (7 rows: replaced every call or two; 1 row: every result is copied into a new one). Results
+    # are read-only; a caller that makes one writable and writes into it gets correct pairs from
+    # the next call with the same poses (the kernel compares the rows, not a flag).
     sc, bp = robot_bp
     rng = np.random.default_rng(4)
     calls = [sc.poses(rng) for _ in range(8)]
@@ -566,12 +568,63 @@ def test_results_are_not_overwritten_by_the_next_call(robot_bp, monkeypatch):
             monkeypatch.setattr(collide.broadphase, "ARENA_ROWS", rows)  # the size of new arenas
             bp._new_arena(rows)
             kept = [bp.pairs(pos, rot) for pos, rot in calls]
-            for pos, rot in calls:
-                bp.pairs(pos, rot)[:] = -1  # a caller writing into its own result
+            for (pos, rot), w in zip(calls, want):
+                got = bp.pairs(pos, rot)
+                assert np.array_equal(got, w) and not got.flags.writeable
+                if len(got):
+                    with pytest.raises(ValueError, match="read-only"):
+                        got[0, 0] = -1
+                    mine = bp.pairs(pos, rot)
+                    assert mine is got  # the same pairs as the last call: its array again
+                    mine.flags.writeable = True  # its base, the arena, is writable: allowed
+                    mine[:] = -1  # a caller writing into its own result
+                    again = bp.pairs(pos, rot)
+                    assert again is not mine and np.array_equal(again, w) and not again.flags.writeable
             for a, w in zip(kept, want):
                 assert np.array_equal(a, w)
             if rows < ARENA_ROWS:
                 assert len({id(a.base) for a in kept if len(a)}) > 1  # arenas were replaced
+    finally:
+        monkeypatch.undo()
+        bp._new_arena(ARENA_ROWS)
+
+
+@pytest.mark.parametrize("rows", [ARENA_ROWS, 5], ids=["arena", "small_arena"])
+def test_the_last_results_array_is_handed_out_again(robot_bp, monkeypatch, rows):
+    # Pairs equal to the last result come back as that same array (no new view), through both
+    # entries (explicit arrays and bound ones), with arenas replaced (5 rows: most results copied
+    # into a new arena, `_take`); different pairs, or the same as an older result, come as a new
+    # array. (An empty result in between: test_mujoco.py.)
+    sc, bp = robot_bp
+    rng = np.random.default_rng(14)
+    calls = [sc.poses(rng) for _ in range(30)]
+    want = [testing.brute_force_bound_pairs(sc.articulation, pos, rot) for pos, rot in calls]
+    hit = [i for i, w in enumerate(want) if len(w)]
+
+    def differ(i, j):
+        return not np.array_equal(want[i], want[j])
+
+    a, b, c = next((i, j, k) for i in hit for j in hit for k in hit if differ(i, j) and differ(j, k) and differ(i, k))
+    L = sc.articulation.body_count
+    pos_b, rot_b = np.zeros((L, 3)), np.zeros((L, 3, 3))
+    try:
+        monkeypatch.setattr(collide.broadphase, "ARENA_ROWS", rows)
+        bp._new_arena(rows)
+        bp.bind(pos_b, rot_b)
+        seq = [a, a, b, b, c, b, a, a, c, c, a]
+        same_as_last = [False, True, False, True, False, False, False, True, False, True, False]
+        last = None
+        for n, (i, same) in enumerate(zip(seq, same_as_last)):
+            pos, rot = calls[i]
+            if n % 2:
+                pos_b[:], rot_b[:] = pos, rot
+                got = bp.pairs()
+            else:
+                got = bp.pairs(pos, rot)
+            assert not got.flags.writeable
+            assert np.array_equal(got, want[i])
+            assert (got is last) == same, (n, i)
+            last = got
     finally:
         monkeypatch.undo()
         bp._new_arena(ARENA_ROWS)

@@ -807,6 +807,26 @@ def test_pairs_follows_the_data_it_is_given():
     assert len(bp.pairs(far)) == 0
 
 
+def test_unchanged_pairs_come_back_as_the_same_read_only_array():
+    # pairs(data) on poses whose pairs are those of the last call: that call's array again.
+    xml = CLUSTER.format(_free_sphere("a", "0 0 0") + _free_sphere("b", ".15 0 0"))
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    bp = cm.BroadPhase(model)
+    first = bp.pairs(data)
+    assert len(first) == 1 and not first.flags.writeable
+    mujoco.mj_step(model, data)  # the spheres move a little: the same pair
+    assert bp.pairs(data) is first
+    data.qpos[7] += 5.0
+    mujoco.mj_forward(model, data)
+    assert len(bp.pairs(data)) == 0
+    data.qpos[7] -= 5.0
+    mujoco.mj_forward(model, data)
+    again = bp.pairs(data)  # the same pair as the last call that found any
+    assert again is first and np.array_equal(first, [[0, 1]])
+
+
 def test_data_before_kinematics_is_reported():
     model = mujoco.MjModel.from_xml_string(CHAIN.format(fp="enable"))
     with pytest.raises(ValueError, match="mj_kinematics"):
