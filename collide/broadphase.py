@@ -16,8 +16,8 @@ Measured (tests/bench/broadphase.txt and mujoco_models.txt, 2 shared cores; see 
 the figures of the latest run): random convex hulls from 256 bodies (64 in most runs) take less
 time than MuJoCo 4.0's broad phase (~0.25x at 4096 bodies) with 3-4x fewer candidates. Small scenes are dominated by
 fixed costs: around the kernel's own work, the Python call into numba, the keys-to-rows conversion
-and the copy of the result add ~1 us (franka, hot: 0.9 us of work, 2.0 us per call with the
-arrays passed, 1.9 with them bound by `bind`), and in a simulation loop the first call after
+and the view of the result add ~1 us (franka, hot: 0.9 us of work, 2.0 us per call with the
+arrays passed, 1.9 with them bound by `bind`; an unchanged result is handed out again, no view), and in a simulation loop the first call after
 ``mj_step`` runs 1.3-1.6x slower than a repeat (caches and predictors left to MuJoCo's code and
 data). Batches of a small model (`pairs_batch`) run eight worlds at a time in SIMD lanes
 (`_kernels.lanes`): per world, 0.5x to 0.8x of MuJoCo's single-world broad-phase time on one core
@@ -496,8 +496,9 @@ class BroadPhase:
             broad phase never writes again (later calls fill other rows), so it may be kept; its
             ``base`` is a larger arena, freed with the last view that holds it. When the pairs are
             those of the last call that found any, that call's array is returned again (``is``
-            tells): most steps of a simulation loop, where a new view would cost more than the
-            test (~1-2 us after ``mujoco.mj_step``). Copy it (``np.array(pairs)``) to modify it.
+            tells): most steps of most robots in a simulation loop, where a new view costs more
+            than the test (1.4-5.9 us after ``mujoco.mj_step``, see `_kernels.broadphase._step`).
+            Copy it (``np.array(pairs)``) to modify it.
 
         Raises
         ------
@@ -523,6 +524,8 @@ class BroadPhase:
             if k < 0:
                 body_pos, body_rot = self._check(body_pos, body_rot, ())
                 k = self._rerun(body_pos, body_rot, self._step(body_pos, body_rot, self._ctx))
+        # The kernel recorded its rows (ctx C_OFF, C_LAST) before returning: _arena_used and _last
+        # follow them here, with nothing in between that could raise but an asynchronous exception.
         if k >= _k.RET_SAME:  # the pairs of the last non-empty result: its array again
             return self._last
         if k > 0:

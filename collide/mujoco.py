@@ -469,6 +469,7 @@ class BroadPhase:
         # is NULL there): such pairs never make contacts and are removed after the kernel.
         types = np.asarray(model.geom_type)
         self._no_function = None
+        self._null_in = self._null_out = None  # _drop_null's last input and output (pairs())
         if np.any(types == _GEOM.mjGEOM_HFIELD):
             self._no_function = (types == _GEOM.mjGEOM_HFIELD) | (types == _GEOM.mjGEOM_PLANE)
 
@@ -484,9 +485,13 @@ class BroadPhase:
     def _drop_null(self, pairs: np.ndarray, first: int) -> np.ndarray:
         if self._no_function is None or len(pairs) == 0:
             return pairs
+        if first == 0 and pairs is self._null_in:  # pairs() handed out its last result again
+            return self._null_out
         nf = self._no_function
         out = pairs[~(nf[pairs[:, first]] & nf[pairs[:, first + 1]])]
-        out.flags.writeable = False  # read-only as every other result
+        if first == 0:  # pairs(): read-only, and the same array again while its input is
+            out.flags.writeable = False
+            self._null_in, self._null_out = pairs, out
         return out
 
     @property

@@ -827,6 +827,21 @@ def test_unchanged_pairs_come_back_as_the_same_read_only_array():
     assert again is first and np.array_equal(first, [[0, 1]])
 
 
+def test_unchanged_pairs_on_a_heightfield_model_come_back_as_the_same_array():
+    # A model with a heightfield has its pairs without a collision function dropped after the
+    # kernel (`_drop_null`): the filtered array too comes back while the pairs are unchanged.
+    model = mujoco.MjModel.from_xml_string(TYPES)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    bp = cm.BroadPhase(model)
+    assert bp._no_function is not None  # the filtered path
+    first = bp.pairs(data)
+    assert len(first) >= 9 and not first.flags.writeable
+    assert bp.pairs(data) is first
+    mujoco.mj_step(model, data)  # everything at rest, or nearly: the same pairs
+    assert bp.pairs(data) is first
+
+
 def test_data_before_kinematics_is_reported():
     model = mujoco.MjModel.from_xml_string(CHAIN.format(fp="enable"))
     with pytest.raises(ValueError, match="mj_kinematics"):

@@ -1715,7 +1715,8 @@ def _explicit_hit(i, pair_g, pair_m, gmargin, gplane, geom_bid, glocal, body_pos
 # arena of (C_NOUT, 2) int32 rows filled from C_OFF on (see `_step`). `context` leaves these five; C_CL:
 # the address of the kept body-pair list (0: no frame coherence, see ``FAT_GROW``). C_LAST, C_NLAST:
 # the arena row and count of the last non-empty result (-1: none to compare with), which `_step`
-# reports again as `RET_SAME` when its pairs are the same; `context` leaves them too.
+# reports again as `RET_SAME` when its pairs are the same; `context` leaves them too (a zeroed row,
+# as the batch's, never matches: C_NLAST 0 against K > 0).
 (C_I, C_NI, C_F, C_NF, C_W, C_NW, C_SAP, C_NSAP, C_BP, C_NBP, C_KEYS, C_NKEYS, C_SCR, C_NSCR, C_STATS,
  C_INFO, C_POS, C_ROT, C_OUT, C_NOUT, C_OFF, C_CL, C_LAST, C_NLAST) = range(24)
 NCTX = 24
@@ -1832,7 +1833,7 @@ def _step_impl(body_pos, body_rot, ctx):
         # (having made it writable) gets new rows.
         prev = nb.carray(i32_ptr(ctx[C_OUT] + 8 * last), (k, 2))
         same = True
-        for i in range(k):
+        for i in range(k):  # no early exit: a pass over K rows, cheaper than a branch per row
             v = keys[i]
             same &= (prev[i, 0] == (v >> S)) & (prev[i, 1] == (v & mask))
         if same:

@@ -11,7 +11,8 @@ each stage mark, a copy of the package is made with an early return inserted int
 kernel (`collide._kernels.broadphase._world`) just before that mark, and the copies are timed
 side by side with the unchanged package, in one process, on the same states:
 
-- hot: ``_step_bound(addr)`` called ``--calls`` times on one pose (the minimum of 11 repeats);
+- hot: ``_step_bound(addr)`` called ``--calls`` times on one pose (the minimum of 11 repeats;
+  from the second call on the kernel finds the last result's pairs again and writes no rows);
 - replay: the loop's poses (recorded in its first pass) copied into the ``MjData`` one after the
   other, one ``pairs(data)`` each, with no ``mj_step`` in between: the poses move as in the loop
   (the branches see the same data) but the caches and branch predictors stay ours. ``loop - replay``
