@@ -17,10 +17,10 @@ the figures of the latest run): random convex hulls from 256 bodies (64 in most 
 time than MuJoCo 4.0's broad phase (~0.25x at 4096 bodies) with 3-4x fewer candidates. Small scenes are dominated by
 fixed costs: around the kernel's own work, the Python call into numba, the keys-to-rows conversion
 and the view of the result add ~1 us (franka, hot: 0.9 us of work, 2.0 us per call with the
-arrays passed, 1.9 with them bound by `bind`; an unchanged result is handed out again, no view), and in a simulation loop the first call after
-``mj_step`` runs 1.3-1.6x slower than a repeat (caches and predictors left to MuJoCo's code and
-data). Batches of a small model (`pairs_batch`) run eight worlds at a time in SIMD lanes
-(`_kernels.lanes`): per world, 0.5x to 0.8x of MuJoCo's single-world broad-phase time on one core
+arrays passed, 1.9 with them bound by `bind`; an unchanged result is handed out again, no view),
+and in a simulation loop the first call after ``mj_step`` runs 1.3-1.6x slower than a repeat
+(caches and predictors left to MuJoCo's code and data). Batches of a small model (`pairs_batch`)
+run eight worlds at a time in SIMD lanes (`_kernels.lanes`): per world, 0.5x to 0.8x of MuJoCo's single-world broad-phase time on one core
 (humanoid, on an AMD and an Intel machine), 0.2x to 0.5x on two (humanoid, a 64-link chain; with
 the machine's load).
 
@@ -497,7 +497,7 @@ class BroadPhase:
             ``base`` is a larger arena, freed with the last view that holds it. When the pairs are
             those of the last call that found any, that call's array is returned again (``is``
             tells): most steps of most robots in a simulation loop, where a new view costs more
-            than the test (1.4-5.9 us after ``mujoco.mj_step``, see `_kernels.broadphase._step`).
+            than the test (0.5-6.8 us after ``mujoco.mj_step``: ``tests/bench/reuse.py``).
             Copy it (``np.array(pairs)``) to modify it.
 
         Raises

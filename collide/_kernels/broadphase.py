@@ -1826,9 +1826,9 @@ def _step_impl(body_pos, body_rot, ctx):
     last = ctx[C_LAST]
     if k == ctx[C_NLAST] and last >= 0:
         # The same pairs as the last non-empty result (most steps of a robot in a simulation loop:
-        # 75-99 % of 2000 steps with random controls on the MuJoCo models, humanoid 38 %, the
-        # crowds 0-26 %): the caller hands out that array again. A new view of new rows cost 1.4-5.9
-        # us after mj_step, 13-27 % of those models' steps (interleaved A/B, AMD EPYC,
+        # 67-100 % of the MuJoCo models' steps under compare's random controls, humanoid 46 %, the
+        # crowds 0-30 %): the caller hands out that array again. A new view of new rows cost
+        # 0.5-6.8 us after mj_step, 9-22 % of those models' steps (tests/bench/reuse.py, AMD EPYC,
         # 2026-11-28). Compared with the rows themselves, so a caller that wrote into its result
         # (having made it writable) gets new rows.
         prev = nb.carray(i32_ptr(ctx[C_OUT] + 8 * last), (k, 2))
