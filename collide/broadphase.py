@@ -20,9 +20,9 @@ and the view of the result add ~1 us (franka, hot: 0.9 us of work, 2.0 us per ca
 arrays passed, 1.9 with them bound by `bind`; an unchanged result is handed out again, no view),
 and in a simulation loop the first call after ``mj_step`` runs 1.3-1.6x slower than a repeat
 (caches and predictors left to MuJoCo's code and data). Batches of a small model (`pairs_batch`)
-run eight worlds at a time in SIMD lanes (`_kernels.lanes`): per world, 0.5x to 0.8x of MuJoCo's single-world broad-phase time on one core
-(humanoid, on an AMD and an Intel machine), 0.2x to 0.5x on two (humanoid, a 64-link chain; with
-the machine's load).
+run eight worlds at a time in SIMD lanes (`_kernels.lanes`): per world, 0.5x to 0.8x of MuJoCo's
+single-world broad-phase time on one core (humanoid, on an AMD and an Intel machine), 0.2x to 0.5x
+on two (humanoid, a 64-link chain; with the machine's load).
 
 `BroadPhase.world_bounds` returns the world spheres and OBBs the broad phase tests (of geoms or
 bodies) and their AABBs, for drawing them, debugging a pair, or feeding another spatial structure.

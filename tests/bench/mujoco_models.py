@@ -20,8 +20,9 @@ The floor: the same loop again (same controls) with a `BroadPhase` whose ``pairs
 Python wrapper and a compiled call made as ours is made (the compiled function's entry point, past
 numba's dispatcher: `collide._kernels.broadphase.step_bound`) and returns the last result's array
 as ours does on a step whose pairs did not change, but does no work (`_Floor`). After
-``mj_step`` that costs 1-4 us on the AMD machine (code and data the engine's step evicted): no
-kernel behind a Python call takes less there, so where the floor ratio nears 1 the target of 1.0x
+``mj_step`` that costs 0.6-4 us on the AMD machine's models under 30 bodies and 5-7 us on 22
+humanoids (2026-11-28 runs; code and data the engine's step evicted): no kernel behind a Python
+call takes less there, so where the floor ratio nears 1 the target of 1.0x
 MuJoCo's broad phase is out of reach for any such kernel.
 
 Batched: ``BroadPhase.pairs_batch(model, qpos)`` on B humanoid configurations taken from a
