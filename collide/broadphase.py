@@ -149,6 +149,10 @@ def world_planes(rot: np.ndarray, pos: np.ndarray, local: np.ndarray,
     return normal, offset + (_k.SLACK_POS * np.abs(pos).sum(axis=1) if slack else 0.0)
 
 
+# Chunks of a batch a thread (see BroadPhase._run_batch): the lane kernels' (a chunk is its keys and
+# counts only) and the world-by-world kernel's (a chunk is a workspace too).
+CHUNKS_LANES = 16
+CHUNKS = 4
 FLAT_BODIES = 64  # see BroadPhase._flat_lists
 FLAT_PAIRS = 128
 # Rows of a new output arena (32 KB: below malloc's mmap threshold, so arenas reuse freed heap
@@ -768,31 +772,42 @@ class BroadPhase:
         # (one of the batch kernels) until no buffer is short: its rows, or the first bad world's
         # error. `collide.mujoco.BroadPhase.pairs_batch` launches the kernel that computes the
         # poses itself.
-        # More chunks than threads, handed out one at a time (numba's parallel chunk size 1, which
-        # each batch kernel sets itself: `_kernels._threads`): a thread that the OS pauses does not
-        # hold up the whole call.
-        # The lane kernel takes worlds _lanes.LANES at a time: no more chunks than groups of them.
-        C = max(1, min(4 * numba.get_num_threads(), B if self._J is None else -(-B // _lanes.LANES)))
+        # More chunks than threads, taken by the threads one at a time (`_k.start_chunks`): a thread
+        # that starts late or runs slower takes fewer. The lane kernels keep their big workspaces
+        # (lanes, kinematics) a worker, a chunk holding only its keys and counts, so their chunks
+        # can be small (CHUNKS_LANES a thread; the lane kernel takes worlds _lanes.LANES at a time:
+        # no more chunks than groups of them); the world-by-world kernel keeps a workspace a chunk
+        # (CHUNKS a thread). Sized for numba's most threads, so that a call on fewer
+        # (numba.set_num_threads) finds the same buffers: made afresh, they cost the next call
+        # their first touch.
+        most = numba.config.NUMBA_NUM_THREADS
+        if self._J is None:
+            C = max(1, min(CHUNKS * most, B))
+        else:
+            C = max(1, min(CHUNKS_LANES * most, -(-B // _lanes.LANES)))
+        rows = min(most, C)  # a workspace a worker
+        nw = min(numba.get_num_threads(), rows)  # workers: one a thread
         per = (B + C - 1) // C
-        if self._batch is None or self._batch["ctx"].shape[0] != C:
+        if self._batch is None or self._batch["ctx"].shape[0] != C or self._batch["rows"] != rows:
             L, G = self.body_count, self.geom_count
             self._batch = {"W": np.zeros((C, self._nW)), "sap": np.tile(self._sap_init, (C, 1)),
                            "stats": np.zeros((C, _k.N_STATS), np.int64), "info": np.zeros((C, 4), np.int64),
-                           "ctx": np.zeros((C, _k.NCTX), np.int64)}
+                           "ctx": np.zeros((C, _k.NCTX), np.int64), "rows": rows}
             if self._J is not None:
-                # the lanes' workspace, then room for a group's poses computed in the call
+                # a worker's lane workspace, then room for a group's poses computed in the call
                 ko = _lanes.lane_workspace_size(L, self.position_count, G, int(self._I[_k.H_Q]))
-                self._batch["LW"] = _lane_rows_zeros(C, ko + _lanes.kin_workspace_size(L))
+                self._batch["LW"] = _lane_rows_zeros(rows, ko + _lanes.kin_workspace_size(L))
                 self._batch["ko"] = ko
-                self._batch["LB"] = np.zeros((C, _lanes.lane_bits_size(self.position_count,
-                                                                        int(self._J[_lanes.J_NR]))), np.int64)
+                self._batch["LB"] = np.zeros((rows, _lanes.lane_bits_size(self.position_count,
+                                                                         int(self._J[_lanes.J_NR]))), np.int64)
             self._set_batch_buffers(4 * L + 64, max(256, 2 * G * per))
         bt = self._batch
         # world_info is written for bad worlds only, and the kernel writes every world's count and
         # every chunk's row: nothing to clear.
         world_count = np.empty(B, np.int64)
         world_info = np.empty((B, 4), np.int64)
-        chunk_info = np.empty((C, _k.N_CI), np.int64)
+        chunk_info = np.empty((C + 1, _k.N_CI), np.int64)  # the chunks', then (counter, workers)
+        chunk_info[C, 1] = nw
         S = _k.key_shift(self.geom_count)
         while True:
             # The kernels sum the chunks' stats into self._stats (`stats` reads it) and return the
@@ -800,12 +815,13 @@ class BroadPhase:
             out = launch(bt, world_count, world_info, chunk_info, S)
             if len(out):
                 return out
-            bad = chunk_info[:, _k.CI_BAD]
+            chunks = chunk_info[:C]
+            bad = chunks[:, _k.CI_BAD]
             if bad.max() >= 0:
                 w = int(bad[bad >= 0].min())
                 self._raise(int(world_info[w, 0]), int(world_info[w, 1]), f"world {w}, ")
-            need_bp = int(chunk_info[:, _k.CI_NEED].max())
-            need = int(chunk_info[:, _k.CI_KEYS].max())
+            need_bp = int(chunks[:, _k.CI_NEED].max())
+            need = int(chunks[:, _k.CI_KEYS].max())
             if need_bp > 0:  # never drop a pair: grow and rerun
                 self._set_batch_buffers(2 * need_bp, bt["keys"].shape[1])
             elif need > bt["keys"].shape[1]:

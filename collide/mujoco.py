@@ -642,8 +642,8 @@ class BroadPhase:
                 self._kin_views = (model, arrays)  # one store: another thread sees both or neither
 
             def launch(bt, world_count, world_info, chunk_info, S):
-                # the kinematics' scratch, a row per chunk, kept between calls (22 humanoids: 1.2 MB)
-                shape = (bt["ctx"].shape[0], _kin.lanes_scratch_size(model.nbody, model.njnt))
+                # the kinematics' scratch, a row per worker, kept between calls
+                shape = (bt["rows"], _kin.lanes_scratch_size(model.nbody, model.njnt))
                 if self._kin_scratch is None or self._kin_scratch.shape != shape:
                     self._kin_scratch = np.empty(shape)
                 return _kin.step_lanes_kin(q, *arrays, bt["ctx"], bp._J, bt["LW"], bt["ko"], bt["LB"],

@@ -183,6 +183,46 @@ def test_lanes_keep_every_pair_of_each_world_and_name_a_bad_one():
     assert np.array_equal(bp.pairs_batch(pos, rot), want)
 
 
+@pytest.mark.parametrize("lane_kernel", [True, False], ids=["lanes", "world_by_world"])
+def test_batch_chunks_are_each_taken_once_whatever_the_workers(lane_kernel):
+    # The batch kernels' workers take chunks from a shared counter (`_kernels.broadphase.next_chunk`)
+    # until none is left: with one worker, with as many as threads, and with more workers than
+    # threads (several run one after the other on a thread), every chunk is run exactly once, in
+    # its own rows, and a bad world in any chunk is still the one named. (The lane kernels run at
+    # most one worker a lane workspace, one a thread.)
+    from collide._kernels import lanes
+    sc = testing.many_robots(6, 4, seed=47, spread=0.6, planes=1)
+    bp = BroadPhase(sc.articulation)
+    assert bp._J is not None
+    if not lane_kernel:
+        bp._J = None
+    pos, rot = sc.poses(np.random.default_rng(48), 45)
+    want = [bp.pairs(pos[w], rot[w]) for w in range(len(pos))]
+    assert sum(len(p) for p in want) > 40  # the scene had hits
+
+    def run(workers):
+        def launch(bt, world_count, world_info, chunk_info, S):
+            C = bt["ctx"].shape[0]
+            assert C > 2  # more chunks than workers for some of the counts below
+            chunk_info[C, 1] = workers
+            if lane_kernel:
+                return lanes.step_lanes(pos, rot, bt["ctx"], bp._J, bt["LW"], bt["LB"], world_count, world_info,
+                                        chunk_info, S, bp._stats)
+            return _kern.step_batch(pos, rot, bt["ctx"], world_count, world_info, chunk_info, S, bp._stats)
+        return bp._run_batch(len(pos), launch)
+
+    for workers in (1, 2, 3, 7):
+        got = run(workers)
+        for w in range(len(pos)):
+            assert np.array_equal(got[got[:, 0] == w, 1:], want[w])
+        assert len(got) == sum(len(p) for p in want)
+    pos[40, 3, 2] = np.nan  # in the last chunk
+    pos[30, 2, 0] = np.inf
+    for workers in (1, 3):
+        with pytest.raises(ValueError, match="world 30, body 2"):
+            run(workers)
+
+
 def test_big_models_batch_world_by_world():
     # More static body pairs than the lanes take: the per-world kernel runs the batch.
     sc = testing.free_hulls(125, seed=46)

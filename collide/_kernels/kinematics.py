@@ -26,7 +26,7 @@ from ._quat import (SINCOS_MAX, _frame_point, _qmat, _qmul, _qnorm, _rotate_abou
 from ._simd import (kin_ball8, kin_ball8_origin, kin_finish8, kin_hinge8, kin_hinge8_origin, kin_slide8, kin_start8,
                     kin_start8_unit, sincos8)
 from ._threads import set_chunksize
-from .broadphase import CI_KEYS, N_STATS, chunk_buffers, gather_batch
+from .broadphase import CI_KEYS, N_STATS, chunk_buffers, gather_batch, next_chunk, start_chunks
 from .lanes import J_NR, LANES, _lane_group, lane_buffers, lane_poses
 
 JNT_FREE, JNT_BALL, JNT_SLIDE, JNT_HINGE = 0, 1, 2, 3  # mjtJoint
@@ -280,26 +280,33 @@ def step_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
     qp = nb.carray(f64_ptr(np.int64(qpos.ctypes.data)), (B, nq))
     Jv = nb.carray(i64_ptr(np.int64(J.ctypes.data)), J.shape[0])
     NWd = (Jv[J_NR] + 63) // 64
-    chunksize = set_chunksize(1)  # chunks handed out one at a time (`_threads`)
-    for c in nb.prange(C):
-        ctx, ci, I, F, W, sap, bp, scr, stats, info = chunk_buffers(ctxs, chunk_info, c)
-        la, LW, LB = lane_buffers(LWs, LBs, c)
+    nw = min(start_chunks(chunk_info, C), LWs.shape[0])  # a lane workspace a worker
+    chunksize = set_chunksize(1)  # one worker a thread (`_threads`)
+    for wk in nb.prange(nw):
+        la, LW, LB = lane_buffers(LWs, LBs, wk)
         kb = la + 8 * ko
         gpos = nb.carray(f64_ptr(kb), (LANES, NB, 3))  # the group's poses
         grot = nb.carray(f64_ptr(kb + 24 * LANES * NB), (LANES, NB, 3, 3))
-        ksa = np.int64(scratch.ctypes.data) + 8 * scratch.shape[1] * c
+        ksa = np.int64(scratch.ctypes.data) + 8 * scratch.shape[1] * wk
         ps = lane_poses(LW, NB)
         st = np.zeros(N_STATS, np.int64)
-        off = 0
-        w0 = (B * c) // C
-        w1 = (B * (c + 1)) // C
-        for g0 in range(w0, w1, LANES):
-            nl = min(LANES, w1 - g0)
-            _kinematics_lanes(qp, g0, nl, q0, par, bpos, bquat, jadr, jnum, jtype, jqadr, jpos, jaxis, ps, ksa)
-            off = _lane_group(gpos, grot, 0, g0, nl, I, F, W, sap, bp, scr, stats, info, Jv, LW, LB, NWd, ctx, off, st,
-                              world_count, world_info, ci, True)
-        for s in range(N_STATS):
-            stats[s] = st[s]
-        ci[CI_KEYS] = off
+        while True:
+            c = next_chunk(chunk_info, C)
+            if c >= C:
+                break
+            ctx, ci, I, F, W, sap, bp, scr, stats, info = chunk_buffers(ctxs, chunk_info, c)
+            for s in range(N_STATS):
+                st[s] = 0
+            off = 0
+            w0 = (B * c) // C
+            w1 = (B * (c + 1)) // C
+            for g0 in range(w0, w1, LANES):
+                nl = min(LANES, w1 - g0)
+                _kinematics_lanes(qp, g0, nl, q0, par, bpos, bquat, jadr, jnum, jtype, jqadr, jpos, jaxis, ps, ksa)
+                off = _lane_group(gpos, grot, 0, g0, nl, I, F, W, sap, bp, scr, stats, info, Jv, LW, LB, NWd, ctx, off,
+                                  st, world_count, world_info, ci, True)
+            for s in range(N_STATS):
+                stats[s] = st[s]
+            ci[CI_KEYS] = off
     set_chunksize(chunksize)
     return gather_batch(ctxs, world_count, chunk_info, S, stats_out)

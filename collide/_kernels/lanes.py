@@ -33,7 +33,8 @@ from ._threads import set_chunksize
 from .broadphase import (BIG, C_KEYS, C_NKEYS, CI_KEYS, H_NB, N_STATS, ROW, SLACK_POS, SLACK_REL, ST_BODY_OBB,
                          ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT, ST_PLANE, ST_SUBTREE,
                          _batch_world, _cap_views, _explicit_hit, _plane_hit_local, _pose_ok, _views, aabb_slack,
-                         bounds_mask, capsule_half, chunk_buffers, gather_batch, plane_world)
+                         bounds_mask, capsule_half, chunk_buffers, gather_batch, next_chunk, plane_world,
+                         start_chunks)
 
 LANES = 8
 MAX_BODY_PAIRS = 4096  # above this many static body pairs, the tree of the per-world kernel culls better
@@ -522,19 +523,26 @@ def step_lanes(body_pos, body_rot, ctxs, J, LWs, LBs, world_count, world_info, c
     rot_all = nb.carray(f64_ptr(np.int64(body_rot.ctypes.data)), (B, NB, 3, 3))
     Jv = nb.carray(i64_ptr(np.int64(J.ctypes.data)), J.shape[0])
     NWd = (Jv[J_NR] + 63) // 64
-    chunksize = set_chunksize(1)  # chunks handed out one at a time (`_threads`)
-    for c in nb.prange(C):
-        ctx, ci, I, F, W, sap, bp, scr, stats, info = chunk_buffers(ctxs, chunk_info, c)
-        la, LW, LB = lane_buffers(LWs, LBs, c)
+    nw = min(start_chunks(chunk_info, C), LWs.shape[0])  # a lane workspace a worker
+    chunksize = set_chunksize(1)  # one worker a thread (`_threads`)
+    for wk in nb.prange(nw):
+        la, LW, LB = lane_buffers(LWs, LBs, wk)
         st = np.zeros(N_STATS, np.int64)
-        w0 = (B * c) // C
-        w1 = (B * (c + 1)) // C
-        off = 0
-        for g0 in range(w0, w1, LANES):
-            off = _lane_group(pos_all, rot_all, g0, g0, min(LANES, w1 - g0), I, F, W, sap, bp, scr, stats, info, Jv,
-                              LW, LB, NWd, ctx, off, st, world_count, world_info, ci)
-        for s in range(N_STATS):
-            stats[s] = st[s]
-        ci[CI_KEYS] = off
+        while True:
+            c = next_chunk(chunk_info, C)
+            if c >= C:
+                break
+            ctx, ci, I, F, W, sap, bp, scr, stats, info = chunk_buffers(ctxs, chunk_info, c)
+            for s in range(N_STATS):
+                st[s] = 0
+            w0 = (B * c) // C
+            w1 = (B * (c + 1)) // C
+            off = 0
+            for g0 in range(w0, w1, LANES):
+                off = _lane_group(pos_all, rot_all, g0, g0, min(LANES, w1 - g0), I, F, W, sap, bp, scr, stats, info,
+                                  Jv, LW, LB, NWd, ctx, off, st, world_count, world_info, ci)
+            for s in range(N_STATS):
+                stats[s] = st[s]
+            ci[CI_KEYS] = off
     set_chunksize(chunksize)
     return gather_batch(ctxs, world_count, chunk_info, S, stats_out)
