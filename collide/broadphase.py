@@ -741,7 +741,7 @@ class BroadPhase:
         vector operation over the eight (`collide._kernels.lanes`; humanoid: 1.8 -> 0.6 us a
         world on one thread); a bigger one world by world through the single-world kernel. Both
         give exactly the single-world answers.
-        Worlds are cut into chunks handed to numba's threads one at a time. On a machine shared
+        Worlds are cut into chunks, which numba's threads take one at a time. On a machine shared
         with other work, set ``OMP_WAIT_POLICY=PASSIVE`` before numba starts its OpenMP runtime:
         spinning waiters can stall each call by a scheduler time slice (measured: 30x slower).
         The second thread's worth depends on what the cores did just before (64-link chain, 2

@@ -599,7 +599,7 @@ class BroadPhase:
         pairs : (K, 3) int32
             ``(world, geom1, geom2)`` rows, sorted: those of `kinematics_batch` followed by
             `collide.BroadPhase.pairs_batch`. On a model the lanes run (`collide._kernels.lanes`)
-            each chunk of worlds computes a group's poses in its own workspace just before testing
+            each thread computes a group's poses in its own workspace just before testing
             them, none of the batch's poses written out (humanoid, 1024 worlds, 2 threads, called
             back to back: 0.96-0.99 -> 0.82-0.83 us a world; on 1 thread 1.54-1.60 -> 1.46-1.56;
             with other batch calls in between, about even). A subclass that overrides the

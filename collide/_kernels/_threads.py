@@ -1,9 +1,12 @@
-"""numba's parallel chunk size, set from inside a parallel kernel.
+"""numba's parallel chunk size, set from inside a parallel kernel, and an atomic counter.
 
-Each batch kernel (`broadphase.step_batch`, `lanes.step_lanes`, `kinematics.kinematics_worlds`,
-`kinematics.step_lanes_kin`) cuts its worlds into more chunks than threads and wants them handed
-out one at a time (chunk size 1: a thread the OS pauses does not hold up the whole call; see
-`collide.BroadPhase._run_batch`). Setting it around the call from Python, ``with
+The batch kernels `broadphase.step_batch`, `lanes.step_lanes` and `kinematics.step_lanes_kin` cut
+their worlds into more chunks than threads; a ``prange`` over one worker a thread (chunk size 1:
+one iteration each) takes them from a shared counter (`fetch_add`, see
+`broadphase.start_chunks`), so that a thread that starts late or that the OS pauses takes fewer
+(see `collide.BroadPhase._run_batch`). `kinematics.kinematics_worlds` runs its chunks as a plain
+``prange`` (chunk size 1), which numba's OpenMP layer splits into one fixed block a thread.
+Setting the chunk size around the call from Python, ``with
 numba.parallel_chunksize(1)``, costs four locked Python calls, 12-26 us a call (AMD EPYC, 2 threads);
 numba's own ``numba.set_parallel_chunksize`` overload, called in a kernel, reaches the threading
 layer through ctypes pointers, and a function holding one is never cached ("Cannot cache compiled

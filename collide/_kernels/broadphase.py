@@ -1952,8 +1952,9 @@ def chunk_buffers(ctxs, chunk_info, c):
 
 @nb.njit(cache=True, parallel=True)
 def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_info, S, stats_out):
-    """Worlds split into ``C = ctxs.shape[0]`` contiguous chunks handed to numba's threads, each
-    chunk with its own buffers (a context row; the static ``I`` and ``F`` are shared, read only).
+    """Worlds split into ``C = ctxs.shape[0]`` contiguous chunks taken by numba's threads one at a
+    time (`start_chunks`: ``chunk_info`` has a row more, for the counter), each chunk with its own
+    buffers (a context row; the static ``I`` and ``F`` are shared, read only).
     World ``w``'s sorted keys follow the previous worlds of its chunk in the chunk's keys;
     ``world_count[w]`` is its pair count (-1 with ``world_info[w]`` = (status, body, ...) on a bad
     pose; ``world_info`` is written for bad worlds only). ``chunk_info[c]`` (int64, 3) sums up chunk

@@ -2,7 +2,7 @@
 only), and the batched broad phase fed by it straight into the lanes.
 
 `kinematics_worlds` fills pose arrays, world by world (`_kinematics_world`); `step_lanes_kin`
-computes each group of `lanes.LANES` worlds' poses straight into the lanes of its chunk's workspace
+computes each group of `lanes.LANES` worlds' poses straight into the lanes of its thread's workspace
 (`_kinematics_lanes`: the worlds in SIMD lanes, where the tests read them) and runs
 `lanes._lane_group` on them: no pose array of the whole batch written and read back (1024 humanoid
 worlds: 1.7 MB), and one parallel region per call instead of two (a second one wakes a sleeping
@@ -108,7 +108,7 @@ def _kinematics_world(q, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
 
 
 def lanes_scratch_size(L: int, nj: int) -> int:
-    """float64 of `_kinematics_lanes`' scratch per chunk of worlds (a row of `step_lanes_kin`'s
+    """float64 of `_kinematics_lanes`' scratch per worker (a row of `step_lanes_kin`'s
     ``scratch``), ``L`` bodies, ``nj`` joints."""
     return LANES * (4 * L + 2 * nj + 11)
 
@@ -252,7 +252,7 @@ def kinematics_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr
     qp = nb.carray(f64_ptr(np.int64(qpos.ctypes.data)), (B, nq))
     opos = nb.carray(f64_ptr(np.int64(out_pos.ctypes.data)), (B, L, 3))
     orot = nb.carray(f64_ptr(np.int64(out_rot.ctypes.data)), (B, L, 3, 3))
-    chunksize = set_chunksize(1)  # chunks handed out one at a time (`_threads`)
+    chunksize = set_chunksize(1)  # one chunk an iteration (`_threads`)
     for c in nb.prange(C):
         xquat, sc = _scratch(scratch, c, L, nj)
         for w in range((B * c) // C, (B * (c + 1)) // C):
@@ -266,10 +266,10 @@ def kinematics_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr
 def step_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr,
                    jnt_pos, jnt_axis, ctxs, J, LWs, ko, LBs, scratch, world_count, world_info, chunk_info, S,
                    stats_out):
-    """`lanes.step_lanes` on the poses of ``qpos (B, nq)``, each group's computed into its chunk's
+    """`lanes.step_lanes` on the poses of ``qpos (B, nq)``, each group's computed into its worker's
     workspace just before its tests (see the module docstring): each row of ``LWs`` holds
     `lanes.kin_workspace_size` float64 from column ``ko`` on; ``scratch`` has a row of
-    `lanes_scratch_size` per chunk (at least ``ctxs.shape[0]`` rows). Same result as
+    `lanes_scratch_size` per worker (as many rows as ``LWs``). Same result as
     `lanes.step_lanes` on `kinematics_worlds`' poses (`_kinematics_lanes`: the same bits)."""
     B = qpos.shape[0]
     nq = qpos0.shape[0]

@@ -513,7 +513,8 @@ def lane_buffers(LWs, LBs, c):
 @nb.njit(cache=True, parallel=True)
 def step_lanes(body_pos, body_rot, ctxs, J, LWs, LBs, world_count, world_info, chunk_info, S, stats_out):
     """`broadphase.step_batch` through the lanes: each chunk's worlds ``LANES`` at a time, each
-    world's sorted keys after the previous worlds' in its chunk's keys. A group with a bad pose
+    world's sorted keys after the previous worlds' in its chunk's keys; a lane workspace (a row of
+    ``LWs`` and of ``LBs``) a worker. A group with a bad pose
     runs world by world through `broadphase._world` (which reports the offender, and whose
     answers are the same)."""
     B = body_pos.shape[0]
