@@ -149,8 +149,9 @@ def world_planes(rot: np.ndarray, pos: np.ndarray, local: np.ndarray,
     return normal, offset + (_k.SLACK_POS * np.abs(pos).sum(axis=1) if slack else 0.0)
 
 
-# Chunks of a batch a thread (see BroadPhase._run_batch): the lane kernels' (a chunk is its keys and
-# counts only) and the world-by-world kernel's (a chunk is a workspace too).
+# Chunks of a batch a thread (see BroadPhase._run_batch): the lane kernels' (their big workspaces are
+# a worker's, a chunk keeps its keys, counts and the small per-world buffers of a bad group's
+# fallback) and the world-by-world kernel's (whose workspace is the chunk's).
 CHUNKS_LANES = 16
 CHUNKS = 4
 FLAT_BODIES = 64  # see BroadPhase._flat_lists
@@ -774,9 +775,9 @@ class BroadPhase:
         # poses itself.
         # More chunks than threads, taken by the threads one at a time (`_k.start_chunks`): a thread
         # that starts late or runs slower takes fewer. The lane kernels keep their big workspaces
-        # (lanes, kinematics) a worker, a chunk holding only its keys and counts, so their chunks
+        # (lanes, kinematics) a worker, a chunk its keys, counts and small buffers, so their chunks
         # can be small (CHUNKS_LANES a thread; the lane kernel takes worlds _lanes.LANES at a time:
-        # no more chunks than groups of them); the world-by-world kernel keeps a workspace a chunk
+        # no more chunks than groups of them); the world-by-world kernel's workspace is the chunk's
         # (CHUNKS a thread). Sized for numba's most threads, so that a call on fewer
         # (numba.set_num_threads) finds the same buffers: made afresh, they cost the next call
         # their first touch.

@@ -629,7 +629,7 @@ class BroadPhase:
             pos, rot = self.kinematics_batch(model, q)
             out = bp.pairs_batch(pos, rot)
         else:
-            # A small one: each group of worlds' poses computed by the chunk that tests them, in its
+            # A small one: each group of worlds' poses computed by the thread that tests them, in its
             # workspace (`_kernels.kinematics.step_lanes_kin`); the same rows as `kinematics_batch`
             # then `collide.BroadPhase.pairs_batch`, without the batch's poses written and read back.
             # The model's arrays as views (`_kinematics_arrays`), made once per MjModel (held with

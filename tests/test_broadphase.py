@@ -1,5 +1,6 @@
 """BroadPhase against its brute-force twins on random scenes; filters, planes, batches, bad input."""
 
+import numba
 import numpy as np
 import pytest
 
@@ -204,23 +205,40 @@ def test_batch_chunks_are_each_taken_once_whatever_the_workers(lane_kernel):
         def launch(bt, world_count, world_info, chunk_info, S):
             C = bt["ctx"].shape[0]
             assert C > 2  # more chunks than workers for some of the counts below
+            # Poisoned, so that a chunk skipped cannot pass on an earlier run's rows and counts.
+            world_count[:] = -99
+            chunk_info[:C] = 777
+            bt["keys"].fill(-1)
+            bt["stats"].fill(-1)
             chunk_info[C, 1] = workers
             if lane_kernel:
-                return lanes.step_lanes(pos, rot, bt["ctx"], bp._J, bt["LW"], bt["LB"], world_count, world_info,
-                                        chunk_info, S, bp._stats)
-            return _kern.step_batch(pos, rot, bt["ctx"], world_count, world_info, chunk_info, S, bp._stats)
+                out = lanes.step_lanes(pos, rot, bt["ctx"], bp._J, bt["LW"], bt["LB"], world_count, world_info,
+                                       chunk_info, S, bp._stats)
+                nw = min(workers, C, bt["LW"].shape[0])
+            else:
+                out = _kern.step_batch(pos, rot, bt["ctx"], world_count, world_info, chunk_info, S, bp._stats)
+                nw = min(workers, C)
+            assert chunk_info[C, 0] == C + nw  # every chunk taken once, then each worker's last try
+            return out
         return bp._run_batch(len(pos), launch)
 
+    stats = None
     for workers in (1, 2, 3, 7):
         got = run(workers)
         for w in range(len(pos)):
             assert np.array_equal(got[got[:, 0] == w, 1:], want[w])
-        assert len(got) == sum(len(p) for p in want)
-    pos[40, 3, 2] = np.nan  # in the last chunk
+        assert len(got) == sum(len(p) for p in want) == bp.stats["pairs"]
+        assert stats is None or bp.stats == stats  # the same tests whoever ran them
+        stats = bp.stats
+    pos[40, 3, 2] = np.nan  # in a later chunk than world 30 (up to 4 threads)
     pos[30, 2, 0] = np.inf
     for workers in (1, 3):
         with pytest.raises(ValueError, match="world 30, body 2"):
             run(workers)
+    bad = np.empty((2, _kern.N_CI), np.int64)  # no row for the counter: refused, not overrun
+    with pytest.raises(ValueError, match="chunk_info: needs a row"):
+        _kern.step_batch(pos[:2], rot[:2], bp._batch["ctx"][:2], np.empty(2, np.int64), np.empty((2, 4), np.int64),
+                         bad, _kern.key_shift(bp.geom_count), bp._stats)
 
 
 def test_big_models_batch_world_by_world():
@@ -833,7 +851,7 @@ def test_batch_lanes_round_as_a_single_world():
 
 
 def test_lane_workspace_rows_are_cache_line_aligned():
-    """Every chunk's lane workspace starts on a 64-byte boundary (its blocks are whole (LANES,)
+    """Every worker's lane workspace starts on a 64-byte boundary (its blocks are whole (LANES,)
     float64 rows, 64 bytes each): numpy aligns to 16 only, and a row across two cache lines cost
     the chain's batch 7 %. The answer does not depend on it; this keeps the layout from drifting."""
     from collide._kernels import lanes
@@ -845,7 +863,8 @@ def test_lane_workspace_rows_are_cache_line_aligned():
     pos, rot = scene.poses(np.random.default_rng(0), worlds=B)
     out = bp.pairs_batch(pos, rot)
     LW = bp._batch["LW"]
-    assert LW.ctypes.data % 64 == 0 and LW.strides[0] % 64 == 0 and LW.shape[0] > 1
+    assert LW.ctypes.data % 64 == 0 and LW.strides[0] % 64 == 0
+    assert LW.shape[0] == min(numba.config.NUMBA_NUM_THREADS, bp._batch["ctx"].shape[0])  # a row a worker
     assert bp._batch["ko"] % lanes.LANES == 0  # the poses computed in a call (collide.mujoco) follow
     assert len(out) > 0
     for w in range(B):

@@ -1928,6 +1928,9 @@ def start_chunks(chunk_info, C):
     thread took 150-216 us a chunk to the first's 122-151, every call ending ~150 us after the
     first thread was done; see `_threads.fetch_add`). The count comes from the caller: numba's
     ``get_num_threads`` in a kernel keeps it from being cached."""
+    if chunk_info.shape[0] <= C or chunk_info.shape[1] < 2:
+        # without the row, the counter would be written past the array's end
+        raise ValueError("chunk_info: needs a row after the chunks' (counter, workers)")
     chunk_info[C, 0] = 0
     return max(1, min(chunk_info[C, 1], C))
 
@@ -1953,8 +1956,9 @@ def chunk_buffers(ctxs, chunk_info, c):
 @nb.njit(cache=True, parallel=True)
 def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_info, S, stats_out):
     """Worlds split into ``C = ctxs.shape[0]`` contiguous chunks taken by numba's threads one at a
-    time (`start_chunks`: ``chunk_info`` has a row more, for the counter), each chunk with its own
-    buffers (a context row; the static ``I`` and ``F`` are shared, read only).
+    time (`start_chunks`: ``chunk_info`` has a row more, the counter and the worker count the
+    caller sets), each chunk with its own buffers (a context row; the static ``I`` and ``F`` are
+    shared, read only).
     World ``w``'s sorted keys follow the previous worlds of its chunk in the chunk's keys;
     ``world_count[w]`` is its pair count (-1 with ``world_info[w]`` = (status, body, ...) on a bad
     pose; ``world_info`` is written for bad worlds only). ``chunk_info[c]`` (int64, 3) sums up chunk

@@ -280,7 +280,7 @@ def step_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
     qp = nb.carray(f64_ptr(np.int64(qpos.ctypes.data)), (B, nq))
     Jv = nb.carray(i64_ptr(np.int64(J.ctypes.data)), J.shape[0])
     NWd = (Jv[J_NR] + 63) // 64
-    nw = min(start_chunks(chunk_info, C), LWs.shape[0])  # a lane workspace a worker
+    nw = min(start_chunks(chunk_info, C), LWs.shape[0], LBs.shape[0], scratch.shape[0])  # a workspace a worker
     chunksize = set_chunksize(1)  # one worker a thread (`_threads`)
     for wk in nb.prange(nw):
         la, LW, LB = lane_buffers(LWs, LBs, wk)

@@ -502,19 +502,19 @@ def kin_workspace_size(NB: int) -> int:
 
 
 @nb.njit(cache=True, inline="always")
-def lane_buffers(LWs, LBs, c):
-    """Chunk c's lane workspace: its address, the float64 row ``LWs[c]`` and the int64 row ``LBs[c]``
-    (pointer-built)."""
-    la = np.int64(LWs.ctypes.data) + 8 * LWs.shape[1] * c
+def lane_buffers(LWs, LBs, wk):
+    """Worker wk's lane workspace: its address, the float64 row ``LWs[wk]`` and the int64 row
+    ``LBs[wk]`` (pointer-built)."""
+    la = np.int64(LWs.ctypes.data) + 8 * LWs.shape[1] * wk
     return (la, nb.carray(f64_ptr(la), LWs.shape[1]),
-            nb.carray(i64_ptr(np.int64(LBs.ctypes.data) + 8 * LBs.shape[1] * c), LBs.shape[1]))
+            nb.carray(i64_ptr(np.int64(LBs.ctypes.data) + 8 * LBs.shape[1] * wk), LBs.shape[1]))
 
 
 @nb.njit(cache=True, parallel=True)
 def step_lanes(body_pos, body_rot, ctxs, J, LWs, LBs, world_count, world_info, chunk_info, S, stats_out):
     """`broadphase.step_batch` through the lanes: each chunk's worlds ``LANES`` at a time, each
     world's sorted keys after the previous worlds' in its chunk's keys; a lane workspace (a row of
-    ``LWs`` and of ``LBs``) a worker. A group with a bad pose
+    ``LWs`` and of ``LBs``) a worker, ``chunk_info`` as there (`broadphase.start_chunks`). A group with a bad pose
     runs world by world through `broadphase._world` (which reports the offender, and whose
     answers are the same)."""
     B = body_pos.shape[0]
@@ -524,7 +524,7 @@ def step_lanes(body_pos, body_rot, ctxs, J, LWs, LBs, world_count, world_info, c
     rot_all = nb.carray(f64_ptr(np.int64(body_rot.ctypes.data)), (B, NB, 3, 3))
     Jv = nb.carray(i64_ptr(np.int64(J.ctypes.data)), J.shape[0])
     NWd = (Jv[J_NR] + 63) // 64
-    nw = min(start_chunks(chunk_info, C), LWs.shape[0])  # a lane workspace a worker
+    nw = min(start_chunks(chunk_info, C), LWs.shape[0], LBs.shape[0])  # a lane workspace a worker
     chunksize = set_chunksize(1)  # one worker a thread (`_threads`)
     for wk in nb.prange(nw):
         la, LW, LB = lane_buffers(LWs, LBs, wk)
