@@ -789,11 +789,11 @@ class BroadPhase:
         rows = min(most, C)  # a workspace a worker
         nw = min(numba.get_num_threads(), rows)  # workers: one a thread
         per = (B + C - 1) // C
-        if self._batch is None or self._batch["ctx"].shape[0] != C or self._batch["rows"] != rows:
+        if self._batch is None or self._batch["ctx"].shape[0] != C:  # rows follow from C
             L, G = self.body_count, self.geom_count
             self._batch = {"W": np.zeros((C, self._nW)), "sap": np.tile(self._sap_init, (C, 1)),
                            "stats": np.zeros((C, _k.N_STATS), np.int64), "info": np.zeros((C, 4), np.int64),
-                           "ctx": np.zeros((C, _k.NCTX), np.int64), "rows": rows}
+                           "ctx": np.zeros((C, _k.NCTX), np.int64)}
             if self._J is not None:
                 # a worker's lane workspace, then room for a group's poses computed in the call
                 ko = _lanes.lane_workspace_size(L, self.position_count, G, int(self._I[_k.H_Q]))

@@ -643,7 +643,7 @@ class BroadPhase:
 
             def launch(bt, world_count, world_info, chunk_info, S):
                 # the kinematics' scratch, a row per worker, kept between calls
-                shape = (bt["rows"], _kin.lanes_scratch_size(model.nbody, model.njnt))
+                shape = (bt["LW"].shape[0], _kin.lanes_scratch_size(model.nbody, model.njnt))
                 if self._kin_scratch is None or self._kin_scratch.shape != shape:
                     self._kin_scratch = np.empty(shape)
                 return _kin.step_lanes_kin(q, *arrays, bt["ctx"], bp._J, bt["LW"], bt["ko"], bt["LB"],
