@@ -17,7 +17,10 @@ What the timings alone did not show (humanoid, session 30, before the pointer vi
 `broadphase._views`): a call after ``mj_step`` executes ~17,300 instructions of compiled code and
 misses the L1 instruction cache ~590 times there (~810 with Python and numpy); ``_world`` is ~58 KB
 of machine code, ~7,700 distinct instructions of it run per call, most of them once. The same call
-repeated hot takes ~3.4 us, in the loop ~8: code fetched again, we believe, is most of the gap.
+repeated hot took ~3.4 us, in the loop ~8; but most of that gap is the loop's poses, not the cold
+code (2026-11-28, `stages.py humanoid`: hot 2.43, replayed 3.00, loop 4.08 us; a prototype with a
+quarter of the code lost as much in the loop as ours did). Judge a change by its replayed and loop
+times, not by the counts alone.
 
 numba compiles for the processor it detects, and under valgrind it detects another one (valgrind
 emulates fewer features): the kernels would be compiled again inside valgrind, which takes hours.
