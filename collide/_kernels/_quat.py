@@ -24,11 +24,13 @@ import numpy as np
 
 @intrinsic
 def fmuladd(typingctx, a, b, c):
-    """``a * b + c`` as LLVM's ``llvm.fmuladd``: one rounding where the target has a fused
-    multiply-add (every x86-64 with AVX2, every AArch64), two elsewhere (never a slow software
-    fma), decided per target, not per expression, so scalar and vector code round alike (`_simd`
-    replays it as ``llvm.fmuladd.v8f64``). One rounding is never less exact than two: the
-    kinematics stays within 1e-12 of ``mj_kinematics`` (a test)."""
+    """``a * b + c`` as LLVM's ``llvm.fmuladd``: one rounding where numba compiles for a fused
+    multiply-add (x86-64 with FMA3, AArch64), two elsewhere (never a slow software fma), decided
+    by the target and the element type, not per expression, so scalar and vector code round alike
+    (`_simd` replays it as ``llvm.fmuladd.v8f64``). A fused product is exact before its rounding, so
+    an expression mixing a fused and a rounded product may leave ~1e-17 where the separate
+    roundings cancelled exactly (an off-diagonal zero of `_qmat`): far inside the bounds' slack,
+    and the kinematics stays within 1e-12 of ``mj_kinematics`` (a test)."""
     if not all(t == types.float64 for t in (a, b, c)):
         return None
 
