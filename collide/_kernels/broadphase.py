@@ -57,6 +57,7 @@ from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
 import numpy as np
 
 from ._ptr import f64_ptr, i32_ptr, i64_ptr
+from ._quat import fmuladd
 from ._threads import fetch_add, set_chunksize
 
 ROW = 19
@@ -305,6 +306,22 @@ def _fat_views(I, W):
 
 
 # ------------------------------------------------------------------------------- small tests
+# The bounds' dot products are fused multiply-adds (`_quat.fmuladd`: one rounding each on FMA
+# hardware, fewer instructions and a shorter chain), written through `dot3` and `dot3_add` in both
+# kernels so that the lanes round as one world does. A fused sum is nearer the exact one than the
+# separately rounded sum it replaced: the tests' slack (SLACK_REL, SLACK_POS, EPS_PAR) covers both.
+
+@nb.njit(cache=True, inline="always")
+def dot3(a0, a1, a2, b0, b1, b2):
+    """``a0 b0 + a1 b1 + a2 b2``, summed left to right, the two sums fused."""
+    return fmuladd(a2, b2, fmuladd(a1, b1, a0 * b0))
+
+
+@nb.njit(cache=True, inline="always")
+def dot3_add(c, a0, a1, a2, b0, b1, b2):
+    """``c + a0 b0 + a1 b1 + a2 b2``, summed left to right, the three sums fused."""
+    return fmuladd(a2, b2, fmuladd(a1, b1, fmuladd(a0, b0, c)))
+
 
 @nb.njit(cache=True, inline="always")
 def _pose_row(r00, r01, r02, r10, r11, r12, r20, r21, r22, p0, p1, p2, src):
@@ -315,22 +332,22 @@ def _pose_row(r00, r01, r02, r10, r11, r12, r20, r21, r22, p0, p1, p2, src):
     per entry, which vectorise (one loop over the lanes calling this ran the 64-link chain's batch
     1.7 times slower)."""
     (c0, c1, c2, a00, a01, a02, a10, a11, a12, a20, a21, a22, e0, e1, e2, s0, s1, s2, rad) = src
-    return (p0 + r00 * c0 + r01 * c1 + r02 * c2,
-            p1 + r10 * c0 + r11 * c1 + r12 * c2,
-            p2 + r20 * c0 + r21 * c1 + r22 * c2,
-            r00 * a00 + r01 * a10 + r02 * a20,
-            r00 * a01 + r01 * a11 + r02 * a21,
-            r00 * a02 + r01 * a12 + r02 * a22,
-            r10 * a00 + r11 * a10 + r12 * a20,
-            r10 * a01 + r11 * a11 + r12 * a21,
-            r10 * a02 + r11 * a12 + r12 * a22,
-            r20 * a00 + r21 * a10 + r22 * a20,
-            r20 * a01 + r21 * a11 + r22 * a21,
-            r20 * a02 + r21 * a12 + r22 * a22,
+    return (dot3_add(p0, r00, r01, r02, c0, c1, c2),
+            dot3_add(p1, r10, r11, r12, c0, c1, c2),
+            dot3_add(p2, r20, r21, r22, c0, c1, c2),
+            dot3(r00, r01, r02, a00, a10, a20),
+            dot3(r00, r01, r02, a01, a11, a21),
+            dot3(r00, r01, r02, a02, a12, a22),
+            dot3(r10, r11, r12, a00, a10, a20),
+            dot3(r10, r11, r12, a01, a11, a21),
+            dot3(r10, r11, r12, a02, a12, a22),
+            dot3(r20, r21, r22, a00, a10, a20),
+            dot3(r20, r21, r22, a01, a11, a21),
+            dot3(r20, r21, r22, a02, a12, a22),
             e0, e1, e2,
-            p0 + r00 * s0 + r01 * s1 + r02 * s2,
-            p1 + r10 * s0 + r11 * s1 + r12 * s2,
-            p2 + r20 * s0 + r21 * s1 + r22 * s2,
+            dot3_add(p0, r00, r01, r02, s0, s1, s2),
+            dot3_add(p1, r10, r11, r12, s0, s1, s2),
+            dot3_add(p2, r20, r21, r22, s0, s1, s2),
             rad)
 
 
@@ -378,9 +395,9 @@ def _world_aabb(w, m, box, k):
     e1 = w[13] + m
     e2 = w[14] + m
     tol = aabb_slack(e0, e1, e2, w[0], w[1], w[2])
-    h0 = abs(w[3]) * e0 + abs(w[4]) * e1 + abs(w[5]) * e2 + tol
-    h1 = abs(w[6]) * e0 + abs(w[7]) * e1 + abs(w[8]) * e2 + tol
-    h2 = abs(w[9]) * e0 + abs(w[10]) * e1 + abs(w[11]) * e2 + tol
+    h0 = dot3(abs(w[3]), abs(w[4]), abs(w[5]), e0, e1, e2) + tol
+    h1 = dot3(abs(w[6]), abs(w[7]), abs(w[8]), e0, e1, e2) + tol
+    h2 = dot3(abs(w[9]), abs(w[10]), abs(w[11]), e0, e1, e2) + tol
     box[k, 0] = w[0] - h0
     box[k, 1] = w[1] - h1
     box[k, 2] = w[2] - h2
@@ -394,9 +411,9 @@ def capsule_half(r00, r01, r02, r10, r11, r12, r20, r21, r22, d0, d1, d2, r, c0,
     """Half widths of the world AABB of a capsule (local half segment ``d``, radius ``r``) under
     rotation ``R``, centred at the world point ``c``: ``|R d| + r`` per axis, plus the rounding
     slack of `aabb_slack` (sizes ``|R d|`` and ``r``). The lanes compute the same (same bits)."""
-    e0 = abs(r00 * d0 + r01 * d1 + r02 * d2)
-    e1 = abs(r10 * d0 + r11 * d1 + r12 * d2)
-    e2 = abs(r20 * d0 + r21 * d1 + r22 * d2)
+    e0 = abs(dot3(r00, r01, r02, d0, d1, d2))
+    e1 = abs(dot3(r10, r11, r12, d0, d1, d2))
+    e2 = abs(dot3(r20, r21, r22, d0, d1, d2))
     tol = SLACK_REL * (e0 + e1 + e2 + r) + SLACK_POS * (abs(c0) + abs(c1) + abs(c2))
     return e0 + r + tol, e1 + r + tol, e2 + r + tol
 
@@ -474,7 +491,7 @@ def _sphere_hit(A, a, ma, B, b, mb, o=15):
     # its own order; with ma = mb = 0 the radius sum commutes too).
     pos = (abs(A[a, o]) + abs(A[a, o + 1]) + abs(A[a, o + 2])) + (abs(B[b, o]) + abs(B[b, o + 1]) + abs(B[b, o + 2]))
     r += SLACK_REL * r + SLACK_POS * pos
-    return dx * dx + dy * dy + dz * dz <= r * r
+    return dot3(dx, dy, dz, dx, dy, dz) <= r * r
 
 
 @nb.njit(cache=True, inline="always")
@@ -490,15 +507,15 @@ def obb_hit(A, a, ma, B, b, mb):
     eb0 = B[b, 12] + mb
     eb1 = B[b, 13] + mb
     eb2 = B[b, 14] + mb
-    r00 = A[a, 3] * B[b, 3] + A[a, 6] * B[b, 6] + A[a, 9] * B[b, 9]
-    r01 = A[a, 3] * B[b, 4] + A[a, 6] * B[b, 7] + A[a, 9] * B[b, 10]
-    r02 = A[a, 3] * B[b, 5] + A[a, 6] * B[b, 8] + A[a, 9] * B[b, 11]
-    r10 = A[a, 4] * B[b, 3] + A[a, 7] * B[b, 6] + A[a, 10] * B[b, 9]
-    r11 = A[a, 4] * B[b, 4] + A[a, 7] * B[b, 7] + A[a, 10] * B[b, 10]
-    r12 = A[a, 4] * B[b, 5] + A[a, 7] * B[b, 8] + A[a, 10] * B[b, 11]
-    r20 = A[a, 5] * B[b, 3] + A[a, 8] * B[b, 6] + A[a, 11] * B[b, 9]
-    r21 = A[a, 5] * B[b, 4] + A[a, 8] * B[b, 7] + A[a, 11] * B[b, 10]
-    r22 = A[a, 5] * B[b, 5] + A[a, 8] * B[b, 8] + A[a, 11] * B[b, 11]
+    r00 = dot3(A[a, 3], A[a, 6], A[a, 9], B[b, 3], B[b, 6], B[b, 9])
+    r01 = dot3(A[a, 3], A[a, 6], A[a, 9], B[b, 4], B[b, 7], B[b, 10])
+    r02 = dot3(A[a, 3], A[a, 6], A[a, 9], B[b, 5], B[b, 8], B[b, 11])
+    r10 = dot3(A[a, 4], A[a, 7], A[a, 10], B[b, 3], B[b, 6], B[b, 9])
+    r11 = dot3(A[a, 4], A[a, 7], A[a, 10], B[b, 4], B[b, 7], B[b, 10])
+    r12 = dot3(A[a, 4], A[a, 7], A[a, 10], B[b, 5], B[b, 8], B[b, 11])
+    r20 = dot3(A[a, 5], A[a, 8], A[a, 11], B[b, 3], B[b, 6], B[b, 9])
+    r21 = dot3(A[a, 5], A[a, 8], A[a, 11], B[b, 4], B[b, 7], B[b, 10])
+    r22 = dot3(A[a, 5], A[a, 8], A[a, 11], B[b, 5], B[b, 8], B[b, 11])
     a00 = abs(r00) + EPS_PAR
     a01 = abs(r01) + EPS_PAR
     a02 = abs(r02) + EPS_PAR
@@ -511,43 +528,43 @@ def obb_hit(A, a, ma, B, b, mb):
     d0 = B[b, 0] - A[a, 0]
     d1 = B[b, 1] - A[a, 1]
     d2 = B[b, 2] - A[a, 2]
-    t0 = d0 * A[a, 3] + d1 * A[a, 6] + d2 * A[a, 9]
-    t1 = d0 * A[a, 4] + d1 * A[a, 7] + d2 * A[a, 10]
-    t2 = d0 * A[a, 5] + d1 * A[a, 8] + d2 * A[a, 11]
+    t0 = dot3(d0, d1, d2, A[a, 3], A[a, 6], A[a, 9])
+    t1 = dot3(d0, d1, d2, A[a, 4], A[a, 7], A[a, 10])
+    t2 = dot3(d0, d1, d2, A[a, 5], A[a, 8], A[a, 11])
     pos = abs(A[a, 0]) + abs(A[a, 1]) + abs(A[a, 2]) + abs(B[b, 0]) + abs(B[b, 1]) + abs(B[b, 2])
     tol = SLACK_REL * (ea0 + ea1 + ea2 + eb0 + eb1 + eb2) + SLACK_POS * pos
     # A's face axes
-    if abs(t0) > ea0 + eb0 * a00 + eb1 * a01 + eb2 * a02 + tol:
+    if abs(t0) > dot3_add(ea0, eb0, eb1, eb2, a00, a01, a02) + tol:
         return False
-    if abs(t1) > ea1 + eb0 * a10 + eb1 * a11 + eb2 * a12 + tol:
+    if abs(t1) > dot3_add(ea1, eb0, eb1, eb2, a10, a11, a12) + tol:
         return False
-    if abs(t2) > ea2 + eb0 * a20 + eb1 * a21 + eb2 * a22 + tol:
+    if abs(t2) > dot3_add(ea2, eb0, eb1, eb2, a20, a21, a22) + tol:
         return False
     # B's face axes
-    if abs(t0 * r00 + t1 * r10 + t2 * r20) > ea0 * a00 + ea1 * a10 + ea2 * a20 + eb0 + tol:
+    if abs(dot3(t0, t1, t2, r00, r10, r20)) > dot3(ea0, ea1, ea2, a00, a10, a20) + eb0 + tol:
         return False
-    if abs(t0 * r01 + t1 * r11 + t2 * r21) > ea0 * a01 + ea1 * a11 + ea2 * a21 + eb1 + tol:
+    if abs(dot3(t0, t1, t2, r01, r11, r21)) > dot3(ea0, ea1, ea2, a01, a11, a21) + eb1 + tol:
         return False
-    if abs(t0 * r02 + t1 * r12 + t2 * r22) > ea0 * a02 + ea1 * a12 + ea2 * a22 + eb2 + tol:
+    if abs(dot3(t0, t1, t2, r02, r12, r22)) > dot3(ea0, ea1, ea2, a02, a12, a22) + eb2 + tol:
         return False
     # the nine edge-edge axes A_i x B_j
-    if abs(t2 * r10 - t1 * r20) > ea1 * a20 + ea2 * a10 + eb1 * a02 + eb2 * a01 + tol:
+    if abs(fmuladd(-t1, r20, t2 * r10)) > fmuladd(eb2, a01, dot3(ea1, ea2, eb1, a20, a10, a02)) + tol:
         return False
-    if abs(t2 * r11 - t1 * r21) > ea1 * a21 + ea2 * a11 + eb0 * a02 + eb2 * a00 + tol:
+    if abs(fmuladd(-t1, r21, t2 * r11)) > fmuladd(eb2, a00, dot3(ea1, ea2, eb0, a21, a11, a02)) + tol:
         return False
-    if abs(t2 * r12 - t1 * r22) > ea1 * a22 + ea2 * a12 + eb0 * a01 + eb1 * a00 + tol:
+    if abs(fmuladd(-t1, r22, t2 * r12)) > fmuladd(eb1, a00, dot3(ea1, ea2, eb0, a22, a12, a01)) + tol:
         return False
-    if abs(t0 * r20 - t2 * r00) > ea0 * a20 + ea2 * a00 + eb1 * a12 + eb2 * a11 + tol:
+    if abs(fmuladd(-t2, r00, t0 * r20)) > fmuladd(eb2, a11, dot3(ea0, ea2, eb1, a20, a00, a12)) + tol:
         return False
-    if abs(t0 * r21 - t2 * r01) > ea0 * a21 + ea2 * a01 + eb0 * a12 + eb2 * a10 + tol:
+    if abs(fmuladd(-t2, r01, t0 * r21)) > fmuladd(eb2, a10, dot3(ea0, ea2, eb0, a21, a01, a12)) + tol:
         return False
-    if abs(t0 * r22 - t2 * r02) > ea0 * a22 + ea2 * a02 + eb0 * a11 + eb1 * a10 + tol:
+    if abs(fmuladd(-t2, r02, t0 * r22)) > fmuladd(eb1, a10, dot3(ea0, ea2, eb0, a22, a02, a11)) + tol:
         return False
-    if abs(t1 * r00 - t0 * r10) > ea0 * a10 + ea1 * a00 + eb1 * a22 + eb2 * a21 + tol:
+    if abs(fmuladd(-t0, r10, t1 * r00)) > fmuladd(eb2, a21, dot3(ea0, ea1, eb1, a10, a00, a22)) + tol:
         return False
-    if abs(t1 * r01 - t0 * r11) > ea0 * a11 + ea1 * a01 + eb0 * a22 + eb2 * a20 + tol:
+    if abs(fmuladd(-t0, r11, t1 * r01)) > fmuladd(eb2, a20, dot3(ea0, ea1, eb0, a11, a01, a22)) + tol:
         return False
-    if abs(t1 * r02 - t0 * r12) > ea0 * a12 + ea1 * a02 + eb0 * a21 + eb1 * a20 + tol:
+    if abs(fmuladd(-t0, r12, t1 * r02)) > fmuladd(eb1, a20, dot3(ea0, ea1, eb0, a12, a02, a21)) + tol:
         return False
     return True
 
@@ -568,22 +585,22 @@ def _bounds_ok(ra, ma, rb, mb):
     pos = ((abs(A15) + abs(A16) + abs(A17))
            + (abs(B15) + abs(B16) + abs(B17)))
     r += SLACK_REL * r + SLACK_POS * pos
-    ok = dx * dx + dy * dy + dz * dz <= r * r
+    ok = dot3(dx, dy, dz, dx, dy, dz) <= r * r
     ea0 = A12 + ma
     ea1 = A13 + ma
     ea2 = A14 + ma
     eb0 = B12 + mb
     eb1 = B13 + mb
     eb2 = B14 + mb
-    r00 = A3 * B3 + A6 * B6 + A9 * B9
-    r01 = A3 * B4 + A6 * B7 + A9 * B10
-    r02 = A3 * B5 + A6 * B8 + A9 * B11
-    r10 = A4 * B3 + A7 * B6 + A10 * B9
-    r11 = A4 * B4 + A7 * B7 + A10 * B10
-    r12 = A4 * B5 + A7 * B8 + A10 * B11
-    r20 = A5 * B3 + A8 * B6 + A11 * B9
-    r21 = A5 * B4 + A8 * B7 + A11 * B10
-    r22 = A5 * B5 + A8 * B8 + A11 * B11
+    r00 = dot3(A3, A6, A9, B3, B6, B9)
+    r01 = dot3(A3, A6, A9, B4, B7, B10)
+    r02 = dot3(A3, A6, A9, B5, B8, B11)
+    r10 = dot3(A4, A7, A10, B3, B6, B9)
+    r11 = dot3(A4, A7, A10, B4, B7, B10)
+    r12 = dot3(A4, A7, A10, B5, B8, B11)
+    r20 = dot3(A5, A8, A11, B3, B6, B9)
+    r21 = dot3(A5, A8, A11, B4, B7, B10)
+    r22 = dot3(A5, A8, A11, B5, B8, B11)
     a00 = abs(r00) + EPS_PAR
     a01 = abs(r01) + EPS_PAR
     a02 = abs(r02) + EPS_PAR
@@ -596,26 +613,26 @@ def _bounds_ok(ra, ma, rb, mb):
     d0 = B0 - A0
     d1 = B1 - A1
     d2 = B2 - A2
-    t0 = d0 * A3 + d1 * A6 + d2 * A9
-    t1 = d0 * A4 + d1 * A7 + d2 * A10
-    t2 = d0 * A5 + d1 * A8 + d2 * A11
+    t0 = dot3(d0, d1, d2, A3, A6, A9)
+    t1 = dot3(d0, d1, d2, A4, A7, A10)
+    t2 = dot3(d0, d1, d2, A5, A8, A11)
     pos = abs(A0) + abs(A1) + abs(A2) + abs(B0) + abs(B1) + abs(B2)
     tol = SLACK_REL * (ea0 + ea1 + ea2 + eb0 + eb1 + eb2) + SLACK_POS * pos
-    ok &= not (abs(t0) > ea0 + eb0 * a00 + eb1 * a01 + eb2 * a02 + tol)
-    ok &= not (abs(t1) > ea1 + eb0 * a10 + eb1 * a11 + eb2 * a12 + tol)
-    ok &= not (abs(t2) > ea2 + eb0 * a20 + eb1 * a21 + eb2 * a22 + tol)
-    ok &= not (abs(t0 * r00 + t1 * r10 + t2 * r20) > ea0 * a00 + ea1 * a10 + ea2 * a20 + eb0 + tol)
-    ok &= not (abs(t0 * r01 + t1 * r11 + t2 * r21) > ea0 * a01 + ea1 * a11 + ea2 * a21 + eb1 + tol)
-    ok &= not (abs(t0 * r02 + t1 * r12 + t2 * r22) > ea0 * a02 + ea1 * a12 + ea2 * a22 + eb2 + tol)
-    ok &= not (abs(t2 * r10 - t1 * r20) > ea1 * a20 + ea2 * a10 + eb1 * a02 + eb2 * a01 + tol)
-    ok &= not (abs(t2 * r11 - t1 * r21) > ea1 * a21 + ea2 * a11 + eb0 * a02 + eb2 * a00 + tol)
-    ok &= not (abs(t2 * r12 - t1 * r22) > ea1 * a22 + ea2 * a12 + eb0 * a01 + eb1 * a00 + tol)
-    ok &= not (abs(t0 * r20 - t2 * r00) > ea0 * a20 + ea2 * a00 + eb1 * a12 + eb2 * a11 + tol)
-    ok &= not (abs(t0 * r21 - t2 * r01) > ea0 * a21 + ea2 * a01 + eb0 * a12 + eb2 * a10 + tol)
-    ok &= not (abs(t0 * r22 - t2 * r02) > ea0 * a22 + ea2 * a02 + eb0 * a11 + eb1 * a10 + tol)
-    ok &= not (abs(t1 * r00 - t0 * r10) > ea0 * a10 + ea1 * a00 + eb1 * a22 + eb2 * a21 + tol)
-    ok &= not (abs(t1 * r01 - t0 * r11) > ea0 * a11 + ea1 * a01 + eb0 * a22 + eb2 * a20 + tol)
-    ok &= not (abs(t1 * r02 - t0 * r12) > ea0 * a12 + ea1 * a02 + eb0 * a21 + eb1 * a20 + tol)
+    ok &= not (abs(t0) > dot3_add(ea0, eb0, eb1, eb2, a00, a01, a02) + tol)
+    ok &= not (abs(t1) > dot3_add(ea1, eb0, eb1, eb2, a10, a11, a12) + tol)
+    ok &= not (abs(t2) > dot3_add(ea2, eb0, eb1, eb2, a20, a21, a22) + tol)
+    ok &= not (abs(dot3(t0, t1, t2, r00, r10, r20)) > dot3(ea0, ea1, ea2, a00, a10, a20) + eb0 + tol)
+    ok &= not (abs(dot3(t0, t1, t2, r01, r11, r21)) > dot3(ea0, ea1, ea2, a01, a11, a21) + eb1 + tol)
+    ok &= not (abs(dot3(t0, t1, t2, r02, r12, r22)) > dot3(ea0, ea1, ea2, a02, a12, a22) + eb2 + tol)
+    ok &= not (abs(fmuladd(-t1, r20, t2 * r10)) > fmuladd(eb2, a01, dot3(ea1, ea2, eb1, a20, a10, a02)) + tol)
+    ok &= not (abs(fmuladd(-t1, r21, t2 * r11)) > fmuladd(eb2, a00, dot3(ea1, ea2, eb0, a21, a11, a02)) + tol)
+    ok &= not (abs(fmuladd(-t1, r22, t2 * r12)) > fmuladd(eb1, a00, dot3(ea1, ea2, eb0, a22, a12, a01)) + tol)
+    ok &= not (abs(fmuladd(-t2, r00, t0 * r20)) > fmuladd(eb2, a11, dot3(ea0, ea2, eb1, a20, a00, a12)) + tol)
+    ok &= not (abs(fmuladd(-t2, r01, t0 * r21)) > fmuladd(eb2, a10, dot3(ea0, ea2, eb0, a21, a01, a12)) + tol)
+    ok &= not (abs(fmuladd(-t2, r02, t0 * r22)) > fmuladd(eb1, a10, dot3(ea0, ea2, eb0, a22, a02, a11)) + tol)
+    ok &= not (abs(fmuladd(-t0, r10, t1 * r00)) > fmuladd(eb2, a21, dot3(ea0, ea1, eb1, a10, a00, a22)) + tol)
+    ok &= not (abs(fmuladd(-t0, r11, t1 * r01)) > fmuladd(eb2, a20, dot3(ea0, ea1, eb0, a11, a01, a22)) + tol)
+    ok &= not (abs(fmuladd(-t0, r12, t1 * r02)) > fmuladd(eb1, a20, dot3(ea0, ea1, eb0, a12, a02, a21)) + tol)
     return ok
 
 
@@ -675,12 +692,12 @@ def _plane_hit_local(n0, n1, n2, lim, scale, Lr, g, mg):
     # sphere and box moved into the world.
     # Both tests always, no branch on the sphere's outcome (a misprediction costs more than the
     # box's dozen flops; see _subtree_pair).
-    sc = n0 * Lr[g, 15] + n1 * Lr[g, 16] + n2 * Lr[g, 17]
+    sc = dot3(n0, n1, n2, Lr[g, 15], Lr[g, 16], Lr[g, 17])
     r = Lr[g, 18] + mg
-    c = n0 * Lr[g, 0] + n1 * Lr[g, 1] + n2 * Lr[g, 2]
-    ext = 0.0
-    for i in range(3):
-        ext += abs(n0 * Lr[g, 3 + i] + n1 * Lr[g, 6 + i] + n2 * Lr[g, 9 + i]) * (Lr[g, 12 + i] + mg)
+    c = dot3(n0, n1, n2, Lr[g, 0], Lr[g, 1], Lr[g, 2])
+    ext = dot3(abs(dot3(n0, n1, n2, Lr[g, 3], Lr[g, 6], Lr[g, 9])),
+               abs(dot3(n0, n1, n2, Lr[g, 4], Lr[g, 7], Lr[g, 10])),
+               abs(dot3(n0, n1, n2, Lr[g, 5], Lr[g, 8], Lr[g, 11])), Lr[g, 12] + mg, Lr[g, 13] + mg, Lr[g, 14] + mg)
     return ((sc - r <= lim + SLACK_REL * r + SLACK_POS * scale)
             & (c - ext <= lim + SLACK_REL * ext + SLACK_POS * scale))
 
@@ -1468,7 +1485,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
         m = 0
         for x in range(L):
             lst[m] = x
-            v = n0 * baabb[x, k0] + n1 * baabb[x, k1] + n2 * baabb[x, k2]
+            v = dot3(n0, n1, n2, baabb[x, k0], baabb[x, k1], baabb[x, k2])
             m += np.int64((v <= lim + SLACK_POS * (abs(v) + abs(pd))) & (plane_ok[i, x] != 0))
         stats[ST_PLANE] += L + m
         for t in range(m):
@@ -1489,10 +1506,10 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
                                gstamp, stamp)
                     # the plane in the body's frame, for their sphere and OBB tests
                     b = order[x]
-                    ln0 = body_rot[b, 0, 0] * n0 + body_rot[b, 1, 0] * n1 + body_rot[b, 2, 0] * n2
-                    ln1 = body_rot[b, 0, 1] * n0 + body_rot[b, 1, 1] * n1 + body_rot[b, 2, 1] * n2
-                    ln2 = body_rot[b, 0, 2] * n0 + body_rot[b, 1, 2] * n1 + body_rot[b, 2, 2] * n2
-                    llim = lim - (n0 * body_pos[b, 0] + n1 * body_pos[b, 1] + n2 * body_pos[b, 2])
+                    ln0 = dot3(body_rot[b, 0, 0], body_rot[b, 1, 0], body_rot[b, 2, 0], n0, n1, n2)
+                    ln1 = dot3(body_rot[b, 0, 1], body_rot[b, 1, 1], body_rot[b, 2, 1], n0, n1, n2)
+                    ln2 = dot3(body_rot[b, 0, 2], body_rot[b, 1, 2], body_rot[b, 2, 2], n0, n1, n2)
+                    llim = lim - dot3(n0, n1, n2, body_pos[b, 0], body_pos[b, 1], body_pos[b, 2])
                     lscale = abs(body_pos[b, 0]) + abs(body_pos[b, 1]) + abs(body_pos[b, 2]) + abs(pd)
                 for ii in range(gstart[x], gstart[x + 1]):
                     g = pgeoms[ii]
@@ -1505,7 +1522,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
                     if multi:
                         stats[ST_PLANE] += 1
                         # the geom's AABB corner, as the body's above, then its sphere and OBB
-                        v = n0 * gaabb[g, k0] + n1 * gaabb[g, k1] + n2 * gaabb[g, k2]
+                        v = dot3(n0, n1, n2, gaabb[g, k0], gaabb[g, k1], gaabb[g, k2])
                         if not (v <= lim + SLACK_POS * (abs(v) + abs(pd))):
                             continue
                         if not _plane_hit_local(ln0, ln1, ln2, llim, lscale + abs(glocal[g, 0])

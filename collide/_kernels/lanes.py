@@ -33,8 +33,8 @@ from ._threads import set_chunksize
 from .broadphase import (BIG, C_KEYS, C_NKEYS, CI_KEYS, H_NB, N_STATS, ROW, SLACK_POS, SLACK_REL, ST_BODY_OBB,
                          ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT, ST_PLANE, ST_SUBTREE,
                          _batch_world, _cap_views, _explicit_hit, _plane_hit_local, _pose_ok, _views, aabb_slack,
-                         bounds_mask, capsule_half, chunk_buffers, gather_batch, next_chunk, plane_world,
-                         start_chunks)
+                         bounds_mask, capsule_half, chunk_buffers, dot3, dot3_add, gather_batch, next_chunk,
+                         plane_world, start_chunks)
 
 LANES = 8
 MAX_BODY_PAIRS = 4096  # above this many static body pairs, the tree of the per-world kernel culls better
@@ -125,10 +125,10 @@ def _lane_row(ps, b, src, s, dst, d, nv):
             r0 = ps[b, 3 + 3 * i, l]
             r1 = ps[b, 4 + 3 * i, l]
             r2 = ps[b, 5 + 3 * i, l]
-            dst[d, i, l] = ps[b, i, l] + r0 * src[s, 0] + r1 * src[s, 1] + r2 * src[s, 2]
-            dst[d, 15 + i, l] = ps[b, i, l] + r0 * src[s, 15] + r1 * src[s, 16] + r2 * src[s, 17]
+            dst[d, i, l] = dot3_add(ps[b, i, l], r0, r1, r2, src[s, 0], src[s, 1], src[s, 2])
+            dst[d, 15 + i, l] = dot3_add(ps[b, i, l], r0, r1, r2, src[s, 15], src[s, 16], src[s, 17])
             for j in range(3):
-                dst[d, 3 + 3 * i + j, l] = r0 * src[s, 3 + j] + r1 * src[s, 6 + j] + r2 * src[s, 9 + j]
+                dst[d, 3 + 3 * i + j, l] = dot3(r0, r1, r2, src[s, 3 + j], src[s, 6 + j], src[s, 9 + j])
     for l in range(nv):
         for j in range(12, 15):
             dst[d, j, l] = src[s, j]
@@ -147,7 +147,7 @@ def _corner_in(n0, n1, n2, pd, lim, box, k, l):
     hi0 = box[k, 3, l]
     hi1 = box[k, 4, l]
     hi2 = box[k, 5, l]
-    v = n0 * (lo0 if n0 > 0 else hi0) + n1 * (lo1 if n1 > 0 else hi1) + n2 * (lo2 if n2 > 0 else hi2)
+    v = dot3(n0, n1, n2, lo0 if n0 > 0 else hi0, lo1 if n1 > 0 else hi1, lo2 if n2 > 0 else hi2)
     return v <= lim + SLACK_POS * (abs(v) + abs(pd))
 
 
@@ -263,8 +263,8 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
                                   ps[b, 9, l], ps[b, 10, l], ps[b, 11, l], bcap[x, 0], bcap[x, 1], bcap[x, 2],
                                   bcap[x, 3] + 0.0, wb[x, 0, l], wb[x, 1, l], wb[x, 2, l])
                 for i in range(3):
-                    h = (abs(wb[x, 3 + 3 * i, l]) * wb[x, 12, l] + abs(wb[x, 4 + 3 * i, l]) * wb[x, 13, l]
-                         + abs(wb[x, 5 + 3 * i, l]) * wb[x, 14, l] + tol)
+                    h = dot3(abs(wb[x, 3 + 3 * i, l]), abs(wb[x, 4 + 3 * i, l]), abs(wb[x, 5 + 3 * i, l]),
+                             wb[x, 12, l], wb[x, 13, l], wb[x, 14, l]) + tol
                     # cut to the capsule's AABB, as broadphase._cap_aabb (same order: same bits)
                     lo = max(wb[x, i, l] - h, wb[x, i, l] - hc[i])
                     hi = min(wb[x, i, l] + h, wb[x, i, l] + hc[i])
@@ -356,13 +356,13 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
                 n2 = pln[i, 2, l]
                 lim = pd + mq
                 scale = abs(wb[x, 0, l]) + abs(wb[x, 1, l]) + abs(wb[x, 2, l]) + abs(pd)
-                sc = n0 * wb[x, 15, l] + n1 * wb[x, 16, l] + n2 * wb[x, 17, l]
+                sc = dot3(n0, n1, n2, wb[x, 15, l], wb[x, 16, l], wb[x, 17, l])
                 r = wb[x, 18, l] + 0.0
-                c0 = n0 * wb[x, 0, l] + n1 * wb[x, 1, l] + n2 * wb[x, 2, l]
-                ext = 0.0
-                for j in range(3):
-                    ext += (abs(n0 * wb[x, 3 + j, l] + n1 * wb[x, 6 + j, l] + n2 * wb[x, 9 + j, l])
-                            * (wb[x, 12 + j, l] + 0.0))
+                c0 = dot3(n0, n1, n2, wb[x, 0, l], wb[x, 1, l], wb[x, 2, l])
+                ext = dot3(abs(dot3(n0, n1, n2, wb[x, 3, l], wb[x, 6, l], wb[x, 9, l])),
+                           abs(dot3(n0, n1, n2, wb[x, 4, l], wb[x, 7, l], wb[x, 10, l])),
+                           abs(dot3(n0, n1, n2, wb[x, 5, l], wb[x, 8, l], wb[x, 11, l])),
+                           wb[x, 12, l] + 0.0, wb[x, 13, l] + 0.0, wb[x, 14, l] + 0.0)
                 h |= np.uint64((sc - r <= lim + SLACK_REL * r + SLACK_POS * scale)
                                & (c0 - ext <= lim + SLACK_REL * ext + SLACK_POS * scale)) << np.uint64(l)
             stats[ST_PLANE] += _popcount(m)
@@ -388,10 +388,10 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
                     pd = pln[i, 3, l]
                     lim = pd + mq
                     cok = _corner_in(n0, n1, n2, pd, lim, gal, g, l)
-                    ln0 = ps[bb, 3, l] * n0 + ps[bb, 6, l] * n1 + ps[bb, 9, l] * n2
-                    ln1 = ps[bb, 4, l] * n0 + ps[bb, 7, l] * n1 + ps[bb, 10, l] * n2
-                    ln2 = ps[bb, 5, l] * n0 + ps[bb, 8, l] * n1 + ps[bb, 11, l] * n2
-                    llim = lim - (n0 * ps[bb, 0, l] + n1 * ps[bb, 1, l] + n2 * ps[bb, 2, l])
+                    ln0 = dot3(ps[bb, 3, l], ps[bb, 6, l], ps[bb, 9, l], n0, n1, n2)
+                    ln1 = dot3(ps[bb, 4, l], ps[bb, 7, l], ps[bb, 10, l], n0, n1, n2)
+                    ln2 = dot3(ps[bb, 5, l], ps[bb, 8, l], ps[bb, 11, l], n0, n1, n2)
+                    llim = lim - dot3(n0, n1, n2, ps[bb, 0, l], ps[bb, 1, l], ps[bb, 2, l])
                     lscale = abs(ps[bb, 0, l]) + abs(ps[bb, 1, l]) + abs(ps[bb, 2, l]) + abs(pd)
                     mg |= np.uint64(cok & _plane_hit_local(ln0, ln1, ln2, llim, lscale + abs(glocal[g, 0])
                                                        + abs(glocal[g, 1]) + abs(glocal[g, 2]), glocal, g,
@@ -440,8 +440,8 @@ def _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gcap, gmargin, ps, gwl,
                               ps[b, 9, l], ps[b, 10, l], ps[b, 11, l], gcap[g, 0], gcap[g, 1], gcap[g, 2],
                               gcap[g, 3] + m, gwl[g, 0, l], gwl[g, 1, l], gwl[g, 2, l])
             for i in range(3):
-                h = (abs(gwl[g, 3 + 3 * i, l]) * e0 + abs(gwl[g, 4 + 3 * i, l]) * e1
-                     + abs(gwl[g, 5 + 3 * i, l]) * e2 + tol)
+                h = dot3(abs(gwl[g, 3 + 3 * i, l]), abs(gwl[g, 4 + 3 * i, l]), abs(gwl[g, 5 + 3 * i, l]), e0, e1,
+                         e2) + tol
                 # the OBB's AABB cut to the capsule's, as broadphase._cap_aabb (same order: same bits)
                 gal[g, i, l] = max(gwl[g, i, l] - h, gwl[g, i, l] - hc[i])
                 gal[g, 3 + i, l] = min(gwl[g, i, l] + h, gwl[g, i, l] + hc[i])
