@@ -142,6 +142,9 @@ class _Vec:
     def __truediv__(self, x):
         return _Vec(self.b, self.b.fdiv(self.v, self._of(x)))
 
+    def __rtruediv__(self, x):
+        return _Vec(self.b, self.b.fdiv(self._of(x), self.v))
+
     def __neg__(self):
         return _Vec(self.b, self.b.fneg(self.v))
 
@@ -198,11 +201,12 @@ def _vcall(builder, name, x):
 
 def _qnorm_vec(builder, q0, q1, q2, q3):
     # _quat._qnorm lane by lane: its branch and its select as selects (the same bits).
-    n = _Vec(builder, _vcall(builder, "llvm.sqrt", (q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3).v))
+    ss = _fmuladd_vec(q3, q3, _fmuladd_vec(q2, q2, _fmuladd_vec(q1, q1, q0 * q0)))
+    n = _Vec(builder, _vcall(builder, "llvm.sqrt", ss.v))
     small = builder.fcmp_ordered("<", n.v, ir.Constant(_V, [1e-15] * LANES))
     far = builder.fcmp_ordered(">", _vcall(builder, "llvm.fabs", (n - 1.0).v), ir.Constant(_V, [1e-15] * LANES))
-    f = _Vec(builder, builder.select(far, n.v, ir.Constant(_V, [1.0] * LANES)))
-    return [_Vec(builder, builder.select(small, ir.Constant(_V, [one] * LANES), (q / f).v))
+    f = _Vec(builder, builder.select(far, (1.0 / n).v, ir.Constant(_V, [1.0] * LANES)))
+    return [_Vec(builder, builder.select(small, ir.Constant(_V, [one] * LANES), (q * f).v))
             for q, one in zip((q0, q1, q2, q3), (1.0, 0.0, 0.0, 0.0))]
 
 
