@@ -1,13 +1,16 @@
 """Where the time goes inside numba's compiled code: sampled with ``perf``, by kernel function and by
 instruction.
 
-    python tests/bench/jitprof.py [SCENE] [--batch B] [--calls N] [--threads T] [--function NAME]
-                                  [--frequency HZ]
+    python tests/bench/jitprof.py [SCENE] [--batch B | --replay] [--calls N] [--threads T]
+                                  [--function NAME] [--stretches K] [--frequency HZ]
 
 SCENE is a folder of ../shared/models (default ``humanoid``) or an MJCF file. Without ``--batch``: one
 ``BroadPhase.pairs(data)`` after each ``mj_step`` with random controls (``--calls`` steps), as in a
-simulation loop. With ``--batch B``: ``BroadPhase.pairs_batch(model, qpos)`` on B configurations,
-``--calls`` times. A developer's tool for finding what to speed up, not a benchmark of record.
+simulation loop; with ``--replay``, on the loop's poses (its first 2000 steps, recorded first, in
+turn) copied into the ``MjData`` with no ``mj_step`` between, so that the samples fall on our code
+warm (22 humanoids after ``mj_step``: 6 % of the samples in our code). With ``--batch B``:
+``BroadPhase.pairs_batch(model, qpos)`` on B configurations, ``--calls`` times. A developer's tool for
+finding what to speed up, not a benchmark of record.
 
 Method. The virtual machines this project runs on expose no hardware counters, but ``perf record -e
 cpu-clock`` (a timer interrupt) samples the instruction pointer anywhere, numba's code included;
@@ -26,7 +29,11 @@ x86-64 processor (the disassembly). Session 27 (2026-11-27, AMD EPYC, humanoid, 
 thread, before `_simd.aabb_merge8` lost its masked stores): 62 % of the compiled code's samples in
 `lanes._group`, 35 % in the parallel loop of `kinematics.step_lanes_kin` (the lane kinematics,
 inlined there), 1.9 % in `broadphase.gather_batch`; in `_group`, the merge's stretches 8 % and the
-walk's box test with its branch 5 %, nothing else above 3 %.
+walk's box test with its branch 5 %, nothing else above 3 %. Session 33 (2026-11-28, Intel Xeon, after
+the bounds' fused dot products): the same batch 70 % `_group`, 28 % the kinematics; 22 humanoids with
+``--replay`` (49.6 us a call, the poses' copy included), 67 % `broadphase._world` (the placing of the
+bodies' rows and boxes about a third of it, ~30 ns a body), 20 % `_traverse`, 6 % `_subtree_pair`, 4 %
+`_sweep`, 2 % the sort.
 """
 
 from __future__ import annotations
@@ -55,6 +62,7 @@ sys.path.insert(0, {root!r})
 import collide.mujoco as cm
 from numba.core.registry import CPUDispatcher
 path, batch, calls, threads, out = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), sys.argv[5]
+replay = sys.argv[6] == "1"
 numba.set_num_threads(threads)
 model = mujoco.MjModel.from_xml_path(path)
 data = mujoco.MjData(model)
@@ -71,11 +79,26 @@ if batch:
     bp.pairs_batch(model, qpos)  # compiled here, before the samples that count
 else:
     bp.pairs(data)
+    if replay:  # the loop's poses (its first 2000 steps at most, replayed in turn), recorded first
+        n = min(calls, 2000)
+        xpos = np.empty((n,) + data.xpos.shape)
+        xmat = np.empty((n,) + data.xmat.shape)
+        for s in range(n):
+            data.ctrl[:] = ctrl[s]
+            mujoco.mj_step(model, data)
+            xpos[s] = data.xpos
+            xmat[s] = data.xmat
 clock = time.clock_gettime
 t0 = clock(time.CLOCK_MONOTONIC)
 if batch:
     for _ in range(calls):
         bp.pairs_batch(model, qpos)
+elif replay:
+    pairs = bp.pairs
+    for s in range(calls):
+        data.xpos[:] = xpos[s % n]
+        data.xmat[:] = xmat[s % n]
+        pairs(data)
 else:
     pairs = bp.pairs
     for s in range(calls):
@@ -142,6 +165,9 @@ def main() -> None:
     ap.add_argument("--function", default=None, help="print the hottest code of this function (a name of the table: _group, lanes._group, "
                     "'parallel loop of kinematics.step_lanes_kin')")
     ap.add_argument("--frequency", type=int, default=4000, help="samples a second")
+    ap.add_argument("--replay", action="store_true", help="the loop's poses recorded first, then pairs(data) on "
+                    "each with no mj_step between (what the kernel costs warm; see stages.py)")
+    ap.add_argument("--stretches", type=int, default=6, help="hottest 256-byte stretches printed with --function")
     args = ap.parse_args()
     for tool in ("perf", "objdump"):
         if shutil.which(tool) is None:
@@ -166,11 +192,13 @@ def main() -> None:
         child = os.path.join(tmp, "child.py")
         Path(child).write_text(CHILD.format(root=str(ROOT)))
         data = os.path.join(tmp, "perf.data")
-        print(f"# {args.scene}: {'pairs_batch of %d worlds' % args.batch if args.batch else 'pairs(data) after mj_step'}, "
+        what = ("pairs_batch of %d worlds" % args.batch if args.batch else "pairs(data) on the loop's poses replayed"
+                if args.replay else "pairs(data) after mj_step")
+        print(f"# {args.scene}: {what}, "
               f"{calls} calls, {args.threads} thread(s); compiling the kernels afresh first...", flush=True)
         subprocess.run(["perf", "record", "-q", "-k", "CLOCK_MONOTONIC", "-e", "cpu-clock", "-F", str(args.frequency),
                         "-o", data, sys.executable, child, str(path), str(args.batch), str(calls), str(args.threads),
-                        tmp], env=env, check=True)
+                        tmp, "1" if args.replay and not args.batch else "0"], env=env, check=True)
         info = json.loads(Path(tmp, "child.json").read_text())
         text = subprocess.run(["perf", "script", "-i", data, "-F", "time,ip,dso"], capture_output=True, text=True,
                               check=True).stdout
@@ -203,7 +231,8 @@ def main() -> None:
                 by_dso[os.path.basename(m.group(3))] += 1
         if total == 0:
             sys.exit("jitprof: no samples in the workload (perf_event_paranoid?)")
-        per = "us a call" if args.batch else "us a step, mj_step included"
+        per = "us a call" if args.batch else "us a call, the poses' copy included" if args.replay else \
+            "us a step, mj_step included"
         print(f"\n{total} samples over {t1 - t0:.2f} s ({(t1 - t0) / calls * 1e6:.1f} {per})\n")
         print(f"{'share':>7}  where")
         for k, v in by_dso.most_common(8):
@@ -244,7 +273,7 @@ def main() -> None:
                 window[(ad - lo) // 256] += ips.get(ad, 0)
             print(f"\n{label[lo]}: {hi - lo} bytes, {fn_samples} samples; "
                   "the hottest 256-byte stretches:")
-            for w, v in window.most_common(6):
+            for w, v in window.most_common(args.stretches):
                 print(f"\n  +{w * 256:#x}: {100 * v / max(fn_samples, 1):.1f}% of the function")
                 for ad, ins in rows:
                     if (ad - lo) // 256 == w and ips.get(ad, 0):
