@@ -7,6 +7,7 @@ import pytest
 import collide.broadphase
 from collide import Articulation, BroadPhase, PointCloud, shapes, testing
 from collide._kernels import broadphase as _kern
+from collide._kernels import lanes as _lanes
 from collide.broadphase import ARENA_ROWS
 from collide.testing.scenes import random_rotation
 
@@ -1539,3 +1540,44 @@ def test_coherence_survives_new_buffers_and_bad_poses():
 def test_coherent_must_be_a_bool():
     with pytest.raises(ValueError, match="coherent"):
         BroadPhase(testing.chain(4, seed=1).articulation, coherent="no")
+
+
+@numba.njit  # not cached: numba's cache would not see a change to the kernels it inlines
+def _lane_bounds_both(A, B, ma, mb, out):
+    # every block pair's lane mask, through the lanes' vector form and the loop over the lanes
+    rb = 8 * _kern.ROW * _lanes.LANES
+    at = np.int64(A.ctypes.data)
+    bt = np.int64(B.ctypes.data)
+    for k in range(A.shape[0]):
+        out[k, 0] = _lanes.bounds8(at + rb * k, ma[k], bt + rb * k, mb[k])
+        out[k, 1] = _kern.bounds_mask(A, k, ma[k], B, k, mb[k], _lanes.LANES)
+
+
+def test_lane_bounds_as_vectors_are_the_scalar_test_bit_for_bit():
+    # `lanes.bounds8` replays `_bounds_ok`'s source on LLVM vectors: lane by lane the scalar test's
+    # outcome, on boxes near each other (hits and misses by every axis), margins, and non-finite
+    # coordinates (NaN separates nothing, as in `obb_hit`).
+    rng = np.random.default_rng(3)
+    n, R, L = 4000, _kern.ROW, _lanes.LANES
+
+    def rows():
+        X = np.empty((n, R, L))
+        X[:, 3:12] = np.stack([random_rotation(rng) for _ in range(n * L)]).reshape(n, L, 9).transpose(0, 2, 1)
+        X[:, 0:3] = rng.normal(size=(n, 3, L))
+        X[:, 12:15] = rng.uniform(0.0, 1.0, (n, 3, L))
+        X[:, 15:18] = X[:, 0:3] + rng.normal(size=(n, 3, L)) * 0.1
+        X[:, 18] = rng.uniform(0.0, 1.5, (n, L))
+        return X
+
+    A, B = rows(), rows()
+    A[::97, 0, 3] = np.nan
+    B[::89, 5, 6] = np.inf
+    A[::53, 16, 1] = 1e300
+    ma = rng.uniform(0.0, 0.1, n)
+    mb = rng.uniform(0.0, 0.1, n)
+    ma[::4] = 0.0
+    out = np.zeros((n, 2), np.uint64)
+    _lane_bounds_both(A, B, ma, mb, out)
+    hits = sum(bin(int(v)).count("1") for v in out[:, 1])
+    assert 0.05 * n * L < hits < 0.95 * n * L  # both outcomes, many times
+    assert np.array_equal(out[:, 0], out[:, 1])

@@ -148,6 +148,38 @@ class _Vec:
     def __neg__(self):
         return _Vec(self.b, self.b.fneg(self.v))
 
+    def __abs__(self):
+        return _Vec(self.b, _vcall(self.b, "llvm.fabs", self.v))
+
+    # Comparisons as numba compiles them on floats: ordered (false on NaN).
+    def __le__(self, x):
+        return _Mask(self.b, self.b.fcmp_ordered("<=", self.v, self._of(x)))
+
+    def __gt__(self, x):
+        return _Mask(self.b, self.b.fcmp_ordered(">", self.v, self._of(x)))
+
+
+class _Mask:
+    """An LLVM ``<LANES x i1>`` value (the lanes' outcomes of a comparison) with ``&`` and ``^ True``
+    (logical not), so that a scalar test written with those operators builds vector IR."""
+
+    __slots__ = ("b", "v")
+
+    def __init__(self, b, v):
+        self.b, self.v = b, v
+
+    def __and__(self, x):
+        return _Mask(self.b, self.b.and_(self.v, x.v))
+
+    def __xor__(self, x):
+        if x is not True:
+            raise TypeError("_Mask ^ x: only x = True (logical not)")
+        return _Mask(self.b, self.b.xor(self.v, ir.Constant(self.v.type, [1] * LANES)))
+
+    def bits(self):
+        # lane l's outcome as bit l of a uint64
+        return self.b.zext(self.b.bitcast(self.v, ir.IntType(LANES)), ir.IntType(64))
+
 
 def _fmuladd_vec(a, b, c):
     # `_quat.fmuladd` lane by lane: llvm.fmuladd.v8f64 (the same rounding as on scalars)
@@ -184,6 +216,23 @@ def _get(builder, addr, n):
 def _put(builder, addr, vals):
     for r, v in zip(_rows(builder, addr, len(vals)), vals):
         builder.store(v.v, r, align=8)
+
+
+def _scalars(builder, addr, n):
+    # the n float64 at address addr, each splat over the lanes (a static row read by every lane)
+    p = builder.inttoptr(addr, ir.DoubleType().as_pointer())
+    return [_splat(builder, builder.load(builder.gep(p, [ir.Constant(ir.IntType(64), i)]), align=8))
+            for i in range(n)]
+
+
+def _vmax(builder, a, b):
+    # numba's max(a, b) on floats, lane by lane: b if b > a else a (ordered: a on NaN)
+    return _Vec(builder, builder.select(builder.fcmp_ordered(">", b.v, a.v), b.v, a.v))
+
+
+def _vmin(builder, a, b):
+    # numba's min(a, b) on floats, lane by lane: b if b < a else a
+    return _Vec(builder, builder.select(builder.fcmp_ordered("<", b.v, a.v), b.v, a.v))
 
 
 def _splat(builder, x):

@@ -575,7 +575,8 @@ def _bounds_ok(ra, ma, rb, mb):
     inflated by ``ma``, ``mb``, in the same operations (the same bits), with every axis evaluated
     and the outcomes combined without a branch, so that a loop over pairs vectorises. An axis
     separates only when ``|t| > r`` holds, as in `obb_hit`: a NaN projection (inf - inf at
-    coordinates near the float range) separates nothing in either."""
+    coordinates near the float range) separates nothing in either. Written with ``&`` and ``^ True``
+    (not ``not``), so that `lanes.bounds8` replays this source on vectors."""
     (A0, A1, A2, A3, A4, A5, A6, A7, A8, A9, A10, A11, A12, A13, A14, A15, A16, A17, A18) = ra
     (B0, B1, B2, B3, B4, B5, B6, B7, B8, B9, B10, B11, B12, B13, B14, B15, B16, B17, B18) = rb
     dx = A15 - B15
@@ -618,21 +619,21 @@ def _bounds_ok(ra, ma, rb, mb):
     t2 = dot3(d0, d1, d2, A5, A8, A11)
     pos = abs(A0) + abs(A1) + abs(A2) + abs(B0) + abs(B1) + abs(B2)
     tol = SLACK_REL * (ea0 + ea1 + ea2 + eb0 + eb1 + eb2) + SLACK_POS * pos
-    ok &= not (abs(t0) > dot3_add(ea0, eb0, eb1, eb2, a00, a01, a02) + tol)
-    ok &= not (abs(t1) > dot3_add(ea1, eb0, eb1, eb2, a10, a11, a12) + tol)
-    ok &= not (abs(t2) > dot3_add(ea2, eb0, eb1, eb2, a20, a21, a22) + tol)
-    ok &= not (abs(dot3(t0, t1, t2, r00, r10, r20)) > dot3(ea0, ea1, ea2, a00, a10, a20) + eb0 + tol)
-    ok &= not (abs(dot3(t0, t1, t2, r01, r11, r21)) > dot3(ea0, ea1, ea2, a01, a11, a21) + eb1 + tol)
-    ok &= not (abs(dot3(t0, t1, t2, r02, r12, r22)) > dot3(ea0, ea1, ea2, a02, a12, a22) + eb2 + tol)
-    ok &= not (abs(fmuladd(-t1, r20, t2 * r10)) > fmuladd(eb2, a01, dot3(ea1, ea2, eb1, a20, a10, a02)) + tol)
-    ok &= not (abs(fmuladd(-t1, r21, t2 * r11)) > fmuladd(eb2, a00, dot3(ea1, ea2, eb0, a21, a11, a02)) + tol)
-    ok &= not (abs(fmuladd(-t1, r22, t2 * r12)) > fmuladd(eb1, a00, dot3(ea1, ea2, eb0, a22, a12, a01)) + tol)
-    ok &= not (abs(fmuladd(-t2, r00, t0 * r20)) > fmuladd(eb2, a11, dot3(ea0, ea2, eb1, a20, a00, a12)) + tol)
-    ok &= not (abs(fmuladd(-t2, r01, t0 * r21)) > fmuladd(eb2, a10, dot3(ea0, ea2, eb0, a21, a01, a12)) + tol)
-    ok &= not (abs(fmuladd(-t2, r02, t0 * r22)) > fmuladd(eb1, a10, dot3(ea0, ea2, eb0, a22, a02, a11)) + tol)
-    ok &= not (abs(fmuladd(-t0, r10, t1 * r00)) > fmuladd(eb2, a21, dot3(ea0, ea1, eb1, a10, a00, a22)) + tol)
-    ok &= not (abs(fmuladd(-t0, r11, t1 * r01)) > fmuladd(eb2, a20, dot3(ea0, ea1, eb0, a11, a01, a22)) + tol)
-    ok &= not (abs(fmuladd(-t0, r12, t1 * r02)) > fmuladd(eb1, a20, dot3(ea0, ea1, eb0, a12, a02, a21)) + tol)
+    ok &= (abs(t0) > dot3_add(ea0, eb0, eb1, eb2, a00, a01, a02) + tol) ^ True
+    ok &= (abs(t1) > dot3_add(ea1, eb0, eb1, eb2, a10, a11, a12) + tol) ^ True
+    ok &= (abs(t2) > dot3_add(ea2, eb0, eb1, eb2, a20, a21, a22) + tol) ^ True
+    ok &= (abs(dot3(t0, t1, t2, r00, r10, r20)) > dot3(ea0, ea1, ea2, a00, a10, a20) + eb0 + tol) ^ True
+    ok &= (abs(dot3(t0, t1, t2, r01, r11, r21)) > dot3(ea0, ea1, ea2, a01, a11, a21) + eb1 + tol) ^ True
+    ok &= (abs(dot3(t0, t1, t2, r02, r12, r22)) > dot3(ea0, ea1, ea2, a02, a12, a22) + eb2 + tol) ^ True
+    ok &= (abs(fmuladd(-t1, r20, t2 * r10)) > fmuladd(eb2, a01, dot3(ea1, ea2, eb1, a20, a10, a02)) + tol) ^ True
+    ok &= (abs(fmuladd(-t1, r21, t2 * r11)) > fmuladd(eb2, a00, dot3(ea1, ea2, eb0, a21, a11, a02)) + tol) ^ True
+    ok &= (abs(fmuladd(-t1, r22, t2 * r12)) > fmuladd(eb1, a00, dot3(ea1, ea2, eb0, a22, a12, a01)) + tol) ^ True
+    ok &= (abs(fmuladd(-t2, r00, t0 * r20)) > fmuladd(eb2, a11, dot3(ea0, ea2, eb1, a20, a00, a12)) + tol) ^ True
+    ok &= (abs(fmuladd(-t2, r01, t0 * r21)) > fmuladd(eb2, a10, dot3(ea0, ea2, eb0, a21, a01, a12)) + tol) ^ True
+    ok &= (abs(fmuladd(-t2, r02, t0 * r22)) > fmuladd(eb1, a10, dot3(ea0, ea2, eb0, a22, a02, a11)) + tol) ^ True
+    ok &= (abs(fmuladd(-t0, r10, t1 * r00)) > fmuladd(eb2, a21, dot3(ea0, ea1, eb1, a10, a00, a22)) + tol) ^ True
+    ok &= (abs(fmuladd(-t0, r11, t1 * r01)) > fmuladd(eb2, a20, dot3(ea0, ea1, eb0, a11, a01, a22)) + tol) ^ True
+    ok &= (abs(fmuladd(-t0, r12, t1 * r02)) > fmuladd(eb1, a20, dot3(ea0, ea1, eb0, a12, a02, a21)) + tol) ^ True
     return ok
 
 
@@ -654,7 +655,8 @@ def _row_of(A, a):
 @nb.njit(cache=True, inline="always")
 def bounds_mask(A, a, ma, B, b, mb, n):
     """Bit l set when the bounds in column l of ``A[a]`` and ``B[b]`` (``(ROW, n)`` blocks: rows as
-    columns, one pair per column, n <= 64), inflated by ``ma``, ``mb``, overlap: `_bounds_ok`."""
+    columns, one pair per column, n <= 64), inflated by ``ma``, ``mb``, overlap: `_bounds_ok`. The
+    kernels use its vector form, `lanes.bounds8`; this loop is its twin in the tests."""
     m = np.uint64(0)
     for l in range(n):
         ok = _bounds_ok(_row_of_column(A, a, l), ma, _row_of_column(B, b, l), mb)
