@@ -17,6 +17,7 @@ from llvmlite import ir
 from numba.core import cgutils, types
 from numba.core.dispatcher import Dispatcher
 from numba.extending import intrinsic
+import numpy as np
 
 from ._quat import (INV_PIO2, SINCOS_MAX, _frame_point, _qmat, _qmul, _rotate_about, _sincos_reduced, _slide,
                     _turn, fmuladd)
@@ -188,6 +189,28 @@ def _fmuladd_vec(a, b, c):
     return _Vec(v.b, v.b.call(fn, [v._of(a), v._of(b), v._of(c)]))
 
 
+class _NumpyVec:
+    """What `_py` gives a function in place of numpy: its ``np.sqrt`` on vectors (``llvm.sqrt``,
+    correctly rounded, as numba's on scalars)."""
+
+    @staticmethod
+    def sqrt(x):
+        return _Vec(x.b, _vcall(x.b, "llvm.sqrt", x.v))
+
+
+class _Rows:
+    """An ``(n, k)`` array's row given as vectors, read as ``A[g, k]`` (any g) by a function `_py`
+    replays."""
+
+    __slots__ = ("rows",)
+
+    def __init__(self, rows):
+        self.rows = rows
+
+    def __getitem__(self, ix):
+        return self.rows[ix[1]]
+
+
 def _py(f):
     """The Python function behind the numba function ``f``, its calls to numba functions of its
     own module replaced by theirs (`_quat._rotate_about` calls `_quat._qrot`): callable on
@@ -200,6 +223,8 @@ def _py(f):
             env[k] = _py(v)
         elif v is fmuladd:
             env[k] = _fmuladd_vec
+        elif v is np:
+            env[k] = _NumpyVec
     return pytypes.FunctionType(fn.__code__, env, fn.__name__, fn.__defaults__, fn.__closure__)
 
 

@@ -24,15 +24,16 @@ each explicit pair; the keys by rank.
 from __future__ import annotations
 
 import numba as nb
+from llvmlite import ir
 from numba.core import types
 from numba.cpython.unsafe.numbers import trailing_zeros
 from numba.extending import intrinsic
 import numpy as np
 
 from ._ptr import f64_ptr, i64_ptr
-from ._simd import _get, _put, _py, _scalars, _splat, _vmax, _vmin, aabb_mask8, aabb_merge8
+from ._simd import _Rows, _get, _put, _py, _scalars, _splat, _Vec, _vmax, _vmin, aabb_mask8, aabb_merge8
 from ._threads import set_chunksize
-from .broadphase import (BIG, C_KEYS, C_NKEYS, CI_KEYS, H_NB, N_STATS, ROW, SLACK_POS, SLACK_REL, ST_BODY_OBB,
+from .broadphase import (BIG, C_KEYS, C_NKEYS, CI_KEYS, H_NB, N_STATS, ROW, SLACK_POS, ST_BODY_OBB,
                          ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT, ST_PLANE, ST_SUBTREE,
                          _batch_world, _bounds_ok, _cap_views, _explicit_hit, _plane_hit_local, _pose_ok,
                          _pose_row, _views, aabb_slack, capsule_half, chunk_buffers, dot3, gather_batch, next_chunk,
@@ -139,6 +140,81 @@ def bounds8(typingctx, pa, ma, pb, mb):
         return ok.bits()
 
     return sig, codegen
+
+
+@intrinsic
+def plane8(typingctx, psb, gp, dst):
+    """dst ``(4, LANES)`` = `broadphase.plane_world` of the static local plane at ``gp`` (4 float64:
+    n, d) under each lane's pose in the `lane_poses` block at ``psb``: its source replayed on
+    vectors (the same bits; a loop over the lanes ran scalar, four divisions a lane)."""
+    if not all(isinstance(a, types.Integer) for a in (psb, gp, dst)):
+        return None
+
+    def codegen(context, builder, signature, args):
+        P = _get(builder, args[0], 12)
+        _put(builder, args[2], list(_py(plane_world)(*P[3:12], *P[0:3], *_scalars(builder, args[1], 4))))
+        return context.get_dummy_value()
+
+    return types.void(psb, gp, dst), codegen
+
+
+def _lane_plane(builder, pa, mq):
+    # the plane block (4, LANES) at pa: n0, n1, n2, d, and the limit d + mq
+    n0, n1, n2, pd = _get(builder, pa, 4)
+    return n0, n1, n2, pd, pd + _splat(builder, mq)
+
+
+@intrinsic
+def corner8(typingctx, pa, mq, box):
+    """Bit l set when lane l's AABB (the ``(6, LANES)`` block at ``box``) reaches the halfspace of
+    lane l's plane (block at ``pa``, inflated by ``mq``): `_corner_in` on vectors, its corner picked
+    by a select per axis (numba's ``lo if n > 0 else hi``), the same outcome."""
+    if not (isinstance(pa, types.Integer) and isinstance(box, types.Integer) and mq == types.float64):
+        return None
+
+    def codegen(context, builder, signature, args):
+        n0, n1, n2, pd, lim = _lane_plane(builder, args[0], args[1])
+        B = _get(builder, args[2], 6)
+        zero = ir.Constant(ir.VectorType(ir.DoubleType(), LANES), [0.0] * LANES)
+        c = [_Vec(builder, builder.select(builder.fcmp_ordered(">", n.v, zero), B[k].v, B[3 + k].v))
+             for k, n in enumerate((n0, n1, n2))]
+        v = _py(dot3)(n0, n1, n2, c[0], c[1], c[2])
+        return (v <= lim + SLACK_POS * (abs(v) + abs(pd))).bits()
+
+    return types.uint64(pa, mq, box), codegen
+
+
+@intrinsic
+def plane_hit8(typingctx, pa, mq, row):
+    """Bit l set when lane l's bounds (the ``(ROW, LANES)`` block at ``row``) reach lane l's plane
+    (block at ``pa``, inflated by ``mq``): `broadphase._plane_hit` (`_plane_hit_local`'s source on
+    vectors), the same outcome."""
+    if not (isinstance(pa, types.Integer) and isinstance(row, types.Integer) and mq == types.float64):
+        return None
+
+    def codegen(context, builder, signature, args):
+        n0, n1, n2, pd, lim = _lane_plane(builder, args[0], args[1])
+        W = _get(builder, args[2], ROW)
+        scale = abs(W[0]) + abs(W[1]) + abs(W[2]) + abs(pd)
+        ok = _py(_plane_hit_local)(n0, n1, n2, lim, scale, _Rows(W), 0, _splat(builder, ir.Constant(
+            ir.DoubleType(), 0.0)))
+        return ok.bits()
+
+    return types.uint64(pa, mq, row), codegen
+
+
+@intrinsic
+def pose_ok8(typingctx, psb):
+    """Bit l set when lane l's pose in the `lane_poses` block ``(12, LANES)`` at address ``psb`` passes
+    `broadphase._pose_ok` (its source replayed on vectors: the same outcome)."""
+    if not isinstance(psb, types.Integer):
+        return None
+
+    def codegen(context, builder, signature, args):
+        P = _get(builder, args[0], 12)
+        return _py(_pose_ok)(*P[3:12], *P[0:3]).bits()
+
+    return types.uint64(psb), codegen
 
 
 @intrinsic
@@ -277,6 +353,8 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
     sa_at = la + 8 * o
     o += 6 * LANES * L
     pln = nb.carray(f64_ptr(la + 8 * o), (max(Q, 1), 4, LANES))
+    pln_at = la + 8 * o
+    gp_at = np.int64(gplane.ctypes.data)
     lb = np.int64(LB.ctypes.data)
     bits = nb.carray(i64_ptr(lb), (NWd, LANES))
     stamp = nb.carray(i64_ptr(lb + 8 * LANES * NWd), L)
@@ -293,10 +371,9 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
                 for j in range(3):
                     ps[b, 3 + 3 * i + j, l] = rot_all[w, b, i, j]
     bad = False
+    every = (np.uint64(1) << np.uint64(LANES)) - np.uint64(1)
     for b in range(NB):
-        for l in range(nv):
-            bad |= not _pose_ok(ps[b, 3, l], ps[b, 4, l], ps[b, 5, l], ps[b, 6, l], ps[b, 7, l], ps[b, 8, l],
-                                ps[b, 9, l], ps[b, 10, l], ps[b, 11, l], ps[b, 0, l], ps[b, 1, l], ps[b, 2, l])
+        bad |= pose_ok8(la + 8 * 12 * LANES * b) != every
     if bad:
         return False
     RB = 8 * ROW * LANES  # bytes of a (ROW, LANES) block
@@ -361,49 +438,17 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
         qg = planes[i]
         b = geom_bid[qg]
         mq = gmargin[qg]
-        for l in range(nv):
-            m0, m1, m2, e = plane_world(ps[b, 3, l], ps[b, 4, l], ps[b, 5, l], ps[b, 6, l], ps[b, 7, l], ps[b, 8, l],
-                                        ps[b, 9, l], ps[b, 10, l], ps[b, 11, l], ps[b, 0, l], ps[b, 1, l], ps[b, 2, l],
-                                        gplane[qg, 0], gplane[qg, 1], gplane[qg, 2], gplane[qg, 3])
-            pln[i, 0, l] = m0
-            pln[i, 1, l] = m1
-            pln[i, 2, l] = m2
-            pln[i, 3, l] = e
+        pa = pln_at + 32 * LANES * i
+        plane8(la + 8 * 12 * LANES * b, gp_at + 32 * qg, pa)
         stats[ST_PLANE] += (plane_start[i + 1] - plane_start[i]) * nlanes
         for e in range(plane_start[i], plane_start[i + 1]):
             x = plane_pos[e]
             # the AABB corner deepest along -n, then the bounds (`_world`, stage 5a)
-            m = np.uint64(0)
-            for l in range(nv):
-                n0 = pln[i, 0, l]
-                n1 = pln[i, 1, l]
-                n2 = pln[i, 2, l]
-                pd = pln[i, 3, l]
-                lim = pd + mq
-                m |= np.uint64(_corner_in(n0, n1, n2, pd, lim, wa, x, l)) << np.uint64(l)
-            m &= valid
+            m = corner8(pa, mq, wa_at + 384 * x) & valid
             if m == 0:
                 continue
-            h = np.uint64(0)
-            for l in range(nv):
-                pd = pln[i, 3, l]
-                # `_plane_hit` on the body's world row
-                n0 = pln[i, 0, l]
-                n1 = pln[i, 1, l]
-                n2 = pln[i, 2, l]
-                lim = pd + mq
-                scale = abs(wb[x, 0, l]) + abs(wb[x, 1, l]) + abs(wb[x, 2, l]) + abs(pd)
-                sc = dot3(n0, n1, n2, wb[x, 15, l], wb[x, 16, l], wb[x, 17, l])
-                r = wb[x, 18, l] + 0.0
-                c0 = dot3(n0, n1, n2, wb[x, 0, l], wb[x, 1, l], wb[x, 2, l])
-                ext = dot3(abs(dot3(n0, n1, n2, wb[x, 3, l], wb[x, 6, l], wb[x, 9, l])),
-                           abs(dot3(n0, n1, n2, wb[x, 4, l], wb[x, 7, l], wb[x, 10, l])),
-                           abs(dot3(n0, n1, n2, wb[x, 5, l], wb[x, 8, l], wb[x, 11, l])),
-                           wb[x, 12, l] + 0.0, wb[x, 13, l] + 0.0, wb[x, 14, l] + 0.0)
-                h |= np.uint64((sc - r <= lim + SLACK_REL * r + SLACK_POS * scale)
-                               & (c0 - ext <= lim + SLACK_REL * ext + SLACK_POS * scale)) << np.uint64(l)
             stats[ST_PLANE] += _popcount(m)
-            m &= h
+            m &= plane_hit8(pa, mq, wb_at + RB * x)  # `_plane_hit` on the body's world row
             if m == 0:
                 continue
             if single[x] > 0:
