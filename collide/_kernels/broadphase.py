@@ -328,10 +328,10 @@ def dot3_add(c, a0, a1, a2, b0, b1, b2):
 def _pose_row(r00, r01, r02, r10, r11, r12, r20, r21, r22, p0, p1, p2, src):
     """The world bounds row (a 19-tuple, `ROW`) of the local row ``src`` (a 19-tuple) under the pose
     ``x = R y + p``: centre ``R c + p``, axes block ``R A`` (row i: sum_k R[i, k] A[k]), the same
-    half extents, sphere centre ``R s + p`` and radius. ``lanes._lane_row`` computes the same
-    operations in the same order lane by lane (the same bits); written there as loops over the lanes
-    per entry, which vectorise (one loop over the lanes calling this ran the 64-link chain's batch
-    1.7 times slower)."""
+    half extents, sphere centre ``R s + p`` and radius. ``lanes.place8`` replays this source on
+    vectors over the lanes (the same operations in the same order: the same bits; a loop over the
+    lanes calling this had run the 64-link chain's batch 1.7 times slower than loops per entry,
+    which compiled to 4-wide vectors)."""
     (c0, c1, c2, a00, a01, a02, a10, a11, a12, a20, a21, a22, e0, e1, e2, s0, s1, s2, rad) = src
     return (dot3_add(p0, r00, r01, r02, c0, c1, c2),
             dot3_add(p1, r10, r11, r12, c0, c1, c2),

@@ -4,9 +4,12 @@ The per-world kernel (`broadphase._world`) branches on every outcome it can and 
 right for one world, where most bodies are far apart. A batch of worlds of one small model (a
 robot, a creature: reinforcement learning, sampling-based planning) runs the same model many
 times; here every static candidate -- each body pair that passes the static filter, each (plane,
-body) pair, each explicit pair -- is tested in ``LANES`` worlds at once, every test a loop over the
-lanes without a branch (one vector instruction each on AVX-512, two on AVX2), and the outcomes kept
-as a lane bit mask. Only a pair that hits in some lane goes on to its next test.
+body) pair, each explicit pair -- is tested in ``LANES`` worlds at once, without a branch, and the
+outcomes kept as a lane bit mask. Only a pair that hits in some lane goes on to its next test. The
+hot tests (`bounds8`, `place8`, `pose_ok8`, `plane8`, `corner8`, `plane_hit8`) are the scalar
+functions' source replayed on ``<LANES x double>`` LLVM vectors (`_simd._py`): one instruction an
+operation on AVX-512, the mask one compare's; written as loops over the lanes they compiled to
+4-wide vectors and built each mask with a shift and an or per lane.
 
 The answer is the per-world kernel's, bit for bit: the same tests (body AABBs, the static filter,
 body sphere and OBB, the geoms' AABB, sphere and OBB, the planes', explicit pairs) in the same
@@ -125,7 +128,7 @@ def bounds8(typingctx, pa, ma, pb, mb):
     """Bit l set when the bounds in lane l of the ``(ROW, LANES)`` blocks at addresses ``pa`` and
     ``pb``, inflated by ``ma``, ``mb``, overlap: `broadphase._bounds_ok`'s source replayed on
     ``<LANES x double>`` vectors (`_simd._py`: the same operations in the same order, the same bits),
-    its outcome one vector compare's mask. The loop over the lanes it replaces (`bounds_mask`)
+    its outcome one vector compare's mask. The loop over the lanes it replaced (`bounds_mask`)
     compiled to 4-wide vectors and built its mask with a shift and an or per lane (humanoid, 1024
     worlds, Intel Xeon: those mask reductions about a tenth of `_group`'s samples)."""
     if not (isinstance(pa, types.Integer) and isinstance(pb, types.Integer) and ma == types.float64
