@@ -1562,7 +1562,7 @@ def test_lane_bounds_as_vectors_are_the_scalar_test_bit_for_bit():
 
     def rows():
         X = np.empty((n, R, L))
-        X[:, 3:12] = np.stack([random_rotation(rng) for _ in range(n * L)]).reshape(n, L, 9).transpose(0, 2, 1)
+        X[:, 3:12] = random_rotation(rng, n * L).reshape(n, L, 9).transpose(0, 2, 1)
         X[:, 0:3] = rng.normal(size=(n, 3, L))
         X[:, 12:15] = rng.uniform(0.0, 1.0, (n, 3, L))
         X[:, 15:18] = X[:, 0:3] + rng.normal(size=(n, 3, L)) * 0.1
@@ -1581,3 +1581,51 @@ def test_lane_bounds_as_vectors_are_the_scalar_test_bit_for_bit():
     hits = sum(bin(int(v)).count("1") for v in out[:, 1])
     assert 0.05 * n * L < hits < 0.95 * n * L  # both outcomes, many times
     assert np.array_equal(out[:, 0], out[:, 1])
+
+
+@numba.njit  # not cached, as above
+def _lane_places_both(ps, src, cap, gp, m, rows, boxes, planes, want_rows, want_boxes, want_planes):
+    # Case k: the lanes' vector forms (`lanes.place8`, `lanes.plane8`) on the poses ps[k] (12, LANES),
+    # and the per-world kernel's scalar functions lane by lane.
+    L = _lanes.LANES
+    for k in range(ps.shape[0]):
+        pa = np.int64(ps.ctypes.data) + 8 * 12 * L * k
+        _lanes.place8(pa, np.int64(src.ctypes.data) + 8 * _kern.ROW * k, np.int64(cap.ctypes.data) + 32 * k, m[k],
+                      np.int64(rows.ctypes.data) + 8 * _kern.ROW * L * k, np.int64(boxes.ctypes.data) + 48 * L * k,
+                      np.int64(boxes.ctypes.data) + 48 * L * k)
+        _lanes.plane8(pa, np.int64(gp.ctypes.data) + 32 * k, np.int64(planes.ctypes.data) + 32 * L * k)
+        rot = np.empty((1, 3, 3))
+        pos = np.empty((1, 3))
+        for lane in range(L):
+            for i in range(3):
+                pos[0, i] = ps[k, i, lane]
+                for j in range(3):
+                    rot[0, i, j] = ps[k, 3 + 3 * i + j, lane]
+            w = _kern._world_row(rot, pos, 0, src, k, want_rows[k], lane)
+            _kern._world_aabb(w, m[k], want_boxes[k], lane)
+            _kern._cap_aabb(rot, 0, cap, k, w, m[k], want_boxes[k], lane)
+            _kern._plane_world(0, pos, rot, np.zeros(1, np.int64), gp[k:k + 1], want_planes[k], lane)
+
+
+def test_lane_rows_boxes_and_planes_are_the_single_world_values_bit_for_bit():
+    # The values themselves, not only outcomes: a one-ulp difference between the lanes and one world
+    # (an fmuladd split, a sum reordered) can flip a touching pair in either.
+    rng = np.random.default_rng(11)
+    n, R, L = 300, _kern.ROW, _lanes.LANES
+    ps = np.empty((n, 12, L))
+    ps[:, 0:3] = rng.normal(size=(n, 3, L)) * 10.0 ** rng.integers(-6, 6, (n, 1, 1))
+    ps[:, 3:12] = random_rotation(rng, n * L).reshape(n, L, 9).transpose(0, 2, 1)
+    src = rng.normal(size=(n, R))
+    src[:, 12:15] = np.abs(src[:, 12:15])
+    src[:, 18] = np.abs(src[:, 18])
+    cap = rng.normal(size=(n, 4))
+    cap[:, 3] = np.abs(cap[:, 3])
+    gp = rng.normal(size=(n, 4))
+    m = rng.uniform(0.0, 0.1, n)
+    m[::3] = 0.0
+    rows, want_rows = np.full((n, R, L), np.nan), np.full((n, L, R), np.nan)
+    boxes, want_boxes = np.full((n, 6, L), np.nan), np.full((n, L, 6), np.nan)
+    planes, want_planes = np.full((n, 4, L), np.nan), np.full((n, L, 4), np.nan)
+    _lane_places_both(ps, src, cap, gp, m, rows, boxes, planes, want_rows, want_boxes, want_planes)
+    for got, want in ((rows, want_rows), (boxes, want_boxes), (planes, want_planes)):
+        assert np.array_equal(got.transpose(0, 2, 1).view(np.int64), want.view(np.int64))

@@ -5,8 +5,8 @@ when it sees the whole pattern: a bit mask built from eight comparisons, ``m |= 
 as eight scalar tests, or as a vector compare followed by a shuffle-and-or reduction. Written as
 one ``<8 x i1>`` comparison bitcast to ``i8``, it is the canonical form every LLVM target lowers
 well (AVX-512: compares into a mask register and one ``kmov``; AVX2 and NEON: compares and a
-movemask or its equivalent). The comparisons are ``fcmp ole``: the same as numba's ``<=`` on floats
-(false on NaN), so the results are bit for bit the scalar code's.
+movemask or its equivalent). The comparisons are ordered (``fcmp ole``, ``ogt``, ``olt``): the same as
+numba's ``<=``, ``>``, ``<`` on floats (false on NaN), so the results are bit for bit the scalar code's.
 """
 
 from __future__ import annotations
@@ -448,7 +448,7 @@ def box_row8(typingctx, pt, stride, q, l0, l1, l2, h0, h1, h2):
     ``(6, stride)`` float64 block at address ``pt`` (rows lo x, y, z, hi x, y, z: boxes as
     columns): one vector compare per row. Reads ``LANES - 1`` float64 past column ``q`` of each
     row: the caller keeps that memory readable and ignores the bits of columns it does not own."""
-    if not (all(isinstance(a, types.Integer) for a in (pt, stride, q))
+    if not (all(a == types.int64 for a in (pt, stride, q))
             and all(s == types.float64 for s in (l0, l1, l2, h0, h1, h2))):
         return None
     sig = types.uint64(pt, stride, q, l0, l1, l2, h0, h1, h2)

@@ -107,6 +107,9 @@ N_STATS = 10
 FAT_GROW = 0.2
 COH_VALID, COH_N, COH_SCORE, COH_SKIP, COH_BACKOFF = range(5)
 N_COH = 8
+# `_traverse`'s row tests (`_simd.box_row8`) read up to LANES8 - 1 float64 past the last column of
+# the transposed boxes: past fat_t, that is this state, the end of W.
+assert N_COH >= LANES8 - 1
 COH_DECAY = 0.875
 # Above this decayed count (rebuilds in more than about a third of the calls, 8 x the rate in a
 # steady state: bodies leave their fat boxes all the time, as 22 falling humanoids do), rebuilding
@@ -1017,8 +1020,8 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
         if flat_root[n]:
             # A small subtree (a robot, a hand): its body pairs that pass the static filter, as a
             # bit mask per body made at set-up (bit i of flat_mask[a]: the pair (a, n + i)). Each
-            # row of AABB tests, a against every body of the subtree, runs over baabb's columns,
-            # which the compiler vectorises, into a bit mask; the static one keeps the pairs to
+            # row of AABB tests, a against every body of the subtree, runs over baabb's columns
+            # (baabb_t) in vector compares, into a bit mask; the static one keeps the pairs to
             # push. No walk, no sibling pairs, no call (17-body humanoid, hot: 98 pair tests one
             # by one 380 ns, by rows 140 ns).
             for a in range(n, end[n]):

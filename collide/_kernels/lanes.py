@@ -120,8 +120,9 @@ def _lane_views(J, L, Q, a):
 
 
 # ------------------------------------------------------------------------------- lane tests
-# Each is the per-world kernel's test (same operations, same order: the same bits) written as a
-# loop over the lanes, the lane index innermost.
+# Each is the per-world kernel's test (same operations, same order: the same bits): the hot ones as
+# the scalar source replayed on LLVM vectors (the intrinsics), the rest as loops over the lanes, the
+# lane index innermost.
 
 @intrinsic
 def bounds8(typingctx, pa, ma, pb, mb):
