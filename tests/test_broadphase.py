@@ -1545,7 +1545,7 @@ def test_coherent_must_be_a_bool():
 @numba.njit  # not cached: numba's cache would not see a change to the kernels it inlines
 def _lane_bounds_both(A, B, ma, mb, out):
     # every block pair's lane mask, through the lanes' vector form and the loop over the lanes
-    rb = 8 * _kern.ROW * _lanes.LANES
+    rb = _lanes.ROW_BYTES
     at = np.int64(A.ctypes.data)
     bt = np.int64(B.ctypes.data)
     for k in range(A.shape[0]):
@@ -1589,7 +1589,7 @@ def _lane_places_both(ps, src, cap, gp, m, rows, boxes, planes, want_rows, want_
     # and the per-world kernel's scalar functions lane by lane.
     L = _lanes.LANES
     for k in range(ps.shape[0]):
-        pa = np.int64(ps.ctypes.data) + 8 * 12 * L * k
+        pa = np.int64(ps.ctypes.data) + _lanes.POSE_BYTES * k
         _lanes.place8(pa, np.int64(src.ctypes.data) + 8 * _kern.ROW * k, np.int64(cap.ctypes.data) + 32 * k, m[k],
                       np.int64(rows.ctypes.data) + 8 * _kern.ROW * L * k, np.int64(boxes.ctypes.data) + 48 * L * k,
                       np.int64(boxes.ctypes.data) + 48 * L * k)

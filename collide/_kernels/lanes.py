@@ -43,6 +43,9 @@ from .broadphase import (BIG, C_KEYS, C_NKEYS, CI_KEYS, H_NB, N_STATS, ROW, SLAC
                          plane_world, start_chunks)
 
 LANES = 8
+# Bytes of the blocks the intrinsics take by address: a pose (12, LANES), a bounds row (ROW, LANES)
+POSE_BYTES = 8 * 12 * LANES
+ROW_BYTES = 8 * ROW * LANES
 MAX_BODY_PAIRS = 4096  # above this many static body pairs, the tree of the per-world kernel culls better
 
 # Header of J: counts.
@@ -293,12 +296,12 @@ def _lane_pair(p, m, x, y, single, wb, wa_at, stamp, order, gstart, pgeoms, gloc
     sx = single[x] > 0
     sy = single[y] > 0
     wb_at = np.int64(wb.ctypes.data)
-    RB = 8 * ROW * LANES  # bytes of a (ROW, LANES) block
+    gw_at = np.int64(gwl.ctypes.data)
     if single[x] >= 0 and single[y] >= 0:  # a loose body skips its body-level tests (see _world)
         n = _popcount(m)
         stats[ST_BODY_SPHERE] += n
         stats[ST_BODY_OBB] += n
-        m &= bounds8(wb_at + RB * x, 0.0, wb_at + RB * y, 0.0)
+        m &= bounds8(wb_at + ROW_BYTES * x, 0.0, wb_at + ROW_BYTES * y, 0.0)
         if m == 0:
             return
     if not sx:
@@ -315,9 +318,8 @@ def _lane_pair(p, m, x, y, single, wb, wa_at, stamp, order, gstart, pgeoms, gloc
             stats[ST_GEOM_SPHERE] += n
             stats[ST_GEOM_OBB] += n
             mm &= aabb_mask8(wa_at + 384 * x if sx else gal_at + 384 * g1, wa_at + 384 * y if sy else gal_at + 384 * g2)
-            gw_at = np.int64(gwl.ctypes.data)
-            mm &= bounds8(wb_at + RB * x if sx else gw_at + RB * g1, 0.0 if sx else gmargin[g1],
-                          wb_at + RB * y if sy else gw_at + RB * g2, 0.0 if sy else gmargin[g2])
+            mm &= bounds8(wb_at + ROW_BYTES * x if sx else gw_at + ROW_BYTES * g1, 0.0 if sx else gmargin[g1],
+                          wb_at + ROW_BYTES * y if sy else gw_at + ROW_BYTES * g2, 0.0 if sy else gmargin[g2])
         _set_bits(bits, pair_geoms[e, 2], mm, nv)
 
 
@@ -377,18 +379,17 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
     bad = False
     every = (np.uint64(1) << np.uint64(LANES)) - np.uint64(1)
     for b in range(NB):
-        bad |= pose_ok8(la + 8 * 12 * LANES * b) != every
+        bad |= pose_ok8(la + POSE_BYTES * b) != every
     if bad:
         return False
-    RB = 8 * ROW * LANES  # bytes of a (ROW, LANES) block
-    wb_at = la + 8 * 12 * LANES * NB
+    wb_at = la + POSE_BYTES * NB
     bl_at = np.int64(blocal.ctypes.data)
     bc_at = np.int64(bcap.ctypes.data)
     for x in range(L):
         stamp[x] = 0
         if hasb[x]:
             # world rows and AABBs (the OBB's cut to the capsule's), as broadphase._place
-            place8(la + 8 * 12 * LANES * order[x], bl_at + 8 * ROW * x, bc_at + 32 * x, 0.0, wb_at + RB * x,
+            place8(la + POSE_BYTES * order[x], bl_at + 8 * ROW * x, bc_at + 32 * x, 0.0, wb_at + ROW_BYTES * x,
                    wa_at + 384 * x, sa_at + 384 * x)
         else:
             for i in range(3):
@@ -443,7 +444,7 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
         b = geom_bid[qg]
         mq = gmargin[qg]
         pa = pln_at + 32 * LANES * i
-        plane8(la + 8 * 12 * LANES * b, gp_at + 32 * qg, pa)
+        plane8(la + POSE_BYTES * b, gp_at + 32 * qg, pa)
         stats[ST_PLANE] += (plane_start[i + 1] - plane_start[i]) * nlanes
         for e in range(plane_start[i], plane_start[i + 1]):
             x = plane_pos[e]
@@ -452,7 +453,7 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
             if m == 0:
                 continue
             stats[ST_PLANE] += _popcount(m)
-            m &= plane_hit8(pa, mq, wb_at + RB * x)  # `_plane_hit` on the body's world row
+            m &= plane_hit8(pa, mq, wb_at + ROW_BYTES * x)  # `_plane_hit` on the body's world row
             if m == 0:
                 continue
             if single[x] > 0:
@@ -512,7 +513,7 @@ def _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gcap, gmargin, ps, gwl,
     if stamp[x] != 0:
         return
     stamp[x] = 1
-    pb = np.int64(ps.ctypes.data) + 8 * 12 * LANES * order[x]
+    pb = np.int64(ps.ctypes.data) + POSE_BYTES * order[x]
     gl_at = np.int64(glocal.ctypes.data)
     gc_at = np.int64(gcap.ctypes.data)
     gw_at = np.int64(gwl.ctypes.data)
@@ -520,7 +521,7 @@ def _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gcap, gmargin, ps, gwl,
     for ii in range(gstart[x], gstart[x + 1]):
         g = pgeoms[ii]
         # the geom's rows and margin-inflated AABBs, as broadphase._geom_rows
-        place8(pb, gl_at + 8 * ROW * g, gc_at + 32 * g, gmargin[g], gw_at + 8 * ROW * LANES * g, ga_at + 384 * g,
+        place8(pb, gl_at + 8 * ROW * g, gc_at + 32 * g, gmargin[g], gw_at + ROW_BYTES * g, ga_at + 384 * g,
                ga_at + 384 * g)
 
 
