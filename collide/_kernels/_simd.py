@@ -120,7 +120,8 @@ class _Vec:
         self.b, self.v = b, v
 
     def _of(self, x):
-        return x.v if isinstance(x, _Vec) else ir.Constant(_V, [float(x)] * LANES)
+        t = self.v.type  # <LANES x double>, or another width (`gather_rows_masked`)
+        return x.v if isinstance(x, _Vec) else ir.Constant(t, [float(x)] * t.count)
 
     def __add__(self, x):
         return _Vec(self.b, self.b.fadd(self.v, self._of(x)))
@@ -175,17 +176,18 @@ class _Mask:
     def __xor__(self, x):
         if x is not True:
             raise TypeError("_Mask ^ x: only x = True (logical not)")
-        return _Mask(self.b, self.b.xor(self.v, ir.Constant(self.v.type, [1] * LANES)))
+        return _Mask(self.b, self.b.xor(self.v, ir.Constant(self.v.type, [1] * self.v.type.count)))
 
     def bits(self):
         # lane l's outcome as bit l of a uint64
-        return self.b.zext(self.b.bitcast(self.v, ir.IntType(LANES)), ir.IntType(64))
+        return self.b.zext(self.b.bitcast(self.v, ir.IntType(self.v.type.count)), ir.IntType(64))
 
 
 def _fmuladd_vec(a, b, c):
     # `_quat.fmuladd` lane by lane: llvm.fmuladd.v8f64 (the same rounding as on scalars)
     v = next(x for x in (a, b, c) if isinstance(x, _Vec))
-    fn = cgutils.get_or_insert_function(v.b.module, ir.FunctionType(_V, [_V, _V, _V]), f"llvm.fmuladd.v{LANES}f64")
+    t = v.v.type
+    fn = cgutils.get_or_insert_function(v.b.module, ir.FunctionType(t, [t, t, t]), f"llvm.fmuladd.v{t.count}f64")
     return _Vec(v.b, v.b.call(fn, [v._of(a), v._of(b), v._of(c)]))
 
 
@@ -269,7 +271,8 @@ def _splat(builder, x):
 
 def _vcall(builder, name, x):
     # the LLVM intrinsic name.v8f64 on a vector (llvm.sqrt, llvm.fabs: exact, as on scalars)
-    fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_V, [_V]), f"{name}.v{LANES}f64")
+    t = x.type
+    fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(t, [t]), f"{name}.v{t.count}f64")
     return builder.call(fn, [x])
 
 
@@ -469,3 +472,38 @@ def box_row8(typingctx, pt, stride, q, l0, l1, l2, h0, h1, h2):
         return builder.zext(builder.bitcast(m, ir.IntType(LANES)), i64)
 
     return sig, codegen
+
+
+# ------------------------------------------------------------------------------- rows by index
+
+def gather_rows(builder, base, idx, width, n):
+    """Fields 0..n-1 of the rows ``idx`` (int64 values, one a lane) of the ``(m, width)`` float64
+    array at address ``base`` (int64), as n `_Vec` of ``len(idx)`` lanes: field k of row idx[l] in
+    lane l, by gather instructions (``llvm.masked.gather``, all lanes on; a target without them
+    gets scalar loads). Nothing past a row's field n - 1 is read.
+
+    Four lanes in the per-world kernel, not `LANES`: a simulation loop calls it once a step, after
+    the engine's own code, and there eight lanes lost to four, though hot (one pose again and
+    again) eight were the fastest (11.4 ns a pair against 15.4; the loop they replaced 21). Loop
+    times against that loop, the emit the same (copies interleaved in one loop, Intel Xeon,
+    2026-11-28; cube_3x3x3 ~100 body pairs a step, stonehenge ~96): four lanes 0.86 and 0.96, eight
+    lanes (512-bit registers) 1.00 and 1.09, eight lanes kept to 256-bit registers (function
+    attributes) 1.05 and 1.18; eight rows loaded whole and transposed in registers lost too."""
+    lanes = len(idx)
+    i64 = ir.IntType(64)
+    vi = ir.VectorType(i64, lanes)
+    vd = ir.VectorType(ir.DoubleType(), lanes)
+    vp = ir.VectorType(ir.DoubleType().as_pointer(), lanes)
+    a = ir.Constant(vi, ir.Undefined)
+    for l, i in enumerate(idx):
+        a = builder.insert_element(a, builder.add(base, builder.mul(i, ir.Constant(i64, 8 * width))),
+                                   ir.Constant(ir.IntType(32), l))
+    fn = cgutils.get_or_insert_function(
+        builder.module, ir.FunctionType(vd, [vp, ir.IntType(32), ir.VectorType(ir.IntType(1), lanes), vd]),
+        f"llvm.masked.gather.v{lanes}f64.v{lanes}p0")
+    on = ir.Constant(ir.VectorType(ir.IntType(1), lanes), [1] * lanes)
+    out = []
+    for k in range(n):
+        p = builder.inttoptr(builder.add(a, ir.Constant(vi, [8 * k] * lanes)), vp)
+        out.append(_Vec(builder, builder.call(fn, [p, ir.Constant(ir.IntType(32), 8), on, ir.Constant(vd, ir.Undefined)])))
+    return out

@@ -38,7 +38,7 @@ One step, for one world (`_world`):
    counting, even inlined: the hottest tests are written out);
 4. body pair -> static filter -> sphere and OBB separating-axis tests (15 axes, Ericson 2005,
    *Real-Time Collision Detection* §4.4.1), 64 body pairs at a time with every axis evaluated
-   (`_pairs_mask`: one loop without a branch, vectorised, the rows gathered where they lie) ->
+   (`pair_bits`: four pairs a vector, the rows gathered where they lie) ->
    geom pairs, the same tests one by one on the geoms' bounds;
 Steps 2-3 and the static filter are skipped while the body pairs kept from earlier calls stand:
 with frame coherence (single-world calls), each body's AABB is checked against its fat box and,
@@ -53,12 +53,15 @@ when every one is inside, only the kept pairs' AABBs are tested (``FAT_GROW``);
 from __future__ import annotations
 
 import numba as nb
+from llvmlite import ir
+from numba.core import types
 from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
+from numba.extending import intrinsic
 import numpy as np
 
 from ._ptr import f64_ptr, i32_ptr, i64_ptr
 from ._quat import fmuladd
-from ._simd import LANES as LANES8, box_row8
+from ._simd import LANES as LANES8, _py, box_row8, gather_rows
 from ._threads import fetch_add, set_chunksize
 
 ROW = 19
@@ -671,14 +674,12 @@ def bounds_mask(A, a, ma, B, b, mb, n):
 @nb.njit(cache=True, inline="always")
 def _pairs_mask(bw, bp, c0, n):
     """Bit l set when the body rows of pair ``bp[c0 + l]`` overlap (`_bounds_ok`, no inflation:
-    the rows carry it), n <= 64; a marked second body (``~y``) is read as ``y``.
+    the rows carry it), n <= 64; a marked second body (``~y``) is read as ``y``. The kernel runs
+    its vector form, `pair_bits`, four pairs a call; this loop is its twin in the tests.
 
-    The rows are read where they are, into vectors (LLVM's choice by target: on AMD Zen 3 scalar
-    loads and inserts, no gather instructions; ~20 ns a pair hot there, against 14 ns a lane for
-    the same test on the lanes' contiguous columns): copying them into columns first made the stage
-    slower (22 humanoids, about 320 pairs a step in the benchmark's runs: 1-5 % of a step; Zen 3,
-    96 random pairs, a one-off timing of this function against a copying twin: 34 against 20 ns
-    a pair)."""
+    Its rows read where they are, into vectors (on AMD Zen 3 scalar loads and inserts, ~20 ns a
+    pair hot; on the Intel Xeon four-lane gathers, 21): copying them into columns first made the
+    stage slower (22 humanoids, Zen 3, 96 random pairs: 34 against 20 ns a pair)."""
     m = np.uint64(0)
     for l in range(n):
         x = bp[c0 + l, 0]
@@ -687,6 +688,47 @@ def _pairs_mask(bw, bp, c0, n):
         ok = _bounds_ok(_row_of(bw, x), 0.0, _row_of(bw, y), 0.0)
         m |= np.uint64(ok) << np.uint64(l)
     return m
+
+
+PAIR_LANES = 4  # pairs a call of `pair_bits` (see `_simd.gather_rows`: not LANES8)
+
+
+@intrinsic
+def pair_bits(typingctx, pw, pp, c, n):
+    """`_pairs_mask` of the ``n`` (1..PAIR_LANES) pairs from row ``c`` of the ``(m, 2)`` int64 pair
+    array at address ``pp`` (a second body marked ``~y`` read as ``y``), over the ``(L, ROW)`` rows at
+    address ``pw``: `_bounds_ok`'s source replayed on ``<PAIR_LANES x double>`` vectors (`_simd._py`:
+    the same operations in the same order, the same bits), the rows' fields gathered
+    (`_simd.gather_rows`), the outcome one vector compare's mask. A lane past ``n`` tests pair ``c``
+    again and its bit is dropped: no row past the pairs is read.
+
+    The loop over the pairs it replaces (`_pairs_mask`, now the tests' twin) built its mask with a
+    shift and an or a pair; the same four-lane gathers (cube_3x3x3 in a simulation loop: 0.86 of
+    the step's time, stonehenge 0.96; humanoid and the robots, with 5-40 body pairs, even; Intel
+    Xeon)."""
+    if not all(a == types.int64 for a in (pw, pp, c, n)):
+        return None
+    sig = types.uint64(pw, pp, c, n)
+
+    def codegen(context, builder, signature, args):
+        aw, ap, cc, nn = args
+        i64 = ir.IntType(64)
+        pi = builder.inttoptr(ap, i64.as_pointer())
+        xs, ys = [], []
+        for l in range(PAIR_LANES):
+            j = builder.add(cc, builder.select(builder.icmp_signed("<", ir.Constant(i64, l), nn),
+                                               ir.Constant(i64, l), ir.Constant(i64, 0)))
+            x = builder.load(builder.gep(pi, [builder.mul(j, ir.Constant(i64, 2))]), align=8)
+            y = builder.load(builder.gep(pi, [builder.add(builder.mul(j, ir.Constant(i64, 2)), ir.Constant(i64, 1))]),
+                             align=8)
+            xs.append(x)
+            ys.append(builder.xor(y, builder.ashr(y, ir.Constant(i64, 63))))  # ~y -> y
+        ok = _py(_bounds_ok)(tuple(gather_rows(builder, aw, xs, ROW, ROW)), 0.0,
+                             tuple(gather_rows(builder, aw, ys, ROW, ROW)), 0.0)
+        keep = builder.sub(builder.shl(ir.Constant(i64, 1), nn), ir.Constant(i64, 1))
+        return builder.and_(ok.bits(), keep)
+
+    return sig, codegen
 
 
 @nb.njit(cache=True, inline="always")
@@ -1415,14 +1457,18 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
         # 4a. the static filter
         m = _filter(bp, nbp, ctor, caor, weld, parent_pos, filter_parent, ex_start, ex_other, single)
     # 4. body pairs -> sphere and OBB (64 pairs at a time, vectorised) -> geom pairs.
-    # 4b. sphere and OBB tests of the body bounds, 64 pairs at a time: one loop without a branch,
-    # which the compiler vectorises, into a bit mask; a loose pair (~y) passes.
+    # 4b. sphere and OBB tests of the body bounds, 64 pairs at a time, four a vector (`pair_bits`),
+    # into a bit mask; a loose pair (~y) passes.
+    bw_at = np.int64(bw.ctypes.data)
+    bp_at = np.int64(bp.ctypes.data)
     for c0 in range(0, m, 64):
         cnt = min(64, m - c0)
         force = np.uint64(0)
         for i in range(cnt):
             force |= np.uint64(bp[c0 + i, 1] < 0) << np.uint64(i)
-        hits = _pairs_mask(bw, bp, c0, cnt) | force
+        hits = force
+        for j in range(0, cnt, PAIR_LANES):
+            hits |= pair_bits(bw_at, bp_at, c0 + j, min(PAIR_LANES, cnt - j)) << np.uint64(j)
         nl = 0
         f = force
         while f != 0:
@@ -1438,6 +1484,11 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
             y = y ^ (y >> 63)
             sx = single[x] > 0
             sy = single[y] > 0
+            if sx and sy and not (check_pairs and (pairflag[x] | pairflag[y]) != 0):
+                # Two single-geom bodies: their geoms' masks are the bodies' (the static filter
+                # passed), their rows the bodies' (tested above): the pair is the geoms'.
+                k = _emit(keys, k, pgeoms[gstart[x]], pgeoms[gstart[y]], S)
+                continue
             if not sx:
                 _geom_rows(x, order, gstart, pgeoms, glocal, gcap, gmargin, body_pos, body_rot, gw, gaabb, gstamp,
                            stamp)
