@@ -505,5 +505,6 @@ def gather_rows(builder, base, idx, width, n):
     out = []
     for k in range(n):
         p = builder.inttoptr(builder.add(a, ir.Constant(vi, [8 * k] * lanes)), vp)
-        out.append(_Vec(builder, builder.call(fn, [p, ir.Constant(ir.IntType(32), 8), on, ir.Constant(vd, ir.Undefined)])))
+        out.append(_Vec(builder, builder.call(fn, [p, ir.Constant(ir.IntType(32), 8), on,
+                                                   ir.Constant(vd, ir.Undefined)])))
     return out
