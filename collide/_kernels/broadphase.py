@@ -1564,10 +1564,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
             elif hit:
                 multi = single[x] <= 0
                 if multi:
-                    # the geoms' world AABBs, for their corner tests below
-                    _geom_rows(x, order, gstart, pgeoms, glocal, gcap, gmargin, body_pos, body_rot, gw, gaabb,
-                               gstamp, stamp)
-                    # the plane in the body's frame, for their sphere and OBB tests
+                    # the plane in the body's frame, for its geoms' sphere and OBB tests
                     b = order[x]
                     ln0 = dot3(body_rot[b, 0, 0], body_rot[b, 1, 0], body_rot[b, 2, 0], n0, n1, n2)
                     ln1 = dot3(body_rot[b, 0, 1], body_rot[b, 1, 1], body_rot[b, 2, 1], n0, n1, n2)
@@ -1584,12 +1581,17 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
                             continue
                     if multi:
                         stats[ST_PLANE] += 1
-                        # the geom's AABB corner, as the body's above, then its sphere and OBB
-                        v = dot3(n0, n1, n2, gaabb[g, k0], gaabb[g, k1], gaabb[g, k2])
-                        if not (v <= lim + SLACK_POS * (abs(v) + abs(pd))):
-                            continue
+                        # the geom's sphere and OBB in the body's frame, then its world AABB's
+                        # corner, as the body's above: the geoms' world rows are made (`_geom_rows`)
+                        # only when one of them passes (anybotics_anymal_c in a simulation loop:
+                        # 0.89-0.93 of the step's time; most of its legs' geoms do not)
                         if not _plane_hit_local(ln0, ln1, ln2, llim, lscale + abs(glocal[g, 0])
                                                 + abs(glocal[g, 1]) + abs(glocal[g, 2]), glocal, g, gmargin[g]):
+                            continue
+                        _geom_rows(x, order, gstart, pgeoms, glocal, gcap, gmargin, body_pos, body_rot, gw, gaabb,
+                                   gstamp, stamp)
+                        v = dot3(n0, n1, n2, gaabb[g, k0], gaabb[g, k1], gaabb[g, k2])
+                        if not (v <= lim + SLACK_POS * (abs(v) + abs(pd))):
                             continue
                     k = _emit(keys, k, g, qg, S)
     # 5b. explicit pairs: only the bounds test, with the pair's own inflation if given.
