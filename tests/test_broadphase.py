@@ -1027,14 +1027,20 @@ def test_loose_multi_geom_bodies_skip_body_tests_and_lose_nothing():
 
 
 @pytest.mark.parametrize("order", ["shuffled", "runs", "sorted", "nearly", "reversed", "one_first_id"])
-@pytest.mark.parametrize("G, k", [(30, 85), (419, 226), (5000, 150), (70000, 3000), (7, 1), (7, 2)])
-def test_key_sort_equals_numpy(G, k, order):
-    # The kernel's output sort (insertion sort on a few runs, else two counting passes; two
-    # parts merged) against np.sort, on the orders the kernel produces and worse; the keys buffer's tail and
-    # everything outside the scratch stay untouched, and garbage in the scratch does no harm.
+@pytest.mark.parametrize("distinct", [False, True])
+@pytest.mark.parametrize("G, k", [(30, 85), (419, 226), (5000, 150), (70000, 3000), (7, 1), (7, 2), (78, 110)])
+def test_key_sort_equals_numpy(G, k, order, distinct):
+    # The kernel's output sort (a bit set of the key space when small, duplicates sent on; insertion
+    # sort on a few runs, else two counting passes; two parts merged) against np.sort, on the orders
+    # the kernel produces and worse; the keys buffer's tail and everything outside the scratch stay
+    # untouched, and garbage in the scratch does no harm.
     rng = np.random.default_rng(G + k)
     S = _kern.key_shift(G)
     g = np.sort(rng.integers(0, G, (k, 2)), axis=1)
+    if distinct:  # as the kernel's keys (each pair found once): the bit-set sort's case
+        g = np.unique(g, axis=0)
+        g = g[rng.permutation(len(g))]
+        k = len(g)
     if order == "one_first_id":
         g[:, 0] = 0
     keys = (g[:, 0].astype(np.int64) << S) | g[:, 1]

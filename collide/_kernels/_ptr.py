@@ -10,8 +10,10 @@ keeps every buffer alive for as long as a context points into it.
 
 from __future__ import annotations
 
-from numba.core import types
+from llvmlite import ir
+from numba.core import cgutils, types
 from numba.extending import intrinsic
+from numba.np.arrayobj import make_array, populate_array
 
 
 def _pointer_cast(dtype):
@@ -32,3 +34,46 @@ def _pointer_cast(dtype):
 f64_ptr = _pointer_cast(types.float64)
 i64_ptr = _pointer_cast(types.int64)
 i32_ptr = _pointer_cast(types.int32)
+
+
+@intrinsic
+def view(typingctx, ptr, shape):
+    """The C-contiguous array of ``shape`` (an integer or a tuple of integers) at the typed pointer
+    ``ptr`` (`f64_ptr`, `i64_ptr`, `i32_ptr`): what ``numba.carray(ptr, shape)`` makes (no copy, no
+    reference-counted allocation behind it), as one inline step.
+
+    Unlike ``carray`` (a compiled function returning an array) it is allowed in functions compiled
+    without numba's reference counting (``_nrt=False``), where no array value costs an increment
+    and a decrement: the per-step kernel's ~45 views and their passing around made ~50 calls a
+    step to numba's reference-count functions, all on null records (see `broadphase.NO_NRT`).
+    """
+    if not isinstance(ptr, types.CPointer):
+        return None
+    if isinstance(shape, types.Integer):
+        ndim = 1
+    elif isinstance(shape, types.BaseTuple) and all(isinstance(t, types.Integer) for t in shape):
+        ndim = len(shape)
+    else:
+        return None
+    aryty = types.Array(ptr.dtype, ndim, "C")
+    sig = aryty(ptr, shape)
+
+    def codegen(context, builder, signature, args):
+        intp = context.get_value_type(types.intp)
+        p, sh = args
+        dims = [sh] if ndim == 1 else cgutils.unpack_tuple(builder, sh, ndim)
+        dims = [context.cast(builder, d, t, types.intp)
+                for d, t in zip(dims, [shape] if ndim == 1 else list(shape))]
+        itemsize = context.get_abi_sizeof(context.get_data_type(ptr.dtype))
+        strides = []
+        acc = ir.Constant(intp, itemsize)
+        for d in reversed(dims):
+            strides.append(acc)
+            acc = builder.mul(acc, d)
+        strides.reverse()
+        ary = make_array(aryty)(context, builder)
+        populate_array(ary, data=p, shape=dims, strides=strides, itemsize=ir.Constant(intp, itemsize), meminfo=None)
+        return ary._getvalue()
+
+    return sig, codegen
+

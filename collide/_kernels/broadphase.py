@@ -59,10 +59,19 @@ from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
 from numba.extending import intrinsic
 import numpy as np
 
-from ._ptr import f64_ptr, i32_ptr, i64_ptr
+from ._ptr import f64_ptr, i32_ptr, i64_ptr, view
 from ._quat import fmuladd
 from ._simd import LANES as LANES8, _py, box_row8, gather_rows
 from ._threads import fetch_add, set_chunksize
+
+# The per-step functions are compiled without numba's reference counting: in them an array value
+# costs nothing when copied or dropped, where numba emits a call to its runtime for each (~50 a step
+# in `_world` and its callees, every one on the null record of a view made from a pointer, which
+# LLVM cannot see through: `_ptr.view`). They allocate nothing; the walk's `_traverse` and
+# `_grid_pairs` do, and keep the counting (stated: a function called from one compiled without it
+# is compiled without it too, unless its own decorator says otherwise). Loop after mj_step, copies
+# interleaved (Intel Xeon, a noisy machine): humanoid 0.89-0.95, the robots 0.97-0.99.
+NO_NRT = dict(cache=True, _nrt=False)
 
 ROW = 19
 BIG = 1e300  # empty AABB: lo = BIG, hi = -BIG (finite, so n . lo never meets inf - inf)
@@ -197,90 +206,90 @@ def _views(I, F, W):
     P = I[H_P]
     ia = np.int64(I.ctypes.data)
     o = HEADER
-    order = nb.carray(i64_ptr(ia + 8 * o), L)
+    order = view(i64_ptr(ia + 8 * o), L)
     o += L
-    pos_of = nb.carray(i64_ptr(ia + 8 * o), I[H_NB])
+    pos_of = view(i64_ptr(ia + 8 * o), I[H_NB])
     o += I[H_NB]
-    end = nb.carray(i64_ptr(ia + 8 * o), L)
+    end = view(i64_ptr(ia + 8 * o), L)
     o += L
-    parent_pos = nb.carray(i64_ptr(ia + 8 * o), L)
+    parent_pos = view(i64_ptr(ia + 8 * o), L)
     o += L
-    weld = nb.carray(i64_ptr(ia + 8 * o), L)
+    weld = view(i64_ptr(ia + 8 * o), L)
     o += L
-    nchild = nb.carray(i64_ptr(ia + 8 * o), L)
+    nchild = view(i64_ptr(ia + 8 * o), L)
     o += L
-    child_start = nb.carray(i64_ptr(ia + 8 * o), L)
+    child_start = view(i64_ptr(ia + 8 * o), L)
     o += L
-    single = nb.carray(i64_ptr(ia + 8 * o), L)
+    single = view(i64_ptr(ia + 8 * o), L)
     o += L
-    hasb = nb.carray(i64_ptr(ia + 8 * o), L)
+    hasb = view(i64_ptr(ia + 8 * o), L)
     o += L
-    pairflag = nb.carray(i64_ptr(ia + 8 * o), L)
+    pairflag = view(i64_ptr(ia + 8 * o), L)
     o += L
-    ctor = nb.carray(i64_ptr(ia + 8 * o), L)
+    ctor = view(i64_ptr(ia + 8 * o), L)
     o += L
-    caor = nb.carray(i64_ptr(ia + 8 * o), L)
+    caor = view(i64_ptr(ia + 8 * o), L)
     o += L
-    children = nb.carray(i64_ptr(ia + 8 * o), L - 1)
+    children = view(i64_ptr(ia + 8 * o), L - 1)
     o += L - 1
-    gstart = nb.carray(i64_ptr(ia + 8 * o), L + 1)
+    gstart = view(i64_ptr(ia + 8 * o), L + 1)
     o += L + 1
-    pgeoms = nb.carray(i64_ptr(ia + 8 * o), Gs)
+    pgeoms = view(i64_ptr(ia + 8 * o), Gs)
     o += Gs
-    ex_start = nb.carray(i64_ptr(ia + 8 * o), L + 1)
+    ex_start = view(i64_ptr(ia + 8 * o), L + 1)
     o += L + 1
-    ex_other = nb.carray(i64_ptr(ia + 8 * o), E)
+    ex_other = view(i64_ptr(ia + 8 * o), E)
     o += E
-    planes = nb.carray(i64_ptr(ia + 8 * o), Q)
+    planes = view(i64_ptr(ia + 8 * o), Q)
     o += Q
-    plane_ok = nb.carray(i64_ptr(ia + 8 * o), (Q, L))
+    plane_ok = view(i64_ptr(ia + 8 * o), (Q, L))
     o += Q * L
-    geom_bid = nb.carray(i64_ptr(ia + 8 * o), G)
+    geom_bid = view(i64_ptr(ia + 8 * o), G)
     o += G
-    gct = nb.carray(i64_ptr(ia + 8 * o), G)
+    gct = view(i64_ptr(ia + 8 * o), G)
     o += G
-    gca = nb.carray(i64_ptr(ia + 8 * o), G)
+    gca = view(i64_ptr(ia + 8 * o), G)
     o += G
-    pair_g = nb.carray(i64_ptr(ia + 8 * o), (P, 2))
+    pair_g = view(i64_ptr(ia + 8 * o), (P, 2))
     o += 2 * P
-    pair_keys = nb.carray(i64_ptr(ia + 8 * o), P)
+    pair_keys = view(i64_ptr(ia + 8 * o), P)
     o += P
-    flat_root = nb.carray(i64_ptr(ia + 8 * o), L)
+    flat_root = view(i64_ptr(ia + 8 * o), L)
     o += L
-    flat_n = nb.carray(i64_ptr(ia + 8 * o), L)
+    flat_n = view(i64_ptr(ia + 8 * o), L)
     o += L
-    flat_mask = nb.carray(i64_ptr(ia + 8 * o), L)
+    flat_mask = view(i64_ptr(ia + 8 * o), L)
     fa = np.int64(F.ctypes.data)
     wa = np.int64(W.ctypes.data)
     f = 0
-    blocal = nb.carray(f64_ptr(fa + 8 * f), (L, ROW))
+    blocal = view(f64_ptr(fa + 8 * f), (L, ROW))
     f += ROW * L
-    glocal = nb.carray(f64_ptr(fa + 8 * f), (G, ROW))
+    glocal = view(f64_ptr(fa + 8 * f), (G, ROW))
     f += ROW * G
-    gplane = nb.carray(f64_ptr(fa + 8 * f), (G, 4))
+    gplane = view(f64_ptr(fa + 8 * f), (G, 4))
     f += 4 * G
-    gmargin = nb.carray(f64_ptr(fa + 8 * f), G)
+    gmargin = view(f64_ptr(fa + 8 * f), G)
     f += G
-    pair_m = nb.carray(f64_ptr(fa + 8 * f), P)
+    pair_m = view(f64_ptr(fa + 8 * f), P)
     w = 0
-    bw = nb.carray(f64_ptr(wa + 8 * w), (L, ROW))
+    bw = view(f64_ptr(wa + 8 * w), (L, ROW))
     w += ROW * L
-    gw = nb.carray(f64_ptr(wa + 8 * w), (G, ROW))
+    gw = view(f64_ptr(wa + 8 * w), (G, ROW))
     w += ROW * G
-    baabb = nb.carray(f64_ptr(wa + 8 * w), (L, 6))
+    baabb = view(f64_ptr(wa + 8 * w), (L, 6))
     w += 6 * L
-    saabb = nb.carray(f64_ptr(wa + 8 * w), (L, 6))
+    saabb = view(f64_ptr(wa + 8 * w), (L, 6))
     w += 6 * L
-    baabb_t = nb.carray(f64_ptr(wa + 8 * w), (6, L))  # baabb's columns, for the flat roots' rows
+    baabb_t = view(f64_ptr(wa + 8 * w), (6, L))  # baabb's columns, for the flat roots' rows
     w += 6 * L
     Qm = max(Q, 1)
-    plw = nb.carray(f64_ptr(wa + 8 * w), (Qm, 4))
+    plw = view(f64_ptr(wa + 8 * w), (Qm, 4))
     w += 4 * Qm
-    tmp = nb.carray(f64_ptr(wa + 8 * w), (2, ROW))
+    tmp = view(f64_ptr(wa + 8 * w), (2, ROW))
     w += 2 * ROW
-    gaabb = nb.carray(f64_ptr(wa + 8 * w), (G, 6))
+    gaabb = view(f64_ptr(wa + 8 * w), (G, 6))
     w += 6 * G
-    gstamp = nb.carray(f64_ptr(wa + 8 * w), L + 1)  # gstamp[L]: the call counter
+    gstamp = view(f64_ptr(wa + 8 * w), L + 1)  # gstamp[L]: the call counter
     return (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
             caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
             pair_keys,
@@ -296,7 +305,7 @@ def _cap_views(I, F):
     G = I[H_G]
     f = ROW * L + ROW * G + 5 * G + I[H_P]
     fa = np.int64(F.ctypes.data)
-    return nb.carray(f64_ptr(fa + 8 * f), (L, 4)), nb.carray(f64_ptr(fa + 8 * (f + 4 * L)), (G, 4))
+    return view(f64_ptr(fa + 8 * f), (L, 4)), view(f64_ptr(fa + 8 * (f + 4 * L)), (G, 4))
 
 
 @nb.njit(cache=True, inline="always")
@@ -305,10 +314,10 @@ def _fat_views(I, W):
     # state (N_COH).
     L = I[H_L]
     wa = np.int64(W.ctypes.data) + 8 * coherence_offset(L, I[H_G], I[H_Q])
-    fat_b = nb.carray(f64_ptr(wa), (L, 6))
-    fat_s = nb.carray(f64_ptr(wa + 48 * L), (L, 6))
-    fat_t = nb.carray(f64_ptr(wa + 96 * L), (6, L))
-    state = nb.carray(f64_ptr(np.int64(W.ctypes.data) + 8 * coherence_state_offset(L, I[H_G], I[H_Q])), N_COH)
+    fat_b = view(f64_ptr(wa), (L, 6))
+    fat_s = view(f64_ptr(wa + 48 * L), (L, 6))
+    fat_t = view(f64_ptr(wa + 96 * L), (6, L))
+    state = view(f64_ptr(np.int64(W.ctypes.data) + 8 * coherence_state_offset(L, I[H_G], I[H_Q])), N_COH)
     return fat_b, fat_s, fat_t, state
 
 
@@ -831,7 +840,7 @@ FLAT_DESC = 16  # a body with at most this many descendants tests them all flat,
 FLAT_MAX = 4096  # _subtree_pair: at most this many body x body tests flat, else the walk
 
 
-@nb.njit(cache=True)
+@nb.njit(**NO_NRT)
 def _subtree_pair(A, B, end, baabb, saabb, hasb, bp, nb_, stats, lst):
     """Every body of subtree A against every body of subtree B (disjoint subtrees whose AABBs meet).
 
@@ -887,7 +896,7 @@ def _subtree_pair(A, B, end, baabb, saabb, hasb, bp, nb_, stats, lst):
     return nb_
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=True)  # allocates: counted (see NO_NRT; a callee takes its caller's flag)
 def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stats, lst, use_sph):
     """Pairs of overlapping child subtrees of a wide node through a uniform hash grid.
 
@@ -1041,7 +1050,7 @@ def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stat
     return nb_
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, _nrt=True)  # allocates: counted (see NO_NRT; a callee takes its caller's flag)
 def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap, bp, stats, filter_parent,
               baabb_t, flat_root, flat_n, flat_mask, use_sph):
     """Candidate body pairs (world AABBs overlap) into ``bp``; returns their count (may exceed cap).
@@ -1228,7 +1237,7 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
 
 # ------------------------------------------------------------------------------- one world
 
-@nb.njit(cache=True)
+@nb.njit(**NO_NRT)
 def _sweep(saabb, parent_pos, L):
     """Subtree AABBs: one reverse sweep over the positions, children before parents, each row of
     ``saabb`` started as its body's AABB.
@@ -1257,7 +1266,7 @@ def _sweep(saabb, parent_pos, L):
         saabb[q, 5] = a5
 
 
-@nb.njit(cache=True)
+@nb.njit(**NO_NRT)
 def _filter(bp, nbp, ctor, caor, weld, parent_pos, filter_parent, ex_start, ex_other, single):
     """The static filter over the traversal's ``bp[:nbp]``, compacting ``bp`` in place; returns
     the count kept. Each kept pair is written lower position first, its second as ``~y`` when
@@ -1311,7 +1320,7 @@ def _scan(cl, n, baabb, bp):
     return m
 
 
-@nb.njit(cache=True)
+@nb.njit(**NO_NRT)
 def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coherent):
     """One world: validate poses, world bounds, tree culling, filters; returns the pair count.
 
@@ -1346,8 +1355,8 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
     # inside the placing loop the test cost 6.8 ns a body, alone 4.3 (65 bodies: 0.44 -> 0.28 us).
     # Only a failing call looks at the bodies one by one, by id, so the first offender is named.
     NB = I[H_NB]
-    rf = nb.carray(f64_ptr(np.int64(body_rot.ctypes.data)), 9 * NB)
-    pf = nb.carray(f64_ptr(np.int64(body_pos.ctypes.data)), 3 * NB)
+    rf = view(f64_ptr(np.int64(body_rot.ctypes.data)), 9 * NB)
+    pf = view(f64_ptr(np.int64(body_pos.ctypes.data)), 3 * NB)
     bad = False
     for b in range(NB):
         o = 9 * b
@@ -1615,10 +1624,11 @@ def scratch_size(G: int, keys: int) -> int:
     return keys + G + 1
 
 
-@nb.njit(cache=True)
+@nb.njit(**NO_NRT)
 def _sort_keys(keys, k, k4, S, G, scr):
-    """Sort keys[:k] (pair keys ``g1 << S | g2``, ids < G): the body-level keys ``[:k4]`` and the
-    plane and explicit keys ``[k4:k]`` each on their own (`_sort_run`), then one merge.
+    """Sort keys[:k] (pair keys ``g1 << S | g2``, ids < G): through a bit set of the key space when
+    that is small and the keys out of order (`_sort_bits`); else the body-level keys ``[:k4]`` and
+    the plane and explicit keys ``[k4:k]`` each on their own (`_sort_run`), then one merge.
 
     Apart, each part is mostly in order already: pairs are found in position order, which
     follows the ids in most models, and a plane's keys come in position order too; together they
@@ -1626,6 +1636,10 @@ def _sort_keys(keys, k, k4, S, G, scr):
     holds `scratch_size` int64.
     """
     n = keys.shape[0]
+    words = ((G << S) + 63) >> 6  # every key < G << S
+    if (words <= scr.shape[0] and words <= 2 * G + k and not (_ascending(keys, 0, k4) and _ascending(keys, k4, k))
+            and _sort_bits(keys, k, words, scr)):
+        return
     tmp = scr[:n]
     cnt = scr[n:n + G + 1]
     _sort_run(keys, 0, k4, S, G, tmp, cnt)
@@ -1652,7 +1666,44 @@ def _sort_keys(keys, k, k4, S, G, scr):
             o += 1
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
+def _ascending(keys, lo, hi):
+    # keys[lo:hi] in ascending order (no early exit: a pass without a branch)
+    desc = 0
+    for i in range(lo + 1, hi):
+        desc += np.int64(keys[i] < keys[i - 1])
+    return desc == 0
+
+
+@nb.njit(**NO_NRT)
+def _sort_bits(keys, k, words, bits):
+    # Sort keys[:k] (each < 64 * words) through a bit set of the key space in bits[:words]: set each
+    # key's bit, then read the set bits back in order; returns False, keys untouched, if a key
+    # comes twice (the kernel's never do: each pair is found once). ~words + 2 k simple steps, no
+    # compares between keys: where the key space is small (G << S bits: cube_3x3x3 832, stonehenge
+    # 9,984), cheaper than the two counting passes (~2 G + 4 k) of a shuffled order.
+    for w in range(words):
+        bits[w] = 0
+    dup = np.int64(0)
+    for i in range(k):
+        v = keys[i]
+        w = v >> 6
+        b = np.int64(1) << (v & 63)
+        dup |= bits[w] & b
+        bits[w] |= b
+    if dup != 0:
+        return False
+    o = 0
+    for w in range(words):
+        b = np.uint64(bits[w])
+        while b != 0:
+            keys[o] = (w << 6) | np.int64(trailing_zeros(b))
+            o += 1
+            b &= b - np.uint64(1)
+    return True
+
+
+@nb.njit(**NO_NRT)
 def _sort_run(keys, lo, hi, S, G, tmp, cnt):
     # Sort keys[lo:hi]: nothing if sorted; insertion sort when it is a few ascending runs (linear
     # on nearly sorted keys, no set-up), within a budget of moves; else, or past the budget, two
@@ -1842,14 +1893,14 @@ def context(I, F, W, sap, bp, keys, scr, stats, info, out=None, cl=None) -> np.n
 
 @nb.njit(cache=True, inline="always")
 def _buffers(ctx):
-    I = nb.carray(i64_ptr(ctx[C_I]), ctx[C_NI])
-    F = nb.carray(f64_ptr(ctx[C_F]), ctx[C_NF])
-    W = nb.carray(f64_ptr(ctx[C_W]), ctx[C_NW])
-    sap = nb.carray(i64_ptr(ctx[C_SAP]), ctx[C_NSAP])
-    bp = nb.carray(i64_ptr(ctx[C_BP]), (ctx[C_NBP], 2))
-    scr = nb.carray(i64_ptr(ctx[C_SCR]), ctx[C_NSCR])
-    stats = nb.carray(i64_ptr(ctx[C_STATS]), N_STATS)
-    info = nb.carray(i64_ptr(ctx[C_INFO]), 4)
+    I = view(i64_ptr(ctx[C_I]), ctx[C_NI])
+    F = view(f64_ptr(ctx[C_F]), ctx[C_NF])
+    W = view(f64_ptr(ctx[C_W]), ctx[C_NW])
+    sap = view(i64_ptr(ctx[C_SAP]), ctx[C_NSAP])
+    bp = view(i64_ptr(ctx[C_BP]), (ctx[C_NBP], 2))
+    scr = view(i64_ptr(ctx[C_SCR]), ctx[C_NSCR])
+    stats = view(i64_ptr(ctx[C_STATS]), N_STATS)
+    info = view(i64_ptr(ctx[C_INFO]), 4)
     return I, F, W, sap, bp, scr, stats, info
 
 
@@ -1866,7 +1917,7 @@ def _step(body_pos, body_rot, ctx):
     ``RET_SAME + K`` is returned. ``info`` = (status, body, keys needed, body pairs needed): on
     `RET_OVERFLOW` the caller grows the buffer named there and reruns.
     """
-    L = nb.carray(i64_ptr(ctx[C_I]), ctx[C_NI])[H_NB]
+    L = view(i64_ptr(ctx[C_I]), ctx[C_NI])[H_NB]
     if (body_pos.shape[0] != L or body_pos.shape[1] != 3 or body_rot.shape[0] != L or body_rot.shape[1] != 3
             or body_rot.shape[2] != 3):
         return RET_BAD_SHAPE
@@ -1881,20 +1932,20 @@ def _step_bound(addr):
     left cold; 3-6 % of a small scene's call in two of three alternating runs, session 16). The owner
     keeps the context array alive and never replaces it, and checked the pose arrays' shapes and
     dtypes when it bound them."""
-    ctx = nb.carray(i64_ptr(addr), NCTX)
-    L = nb.carray(i64_ptr(ctx[C_I]), ctx[C_NI])[H_NB]
-    body_pos = nb.carray(f64_ptr(ctx[C_POS]), (L, 3))
-    body_rot = nb.carray(f64_ptr(ctx[C_ROT]), (L, 3, 3))
+    ctx = view(i64_ptr(addr), NCTX)
+    L = view(i64_ptr(ctx[C_I]), ctx[C_NI])[H_NB]
+    body_pos = view(f64_ptr(ctx[C_POS]), (L, 3))
+    body_rot = view(f64_ptr(ctx[C_ROT]), (L, 3, 3))
     return _step_impl(body_pos, body_rot, ctx)
 
 
 @nb.njit(cache=True, inline="always")
 def _step_impl(body_pos, body_rot, ctx):
     I, F, W, sap, bp, scr, stats, info = _buffers(ctx)
-    keys = nb.carray(i64_ptr(ctx[C_KEYS]), ctx[C_NKEYS])
+    keys = view(i64_ptr(ctx[C_KEYS]), ctx[C_NKEYS])
     info[0] = OK
     coherent = ctx[C_CL] != 0
-    cl = nb.carray(i64_ptr(ctx[C_CL] if coherent else ctx[C_BP]), (ctx[C_NBP], 2))
+    cl = view(i64_ptr(ctx[C_CL] if coherent else ctx[C_BP]), (ctx[C_NBP], 2))
     k = _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coherent)
     info[2] = k
     if k < 0:
@@ -1913,7 +1964,7 @@ def _step_impl(body_pos, body_rot, ctx):
         # 0.5-6.8 us after mj_step, 9-22 % of those models' steps (tests/bench/reuse.py, AMD EPYC,
         # 2026-11-28). Compared with the rows themselves, so a caller that wrote into its result
         # (having made it writable) gets new rows.
-        prev = nb.carray(i32_ptr(ctx[C_OUT] + 8 * last), (k, 2))
+        prev = view(i32_ptr(ctx[C_OUT] + 8 * last), (k, 2))
         same = True
         for i in range(k):  # no early exit: a pass over K rows, cheaper than a branch per row
             v = keys[i]
@@ -1924,11 +1975,11 @@ def _step_impl(body_pos, body_rot, ctx):
     if off + k <= ctx[C_NOUT]:
         # Rows handed out as views of the arena are never written again (the owner starts a new
         # arena when this one is full): the caller needs no copy (~0.3 us a call).
-        out = nb.carray(i32_ptr(ctx[C_OUT] + 8 * off), (k, 2))
+        out = view(i32_ptr(ctx[C_OUT] + 8 * off), (k, 2))
         ctx[C_OFF] = off + k
         ctx[C_LAST] = off
     else:
-        out = nb.carray(i32_ptr(ctx[C_KEYS]), (k, 2))
+        out = view(i32_ptr(ctx[C_KEYS]), (k, 2))
         ctx[C_LAST] = -1
     ctx[C_NLAST] = k
     for i in range(k):
@@ -1950,7 +2001,7 @@ def step_function():
     """The compiled `_step` (``STEP_SIGNATURE`` only; loaded from numba's cache after the first run)."""
     global _step_dispatcher
     if _step_dispatcher is None:
-        _step_dispatcher = nb.njit(STEP_SIGNATURE, cache=True)(_step)
+        _step_dispatcher = nb.njit(STEP_SIGNATURE, **NO_NRT)(_step)
     return _step_dispatcher
 
 
@@ -1964,7 +2015,7 @@ def step_bound():
     """
     global _bound_entry
     if _bound_entry is None:
-        disp = nb.njit("int64(int64)", cache=True)(_step_bound)
+        disp = nb.njit("int64(int64)", **NO_NRT)(_step_bound)
         try:
             entry = disp.overloads[disp.signatures[0]].entry_point
         except (AttributeError, IndexError, KeyError):
@@ -1982,7 +2033,7 @@ def _batch_world(w, pos_w, rot_w, I, F, W, sap, bp, kp, cap, off, scr, stats, in
     # the next offset. Beyond capacity it keeps counting (on a zero-length tail) so the caller
     # learns the size.
     start = off if off < cap else cap
-    keys = nb.carray(i64_ptr(kp + 8 * start), cap - start)
+    keys = view(i64_ptr(kp + 8 * start), cap - start)
     info[0] = OK
     kw = _world(pos_w, rot_w, I, F, W, sap, bp, keys, scr, stats, info, bp, False)
     world_count[w] = kw
@@ -2027,8 +2078,8 @@ def next_chunk(chunk_info, C):
 def chunk_buffers(ctxs, chunk_info, c):
     """Chunk c of a batch kernel: its context row, its `chunk_info` row (cleared) and its buffers
     (`_buffers`), all pointer-built."""
-    ctx = nb.carray(i64_ptr(np.int64(ctxs.ctypes.data) + 8 * NCTX * c), NCTX)
-    ci = nb.carray(i64_ptr(np.int64(chunk_info.ctypes.data) + 8 * N_CI * c), N_CI)
+    ctx = view(i64_ptr(np.int64(ctxs.ctypes.data) + 8 * NCTX * c), NCTX)
+    ci = view(i64_ptr(np.int64(chunk_info.ctypes.data) + 8 * N_CI * c), N_CI)
     ci[CI_BAD] = -1
     ci[CI_NEED] = 0
     I, F, W, sap, bp, scr, stats, info = _buffers(ctx)
@@ -2057,8 +2108,8 @@ def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_info, S,
     B = body_pos.shape[0]
     L = body_pos.shape[1]
     C = ctxs.shape[0]
-    pos_all = nb.carray(f64_ptr(np.int64(body_pos.ctypes.data)), (B, L, 3))
-    rot_all = nb.carray(f64_ptr(np.int64(body_rot.ctypes.data)), (B, L, 3, 3))
+    pos_all = view(f64_ptr(np.int64(body_pos.ctypes.data)), (B, L, 3))
+    rot_all = view(f64_ptr(np.int64(body_rot.ctypes.data)), (B, L, 3, 3))
     nw = start_chunks(chunk_info, C)
     chunksize = set_chunksize(1)  # one worker a thread (`_threads`)
     for _ in nb.prange(nw):
@@ -2105,13 +2156,13 @@ def gather_batch(ctxs, world_count, chunk_info, S, stats):
     for s in range(N_STATS):
         stats[s] = 0
     for c in range(C):
-        cs = nb.carray(i64_ptr(ctxs[c, C_STATS]), N_STATS)
+        cs = view(i64_ptr(ctxs[c, C_STATS]), N_STATS)
         for s in range(N_STATS):
             stats[s] += cs[s]
     out = np.empty((K, 3), np.int32)
     r = 0
     for c in range(C):
-        keys = nb.carray(i64_ptr(ctxs[c, C_KEYS]), ctxs[c, C_NKEYS])
+        keys = view(i64_ptr(ctxs[c, C_KEYS]), ctxs[c, C_NKEYS])
         i = 0
         for w in range((B * c) // C, (B * (c + 1)) // C):
             for _ in range(world_count[w]):
