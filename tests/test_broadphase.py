@@ -7,6 +7,7 @@ import pytest
 import collide.broadphase
 from collide import Articulation, BroadPhase, PointCloud, shapes, testing
 from collide._kernels import broadphase as _kern
+from collide._kernels import _ptr
 from collide._kernels import lanes as _lanes
 from collide.broadphase import ARENA_ROWS
 from collide.testing.scenes import random_rotation
@@ -1678,3 +1679,23 @@ def test_lane_rows_boxes_and_planes_are_the_single_world_values_bit_for_bit():
     _lane_places_both(ps, src, cap, gp, m, rows, boxes, planes, want_rows, want_boxes, want_planes)
     for got, want in ((rows, want_rows), (boxes, want_boxes), (planes, want_planes)):
         assert np.array_equal(got.transpose(0, 2, 1).view(np.int64), want.view(np.int64))
+
+
+@numba.njit(_nrt=False)  # as the per-step kernels (`broadphase.NO_NRT`): where numba.carray is refused
+def _views_of(fa, ia, ja, n):
+    a = _ptr.view_of(_ptr.f64_ptr(fa), (n, 3))
+    b = _ptr.view_of(_ptr.i64_ptr(ia), n)
+    c = _ptr.view_of(_ptr.i32_ptr(ja), (2, n, 2))
+    a[n - 1, 2] = -1.0  # written through to the buffer
+    return a[1, 2] + a[n - 1, 0] + b[n - 1] + c[1, n - 1, 1] + a.shape[0] + c.strides[0] + a[1:, 1].sum()
+
+
+def test_pointer_views_are_the_buffers_c_order():
+    # `_ptr.view_of`: the array numba.carray would give (shape, C strides, the buffer's memory, no copy).
+    n = 5
+    f = np.arange(3.0 * n).reshape(n, 3)
+    i = np.arange(n, dtype=np.int64) * 7
+    j = np.arange(4 * n, dtype=np.int32).reshape(2, n, 2)
+    got = _views_of(f.ctypes.data, i.ctypes.data, j.ctypes.data, n)
+    assert f[n - 1, 2] == -1.0
+    assert got == f[1, 2] + f[n - 1, 0] + i[n - 1] + j[1, n - 1, 1] + n + j.strides[0] + f[1:, 1].sum()

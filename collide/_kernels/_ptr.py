@@ -3,9 +3,10 @@
 A numba call pays for every array argument (type check, unboxing, ~0.1 us each) and, inside,
 every view it takes of an array with a reference-counted allocation costs an atomic increment and
 decrement (threads sharing an array contend on that counter). The per-step kernels therefore take
-one small int64 *context* array of addresses and build their views with ``numba.carray`` from these
-pointers: such views carry no reference count at all. The owner (`collide.broadphase.BroadPhase`)
-keeps every buffer alive for as long as a context points into it.
+one small int64 *context* array of addresses and build their views from these pointers
+(``numba.carray``, or `view_of` in functions compiled without reference counting): such views carry
+no reference count. The owner (`collide.broadphase.BroadPhase`) keeps every buffer alive for as long
+as a context points into it.
 """
 
 from __future__ import annotations
@@ -37,7 +38,7 @@ i32_ptr = _pointer_cast(types.int32)
 
 
 @intrinsic
-def view(typingctx, ptr, shape):
+def view_of(typingctx, ptr, shape):
     """The C-contiguous array of ``shape`` (an integer or a tuple of integers) at the typed pointer
     ``ptr`` (`f64_ptr`, `i64_ptr`, `i32_ptr`): what ``numba.carray(ptr, shape)`` makes (no copy, no
     reference-counted allocation behind it), as one inline step.

@@ -59,7 +59,7 @@ from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
 from numba.extending import intrinsic
 import numpy as np
 
-from ._ptr import f64_ptr, i32_ptr, i64_ptr, view
+from ._ptr import f64_ptr, i32_ptr, i64_ptr, view_of
 from ._quat import fmuladd
 from ._simd import LANES as LANES8, _py, box_row8, gather_rows
 from ._threads import fetch_add, set_chunksize
@@ -67,7 +67,7 @@ from ._threads import fetch_add, set_chunksize
 # The per-step functions are compiled without numba's reference counting: in them an array value
 # costs nothing when copied or dropped, where numba emits a call to its runtime for each (~50 a step
 # in `_world` and its callees, every one on the null record of a view made from a pointer, which
-# LLVM cannot see through: `_ptr.view`). They allocate nothing; the walk's `_traverse` and
+# LLVM cannot see through: `_ptr.view_of`). They allocate nothing; the walk's `_traverse` and
 # `_grid_pairs` do, and keep the counting (stated: a function called from one compiled without it
 # is compiled without it too, unless its own decorator says otherwise). Loop after mj_step, copies
 # interleaved (Intel Xeon, a noisy machine): humanoid 0.89-0.95, the robots 0.97-0.99.
@@ -206,90 +206,90 @@ def _views(I, F, W):
     P = I[H_P]
     ia = np.int64(I.ctypes.data)
     o = HEADER
-    order = view(i64_ptr(ia + 8 * o), L)
+    order = view_of(i64_ptr(ia + 8 * o), L)
     o += L
-    pos_of = view(i64_ptr(ia + 8 * o), I[H_NB])
+    pos_of = view_of(i64_ptr(ia + 8 * o), I[H_NB])
     o += I[H_NB]
-    end = view(i64_ptr(ia + 8 * o), L)
+    end = view_of(i64_ptr(ia + 8 * o), L)
     o += L
-    parent_pos = view(i64_ptr(ia + 8 * o), L)
+    parent_pos = view_of(i64_ptr(ia + 8 * o), L)
     o += L
-    weld = view(i64_ptr(ia + 8 * o), L)
+    weld = view_of(i64_ptr(ia + 8 * o), L)
     o += L
-    nchild = view(i64_ptr(ia + 8 * o), L)
+    nchild = view_of(i64_ptr(ia + 8 * o), L)
     o += L
-    child_start = view(i64_ptr(ia + 8 * o), L)
+    child_start = view_of(i64_ptr(ia + 8 * o), L)
     o += L
-    single = view(i64_ptr(ia + 8 * o), L)
+    single = view_of(i64_ptr(ia + 8 * o), L)
     o += L
-    hasb = view(i64_ptr(ia + 8 * o), L)
+    hasb = view_of(i64_ptr(ia + 8 * o), L)
     o += L
-    pairflag = view(i64_ptr(ia + 8 * o), L)
+    pairflag = view_of(i64_ptr(ia + 8 * o), L)
     o += L
-    ctor = view(i64_ptr(ia + 8 * o), L)
+    ctor = view_of(i64_ptr(ia + 8 * o), L)
     o += L
-    caor = view(i64_ptr(ia + 8 * o), L)
+    caor = view_of(i64_ptr(ia + 8 * o), L)
     o += L
-    children = view(i64_ptr(ia + 8 * o), L - 1)
+    children = view_of(i64_ptr(ia + 8 * o), L - 1)
     o += L - 1
-    gstart = view(i64_ptr(ia + 8 * o), L + 1)
+    gstart = view_of(i64_ptr(ia + 8 * o), L + 1)
     o += L + 1
-    pgeoms = view(i64_ptr(ia + 8 * o), Gs)
+    pgeoms = view_of(i64_ptr(ia + 8 * o), Gs)
     o += Gs
-    ex_start = view(i64_ptr(ia + 8 * o), L + 1)
+    ex_start = view_of(i64_ptr(ia + 8 * o), L + 1)
     o += L + 1
-    ex_other = view(i64_ptr(ia + 8 * o), E)
+    ex_other = view_of(i64_ptr(ia + 8 * o), E)
     o += E
-    planes = view(i64_ptr(ia + 8 * o), Q)
+    planes = view_of(i64_ptr(ia + 8 * o), Q)
     o += Q
-    plane_ok = view(i64_ptr(ia + 8 * o), (Q, L))
+    plane_ok = view_of(i64_ptr(ia + 8 * o), (Q, L))
     o += Q * L
-    geom_bid = view(i64_ptr(ia + 8 * o), G)
+    geom_bid = view_of(i64_ptr(ia + 8 * o), G)
     o += G
-    gct = view(i64_ptr(ia + 8 * o), G)
+    gct = view_of(i64_ptr(ia + 8 * o), G)
     o += G
-    gca = view(i64_ptr(ia + 8 * o), G)
+    gca = view_of(i64_ptr(ia + 8 * o), G)
     o += G
-    pair_g = view(i64_ptr(ia + 8 * o), (P, 2))
+    pair_g = view_of(i64_ptr(ia + 8 * o), (P, 2))
     o += 2 * P
-    pair_keys = view(i64_ptr(ia + 8 * o), P)
+    pair_keys = view_of(i64_ptr(ia + 8 * o), P)
     o += P
-    flat_root = view(i64_ptr(ia + 8 * o), L)
+    flat_root = view_of(i64_ptr(ia + 8 * o), L)
     o += L
-    flat_n = view(i64_ptr(ia + 8 * o), L)
+    flat_n = view_of(i64_ptr(ia + 8 * o), L)
     o += L
-    flat_mask = view(i64_ptr(ia + 8 * o), L)
+    flat_mask = view_of(i64_ptr(ia + 8 * o), L)
     fa = np.int64(F.ctypes.data)
     wa = np.int64(W.ctypes.data)
     f = 0
-    blocal = view(f64_ptr(fa + 8 * f), (L, ROW))
+    blocal = view_of(f64_ptr(fa + 8 * f), (L, ROW))
     f += ROW * L
-    glocal = view(f64_ptr(fa + 8 * f), (G, ROW))
+    glocal = view_of(f64_ptr(fa + 8 * f), (G, ROW))
     f += ROW * G
-    gplane = view(f64_ptr(fa + 8 * f), (G, 4))
+    gplane = view_of(f64_ptr(fa + 8 * f), (G, 4))
     f += 4 * G
-    gmargin = view(f64_ptr(fa + 8 * f), G)
+    gmargin = view_of(f64_ptr(fa + 8 * f), G)
     f += G
-    pair_m = view(f64_ptr(fa + 8 * f), P)
+    pair_m = view_of(f64_ptr(fa + 8 * f), P)
     w = 0
-    bw = view(f64_ptr(wa + 8 * w), (L, ROW))
+    bw = view_of(f64_ptr(wa + 8 * w), (L, ROW))
     w += ROW * L
-    gw = view(f64_ptr(wa + 8 * w), (G, ROW))
+    gw = view_of(f64_ptr(wa + 8 * w), (G, ROW))
     w += ROW * G
-    baabb = view(f64_ptr(wa + 8 * w), (L, 6))
+    baabb = view_of(f64_ptr(wa + 8 * w), (L, 6))
     w += 6 * L
-    saabb = view(f64_ptr(wa + 8 * w), (L, 6))
+    saabb = view_of(f64_ptr(wa + 8 * w), (L, 6))
     w += 6 * L
-    baabb_t = view(f64_ptr(wa + 8 * w), (6, L))  # baabb's columns, for the flat roots' rows
+    baabb_t = view_of(f64_ptr(wa + 8 * w), (6, L))  # baabb's columns, for the flat roots' rows
     w += 6 * L
     Qm = max(Q, 1)
-    plw = view(f64_ptr(wa + 8 * w), (Qm, 4))
+    plw = view_of(f64_ptr(wa + 8 * w), (Qm, 4))
     w += 4 * Qm
-    tmp = view(f64_ptr(wa + 8 * w), (2, ROW))
+    tmp = view_of(f64_ptr(wa + 8 * w), (2, ROW))
     w += 2 * ROW
-    gaabb = view(f64_ptr(wa + 8 * w), (G, 6))
+    gaabb = view_of(f64_ptr(wa + 8 * w), (G, 6))
     w += 6 * G
-    gstamp = view(f64_ptr(wa + 8 * w), L + 1)  # gstamp[L]: the call counter
+    gstamp = view_of(f64_ptr(wa + 8 * w), L + 1)  # gstamp[L]: the call counter
     return (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
             caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
             pair_keys,
@@ -305,7 +305,7 @@ def _cap_views(I, F):
     G = I[H_G]
     f = ROW * L + ROW * G + 5 * G + I[H_P]
     fa = np.int64(F.ctypes.data)
-    return view(f64_ptr(fa + 8 * f), (L, 4)), view(f64_ptr(fa + 8 * (f + 4 * L)), (G, 4))
+    return view_of(f64_ptr(fa + 8 * f), (L, 4)), view_of(f64_ptr(fa + 8 * (f + 4 * L)), (G, 4))
 
 
 @nb.njit(cache=True, inline="always")
@@ -314,10 +314,10 @@ def _fat_views(I, W):
     # state (N_COH).
     L = I[H_L]
     wa = np.int64(W.ctypes.data) + 8 * coherence_offset(L, I[H_G], I[H_Q])
-    fat_b = view(f64_ptr(wa), (L, 6))
-    fat_s = view(f64_ptr(wa + 48 * L), (L, 6))
-    fat_t = view(f64_ptr(wa + 96 * L), (6, L))
-    state = view(f64_ptr(np.int64(W.ctypes.data) + 8 * coherence_state_offset(L, I[H_G], I[H_Q])), N_COH)
+    fat_b = view_of(f64_ptr(wa), (L, 6))
+    fat_s = view_of(f64_ptr(wa + 48 * L), (L, 6))
+    fat_t = view_of(f64_ptr(wa + 96 * L), (6, L))
+    state = view_of(f64_ptr(np.int64(W.ctypes.data) + 8 * coherence_state_offset(L, I[H_G], I[H_Q])), N_COH)
     return fat_b, fat_s, fat_t, state
 
 
@@ -1355,8 +1355,8 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
     # inside the placing loop the test cost 6.8 ns a body, alone 4.3 (65 bodies: 0.44 -> 0.28 us).
     # Only a failing call looks at the bodies one by one, by id, so the first offender is named.
     NB = I[H_NB]
-    rf = view(f64_ptr(np.int64(body_rot.ctypes.data)), 9 * NB)
-    pf = view(f64_ptr(np.int64(body_pos.ctypes.data)), 3 * NB)
+    rf = view_of(f64_ptr(np.int64(body_rot.ctypes.data)), 9 * NB)
+    pf = view_of(f64_ptr(np.int64(body_pos.ctypes.data)), 3 * NB)
     bad = False
     for b in range(NB):
         o = 9 * b
@@ -1893,14 +1893,14 @@ def context(I, F, W, sap, bp, keys, scr, stats, info, out=None, cl=None) -> np.n
 
 @nb.njit(cache=True, inline="always")
 def _buffers(ctx):
-    I = view(i64_ptr(ctx[C_I]), ctx[C_NI])
-    F = view(f64_ptr(ctx[C_F]), ctx[C_NF])
-    W = view(f64_ptr(ctx[C_W]), ctx[C_NW])
-    sap = view(i64_ptr(ctx[C_SAP]), ctx[C_NSAP])
-    bp = view(i64_ptr(ctx[C_BP]), (ctx[C_NBP], 2))
-    scr = view(i64_ptr(ctx[C_SCR]), ctx[C_NSCR])
-    stats = view(i64_ptr(ctx[C_STATS]), N_STATS)
-    info = view(i64_ptr(ctx[C_INFO]), 4)
+    I = view_of(i64_ptr(ctx[C_I]), ctx[C_NI])
+    F = view_of(f64_ptr(ctx[C_F]), ctx[C_NF])
+    W = view_of(f64_ptr(ctx[C_W]), ctx[C_NW])
+    sap = view_of(i64_ptr(ctx[C_SAP]), ctx[C_NSAP])
+    bp = view_of(i64_ptr(ctx[C_BP]), (ctx[C_NBP], 2))
+    scr = view_of(i64_ptr(ctx[C_SCR]), ctx[C_NSCR])
+    stats = view_of(i64_ptr(ctx[C_STATS]), N_STATS)
+    info = view_of(i64_ptr(ctx[C_INFO]), 4)
     return I, F, W, sap, bp, scr, stats, info
 
 
@@ -1917,7 +1917,7 @@ def _step(body_pos, body_rot, ctx):
     ``RET_SAME + K`` is returned. ``info`` = (status, body, keys needed, body pairs needed): on
     `RET_OVERFLOW` the caller grows the buffer named there and reruns.
     """
-    L = view(i64_ptr(ctx[C_I]), ctx[C_NI])[H_NB]
+    L = view_of(i64_ptr(ctx[C_I]), ctx[C_NI])[H_NB]
     if (body_pos.shape[0] != L or body_pos.shape[1] != 3 or body_rot.shape[0] != L or body_rot.shape[1] != 3
             or body_rot.shape[2] != 3):
         return RET_BAD_SHAPE
@@ -1932,20 +1932,20 @@ def _step_bound(addr):
     left cold; 3-6 % of a small scene's call in two of three alternating runs, session 16). The owner
     keeps the context array alive and never replaces it, and checked the pose arrays' shapes and
     dtypes when it bound them."""
-    ctx = view(i64_ptr(addr), NCTX)
-    L = view(i64_ptr(ctx[C_I]), ctx[C_NI])[H_NB]
-    body_pos = view(f64_ptr(ctx[C_POS]), (L, 3))
-    body_rot = view(f64_ptr(ctx[C_ROT]), (L, 3, 3))
+    ctx = view_of(i64_ptr(addr), NCTX)
+    L = view_of(i64_ptr(ctx[C_I]), ctx[C_NI])[H_NB]
+    body_pos = view_of(f64_ptr(ctx[C_POS]), (L, 3))
+    body_rot = view_of(f64_ptr(ctx[C_ROT]), (L, 3, 3))
     return _step_impl(body_pos, body_rot, ctx)
 
 
 @nb.njit(cache=True, inline="always")
 def _step_impl(body_pos, body_rot, ctx):
     I, F, W, sap, bp, scr, stats, info = _buffers(ctx)
-    keys = view(i64_ptr(ctx[C_KEYS]), ctx[C_NKEYS])
+    keys = view_of(i64_ptr(ctx[C_KEYS]), ctx[C_NKEYS])
     info[0] = OK
     coherent = ctx[C_CL] != 0
-    cl = view(i64_ptr(ctx[C_CL] if coherent else ctx[C_BP]), (ctx[C_NBP], 2))
+    cl = view_of(i64_ptr(ctx[C_CL] if coherent else ctx[C_BP]), (ctx[C_NBP], 2))
     k = _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coherent)
     info[2] = k
     if k < 0:
@@ -1964,7 +1964,7 @@ def _step_impl(body_pos, body_rot, ctx):
         # 0.5-6.8 us after mj_step, 9-22 % of those models' steps (tests/bench/reuse.py, AMD EPYC,
         # 2026-11-28). Compared with the rows themselves, so a caller that wrote into its result
         # (having made it writable) gets new rows.
-        prev = view(i32_ptr(ctx[C_OUT] + 8 * last), (k, 2))
+        prev = view_of(i32_ptr(ctx[C_OUT] + 8 * last), (k, 2))
         same = True
         for i in range(k):  # no early exit: a pass over K rows, cheaper than a branch per row
             v = keys[i]
@@ -1975,11 +1975,11 @@ def _step_impl(body_pos, body_rot, ctx):
     if off + k <= ctx[C_NOUT]:
         # Rows handed out as views of the arena are never written again (the owner starts a new
         # arena when this one is full): the caller needs no copy (~0.3 us a call).
-        out = view(i32_ptr(ctx[C_OUT] + 8 * off), (k, 2))
+        out = view_of(i32_ptr(ctx[C_OUT] + 8 * off), (k, 2))
         ctx[C_OFF] = off + k
         ctx[C_LAST] = off
     else:
-        out = view(i32_ptr(ctx[C_KEYS]), (k, 2))
+        out = view_of(i32_ptr(ctx[C_KEYS]), (k, 2))
         ctx[C_LAST] = -1
     ctx[C_NLAST] = k
     for i in range(k):
@@ -2033,7 +2033,7 @@ def _batch_world(w, pos_w, rot_w, I, F, W, sap, bp, kp, cap, off, scr, stats, in
     # the next offset. Beyond capacity it keeps counting (on a zero-length tail) so the caller
     # learns the size.
     start = off if off < cap else cap
-    keys = view(i64_ptr(kp + 8 * start), cap - start)
+    keys = view_of(i64_ptr(kp + 8 * start), cap - start)
     info[0] = OK
     kw = _world(pos_w, rot_w, I, F, W, sap, bp, keys, scr, stats, info, bp, False)
     world_count[w] = kw
@@ -2078,8 +2078,8 @@ def next_chunk(chunk_info, C):
 def chunk_buffers(ctxs, chunk_info, c):
     """Chunk c of a batch kernel: its context row, its `chunk_info` row (cleared) and its buffers
     (`_buffers`), all pointer-built."""
-    ctx = view(i64_ptr(np.int64(ctxs.ctypes.data) + 8 * NCTX * c), NCTX)
-    ci = view(i64_ptr(np.int64(chunk_info.ctypes.data) + 8 * N_CI * c), N_CI)
+    ctx = view_of(i64_ptr(np.int64(ctxs.ctypes.data) + 8 * NCTX * c), NCTX)
+    ci = view_of(i64_ptr(np.int64(chunk_info.ctypes.data) + 8 * N_CI * c), N_CI)
     ci[CI_BAD] = -1
     ci[CI_NEED] = 0
     I, F, W, sap, bp, scr, stats, info = _buffers(ctx)
@@ -2108,8 +2108,8 @@ def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_info, S,
     B = body_pos.shape[0]
     L = body_pos.shape[1]
     C = ctxs.shape[0]
-    pos_all = view(f64_ptr(np.int64(body_pos.ctypes.data)), (B, L, 3))
-    rot_all = view(f64_ptr(np.int64(body_rot.ctypes.data)), (B, L, 3, 3))
+    pos_all = view_of(f64_ptr(np.int64(body_pos.ctypes.data)), (B, L, 3))
+    rot_all = view_of(f64_ptr(np.int64(body_rot.ctypes.data)), (B, L, 3, 3))
     nw = start_chunks(chunk_info, C)
     chunksize = set_chunksize(1)  # one worker a thread (`_threads`)
     for _ in nb.prange(nw):
@@ -2156,13 +2156,13 @@ def gather_batch(ctxs, world_count, chunk_info, S, stats):
     for s in range(N_STATS):
         stats[s] = 0
     for c in range(C):
-        cs = view(i64_ptr(ctxs[c, C_STATS]), N_STATS)
+        cs = view_of(i64_ptr(ctxs[c, C_STATS]), N_STATS)
         for s in range(N_STATS):
             stats[s] += cs[s]
     out = np.empty((K, 3), np.int32)
     r = 0
     for c in range(C):
-        keys = view(i64_ptr(ctxs[c, C_KEYS]), ctxs[c, C_NKEYS])
+        keys = view_of(i64_ptr(ctxs[c, C_KEYS]), ctxs[c, C_NKEYS])
         i = 0
         for w in range((B * c) // C, (B * (c + 1)) // C):
             for _ in range(world_count[w]):
