@@ -52,19 +52,20 @@ def view_of(typingctx, ptr, shape):
         return None
     if isinstance(shape, types.Integer):
         ndim = 1
-    elif isinstance(shape, types.BaseTuple) and all(isinstance(t, types.Integer) for t in shape):
+    elif (isinstance(shape, types.BaseTuple) and len(shape) > 0
+          and all(isinstance(t, types.Integer) for t in shape)):
         ndim = len(shape)
     else:
         return None
+    tup = isinstance(shape, types.BaseTuple)
     aryty = types.Array(ptr.dtype, ndim, "C")
     sig = aryty(ptr, shape)
 
     def codegen(context, builder, signature, args):
         intp = context.get_value_type(types.intp)
         p, sh = args
-        dims = [sh] if ndim == 1 else cgutils.unpack_tuple(builder, sh, ndim)
-        dims = [context.cast(builder, d, t, types.intp)
-                for d, t in zip(dims, [shape] if ndim == 1 else list(shape))]
+        dims = cgutils.unpack_tuple(builder, sh, ndim) if tup else [sh]
+        dims = [context.cast(builder, d, t, types.intp) for d, t in zip(dims, list(shape) if tup else [shape])]
         itemsize = context.get_abi_sizeof(context.get_data_type(ptr.dtype))
         strides = []
         acc = ir.Constant(intp, itemsize)

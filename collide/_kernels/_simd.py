@@ -111,8 +111,9 @@ _V = ir.VectorType(ir.DoubleType(), LANES)
 
 
 class _Vec:
-    """An LLVM ``<LANES x double>`` value with Python's arithmetic operators, so that the scalar
-    helpers' source (`_py`) builds vector IR when given these."""
+    """An LLVM ``<LANES x double>`` value (or of another width: `gather_rows` gives four lanes) with
+    Python's arithmetic operators, so that the scalar helpers' source (`_py`) builds vector IR when
+    given these."""
 
     __slots__ = ("b", "v")
 
@@ -120,7 +121,7 @@ class _Vec:
         self.b, self.v = b, v
 
     def _of(self, x):
-        t = self.v.type  # <LANES x double>, or another width (`gather_rows_masked`)
+        t = self.v.type  # <LANES x double>, or another width (`gather_rows`)
         return x.v if isinstance(x, _Vec) else ir.Constant(t, [float(x)] * t.count)
 
     def __add__(self, x):

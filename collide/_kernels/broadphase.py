@@ -34,8 +34,8 @@ One step, for one world (`_world`):
    Tests whose outcome is data keep no branch on it where they can (the pair is written, the
    count advanced by the outcome): in a simulation loop the engine retrains the branch predictor
    between steps, and every misprediction costs ~7 ns. Surviving body pairs go to a buffer: no
-   deep call chain on the hot path (each numba call with array arguments pays reference
-   counting, even inlined: the hottest tests are written out);
+   deep call chain on the hot path (in the walk, compiled with numba's reference counting, each
+   call with array arguments pays it, even inlined: the hottest tests are written out);
 4. body pair -> static filter -> sphere and OBB separating-axis tests (15 axes, Ericson 2005,
    *Real-Time Collision Detection* §4.4.1), 64 body pairs at a time with every axis evaluated
    (`pair_bits`: four pairs a vector, the rows gathered where they lie) ->
@@ -44,10 +44,11 @@ Steps 2-3 and the static filter are skipped while the body pairs kept from earli
 with frame coherence (single-world calls), each body's AABB is checked against its fat box and,
 when every one is inside, only the kept pairs' AABBs are tested (``FAT_GROW``);
 5. planes (halfspaces) down the tree, the static filter of every (plane, body) pair precomputed,
-   a multi-geom body's geoms tested by their world AABBs' corners, then their spheres and boxes in
-   the body's frame; explicit pairs last (spheres and OBBs only); keys ``g1 << S | g2`` sorted (``S`` bits
-   hold any geom id: decoding is a shift and a mask, not an integer division per pair), the
-   body-level and the plane keys each on its own, then merged (`_sort_keys`).
+   a multi-geom body's geoms tested by their spheres and boxes in the body's frame, then by their
+   world AABBs' corners; explicit pairs last (spheres and OBBs only); keys ``g1 << S | g2`` sorted
+   (``S`` bits hold any geom id: decoding is a shift and a mask, not an integer division per pair):
+   through a bit set of the key space where that is small, else the body-level and the plane keys
+   each on its own, then merged (`_sort_keys`).
 """
 
 from __future__ import annotations
@@ -769,8 +770,9 @@ def _plane_hit(pl, q, mq, B, b, mb):
 @nb.njit(cache=True, inline="always")
 def _aabb_hit(X, x, Y, y):
     # The hot loops of the traversal write this test out instead of calling it: even inlined,
-    # a call with array arguments keeps an incref/decref pair per array (measured: the chain's
-    # traversal 2.4 -> 1.7 us for its 128 tests).
+    # a call with array arguments keeps an incref/decref pair per array where numba counts
+    # references, as in the walk (`_traverse`; measured: the chain's traversal 2.4 -> 1.7 us for
+    # its 128 tests).
     return ((X[x, 0] <= Y[y, 3]) & (Y[y, 0] <= X[x, 3]) & (X[x, 1] <= Y[y, 4]) & (Y[y, 1] <= X[x, 4])
             & (X[x, 2] <= Y[y, 5]) & (Y[y, 2] <= X[x, 5]))
 
