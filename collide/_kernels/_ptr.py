@@ -78,4 +78,3 @@ def view_of(typingctx, ptr, shape):
         return ary._getvalue()
 
     return sig, codegen
-
