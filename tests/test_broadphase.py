@@ -1449,6 +1449,8 @@ def test_planes_placed_by_nearly_orthonormal_geom_rotations_keep_their_pairs():
 COHERENT_SCENES = [
     ("chain", lambda: testing.chain(64, seed=21, planes=1, joint_range=1.6), 0.001),  # the tip moves 64 joints' worth
     ("tree", lambda: testing.branching_tree(60, seed=22, planes=1), 0.01),
+    # 64 positions, the most whose kept list is held as bit masks (`_scan_masks`), loose bodies among them
+    ("tree_64_positions", lambda: testing.branching_tree(63, seed=22, planes=1), 0.01),
     ("robots", lambda: testing.many_robots(10, 6, seed=23, spread=0.6, planes=1), 0.01),  # flat roots
     ("hulls_sweep", lambda: testing.free_hulls(40, seed=24, filters=True, planes=1), 0.01),
     ("hulls_grid", lambda: testing.free_hulls(125, seed=25, filters=True), 0.01),
@@ -1468,8 +1470,8 @@ def _motion(sc, rng, steps, step=0.01):
     return testing.scene_motion(sc, rng, steps, step)
 
 
-@pytest.mark.parametrize("make, step", [s[1:] for s in COHERENT_SCENES], ids=[s[0] for s in COHERENT_SCENES])
-def test_coherent_calls_equal_the_walk_along_motions_and_jumps(make, step):
+@pytest.mark.parametrize("name, make, step", COHERENT_SCENES, ids=[s[0] for s in COHERENT_SCENES])
+def test_coherent_calls_equal_the_walk_along_motions_and_jumps(name, make, step):
     # Along a smooth motion the kept list is reused (and rebuilt when a body leaves its fat box);
     # every 40 calls the poses jump to an unrelated configuration. Each call must equal the walk's
     # (coherent=False) and, every tenth, the bounds twin.
@@ -1486,11 +1488,29 @@ def test_coherent_calls_equal_the_walk_along_motions_and_jumps(make, step):
         reused += coh.stats["reused"]
         assert np.array_equal(got, walk.pairs(p, r)), s
         assert walk.stats["reused"] == 0
+        # the same body pairs on to the same tests (a loose pair's body test skipped in both; the
+        # walk's grid tests spheres of its own, counted as body sphere tests)
+        for key in ("geom_aabb_tests", "geom_sphere_tests", "geom_obb_tests", "plane_tests") + (
+                ("body_sphere_tests", "body_obb_tests") if name != "hulls_grid" else ()):
+            assert coh.stats[key] == walk.stats[key], (s, key)
         if s % 10 == 0:
             assert np.array_equal(got, testing.brute_force_bound_pairs(a, p, r)), s
         pairs += len(got)
     assert pairs > 100  # the scenes had hits
     assert 0.3 * len(pos) < reused < len(pos) - 3  # the list was reused, and rebuilt
+
+
+def test_coherent_scenes_take_both_scans_of_the_kept_list():
+    # Up to 64 positions the kept list is scanned as bit masks, a row of AABB tests at a time
+    # (`_scan_masks`: bit 63 included, loose pairs marked), beyond as a list (`_scan`): the scenes
+    # above take both.
+    counts = {}
+    for name, make, _ in COHERENT_SCENES:
+        bp = BroadPhase(make().articulation)
+        single = _kern._views(bp._I, bp._F, bp._W)[9]
+        counts[name] = (bp.position_count, int(np.count_nonzero(single < 0)))
+    assert counts["tree_64_positions"][0] == 64 and counts["tree_64_positions"][1] > 0
+    assert any(L > 64 for L, _ in counts.values()) and any(L < 64 for L, _ in counts.values())
 
 
 def test_coherence_gives_way_to_the_walk_when_bodies_keep_leaving_their_boxes():
