@@ -184,7 +184,8 @@ class BroadPhase:
     stats : dict of str to int
         After a call: bounds tests done at each level (``subtree_tests``: AABB tests of tree
         culling, sweep-and-prune and the grid, where two leaf bodies' test is their body test;
-        ``body_aabb_tests``: body against a non-leaf body in deeper subtrees; ``body_sphere_tests``,
+        ``body_aabb_tests``: body against a non-leaf body in deeper subtrees, and, up to 64
+        positions, where no tree is walked, every statically allowed body pair; ``body_sphere_tests``,
         ``body_obb_tests``, ``geom_aabb_tests``, ``geom_sphere_tests``, ``geom_obb_tests`` (geoms of
         multi-geom bodies, AABB then sphere then OBB), ``plane_tests``) and ``pairs`` out; summed
         over worlds after `pairs_batch`. ``pairs`` is always the sum of the worlds' counts; the
@@ -297,12 +298,14 @@ class BroadPhase:
         pair_keys = (a.pairs[:, 0].astype(i64) << _k.key_shift(G)) | a.pairs[:, 1]
         flat_root, flat_n, flat_mask = self._flat_lists(end, parent_pos, nchild, hasb, weld, ctor, caor,
                                                         ex_start, ex[:, 1], a.filter_parent)
+        smask = self._static_masks(hasb, weld, ctor, caor, parent_pos, ex_start, ex[:, 1], a.filter_parent, gstart,
+                                   pgeoms, a.geom_contype, a.geom_conaffinity, pair_keys, _k.key_shift(G))
         self._I, self._F = _k.pack(
             order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag,
             ctor, caor, children, gstart, pgeoms, ex_start, ex[:, 1], planes, plane_ok, a.geom_body,
             a.geom_contype, a.geom_conaffinity, a.pairs, pair_keys, a.filter_parent, blocal, glocal,
             a.geom_plane, a.geom_bound_margin, a.pair_bound_margin, flat_root, flat_n, flat_mask, bcap, gcap,
-            n_virtual=V)
+            smask, n_virtual=V)
         self.position_count = Lp
         self._nW = _k.workspace_size(Lp, G, len(planes))
         self._sap_init = _k.sap_state(children)
@@ -323,6 +326,36 @@ class BroadPhase:
                                     pair_keys, a.pairs, a.geom_is_plane, _k.key_shift(G))
         self._empty = np.zeros((0, 2), np.int32)
         self._empty.flags.writeable = False
+
+    @staticmethod
+    def _static_masks(hasb, weld, ctor, caor, parent_pos, ex_start, ex_other, filter_parent, gstart, pgeoms, gct,
+                      gca, pair_keys, S) -> np.ndarray:
+        # (L + 1,) int64 for `_k._scan_masks`: where L <= MASK_MAX, bit y of [x] the body pair (x, y),
+        # x < y, when it passes the static filter as `_k._filter` applies it (bounds on both, masks,
+        # weld groups, the parent rule, exclusions) and has a geom pair whose masks match that is
+        # not an explicit pair (those are tested on their own); [L] their count. Zeros beyond.
+        L = len(hasb)
+        out = np.zeros(L + 1, np.uint64)
+        if L > _k.MASK_MAX:
+            return out.view(np.int64)
+        explicit = set(int(k) for k in pair_keys)
+        for x in range(L):
+            for y in range(x + 1, L):
+                if not (hasb[x] and hasb[y]) or weld[x] == weld[y]:
+                    continue
+                if (ctor[x] & caor[y]) == 0 and (ctor[y] & caor[x]) == 0:
+                    continue
+                if filter_parent and parent_pos[y] == x and x != 0:  # x < y: only y can be x's child
+                    continue
+                if y in ex_other[ex_start[x]:ex_start[x + 1]]:
+                    continue
+                if not any(((gct[g1] & gca[g2]) != 0 or (gct[g2] & gca[g1]) != 0)
+                           and ((min(g1, g2) << S) | max(g1, g2)) not in explicit
+                           for g1 in pgeoms[gstart[x]:gstart[x + 1]] for g2 in pgeoms[gstart[y]:gstart[y + 1]]):
+                    continue
+                out[x] |= np.uint64(1) << np.uint64(y)
+                out[L] += np.uint64(1)
+        return out.view(np.int64)
 
     @staticmethod
     def _flat_lists(end, parent_pos, nchild, hasb, weld, ctor, caor, ex_start, ex_other, filter_parent):

@@ -266,9 +266,12 @@ def test_batch_grows_its_buffers_and_keeps_every_pair():
     assert len(want) > 40
 
 
-def test_single_grows_its_buffer_and_keeps_every_pair():
-    sc = testing.free_hulls(64, seed=6)
-    bp = BroadPhase(sc.articulation)
+@pytest.mark.parametrize("n, coherent", [(40, False), (40, True), (64, False), (64, True)])
+def test_single_grows_its_buffer_and_keeps_every_pair(n, coherent):
+    # 41 positions: the static masks (`_scan_masks`); 65: the tree
+    sc = testing.free_hulls(n, seed=6)
+    bp = BroadPhase(sc.articulation, coherent=coherent)
+    assert (bp.position_count <= _kern.MASK_MAX) == (n == 40)
     pos, rot = testing.hull_motion(sc, np.random.default_rng(0), 1, 0.02)
     want = testing.brute_force_bound_pairs(sc.articulation, pos[0], rot[0])
     bp._set_buffers(1, 2)  # tiny buffers: grown, rerun
@@ -1069,14 +1072,15 @@ def test_traversal_paths_equal_bounds_twin():
 
     Two 70-link chains coiled in one box: every body of each meets the other's subtree AABB, so
     the pair of subtrees has more than `FLAT_MAX` body pairs and is walked, not listed. Small
-    branching robots: their pairs come from the static masks made at set-up (`flat_root`).
+    branching robots (more than `MASK_MAX` positions, so that the tree is walked): their pairs come
+    from the static masks made at set-up (`flat_root`).
     """
     rng = np.random.default_rng(31)
     n = 70
     parent = np.r_[0, 0, np.arange(1, n), 0, np.arange(n + 1, 2 * n)]
     a = Articulation(parent, np.arange(1, 2 * n + 1), [PointCloud([[0, 0, 0], [0.1, 0, 0]], 0.04)] * (2 * n))
     bp = BroadPhase(a, coherent=False)  # the walk itself (its subtree AABBs are read below)
-    assert n * n > _kern.FLAT_MAX and not _kern._views(bp._I, bp._F, bp._W)[-3].any()
+    assert n * n > _kern.FLAT_MAX and not _kern._views(bp._I, bp._F, bp._W)[-4].any()
     total = 0
     for _ in range(5):
         pos = rng.uniform(-1, 1, (2 * n + 1, 3))
@@ -1092,10 +1096,10 @@ def test_traversal_paths_equal_bounds_twin():
         assert meets[0] * meets[1] > _kern.FLAT_MAX
     assert total > 50  # the scenes had hits
 
-    sc = testing.many_robots(10, 6, seed=32, spread=0.5)
+    sc = testing.many_robots(11, 6, seed=32, spread=0.5)
     bp = BroadPhase(sc.articulation)
-    flat_root = _kern._views(bp._I, bp._F, bp._W)[-3]
-    assert flat_root.sum() >= 5
+    flat_root = _kern._views(bp._I, bp._F, bp._W)[-4]
+    assert flat_root.sum() >= 5 and bp.position_count > _kern.MASK_MAX  # walked: up to 64, no tree
     pos, rot = sc.poses(np.random.default_rng(33), worlds=6)
     total = 0
     for w in range(len(pos)):
@@ -1119,7 +1123,7 @@ def test_flat_root_of_64_positions():
     a = Articulation(parent, np.arange(1, n + 1), [cloud] * n, geom_contype=coll, geom_conaffinity=coll)
     bp = BroadPhase(a)
     v = _kern._views(bp._I, bp._F, bp._W)
-    flat_root, flat_mask = v[-3], v[-1]
+    flat_root, flat_mask = v[-4], v[-2]
     assert flat_root[1] == 1 and flat_mask.min() < 0  # one flat root, a mask with bit 63 set
     rng = np.random.default_rng(64)
     total = last = 0
@@ -1451,8 +1455,9 @@ COHERENT_SCENES = [
     ("tree", lambda: testing.branching_tree(60, seed=22, planes=1), 0.01),
     # 64 positions, the most whose kept list is held as bit masks (`_scan_masks`), loose bodies among them
     ("tree_64_positions", lambda: testing.branching_tree(63, seed=22, planes=1), 0.01),
-    ("robots", lambda: testing.many_robots(10, 6, seed=23, spread=0.6, planes=1), 0.01),  # flat roots
-    ("hulls_sweep", lambda: testing.free_hulls(40, seed=24, filters=True, planes=1), 0.01),
+    ("robots", lambda: testing.many_robots(11, 6, seed=23, spread=0.6, planes=1), 0.01),  # flat roots, 67 positions
+    ("hulls_sweep", lambda: testing.free_hulls(70, seed=24, filters=True, planes=1), 0.01),
+    ("hulls_masks", lambda: testing.free_hulls(40, seed=24, filters=True, planes=1), 0.01),
     ("hulls_grid", lambda: testing.free_hulls(125, seed=25, filters=True), 0.01),
 ]
 
@@ -1542,8 +1547,9 @@ def test_coherence_gives_way_to_the_walk_when_bodies_keep_leaving_their_boxes():
     assert reused > 10
 
 
-def test_coherence_survives_new_buffers_and_bad_poses():
-    sc = testing.free_hulls(64, seed=27, filters=True, planes=1)
+@pytest.mark.parametrize("n", [40, 64])  # the kept list as masks, and as a list
+def test_coherence_survives_new_buffers_and_bad_poses(n):
+    sc = testing.free_hulls(n, seed=27, filters=True, planes=1)
     a = sc.articulation
     coh, walk = BroadPhase(a), BroadPhase(a, coherent=False)
     pos, rot = testing.hull_motion(sc, np.random.default_rng(9), 40, 0.01)
@@ -1561,7 +1567,7 @@ def test_coherence_survives_new_buffers_and_bad_poses():
         total += len(got)
         if s in (10, 11, 21):
             assert coh.stats["reused"] == (s != 10)  # rebuilt after new buffers, then kept
-    assert total > 40 * 20
+    assert total > 40 * n // 4
 
 
 def test_coherent_must_be_a_bool():

@@ -31,6 +31,10 @@ One step, for one world (`_world`):
    bodies; bodies spread over a floor sweep faster); a subtree whose AABB misses is skipped whole
    (``q = end[q]``). A small branching subtree (a robot, a hand: ``flat_root``) instead tests
    its statically passing body pairs, bit masks made at set-up, a vectorised row at a time.
+   Up to ``MASK_MAX`` (64) positions (a robot, a hand, a small scene) there is no tree at all:
+   every body pair that passes the static filter is a bit of a mask made at set-up, and each
+   body's row of AABB tests runs over the boxes' columns, a vector compare per 8 partners
+   (`_scan_masks`; in a simulation loop 0.76-0.92 of the walk's step time on nine MuJoCo models).
    Tests whose outcome is data keep no branch on it where they can (the pair is written, the
    count advanced by the outcome): in a simulation loop the engine retrains the branch predictor
    between steps, and every misprediction costs ~7 ns. Surviving body pairs go to a buffer: no
@@ -42,7 +46,8 @@ One step, for one world (`_world`):
    geom pairs, the same tests one by one on the geoms' bounds;
 Steps 2-3 and the static filter are skipped while the body pairs kept from earlier calls stand:
 with frame coherence (single-world calls), each body's AABB is checked against its fat box and,
-when every one is inside, only the kept pairs' AABBs are tested (``FAT_GROW``);
+when every one is inside, only the kept pairs' AABBs are tested (``FAT_GROW``; up to ``MASK_MAX``
+positions the kept pairs are masks too);
 5. planes (halfspaces) down the tree, the static filter of every (plane, body) pair precomputed,
    a multi-geom body's geoms tested by their spheres and boxes in the body's frame, then by their
    world AABBs' corners; explicit pairs last (spheres and OBBs only); keys ``g1 << S | g2`` sorted
@@ -146,7 +151,7 @@ HEADER = 11
 def pack(order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor, caor,
          children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g, pair_keys,
          filter_parent, blocal, glocal, gplane, gmargin, pair_m, flat_root, flat_n, flat_mask, bcap, gcap,
-         n_virtual=0):
+         smask, n_virtual=0):
     """Flatten the static model into ``I`` (int64) and ``F`` (float64); see `_views` for the order
     (``F`` ends with the capsules ``bcap`` (L, 4) and ``gcap`` (G, 4), read by `_cap_views`).
 
@@ -154,7 +159,9 @@ def pack(order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb
     ex_start[x + 1]]``, both directions): a body has none or a few, so a scan of its own list beats
     a binary search of all (22 humanoids: 154 exclusions, a search per body pair and plane test).
     ``flat_root`` (L) marks the subtrees whose body pairs are tested from the static masks
-    ``flat_mask`` (L), ``flat_n[x]`` pairs in the root x's (see `_traverse`).
+    ``flat_mask`` (L), ``flat_n[x]`` pairs in the root x's (see `_traverse`). ``smask`` (L + 1): where
+    L <= MASK_MAX, bit y of ``smask[x]`` is the body pair (x, y), x < y, when it passes the static
+    filter (`_scan_masks`), and ``smask[L]`` the count of those pairs; zeros otherwise.
     """
     L, G, Gs, Q, E, P = len(order), len(geom_bid), len(pgeoms), len(planes), len(ex_other), len(pair_keys)
     head = np.zeros(HEADER, np.int64)
@@ -162,7 +169,7 @@ def pack(order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb
         L, G, Gs, Q, E, P, int(filter_parent), key_shift(G), len(pos_of), n_virtual, int(np.any(flat_root)))
     parts = [head, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
              caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca,
-             np.asarray(pair_g).reshape(-1), pair_keys, flat_root, flat_n, flat_mask]
+             np.asarray(pair_g).reshape(-1), pair_keys, flat_root, flat_n, flat_mask, smask]
     I = np.concatenate([np.asarray(p, np.int64).reshape(-1) for p in parts])
     F = np.concatenate([np.asarray(p, np.float64).reshape(-1)
                         for p in (blocal, glocal, gplane, gmargin, pair_m, bcap, gcap)])
@@ -261,6 +268,8 @@ def _views(I, F, W):
     flat_n = view_of(i64_ptr(ia + 8 * o), L)
     o += L
     flat_mask = view_of(i64_ptr(ia + 8 * o), L)
+    o += L
+    smask = view_of(i64_ptr(ia + 8 * o), L + 1)
     fa = np.int64(F.ctypes.data)
     wa = np.int64(W.ctypes.data)
     f = 0
@@ -296,7 +305,7 @@ def _views(I, F, W):
             caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
             pair_keys,
             blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp, baabb_t,
-            flat_root, flat_n, flat_mask)
+            flat_root, flat_n, flat_mask, smask)
 
 
 @nb.njit(cache=True, inline="always")
@@ -482,7 +491,7 @@ def aabb_slack(e0, e1, e2, c0, c1, c2):
 
 
 @nb.njit(cache=True, inline="always")
-def _place(body_rot, body_pos, b, blocal, bcap, x, bw, baabb, saabb, baabb_t, has_flat):
+def _place(body_rot, body_pos, b, blocal, bcap, x, bw, baabb, saabb, baabb_t, has_flat, subtree):
     # World row of position x (body b's pose) and its AABB: the AABB of the world OBB cut to its
     # capsule's (`_cap_aabb`), also the start of its subtree AABB (stage 2 merges the descendants
     # in), and its column of baabb_t when the model has flat subtrees (`_traverse` reads it there
@@ -496,7 +505,8 @@ def _place(body_rot, body_pos, b, blocal, bcap, x, bw, baabb, saabb, baabb_t, ha
     _cap_aabb(body_rot, b, bcap, x, w, 0.0, baabb, x)
     for i in range(6):
         v = baabb[x, i]
-        saabb[x, i] = v
+        if subtree:
+            saabb[x, i] = v
         if has_flat:
             baabb_t[i, x] = v
 
@@ -842,6 +852,7 @@ def _body_walk(a, q, stop, skip_child, end, baabb, saabb, hasb, bp, nb_, stats):
     return nb_
 
 
+MASK_MAX = 64  # up to this many positions, the body pairs come from static bit masks (`_scan_masks`), no tree
 FLAT_DESC = 16  # a body with at most this many descendants tests them all flat, else walks
 FLAT_MAX = 4096  # _subtree_pair: at most this many body x body tests flat, else the walk
 
@@ -1328,14 +1339,17 @@ def _scan(cl, n, baabb, bp):
 
 @nb.njit(cache=True, inline="always")
 def _scan_masks(cmask, L, baabb_t, single, bp):
-    # `_scan` of the kept list held as masks (L <= 64; bit y of cmask[x]: the pair (x, y), x < y):
-    # each row's AABB against its partners' columns of baabb_t, LANES8 a vector compare
-    # (`_simd.box_row8`, as the flat roots' rows in `_traverse`), the pairs that meet into bp in
-    # (x, y) order, y marked ~y when loose (a multi-geom body's, ``single < 0``, as `_filter`
-    # writes it). Reads past column L - 1 (at most LANES8 - 1 float64, into plw and tmp after
-    # baabb_t in W) give bits the mask drops. One test a pair, written and counted by its outcome
-    # (`_scan`), cost robotis_op3's 77 kept pairs ~0.15 of MuJoCo's broad phase in a simulation loop.
+    # The body pairs held as masks (L <= MASK_MAX; bit y of cmask[x]: the pair (x, y), x < y) whose
+    # AABBs meet: each row's box against its partners' columns of the (6, L) boxes baabb_t, LANES8 a
+    # vector compare (`_simd.box_row8`, as the flat roots' rows in `_traverse`), the pairs that
+    # meet into bp in (x, y) order (counted past its end, not written), y marked ~y when loose (a
+    # multi-geom body's, ``single < 0``, as `_filter` writes it). Reads past column L - 1 (at most
+    # LANES8 - 1 float64, into what follows in W: plw and tmp after baabb_t, the state after
+    # fat_t) give bits the mask drops. With the static masks (`pack`'s smask) it is the whole
+    # tree walk and filter of a small model; with the kept list's it replaced `_scan`, one test a
+    # pair, which cost robotis_op3's 77 kept pairs ~0.15 of MuJoCo's broad phase in a simulation loop.
     bt_at = np.int64(baabb_t.ctypes.data)
+    cap = bp.shape[0]
     m = 0
     for x in range(L):
         keep = np.uint64(cmask[x])
@@ -1358,8 +1372,9 @@ def _scan_masks(cmask, L, baabb_t, single, bp):
         while hits != 0:
             y = np.int64(trailing_zeros(hits))
             hits &= hits - np.uint64(1)
-            bp[m, 0] = x
-            bp[m, 1] = y ^ (lx | -np.int64(single[y] < 0))  # ~y when loose
+            if m < cap:
+                bp[m, 0] = x
+                bp[m, 1] = y ^ (lx | -np.int64(single[y] < 0))  # ~y when loose
             m += 1
     return m
 
@@ -1380,7 +1395,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
      caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
             pair_keys,
      blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp, baabb_t,
-     flat_root, flat_n, flat_mask) = _views(I, F, W)
+     flat_root, flat_n, flat_mask, smask) = _views(I, F, W)
     filter_parent = I[H_FP] != 0
     S = I[H_KS]
     bcap, gcap = _cap_views(I, F)
@@ -1428,12 +1443,12 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
     has_flat = I[H_FLAT] != 0
     # The kept body pairs as bit masks, their AABBs tested a row at a time over baabb's columns
     # (`_scan_masks`), where every position fits a mask's 64 bits.
-    by_masks = coherent and L <= 64
-    cols = has_flat or by_masks  # baabb_t written
+    by_masks = L <= MASK_MAX
+    cols = has_flat or by_masks  # baabb_t written (saabb only where the tree is walked)
     for b in range(NB):
         x = pos_of[b]
         if hasb[x]:
-            _place(body_rot, body_pos, b, blocal, bcap, x, bw, baabb, saabb, baabb_t, cols)
+            _place(body_rot, body_pos, b, blocal, bcap, x, bw, baabb, saabb, baabb_t, cols, not by_masks)
         else:
             for i in range(3):
                 baabb[x, i] = BIG
@@ -1443,7 +1458,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
                 saabb[x, i] = BIG
                 saabb[x, 3 + i] = -BIG
     for x in range(1, I[H_V] + 1):  # the world's geoms as leaves of their own
-        _place(body_rot, body_pos, 0, blocal, bcap, x, bw, baabb, saabb, baabb_t, cols)
+        _place(body_rot, body_pos, 0, blocal, bcap, x, bw, baabb, saabb, baabb_t, cols, not by_masks)
     # 2-4a. the body pairs whose AABBs overlap and that pass the static filter, into bp[:m] (lower
     # position first; a loose pair, see _filter, as ~y): from the list kept by earlier calls while
     # every body stays inside its fat box (see FAT_GROW), else down the tree.
@@ -1474,41 +1489,56 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
                     cs[COH_SCORE] = 0.0
                 else:
                     cs[COH_SCORE] = score
-                    # Rebuild: fat boxes (a body without bounds keeps its empty box), their subtree
-                    # boxes, the walk over them, the filter; the list kept, then tested as above.
+                    # Rebuild: fat boxes (a body without bounds keeps its empty box); the pairs
+                    # whose fat boxes meet, by the static masks over their columns, or by their
+                    # subtree boxes, the walk over them and the filter; kept, then tested as above.
                     for x in range(L):
                         g = max(FAT_GROW * max(baabb[x, 3] - baabb[x, 0], baabb[x, 4] - baabb[x, 1],
                                                baabb[x, 5] - baabb[x, 2]), 0.0)
                         for i in range(3):
                             fat_b[x, i] = baabb[x, i] - g
                             fat_b[x, 3 + i] = baabb[x, 3 + i] + g
-                        for i in range(6):
-                            fat_s[x, i] = fat_b[x, i]
-                    if has_flat:
+                        if not by_masks:
+                            for i in range(6):
+                                fat_s[x, i] = fat_b[x, i]
+                    if cols:
                         for i in range(6):
                             for x in range(L):
                                 fat_t[i, x] = fat_b[x, i]
-                    _sweep(fat_s, parent_pos, L)
-                    nbp = _traverse(L, end, nchild, child_start, children, hasb, fat_b, fat_s, bw, sap, bp, stats,
-                                    filter_parent, fat_t, flat_root, flat_n, flat_mask, False)
-                    if nbp > bp.shape[0]:
-                        info[3] = nbp
+                    if by_masks:
+                        stats[ST_BODY_AABB] += smask[L]
+                        n = _scan_masks(smask, L, fat_t, single, bp)
+                    else:
+                        _sweep(fat_s, parent_pos, L)
+                        n = _traverse(L, end, nchild, child_start, children, hasb, fat_b, fat_s, bw, sap, bp, stats,
+                                      filter_parent, fat_t, flat_root, flat_n, flat_mask, False)
+                    if n > bp.shape[0]:
+                        info[3] = n
                         cs[COH_SCORE] = score - 1.0  # the caller grows bp and reruns: one rebuild
                         return 0
-                    n = _filter(bp, nbp, ctor, caor, weld, parent_pos, filter_parent, ex_start, ex_other, single)
-                    for t in range(n):
-                        cl[t, 0] = bp[t, 0]
-                        cl[t, 1] = bp[t, 1]
                     if by_masks:
                         for x in range(L):
                             cmask[x] = 0
                         for t in range(n):
                             y = bp[t, 1]
                             cmask[bp[t, 0]] |= np.int64(1) << (y ^ (y >> 63))
+                    else:
+                        n = _filter(bp, n, ctor, caor, weld, parent_pos, filter_parent, ex_start, ex_other, single)
+                        for t in range(n):
+                            cl[t, 0] = bp[t, 0]
+                            cl[t, 1] = bp[t, 1]
                     cs[COH_N] = n
                     cs[COH_VALID] = 1.0
                     stats[ST_BODY_AABB] += n
                     m = _scan_masks(cmask, L, baabb_t, single, bp) if by_masks else _scan(cl, n, baabb, bp)
+    if m < 0 and by_masks:
+        # 2-4a. at most MASK_MAX positions: every pair passing the static filter, a row at a time
+        # over baabb's columns (`_scan_masks`); no tree.
+        stats[ST_BODY_AABB] += smask[L]
+        m = _scan_masks(smask, L, baabb_t, single, bp)
+        if m > bp.shape[0]:
+            info[3] = m
+            return 0
     if m < 0:
         _sweep(saabb, parent_pos, L)  # 2. subtree AABBs
         # 3. candidate body pairs down the tree.

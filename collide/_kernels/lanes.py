@@ -334,7 +334,7 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
      caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
      pair_keys,
      blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp, baabb_t,
-     flat_root, flat_n, flat_mask) = _views(I, F, W)
+     flat_root, flat_n, flat_mask, smask) = _views(I, F, W)
     Q = planes.shape[0]
     bcap, gcap = _cap_views(I, F)
     (body_pairs, row_start, pair_gstart, pair_geoms, plane_start, plane_pos, plane_gstart, plane_geoms,
