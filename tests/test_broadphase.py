@@ -1456,7 +1456,7 @@ COHERENT_SCENES = [
     # 64 positions, the most whose kept list is held as bit masks (`_scan_masks`), loose bodies among them
     ("tree_64_positions", lambda: testing.branching_tree(63, seed=22, planes=1), 0.01),
     ("robots", lambda: testing.many_robots(11, 6, seed=23, spread=0.6, planes=1), 0.01),  # flat roots, 67 positions
-    ("hulls_sweep", lambda: testing.free_hulls(70, seed=24, filters=True, planes=1), 0.01),
+    ("hulls_sweep", lambda: testing.free_hulls(64, seed=24, filters=True, planes=1), 0.01),  # 65 positions
     ("hulls_masks", lambda: testing.free_hulls(40, seed=24, filters=True, planes=1), 0.01),
     ("hulls_grid", lambda: testing.free_hulls(125, seed=25, filters=True), 0.01),
 ]
