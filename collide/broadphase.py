@@ -177,7 +177,10 @@ class BroadPhase:
         controls: 3-17 % of the steps rebuild the list), and a scene where bodies leave their
         boxes in more than about a third of the calls (22 falling humanoids) is detected and
         culled down the tree again. False: every call culls down the tree. `pairs_batch` never
-        keeps a list (its worlds are unrelated).
+        keeps a list (its worlds are unrelated). A model of at most 64 positions (bodies, and the
+        world's geoms when it has several) has no tree to cull: every statically allowed body pair
+        is a bit of a mask made at set-up, and a call tests them all, a vector compare per eight
+        (cheaper there than keeping a list); ``coherent`` changes nothing.
 
     Attributes
     ----------

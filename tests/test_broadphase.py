@@ -1452,12 +1452,9 @@ def test_planes_placed_by_nearly_orthonormal_geom_rotations_keep_their_pairs():
 
 COHERENT_SCENES = [
     ("chain", lambda: testing.chain(64, seed=21, planes=1, joint_range=1.6), 0.001),  # the tip moves 64 joints' worth
-    ("tree", lambda: testing.branching_tree(60, seed=22, planes=1), 0.01),
-    # 64 positions, the most whose kept list is held as bit masks (`_scan_masks`), loose bodies among them
-    ("tree_64_positions", lambda: testing.branching_tree(63, seed=22, planes=1), 0.01),
-    ("robots", lambda: testing.many_robots(11, 6, seed=23, spread=0.6, planes=1), 0.01),  # flat roots, 67 positions
-    ("hulls_sweep", lambda: testing.free_hulls(64, seed=24, filters=True, planes=1), 0.01),  # 65 positions
-    ("hulls_masks", lambda: testing.free_hulls(40, seed=24, filters=True, planes=1), 0.01),
+    ("tree", lambda: testing.branching_tree(70, seed=22, planes=1), 0.002),
+    ("robots", lambda: testing.many_robots(11, 6, seed=23, spread=0.6, planes=1), 0.01),  # flat roots
+    ("hulls_sweep", lambda: testing.free_hulls(64, seed=24, filters=True, planes=1), 0.01),
     ("hulls_grid", lambda: testing.free_hulls(125, seed=25, filters=True), 0.01),
 ]
 
@@ -1479,11 +1476,12 @@ def _motion(sc, rng, steps, step=0.01):
 def test_coherent_calls_equal_the_walk_along_motions_and_jumps(name, make, step):
     # Along a smooth motion the kept list is reused (and rebuilt when a body leaves its fat box);
     # every 40 calls the poses jump to an unrelated configuration. Each call must equal the walk's
-    # (coherent=False) and, every tenth, the bounds twin.
+    # (coherent=False) and, every tenth, the bounds twin. (More than MASK_MAX positions: below, no
+    # list is kept, `test_static_masks_equal_the_twin_and_keep_no_list`.)
     sc = make()
     a = sc.articulation
     coh, walk = BroadPhase(a), BroadPhase(a, coherent=False)
-    assert coh.coherent and not walk.coherent
+    assert coh.coherent and not walk.coherent and coh.position_count > _kern.MASK_MAX
     rng = np.random.default_rng(7)
     pos, rot = _motion(sc, rng, 120, step)
     reused = pairs = 0
@@ -1505,23 +1503,64 @@ def test_coherent_calls_equal_the_walk_along_motions_and_jumps(name, make, step)
     assert 0.3 * len(pos) < reused < len(pos) - 3  # the list was reused, and rebuilt
 
 
-def test_coherent_scenes_take_both_scans_of_the_kept_list():
-    # Up to 64 positions the kept list is scanned as bit masks, a row of AABB tests at a time
-    # (`_scan_masks`: bit 63 included, loose pairs marked), beyond as a list (`_scan`): the scenes
-    # above take both.
-    counts = {}
-    for name, make, _ in COHERENT_SCENES:
-        bp = BroadPhase(make().articulation)
-        single = _kern._views(bp._I, bp._F, bp._W)[9]
-        counts[name] = (bp.position_count, int(np.count_nonzero(single < 0)))
-    assert counts["tree_64_positions"][0] == 64 and counts["tree_64_positions"][1] > 0
-    assert any(L > 64 for L, _ in counts.values()) and any(L < 64 for L, _ in counts.values())
+MASK_SCENES = [
+    # 64 positions, the most held as masks (the last body is bit 63: an int64's sign), loose bodies
+    ("tree_64_positions", lambda: testing.branching_tree(63, seed=22, planes=1)),
+    ("robots", lambda: testing.many_robots(10, 6, seed=23, spread=0.6, planes=1)),
+    ("hulls", lambda: testing.free_hulls(40, seed=24, filters=True, planes=1)),
+    ("chain", lambda: testing.chain(40, seed=25, planes=1, joint_range=1.6)),
+]
+
+
+@pytest.mark.parametrize("make", [s[1] for s in MASK_SCENES], ids=[s[0] for s in MASK_SCENES])
+def test_static_masks_equal_the_twin_and_keep_no_list(make):
+    # Up to MASK_MAX positions the body pairs come from static masks (`_scan_masks`), with or
+    # without coherence: the bounds twin's pairs at every call, no list kept, the same tests.
+    sc = make()
+    a = sc.articulation
+    coh, walk = BroadPhase(a), BroadPhase(a, coherent=False)
+    L = coh.position_count
+    assert L <= _kern.MASK_MAX
+    v = _kern._views(coh._I, coh._F, coh._W)
+    smask = v[-1]
+    single, hasb, weld, parent_pos, ctor, caor, ex_start, ex_other = v[9], v[10], v[6], v[5], v[12], v[13], v[17], v[18]
+    # The bits: the pairs the static filter (`_filter`, run on all pairs with bounds) passes, less
+    # those without a geom pair whose masks match that is not an explicit pair (their geom loop
+    # would emit nothing).
+    allp = np.array([(x, y) for x in range(L) for y in range(x + 1, L) if hasb[x] and hasb[y]], np.int64)
+    n = _kern._filter(allp, len(allp), ctor, caor, weld, parent_pos, a.filter_parent, ex_start, ex_other, single)
+    gstart, pgeoms, gct, gca, explicit = v[15], v[16], v[22], v[23], set(v[25].tolist())
+    S = int(coh._I[_kern.H_KS])
+    want = np.zeros(L, np.uint64)
+    dropped = 0
+    for x, y in allp[:n]:
+        y = y ^ (y >> 63)
+        if any(((gct[g1] & gca[g2]) or (gct[g2] & gca[g1])) and (min(g1, g2) << S | max(g1, g2)) not in explicit
+               for g1 in pgeoms[gstart[x]:gstart[x + 1]] for g2 in pgeoms[gstart[y]:gstart[y + 1]]):
+            want[x] |= np.uint64(1) << np.uint64(y)
+        else:
+            dropped += 1
+    assert np.array_equal(smask[:L].view(np.uint64), want) and smask[L] == n - dropped
+    if L == 64:
+        assert smask[:L].min() < 0 and np.any(single < 0)  # bit 63 in use; loose bodies
+    rng = np.random.default_rng(7)
+    pos, rot = _motion(sc, rng, 60, 0.01)
+    pairs = 0
+    for s in range(len(pos)):
+        p, r = (pos[s], rot[s]) if s % 20 != 19 else sc.poses(rng)
+        got = coh.pairs(p, r)
+        assert np.array_equal(got, testing.brute_force_bound_pairs(a, p, r)), s
+        assert np.array_equal(got, walk.pairs(p, r)), s
+        assert coh.stats == walk.stats and coh.stats["reused"] == 0 and coh.stats["subtree_tests"] == 0
+        assert coh.stats["body_aabb_tests"] == smask[L]
+        pairs += len(got)
+    assert pairs > 50  # the scenes had hits
 
 
 def test_coherence_gives_way_to_the_walk_when_bodies_keep_leaving_their_boxes():
     # Unrelated poses at every call: after a few rebuilds the walk runs for a spell (COH_SKIP),
     # longer each time; a smooth motion afterwards brings the list back. The same pairs throughout.
-    sc = testing.many_robots(10, 6, seed=26, spread=0.6, planes=1)
+    sc = testing.many_robots(11, 6, seed=26, spread=0.6, planes=1)
     a = sc.articulation
     coh, walk = BroadPhase(a), BroadPhase(a, coherent=False)
     rng = np.random.default_rng(8)
@@ -1547,8 +1586,8 @@ def test_coherence_gives_way_to_the_walk_when_bodies_keep_leaving_their_boxes():
     assert reused > 10
 
 
-@pytest.mark.parametrize("n", [40, 64])  # the kept list as masks, and as a list
-def test_coherence_survives_new_buffers_and_bad_poses(n):
+def test_coherence_survives_new_buffers_and_bad_poses():
+    n = 64
     sc = testing.free_hulls(n, seed=27, filters=True, planes=1)
     a = sc.articulation
     coh, walk = BroadPhase(a), BroadPhase(a, coherent=False)

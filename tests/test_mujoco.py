@@ -887,12 +887,15 @@ def test_copies_and_pickles_are_rebuilt():
     assert not walk.broadphase.coherent and np.array_equal(walk.pairs(data), want)
 
 
-def test_coherent_steps_equal_the_walk_in_a_simulation():
-    # The built-in scene (a figure falling onto a pile): MuJoCo's own steps, the kept body-pair list
-    # reused in most of them, the same pairs as a broad phase that walks the tree every step.
-    model = cm.default_scene(seed=3)
+@pytest.mark.parametrize("objects", [40, 80])
+def test_coherent_steps_equal_the_walk_in_a_simulation(objects):
+    # The built-in scene (a figure falling onto a pile): MuJoCo's own steps, the same pairs as a
+    # broad phase that walks the tree every step. With 80 objects (more than 64 positions) the kept
+    # body-pair list is reused in most of them; with 40 no list is kept (the static masks' scan).
+    model = cm.default_scene(seed=3, objects=objects)
     data = mujoco.MjData(model)
     coh, walk = cm.BroadPhase(model), cm.BroadPhase(model, coherent=False)
+    assert (coh.broadphase.position_count > 64) == (objects == 80)
     rng = np.random.default_rng(0)
     reused = total = 0
     for step in range(400):
@@ -904,7 +907,7 @@ def test_coherent_steps_equal_the_walk_in_a_simulation():
         assert np.array_equal(got, walk.pairs(data)), step
         total += len(got)
     assert total > 400 * 5  # the pile and the figure touch
-    assert reused > 200
+    assert reused > 200 if objects == 80 else reused == 0
 
 
 # ----------------------------------------------------------------------------------- real scenes

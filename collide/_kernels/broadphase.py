@@ -46,8 +46,8 @@ One step, for one world (`_world`):
    geom pairs, the same tests one by one on the geoms' bounds;
 Steps 2-3 and the static filter are skipped while the body pairs kept from earlier calls stand:
 with frame coherence (single-world calls), each body's AABB is checked against its fat box and,
-when every one is inside, only the kept pairs' AABBs are tested (``FAT_GROW``; up to ``MASK_MAX``
-positions the kept pairs are masks too);
+when every one is inside, only the kept pairs' AABBs are tested (``FAT_GROW``; above ``MASK_MAX``
+positions only: below, the masks' scan costs less than keeping the list);
 5. planes (halfspaces) down the tree, the static filter of every (plane, body) pair precomputed,
    a multi-geom body's geoms tested by their spheres and boxes in the body's frame, then by their
    world AABBs' corners; explicit pairs last (spheres and OBBs only); keys ``g1 << S | g2`` sorted
@@ -196,9 +196,8 @@ def coherence_state_offset(L: int, G: int, Q: int) -> int:
 
 
 def workspace_size(L: int, G: int, Q: int) -> int:
-    """Length of the float64 workspace ``W`` of one world (``L`` positions): after the coherence
-    state, the kept list as bit masks (``L`` int64, `_fat_views`)."""
-    return int(coherence_state_offset(L, G, Q)) + N_COH + L
+    """Length of the float64 workspace ``W`` of one world (``L`` positions)."""
+    return int(coherence_state_offset(L, G, Q)) + N_COH
 
 
 @nb.njit(cache=True, inline="always")
@@ -322,17 +321,14 @@ def _cap_views(I, F):
 @nb.njit(cache=True, inline="always")
 def _fat_views(I, W):
     # The frame-coherence part of W (see coherence_offset): fat_b (L, 6), fat_s (L, 6), fat_t (6, L),
-    # state (N_COH), then the kept list as masks (L int64: bit y of cmask[x], the pair (x, y); used
-    # where L <= 64, see `_scan_masks`).
+    # state (N_COH).
     L = I[H_L]
     wa = np.int64(W.ctypes.data) + 8 * coherence_offset(L, I[H_G], I[H_Q])
     fat_b = view_of(f64_ptr(wa), (L, 6))
     fat_s = view_of(f64_ptr(wa + 48 * L), (L, 6))
     fat_t = view_of(f64_ptr(wa + 96 * L), (6, L))
-    sa = np.int64(W.ctypes.data) + 8 * coherence_state_offset(L, I[H_G], I[H_Q])
-    state = view_of(f64_ptr(sa), N_COH)
-    cmask = view_of(i64_ptr(sa + 8 * N_COH), L)
-    return fat_b, fat_s, fat_t, state, cmask
+    state = view_of(f64_ptr(np.int64(W.ctypes.data) + 8 * coherence_state_offset(L, I[H_G], I[H_Q])), N_COH)
+    return fat_b, fat_s, fat_t, state
 
 
 # ------------------------------------------------------------------------------- small tests
@@ -1338,21 +1334,19 @@ def _scan(cl, n, baabb, bp):
 
 
 @nb.njit(cache=True, inline="always")
-def _scan_masks(cmask, L, baabb_t, single, bp):
-    # The body pairs held as masks (L <= MASK_MAX; bit y of cmask[x]: the pair (x, y), x < y) whose
-    # AABBs meet: each row's box against its partners' columns of the (6, L) boxes baabb_t, LANES8 a
-    # vector compare (`_simd.box_row8`, as the flat roots' rows in `_traverse`), the pairs that
-    # meet into bp in (x, y) order (counted past its end, not written), y marked ~y when loose (a
-    # multi-geom body's, ``single < 0``, as `_filter` writes it). Reads past column L - 1 (at most
-    # LANES8 - 1 float64, into what follows in W: plw and tmp after baabb_t, the state after
-    # fat_t) give bits the mask drops. With the static masks (`pack`'s smask) it is the whole
-    # tree walk and filter of a small model; with the kept list's it replaced `_scan`, one test a
-    # pair, which cost robotis_op3's 77 kept pairs ~0.15 of MuJoCo's broad phase in a simulation loop.
+def _scan_masks(smask, L, baabb_t, single, bp):
+    # Up to MASK_MAX positions, the body pairs passing the static filter whose AABBs meet (the tree
+    # walk and the filter of a small model, `_world`): bit y of smask[x] (`pack`) is the pair (x, y),
+    # x < y; each row's box is tested against its partners' columns of the (6, L) boxes baabb_t,
+    # LANES8 a vector compare (`_simd.box_row8`, as the flat roots' rows in `_traverse`), the pairs
+    # that meet go into bp in (x, y) order (counted past its end, not written), y marked ~y when
+    # loose (a multi-geom body's, ``single < 0``, as `_filter` writes it). Reads past column L - 1
+    # (at most LANES8 - 1 float64, into plw and tmp after baabb_t in W) give bits the mask drops.
     bt_at = np.int64(baabb_t.ctypes.data)
     cap = bp.shape[0]
     m = 0
     for x in range(L):
-        keep = np.uint64(cmask[x])
+        keep = np.uint64(smask[x])
         if keep == 0:
             continue
         i = np.int64(trailing_zeros(keep))
@@ -1463,8 +1457,8 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
     # position first; a loose pair, see _filter, as ~y): from the list kept by earlier calls while
     # every body stays inside its fat box (see FAT_GROW), else down the tree.
     m = -1
-    if coherent:
-        fat_b, fat_s, fat_t, cs, cmask = _fat_views(I, W)
+    if coherent and not by_masks:  # (up to MASK_MAX positions the masks' scan costs less than the list's upkeep)
+        fat_b, fat_s, fat_t, cs = _fat_views(I, W)
         if cs[COH_SKIP] > 0.0:
             cs[COH_SKIP] -= 1.0
         else:
@@ -1478,7 +1472,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
                 cs[COH_BACKOFF] *= 0.5
                 n = np.int64(cs[COH_N])
                 stats[ST_BODY_AABB] += n
-                m = _scan_masks(cmask, L, baabb_t, single, bp) if by_masks else _scan(cl, n, baabb, bp)
+                m = _scan(cl, n, baabb, bp)
             else:
                 score = cs[COH_SCORE] * COH_DECAY + 1.0
                 cs[COH_VALID] = 0.0  # until rebuilt (an overflow below returns first)
@@ -1489,48 +1483,35 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
                     cs[COH_SCORE] = 0.0
                 else:
                     cs[COH_SCORE] = score
-                    # Rebuild: fat boxes (a body without bounds keeps its empty box); the pairs
-                    # whose fat boxes meet, by the static masks over their columns, or by their
-                    # subtree boxes, the walk over them and the filter; kept, then tested as above.
+                    # Rebuild: fat boxes (a body without bounds keeps its empty box), their subtree
+                    # boxes, the walk over them, the filter; the list kept, then tested as above.
                     for x in range(L):
                         g = max(FAT_GROW * max(baabb[x, 3] - baabb[x, 0], baabb[x, 4] - baabb[x, 1],
                                                baabb[x, 5] - baabb[x, 2]), 0.0)
                         for i in range(3):
                             fat_b[x, i] = baabb[x, i] - g
                             fat_b[x, 3 + i] = baabb[x, 3 + i] + g
-                        if not by_masks:
-                            for i in range(6):
-                                fat_s[x, i] = fat_b[x, i]
-                    if cols:
+                        for i in range(6):
+                            fat_s[x, i] = fat_b[x, i]
+                    if has_flat:
                         for i in range(6):
                             for x in range(L):
                                 fat_t[i, x] = fat_b[x, i]
-                    if by_masks:
-                        stats[ST_BODY_AABB] += smask[L]
-                        n = _scan_masks(smask, L, fat_t, single, bp)
-                    else:
-                        _sweep(fat_s, parent_pos, L)
-                        n = _traverse(L, end, nchild, child_start, children, hasb, fat_b, fat_s, bw, sap, bp, stats,
-                                      filter_parent, fat_t, flat_root, flat_n, flat_mask, False)
-                    if n > bp.shape[0]:
-                        info[3] = n
+                    _sweep(fat_s, parent_pos, L)
+                    nbp = _traverse(L, end, nchild, child_start, children, hasb, fat_b, fat_s, bw, sap, bp, stats,
+                                    filter_parent, fat_t, flat_root, flat_n, flat_mask, False)
+                    if nbp > bp.shape[0]:
+                        info[3] = nbp
                         cs[COH_SCORE] = score - 1.0  # the caller grows bp and reruns: one rebuild
                         return 0
-                    if by_masks:
-                        for x in range(L):
-                            cmask[x] = 0
-                        for t in range(n):
-                            y = bp[t, 1]
-                            cmask[bp[t, 0]] |= np.int64(1) << (y ^ (y >> 63))
-                    else:
-                        n = _filter(bp, n, ctor, caor, weld, parent_pos, filter_parent, ex_start, ex_other, single)
-                        for t in range(n):
-                            cl[t, 0] = bp[t, 0]
-                            cl[t, 1] = bp[t, 1]
+                    n = _filter(bp, nbp, ctor, caor, weld, parent_pos, filter_parent, ex_start, ex_other, single)
+                    for t in range(n):
+                        cl[t, 0] = bp[t, 0]
+                        cl[t, 1] = bp[t, 1]
                     cs[COH_N] = n
                     cs[COH_VALID] = 1.0
                     stats[ST_BODY_AABB] += n
-                    m = _scan_masks(cmask, L, baabb_t, single, bp) if by_masks else _scan(cl, n, baabb, bp)
+                    m = _scan(cl, n, baabb, bp)
     if m < 0 and by_masks:
         # 2-4a. at most MASK_MAX positions: every pair passing the static filter, a row at a time
         # over baabb's columns (`_scan_masks`); no tree.
