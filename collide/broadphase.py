@@ -188,7 +188,8 @@ class BroadPhase:
         After a call: bounds tests done at each level (``subtree_tests``: AABB tests of tree
         culling, sweep-and-prune and the grid, where two leaf bodies' test is their body test;
         ``body_aabb_tests``: body against a non-leaf body in deeper subtrees, and, up to 64
-        positions, where no tree is walked, every statically allowed body pair; ``body_sphere_tests``,
+        positions, where no tree is walked, every body pair that passes the static filter and has a
+        geom pair whose masks match (explicit pairs aside); ``body_sphere_tests``,
         ``body_obb_tests``, ``geom_aabb_tests``, ``geom_sphere_tests``, ``geom_obb_tests`` (geoms of
         multi-geom bodies, AABB then sphere then OBB), ``plane_tests``) and ``pairs`` out; summed
         over worlds after `pairs_batch`. ``pairs`` is always the sum of the worlds' counts; the

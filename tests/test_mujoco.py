@@ -889,9 +889,11 @@ def test_copies_and_pickles_are_rebuilt():
 
 @pytest.mark.parametrize("objects", [40, 80])
 def test_coherent_steps_equal_the_walk_in_a_simulation(objects):
-    # The built-in scene (a figure falling onto a pile): MuJoCo's own steps, the same pairs as a
-    # broad phase that walks the tree every step. With 80 objects (more than 64 positions) the kept
-    # body-pair list is reused in most of them; with 40 no list is kept (the static masks' scan).
+    # The built-in scene (a figure falling onto a pile): MuJoCo's own steps. With 80 objects (more
+    # than 64 positions) the kept body-pair list is reused in most of them, and the pairs are those
+    # of a broad phase that walks the tree every step; with 40 no list is kept and both take the
+    # static masks (the same code: their pairs are checked against MuJoCo's contacts in
+    # test_scene_recall_is_complete and against the twin in test_broadphase's mask tests).
     model = cm.default_scene(seed=3, objects=objects)
     data = mujoco.MjData(model)
     coh, walk = cm.BroadPhase(model), cm.BroadPhase(model, coherent=False)

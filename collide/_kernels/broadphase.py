@@ -34,7 +34,8 @@ One step, for one world (`_world`):
    Up to ``MASK_MAX`` (64) positions (a robot, a hand, a small scene) there is no tree at all:
    every body pair that passes the static filter is a bit of a mask made at set-up, and each
    body's row of AABB tests runs over the boxes' columns, a vector compare per 8 partners
-   (`_scan_masks`; in a simulation loop 0.76-0.92 of the walk's step time on nine MuJoCo models).
+   (`_scan_masks`; in a simulation loop 0.76-0.92 of the walk's step time on eight MuJoCo models,
+   1.03 on wonik_allegro).
    Tests whose outcome is data keep no branch on it where they can (the pair is written, the
    count advanced by the outcome): in a simulation loop the engine retrains the branch predictor
    between steps, and every misprediction costs ~7 ns. Surviving body pairs go to a buffer: no
@@ -143,7 +144,8 @@ COH_BACKOFF_MAX = 1024.0
 # Header of I: counts. Positions (``H_L``) are the bodies in depth-first order plus, when the world
 # has several solid geoms, one leaf per world geom (``H_V`` of them, at positions 1..V; see
 # BroadPhase): bodies (``H_NB``) index the pose arrays, positions everything else. ``H_FLAT``: 1 when
-# some subtree is flat (``flat_root``), so that the step writes ``baabb_t`` (see `_place`).
+# some subtree is flat (``flat_root``), so that the step writes ``baabb_t`` (see `_place`; it does
+# too up to MASK_MAX positions).
 H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP, H_KS, H_NB, H_V, H_FLAT = range(11)
 HEADER = 11
 
@@ -490,9 +492,10 @@ def aabb_slack(e0, e1, e2, c0, c1, c2):
 def _place(body_rot, body_pos, b, blocal, bcap, x, bw, baabb, saabb, baabb_t, has_flat, subtree):
     # World row of position x (body b's pose) and its AABB: the AABB of the world OBB cut to its
     # capsule's (`_cap_aabb`), also the start of its subtree AABB (stage 2 merges the descendants
-    # in), and its column of baabb_t when the model has flat subtrees (`_traverse` reads it there
-    # only). Six stores into six rows of baabb_t cost the 64-link chain, which has none, 7 % of its
-    # step (hot 3.22 -> 2.98 us, after mj_step 4.25-4.47 -> 4.07-4.10).
+    # in; with ``subtree``: the tree is walked), and its column of baabb_t with ``has_flat`` (flat
+    # subtrees, or at most MASK_MAX positions: `_traverse` and `_scan_masks` read it there only).
+    # Six stores into six rows of baabb_t cost the 64-link chain, which has none, 7 % of its step
+    # (hot 3.22 -> 2.98 us, after mj_step 4.25-4.47 -> 4.07-4.10).
     # The slack of the OBB test (SLACK_REL of the size, SLACK_POS of the centre's magnitude): the
     # tree's AABB tests compare lo <= hi bare, and a tiny body far from the origin (1e-6 at 1e6)
     # would otherwise lose a pair the OBB test keeps (rounding of the centre > its guard).
