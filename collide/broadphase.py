@@ -342,8 +342,8 @@ class BroadPhase:
         out = np.zeros(L + 1, np.uint64)
         if L > _k.MASK_MAX:
             return out.view(np.int64)
-        explicit = set(int(k) for k in pair_keys)
         for x in range(L):
+            g1 = pgeoms[gstart[x]:gstart[x + 1]]
             for y in range(x + 1, L):
                 if not (hasb[x] and hasb[y]) or weld[x] == weld[y]:
                     continue
@@ -353,9 +353,12 @@ class BroadPhase:
                     continue
                 if y in ex_other[ex_start[x]:ex_start[x + 1]]:
                     continue
-                if not any(((gct[g1] & gca[g2]) != 0 or (gct[g2] & gca[g1]) != 0)
-                           and ((min(g1, g2) << S) | max(g1, g2)) not in explicit
-                           for g1 in pgeoms[gstart[x]:gstart[x + 1]] for g2 in pgeoms[gstart[y]:gstart[y + 1]]):
+                g2 = pgeoms[gstart[y]:gstart[y + 1]]
+                ok = (((gct[g1][:, None] & gca[g2][None, :]) != 0) | ((gct[g2][None, :] & gca[g1][:, None]) != 0))
+                if len(pair_keys) and ok.any():
+                    keys = (np.minimum(g1[:, None], g2[None, :]) << S) | np.maximum(g1[:, None], g2[None, :])
+                    ok &= ~np.isin(keys, pair_keys)
+                if not ok.any():
                     continue
                 out[x] |= np.uint64(1) << np.uint64(y)
                 out[L] += np.uint64(1)
