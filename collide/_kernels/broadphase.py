@@ -812,6 +812,32 @@ def _emit(keys, k, g1, g2, S):
 # ------------------------------------------------------------------------------- traversal
 
 @nb.njit(cache=True, inline="always")
+def _row_hits(bt_at, stride, base, a, keep):
+    # The bits i of keep (the pair of column a and column base + i) whose boxes meet, the boxes the
+    # columns of the (6, stride) array at address bt_at (lo x, y, z, hi x, y, z). Only the span of
+    # keep's bits is tested (pairs are stored once, a < q: a row tests its later partners only; 22
+    # humanoids, hot: 31.0 -> 30.0 us a step), LANES8 at a time in one vector compare
+    # (`_simd.box_row8`; as a loop over the columns the compiler built the mask with a shift and an
+    # or per column). Its reads past the span (at most LANES8 - 1 columns past the last, into what
+    # follows the array in W: plw and tmp after baabb_t, the coherence state after fat_t) give bits
+    # that keep drops. Scalars in (a pointer view inside): no reference counting in `_traverse`.
+    bt = view_of(f64_ptr(bt_at), (6, stride))
+    l0 = bt[0, a]
+    l1 = bt[1, a]
+    l2 = bt[2, a]
+    h0 = bt[3, a]
+    h1 = bt[4, a]
+    h2 = bt[5, a]
+    hits = np.uint64(0)
+    i = np.int64(trailing_zeros(keep))
+    stop = 64 - np.int64(leading_zeros(keep))
+    while i < stop:
+        hits |= box_row8(bt_at, stride, base + i, l0, l1, l2, h0, h1, h2) << np.uint64(i)
+        i += LANES8
+    return hits & keep
+
+
+@nb.njit(cache=True, inline="always")
 def _push(bp, nb_, x, y):
     if nb_ < bp.shape[0]:
         bp[nb_, 0] = x
@@ -1095,25 +1121,7 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
                 keep = np.uint64(flat_mask[a])
                 if keep == 0:
                     continue
-                l0 = baabb_t[0, a]
-                l1 = baabb_t[1, a]
-                l2 = baabb_t[2, a]
-                h0 = baabb_t[3, a]
-                h1 = baabb_t[4, a]
-                h2 = baabb_t[5, a]
-                hits = np.uint64(0)
-                # Only the span of keep's bits (pairs are stored once, a < q): a body's row tests
-                # its later partners only (22 humanoids, hot: 31.0 -> 30.0 us a step), LANES at a
-                # time in one vector compare a row (`_simd.box_row8`; as a loop over the columns the
-                # compiler built the mask with a shift and an or per column). Its reads past the
-                # span (at most LANES - 1 columns past the last, into what follows baabb_t in W:
-                # plw and tmp, or the coherence state after fat_t) give bits that keep drops.
-                i = np.int64(trailing_zeros(keep))
-                stop = 64 - np.int64(leading_zeros(keep))
-                while i < stop:
-                    hits |= box_row8(bt_at, bt_n, n + i, l0, l1, l2, h0, h1, h2) << np.uint64(i)
-                    i += LANES8
-                hits &= keep
+                hits = _row_hits(bt_at, bt_n, n, a, keep)
                 while hits != 0:
                     if nb_ < cap:
                         bp[nb_, 0] = a
@@ -1352,19 +1360,7 @@ def _scan_masks(smask, L, baabb_t, single, bp):
         keep = np.uint64(smask[x])
         if keep == 0:
             continue
-        i = np.int64(trailing_zeros(keep))
-        stop = 64 - np.int64(leading_zeros(keep))
-        l0 = baabb_t[0, x]
-        l1 = baabb_t[1, x]
-        l2 = baabb_t[2, x]
-        h0 = baabb_t[3, x]
-        h1 = baabb_t[4, x]
-        h2 = baabb_t[5, x]
-        hits = np.uint64(0)
-        while i < stop:
-            hits |= box_row8(bt_at, L, i, l0, l1, l2, h0, h1, h2) << np.uint64(i)
-            i += LANES8
-        hits &= keep
+        hits = _row_hits(bt_at, L, 0, x, keep)
         lx = -np.int64(single[x] < 0)
         while hits != 0:
             y = np.int64(trailing_zeros(hits))
