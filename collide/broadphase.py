@@ -30,6 +30,7 @@ bodies) and their AABBs, for drawing them, debugging a pair, or feeding another 
 
 from __future__ import annotations
 
+import threading
 from typing import NamedTuple
 
 import numba
@@ -210,9 +211,10 @@ class BroadPhase:
     (``(ct1 & ca2) or (ct2 & ca1)``). Explicit pairs bypass the filter and are tested with their
     own inflation. Planes are halfspaces, tested against the other geom's bounds.
 
-    One instance holds one workspace and one output arena, like a ``mujoco.MjData``: call it
-    from one thread at a time. For several threads, give each its own (``copy.copy(bp)`` builds
-    an independent one from the same articulation); `pairs_batch` threads over worlds itself.
+    One instance holds one workspace and one output arena, like a ``mujoco.MjData``: calls from
+    several threads are safe but take turns (a lock per instance). For threads that should run
+    at once, give each its own (``copy.copy(bp)`` builds an independent one from the same
+    articulation); `pairs_batch` threads over worlds itself.
     """
 
     def __init__(self, articulation: Articulation, coherent: bool = True):
@@ -321,6 +323,7 @@ class BroadPhase:
         self._ctx_addr = self._ctx.ctypes.data  # `_k.step_bound`'s argument: never replaced
         self._step = _k.step_function()
         self._step_bound = None  # see bind
+        self._lock = threading.Lock()  # see pairs
         self._bound = None
         self._set_buffers(4 * L + 64, 4 * G + 64)
         self._new_arena(ARENA_ROWS)
@@ -552,6 +555,16 @@ class BroadPhase:
             (`_k.MAX_POSITION`) or a rotation that is not orthonormal (naming the first offending
             body); the broad phase stays usable.
         """
+        # One call at a time per instance (workspace, arena and bookkeeping are shared): a second
+        # thread waits here instead of reading rows another call is writing.
+        self._lock.acquire()
+        try:
+            return self._pairs(body_pos, body_rot)
+        finally:
+            self._lock.release()
+
+    def _pairs(self, body_pos, body_rot) -> np.ndarray:
+        # `pairs`, under the instance's lock.
         if body_pos is None and body_rot is None:
             # the bound arrays' current values (see bind)
             if self._bound is None:
@@ -602,6 +615,11 @@ class BroadPhase:
         ValueError
             Wrong shape, dtype or layout.
         """
+        with self._lock:
+            self._bind(body_pos, body_rot)
+
+    def _bind(self, body_pos: np.ndarray, body_rot: np.ndarray) -> None:
+        # `bind`, for a caller holding the lock (`collide.mujoco.BroadPhase.pairs`).
         for name, arr in (("body_pos", body_pos), ("body_rot", body_rot)):
             if isinstance(arr, np.ndarray) and not (arr.dtype == np.float64 and arr.flags.c_contiguous):
                 raise ValueError(f"{name}: bind needs a C-contiguous float64 array, got dtype {arr.dtype}"
@@ -821,6 +839,10 @@ class BroadPhase:
         # (CHUNKS a thread). Sized for numba's most threads, so that a call on fewer
         # (numba.set_num_threads) finds the same buffers: made afresh, they cost the next call
         # their first touch.
+        with self._lock:  # one call at a time per instance (see pairs): the buffers are shared
+            return self._run_batch_locked(B, launch)
+
+    def _run_batch_locked(self, B: int, launch) -> np.ndarray:
         most = numba.config.NUMBA_NUM_THREADS
         if self._J is None:
             C = max(1, min(CHUNKS * most, B))

@@ -451,7 +451,8 @@ class BroadPhase:
 
     Notes
     -----
-    As `collide.BroadPhase`: one thread at a time per instance (``copy.copy`` for another thread).
+    As `collide.BroadPhase`: calls from several threads are safe and take turns (one lock per
+    instance); ``copy.copy`` gives another thread an instance of its own.
     """
 
     def __init__(self, model: mujoco.MjModel, coherent: bool = True):
@@ -515,6 +516,15 @@ class BroadPhase:
             non-empty call's array again when its pairs are the same, as in
             `collide.BroadPhase.pairs`.
         """
+        lock = self.broadphase._lock  # one call at a time per instance (collide.BroadPhase.pairs)
+        lock.acquire()
+        try:
+            return self._pairs(data)
+        finally:
+            lock.release()
+
+    def _pairs(self, data):
+        # `pairs`, under the broad phase's lock.
         bp = self.broadphase
         if data is not self._views_of or bp._bound is not self._views:
             self._check_data(data)  # once per MjData (here, where its arrays are bound), not per step
@@ -524,7 +534,7 @@ class BroadPhase:
             # an MjData's arrays never move: bind the last MjData's views to the kernel's context
             # (held there, so they stay valid), and each step is a call with one argument. Bound
             # again if someone bound other arrays to self.broadphase in between.
-            bp.bind(data.xpos, data.xmat.reshape(-1, 3, 3))
+            bp._bind(data.xpos, data.xmat.reshape(-1, 3, 3))
             self._views_of = data
             self._views = bp._bound
         # BroadPhase.pairs() on the bound arrays, written out (one Python call less on the fast path).

@@ -485,11 +485,22 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
                                                        gmargin[g])) << np.uint64(l)
                 _set_bits(bits, plane_geoms[f, 1], m & mg, nv)
 
-    # 4. explicit pairs, lane by lane on the worlds' own pose arrays (`_world`, stage 5b).
+    # 4. explicit pairs, lane by lane on the worlds' own pose arrays (`_world`, stage 5b). Posed,
+    # those arrays were never written (`step_lanes_kin` fills them only for a group with a bad
+    # pose): the two bodies' poses are copied out of the lanes first, so that no stale or zero
+    # pose is read.
     for i in range(pair_g.shape[0]):
         r = explicit_rank[i]
         if r < 0:
             continue
+        if posed:
+            for k in range(2):
+                b = geom_bid[pair_g[i, k]]
+                for l in range(nl):
+                    for ii in range(3):
+                        pos_all[w0 + l, b, ii] = ps[b, ii, l]
+                        for j in range(3):
+                            rot_all[w0 + l, b, ii, j] = ps[b, 3 + 3 * ii + j, l]
         for l in range(nl):
             if _explicit_hit(i, pair_g, pair_m, gmargin, gplane, geom_bid, glocal, pos_all[w0 + l],
                              rot_all[w0 + l], tmp, stats):
