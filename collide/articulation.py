@@ -75,6 +75,11 @@ ROTATION_SLACK = 8.0 * POSE_ORTHO_TOL
 # orthonormal costs up to 4 tol of the three half extents summed (12 tol m from a margin m):
 # every bound carries its margin grown by MARGIN_SLACK (32 tol) relative.
 MARGIN_SLACK = 4.0 * ROTATION_SLACK
+# Geoms whose extent (points' spread or radius) is below this, but not zero, are refused: the
+# kernels compare squared distances, which underflow below ~1.5e-154 (the square root of float64's
+# smallest normal number), so two touching 1e-162 boxes could be culled. The mirror of the
+# 1e150 coordinate limit; a single point of radius 0 (size 0) stays valid.
+MIN_GEOM_SIZE = 1e-150
 
 
 def _guarded(obb: _volumes.OBB, sphere: _volumes.Sphere):
@@ -284,6 +289,12 @@ class Articulation:
                 raise ValueError(f"geom_cloud[{g}]: expected a PointCloud or shapes.Plane, got {type(c).__name__}")
             elif c.is_empty:
                 raise ValueError(f"geom_cloud[{g}]: the cloud is empty")
+            else:
+                size = max(float(np.ptp(c.points, axis=0).max()), c.radius)
+                if 0.0 < size < MIN_GEOM_SIZE:
+                    raise ValueError(f"geom_cloud[{g}]: size {size:.3g} is below {MIN_GEOM_SIZE:g}, the smallest "
+                                     "non-zero geom the broad phase supports (its squared distances would "
+                                     "underflow); scale the model up, or give a single point of radius 0")
         gpos = np.zeros((G, 3)) if geom_pos is None else as_array(geom_pos, "geom_pos", (G, 3))
         grot = np.tile(np.eye(3), (G, 1, 1)) if geom_rot is None else as_array(geom_rot, "geom_rot", (G, 3, 3))
         if G:

@@ -1077,6 +1077,54 @@ def _rays(origins, directions) -> tuple[np.ndarray, np.ndarray]:
     return o, d
 
 
+def _two_prod(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    # a * b = p + e exactly (Dekker 1971, Veltkamp's split; no overflow below ~1e290).
+    p = a * b
+    sa, sb = 134217729.0 * a, 134217729.0 * b  # 2**27 + 1
+    ah = sa - (sa - a)
+    bh = sb - (sb - b)
+    al, bl = a - ah, b - bh
+    return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
+
+
+def _two_sum(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    # a + b = s + e exactly (Knuth, TAOCP vol. 2, 4.2.2).
+    s = a + b
+    v = s - a
+    return s, (a - (s - v)) + (b - v)
+
+
+def _reorigin(bvh: BVH, o: np.ndarray, d: np.ndarray):
+    # A ray that starts far from the scene (1e16 away from a unit box) has its entry and exit
+    # parameters rounded to one value, and misses. Such a ray's origin is moved along it to just
+    # before the root bound, o' = o + t0 d computed in double-double (`_two_prod`, `_two_sum`) so
+    # that o' is the point of the given ray to within an ulp of o' (near the scene, small), and
+    # t0 is added back to the distances. Rays starting near the scene are left bit for bit as
+    # they are.
+    if bvh.volume == "aabb":
+        c = 0.5 * (bvh.node_lo[0] + bvh.node_hi[0])
+        rad = 0.5 * float(np.linalg.norm(bvh.node_hi[0] - bvh.node_lo[0]))
+    elif bvh.volume == "obb":
+        c, rad = bvh.node_center[0], float(np.linalg.norm(bvh.node_hi[0]))
+    else:
+        c, rad = bvh.node_center[0], float(bvh.node_radius[0])
+    if not (np.all(np.isfinite(c)) and np.isfinite(rad)):
+        return o, None
+    dd = np.einsum("ij,ij->i", d, d)
+    size = max(rad, float(np.abs(c).max()), 1e-300)
+    t0 = np.einsum("ij,ij->i", c - o, d) / dd - 2.0 * rad / np.sqrt(dd)
+    far = (t0 > 0) & (t0 * np.sqrt(dd) > 1e6 * size)
+    if not np.any(far):
+        return o, None
+    t0 = np.where(far, t0, 0.0)
+    with np.errstate(over="ignore", invalid="ignore"):
+        p, pe = _two_prod(t0[:, None], d)
+        s, se = _two_sum(o, p)
+        moved = s + (se + pe)
+    far &= np.all(np.isfinite(moved), axis=1)  # the split overflows past ~1e290: left as given
+    return np.where(far[:, None], moved, o), np.where(far, t0, 0.0)
+
+
 def raycast(bvh: BVH, origins, directions) -> RayHits:
     """First hits of rays ``origins + t * directions``, ``t >= 0``, through a CSG hierarchy.
 
@@ -1106,6 +1154,7 @@ def raycast(bvh: BVH, origins, directions) -> RayHits:
     expo = np.where(np.abs(expo) > 100, expo, 0)
     if np.any(expo):
         d = np.ldexp(d, -expo[:, None])
+    o, t0 = _reorigin(bvh, o, d) if (bvh.n_nodes and r) else (o, None)
     out_t = np.full(r, np.inf)
     out_leaf = np.full(r, -1, dtype=np.int32)
     out_n = np.zeros((r, 3))
@@ -1119,6 +1168,8 @@ def raycast(bvh: BVH, origins, directions) -> RayHits:
                             bvh.leaf_inv, bvh.leaf_tri_first, bvh.leaf_tri_count, bvh.tri,
                             bvh.span_capacity, bvh.height, bvh.max_children, bvh.max_tri,
                             out_t, out_leaf, out_n, out_b, out_p)
+    if t0 is not None:
+        out_t = out_t + t0  # inf stays inf: a miss
     if np.any(expo):
         with np.errstate(over="ignore"):
             out_t = np.ldexp(out_t, -expo)  # inf past the float range (a direction of length 1e-320)

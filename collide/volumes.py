@@ -224,7 +224,7 @@ class Sphere:
         """
         p = as_array(points, "points", (None, 3))
         pad = as_radius(rtol, "rtol") * max(self.radius, float(np.max(np.abs(self.center))))
-        return np.linalg.norm(p - self.center, axis=1) <= self.radius + pad
+        return row_norms(p - self.center) <= self.radius + pad
 
     def aabb(self) -> AABB:
         """The exact axis-aligned box of the ball."""
@@ -335,6 +335,17 @@ MAX_COORDINATE = _hull.MAX_COORDINATE
 _require_points = _hull.require_bounded
 
 
+def row_norms(d: np.ndarray) -> np.ndarray:
+    """Euclidean norms of the rows of ``d`` ``(n, 3)``, at every scale: the rows are divided by
+    their largest magnitude first, so that no square underflows (a 1e-162 cloud's squares are
+    zero in float64) or overflows."""
+    d = np.asarray(d, np.float64)
+    s = float(np.max(np.abs(d))) if d.size else 0.0
+    if s == 0.0 or not np.isfinite(s):
+        return np.sqrt(np.sum(d * d, axis=1))
+    return s * np.sqrt(np.sum((d / s) ** 2, axis=1))
+
+
 def fit_aabb(points: np.ndarray, radius: float = 0.0) -> AABB:
     """Exact AABB of ``hull(points) ⊕ ball(radius)``; an empty cloud gives the empty box.
 
@@ -349,6 +360,10 @@ def fit_aabb(points: np.ndarray, radius: float = 0.0) -> AABB:
         return AABB.empty()
     with np.errstate(over="ignore"):
         lo, hi = points.min(axis=0) - radius, points.max(axis=0) + radius
+        if radius > 0.0:
+            # The sums are rounded to nearest, which can fall an ulp inside the ball's extreme
+            # point (0.1 + 0.7 -> 0.7999999999999999): one ulp outward makes the box contain it.
+            lo, hi = np.nextafter(lo, -np.inf), np.nextafter(hi, np.inf)
     if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
         raise ValueError(f"aabb: coordinates plus radius overflow float64 (largest |coordinate| "
                          f"{float(np.abs(points).max()):.3g}, radius {radius:.3g})")
@@ -953,7 +968,7 @@ def fit_sphere(points: np.ndarray, radius: float = 0.0, method: str = "exact") -
         center = _ritter_center(points)
     else:
         raise ValueError(f"method: expected 'exact' or 'ritter', got {method!r}")
-    dist = float(np.sqrt(np.max(np.sum((points - center) ** 2, axis=1))))
+    dist = float(np.max(row_norms(points - center)))
     pad = _ROUNDING_PAD * float(np.abs(points).max()) + _PAD_FLOOR  # see fit_obb
     return Sphere(center, dist + pad + radius)
 
