@@ -10,19 +10,26 @@ _cache.register()  # before any kernel is defined: numba's cache keyed on the fi
 from . import csg, hull, shapes, volumes  # noqa: E402
 from .articulation import Articulation  # noqa: E402
 from .broadphase import BroadPhase  # noqa: E402
+from .convex import Cone, Cylinder, Ellipsoid  # noqa: E402
 from .pointcloud import PointCloud, difference, intersection, union  # noqa: E402
+from .signed_distance import Distance, distance  # noqa: E402
 from .volumes import AABB, KDOP, OBB, Sphere, overlap  # noqa: E402
 
 __all__ = [
     "AABB",
     "Articulation",
     "BroadPhase",
+    "Cone",
+    "Cylinder",
+    "Distance",
+    "Ellipsoid",
     "KDOP",
     "OBB",
     "PointCloud",
     "Sphere",
     "csg",
     "difference",
+    "distance",
     "hull",
     "intersection",
     "overlap",

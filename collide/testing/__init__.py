@@ -12,3 +12,5 @@ from .scenes import (Scene, branching_tree, chain, free_hulls, hull_motion, make
                      random_hull, scene_motion)
 from .surfaces import (SHAPE_KINDS, apply_affine, random_affine, random_polygon, random_rigid,
                        random_rotation, random_shape_params, random_similarity, sample_surface)
+from .narrow import (inner_cloud, minkowski_difference, origin_signed_distance, point_signed_distance,
+                     polytope_signed_distance)

@@ -1,0 +1,147 @@
+"""Signed distance of two posed convex shapes, with a certified bracket (numba driver).
+
+GJK (`collide._kernels.gjk`) runs on the cores; when they overlap, EPA (`collide._kernels.epa`)
+takes GJK's simplex. The balls are added afterwards (the core ⊕ ball form, DESIGN.md Wave 2):
+with ``C`` the cores' difference and ``r = r_a + r_b``, ``h_{C ⊕ B(r)}(u) = h_C(u) + r`` for every
+unit ``u``, so the signed distance of the full sets is exactly the cores' minus ``r``, and the
+witness points move by their radius along the normal.
+
+Every bound the two algorithms produce is valid on its own (a support value, a point of ``C``, a
+certified inner ball of ``C``), so the result's bracket is the tightest of them, widened by a
+rounding allowance proportional to the largest world coordinate seen. Iteration caps widen the
+bracket, never break it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .epa import DEGENERATE, epa
+from .gjk import OVERLAP, gjk
+
+_EPS = float(np.finfo(np.float64).eps)
+
+# Slots of the ``out`` array of `pair_distance`.
+OUT_DISTANCE, OUT_LOWER, OUT_UPPER = 0, 1, 2
+OUT_POINT_A, OUT_POINT_B, OUT_NORMAL = 3, 6, 9
+OUT_PENETRATING, OUT_ITERATIONS, OUT_HINT_A, OUT_HINT_B = 12, 13, 14, 15
+OUT_SIZE = 16
+
+# Rounding allowance, in units of eps times the largest world coordinate: the supports (a
+# rotation and a translation), their difference and a dot product each round by a few ulps.
+ROUNDING = 64.0
+
+
+@njit(cache=True)
+def pair_distance(sa, sb, tol, d0, hint_a, hint_b, max_iter, out):
+    """Signed distance of two posed shapes (core ⊕ ball), its witnesses and a certified bracket.
+
+    Parameters
+    ----------
+    sa, sb : tuple
+        Shape tuples ``(kind, prm, pts, nbr_start, nbr, rot, pos)`` (`collide._kernels.support`);
+        ``prm[3]`` is the ball radius.
+    tol : float
+        Absolute convergence tolerance of GJK and EPA (the bracket's target width).
+    d0 : (3,) float64
+        First search direction, from A towards B (a warm start: the last normal); zeros for the
+        difference of the two positions.
+    hint_a, hint_b : int
+        Hill-climb start vertices (warm start: the last ones returned in ``out``).
+    max_iter : int
+        Cap on GJK iterations and on EPA's polytope vertices.
+    out : (16,) float64
+        Receives, by slot (the ``OUT_*`` constants): distance, lower, upper, point_a (3),
+        point_b (3), normal (3, unit, from A to B), penetrating (1.0 when the cores overlap and
+        EPA ran), iterations (GJK's plus EPA's), hint_a, hint_b.
+    """
+    W = np.zeros((4, 3))
+    WA = np.zeros((4, 3))
+    WB = np.zeros((4, 3))
+    lam = np.zeros(4)
+    v = np.zeros(3)
+    hints = np.array([hint_a, hint_b], np.int64)
+    dirn = np.zeros(4)
+    status, n, lower, scale, iters = gjk(sa, sb, d0, hints, tol, max_iter, W, WA, WB, lam, v, dirn)
+    pa = np.zeros(3)
+    pb = np.zeros(3)
+    for i in range(n):
+        for k in range(3):
+            pa[k] += lam[i] * WA[i, k]
+            pb[k] += lam[i] * WB[i, k]
+    gap = math.sqrt((pb[0] - pa[0]) ** 2 + (pb[1] - pa[1]) ** 2 + (pb[2] - pa[2]) ** 2)
+    upper = gap  # the witnesses are points of A and B
+    # The normal: the simplex feature's (GJK's last search direction) or the witnesses'
+    # difference, whichever is better conditioned: the feature's is precise at a gap at
+    # rounding level, where pb - pa is not; a tiny sliver's normal is not (its conditioning).
+    nrm = dirn[:3].copy()
+    cond = dirn[3]
+    sign = 1.0  # pb - pa points along the normal when apart, against it when overlapping
+    estimate = gap
+    penetrating = 0.0
+    if status == OVERLAP:
+        res = np.empty(13)
+        st, s, it = epa(sa, sb, W, WA, WB, n, hints, tol, max_iter, lower, res)
+        scale = max(scale, s)
+        iters += it
+        lower = max(lower, res[0])
+        upper = min(upper, res[1])
+        for k in range(3):
+            nrm[k] = res[9 + k]
+        cond = res[12]
+        if st == DEGENERATE:
+            estimate = min(max(0.0, lower), upper)
+        else:
+            penetrating = 1.0
+            sign = -1.0
+            estimate = min(max(res[2], lower), upper)
+            for k in range(3):
+                pa[k] = res[3 + k]
+                pb[k] = res[6 + k]
+            gap = math.sqrt((pb[0] - pa[0]) ** 2 + (pb[1] - pa[1]) ** 2 + (pb[2] - pa[2]) ** 2)
+    if gap > 0.0 and 1.0 / gap < cond:
+        for k in range(3):
+            nrm[k] = sign * (pb[k] - pa[k])
+    ln = math.sqrt(nrm[0] ** 2 + nrm[1] ** 2 + nrm[2] ** 2)
+    if ln == 0.0:
+        nrm[2] = 1.0
+        ln = 1.0
+    ra = sa[1][3]
+    rb = sb[1][3]
+    slack = ROUNDING * _EPS * (scale + ra + rb)
+    out[OUT_DISTANCE] = estimate - ra - rb
+    out[OUT_LOWER] = lower - ra - rb - slack
+    out[OUT_UPPER] = upper - ra - rb + slack
+    for k in range(3):
+        nk = nrm[k] / ln
+        out[OUT_NORMAL + k] = nk
+        out[OUT_POINT_A + k] = pa[k] + ra * nk
+        out[OUT_POINT_B + k] = pb[k] - rb * nk
+    out[OUT_PENETRATING] = penetrating
+    out[OUT_ITERATIONS] = iters
+    out[OUT_HINT_A] = hints[0]
+    out[OUT_HINT_B] = hints[1]
+
+
+@njit(cache=True)
+def pose_error(rot, pos, tol):
+    """Check of a pose ``rot (3, 3)``, ``pos (3,)`` float64: 0 fine, 1 a non-finite entry, 2 not a
+    rotation (an entry of ``|R^T R - I|`` above ``tol``, or ``det R <= 0``)."""
+    for i in range(3):
+        if not np.isfinite(pos[i]):
+            return 1
+        for j in range(3):
+            if not np.isfinite(rot[i, j]):
+                return 1
+    for i in range(3):
+        for j in range(3):
+            s = rot[0, i] * rot[0, j] + rot[1, i] * rot[1, j] + rot[2, i] * rot[2, j]
+            if abs(s - (1.0 if i == j else 0.0)) > tol:
+                return 2
+    det = (rot[0, 0] * (rot[1, 1] * rot[2, 2] - rot[1, 2] * rot[2, 1])
+           - rot[0, 1] * (rot[1, 0] * rot[2, 2] - rot[1, 2] * rot[2, 0])
+           + rot[0, 2] * (rot[1, 0] * rot[2, 1] - rot[1, 1] * rot[2, 0]))
+    return 0 if det > 0.0 else 2

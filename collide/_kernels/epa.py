@@ -1,0 +1,464 @@
+"""EPA: the penetration depth of overlapping cores, with a certified bracket (numba).
+
+The expanding polytope algorithm (van den Bergen 2001, "Proximity queries and penetration depth
+computation on 3D game objects"; Ericson 2005, §9.5) grows a polytope ``P`` of support points of
+``C = A - B`` that contains the origin, always splitting the face nearest the origin with the
+support point along that face's normal, until the face is a face of ``C`` within ``tol``.
+
+The bracket of the cores' signed distance ``sd = -depth``:
+
+- lower: every face normal ``n`` tried gives ``sd >= -h_C(n)`` (the separating-axis form of
+  `collide._kernels.gjk`); the best one is kept;
+- upper: the vertices of ``P`` lie in ``C``, and ``P``'s surface is closed and consistently
+  oriented by construction. When its faces' solid angles seen from the origin sum to 4π (winding
+  number 1) and no triangle comes within ``r`` of the origin, every point of the ball of radius
+  ``r`` about the origin has winding number 1 (the ball misses the surface, so the number is
+  constant on it), and a point of nonzero winding number lies in the hull of the vertices, hence
+  in ``C``: ``sd <= -r``. ``r`` is measured on the triangles themselves (a face's plane offset
+  is only used where its rounding bound already clears the minimum), so the tiny slivers EPA
+  makes near a curved surface, whose planes rounding leaves ill-defined, cost nothing. A polytope
+  that fails the check gives no upper bound here: the caller keeps GJK's ``|v|``.
+
+A cone face that would be degenerate, or leave the origin outside, makes the face across its
+horizon edge visible too (the new point is on that plane up to rounding); an expansion whose
+horizon still fails, or is not one simple cycle, is refused and the loop stops with the bracket
+it has.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .gjk import s2d
+from .support import support
+
+_EPS = float(np.finfo(np.float64).eps)
+
+# Outcome of `epa`.
+CONVERGED, CAPPED, DEGENERATE = 0, 1, 2
+
+
+@njit(cache=True)
+def _support_c(sa, sb, d0, d1, d2, hints, pa, pb):
+    # Support point of C = A - B along d; returns (w0, w1, w2, scale of the world points).
+    hints[0] = support(sa, d0, d1, d2, hints[0], pa)
+    hints[1] = support(sb, -d0, -d1, -d2, hints[1], pb)
+    s = 0.0
+    for k in range(3):
+        s = max(s, abs(pa[k]), abs(pb[k]))
+    return pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2], s
+
+
+@njit(cache=True)
+def _add_vertex(V, VA, VB, nv, w0, w1, w2, pa, pb):
+    V[nv, 0], V[nv, 1], V[nv, 2] = w0, w1, w2
+    for k in range(3):
+        VA[nv, k] = pa[k]
+        VB[nv, k] = pb[k]
+    return nv + 1
+
+
+@njit(cache=True)
+def _plane(V, a, b, c, out):
+    # Unit normal of face (a, b, c) (counter-clockwise seen from outside) into out[0:3];
+    # returns (offset, |cross|).
+    e0, e1, e2 = V[b, 0] - V[a, 0], V[b, 1] - V[a, 1], V[b, 2] - V[a, 2]
+    f0, f1, f2 = V[c, 0] - V[a, 0], V[c, 1] - V[a, 1], V[c, 2] - V[a, 2]
+    n0 = e1 * f2 - e2 * f1
+    n1 = e2 * f0 - e0 * f2
+    n2 = e0 * f1 - e1 * f0
+    ln = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    if ln == 0.0:
+        out[0] = out[1] = out[2] = 0.0
+        return 0.0, 0.0
+    out[0], out[1], out[2] = n0 / ln, n1 / ln, n2 / ln
+    return out[0] * V[a, 0] + out[1] * V[a, 1] + out[2] * V[a, 2], ln
+
+
+@njit(cache=True)
+def _offset_error(V, a, b, c, ln, vertex_err):
+    # Bound on how far the plane offset of face (a, b, c) can move when each vertex moves by up
+    # to vertex_err (rounding of the supports and of the subtraction): the normal turns by up to
+    # ~ vertex_err (|e| + |f|) / |e x f|, which the largest |vertex| turns into offset.
+    m = 0.0
+    el = 0.0
+    for x in (a, b, c):
+        m = max(m, math.sqrt(V[x, 0] ** 2 + V[x, 1] ** 2 + V[x, 2] ** 2))
+    for x in (b, c):
+        el += math.sqrt((V[x, 0] - V[a, 0]) ** 2 + (V[x, 1] - V[a, 1]) ** 2 + (V[x, 2] - V[a, 2]) ** 2)
+    return 4.0 * vertex_err * (1.0 + m * el / ln) + 8.0 * _EPS * m
+
+
+@njit(cache=True)
+def _solid_angle(V, a, b, c):
+    # Signed solid angle of triangle (a, b, c) seen from the origin (Van Oosterom & Strackee 1983).
+    ax, ay, az = V[a, 0], V[a, 1], V[a, 2]
+    bx, by, bz = V[b, 0], V[b, 1], V[b, 2]
+    cx, cy, cz = V[c, 0], V[c, 1], V[c, 2]
+    det = ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
+    la = math.sqrt(ax * ax + ay * ay + az * az)
+    lb = math.sqrt(bx * bx + by * by + bz * bz)
+    lc = math.sqrt(cx * cx + cy * cy + cz * cz)
+    den = la * lb * lc + (ax * bx + ay * by + az * bz) * lc + (ax * cx + ay * cy + az * cz) * lb \
+        + (bx * cx + by * cy + bz * cz) * la
+    return 2.0 * math.atan2(det, den)
+
+
+@njit(cache=True)
+def _new_face(V, fv, fn, fo, fl, slot, a, b, c):
+    fv[slot, 0], fv[slot, 1], fv[slot, 2] = a, b, c
+    off, ln = _plane(V, a, b, c, fn[slot])
+    fo[slot] = off
+    fl[slot] = ln
+    return ln
+
+
+@njit(cache=True)
+def _link(fv, fa, f, g):
+    # Make faces f and g neighbours across their shared edge (f has (x, y), g has (y, x)).
+    for i in range(3):
+        x, y = fv[f, i], fv[f, (i + 1) % 3]
+        for j in range(3):
+            if fv[g, j] == y and fv[g, (j + 1) % 3] == x:
+                fa[f, i] = g
+                fa[g, j] = f
+
+
+@njit(cache=True)
+def _tetrahedron(V, fv, fa, fn, fo, fl, p, q, r, s):
+    # Faces 0..3 of the tetrahedron on vertices p, q, r, s, oriented outwards.
+    e = np.empty(3)
+    off, ln = _plane(V, p, q, r, e)
+    if e[0] * V[s, 0] + e[1] * V[s, 1] + e[2] * V[s, 2] > off:
+        q, r = r, q  # s must be behind face (p, q, r)
+    _new_face(V, fv, fn, fo, fl, 0, p, q, r)
+    _new_face(V, fv, fn, fo, fl, 1, p, s, q)
+    _new_face(V, fv, fn, fo, fl, 2, q, s, r)
+    _new_face(V, fv, fn, fo, fl, 3, r, s, p)
+    for f in range(4):
+        for g in range(f + 1, 4):
+            _link(fv, fa, f, g)
+    return 4
+
+
+@njit(cache=True)
+def _bipyramid(V, fv, fa, fn, fo, fl, p, q, r, top, bottom):
+    # Faces 0..5: triangle (p, q, r) with apexes on both sides, oriented outwards.
+    e = np.empty(3)
+    off, ln = _plane(V, p, q, r, e)
+    if e[0] * V[top, 0] + e[1] * V[top, 1] + e[2] * V[top, 2] < off:
+        q, r = r, q  # top must be in front of (p, q, r)
+    _new_face(V, fv, fn, fo, fl, 0, p, q, top)
+    _new_face(V, fv, fn, fo, fl, 1, q, r, top)
+    _new_face(V, fv, fn, fo, fl, 2, r, p, top)
+    _new_face(V, fv, fn, fo, fl, 3, q, p, bottom)
+    _new_face(V, fv, fn, fo, fl, 4, r, q, bottom)
+    _new_face(V, fv, fn, fo, fl, 5, p, r, bottom)
+    for f in range(6):
+        for g in range(f + 1, 6):
+            _link(fv, fa, f, g)
+    return 6
+
+
+@njit(cache=True)
+def _horizon(V, nv, fv, fa, fn, fo, nf, f, seen, forced, stack, hz, tiny):
+    # Flood the faces visible from vertex nv (or forced visible) from face f; their horizon
+    # edges (a, b, kept face) into hz. Returns the edge count, -1 when hz overflows.
+    w0, w1, w2 = V[nv, 0], V[nv, 1], V[nv, 2]
+    for g in range(nf):
+        seen[g] = False
+    seen[f] = True
+    stack[0] = f
+    top = 1
+    nh = 0
+    while top > 0:
+        top -= 1
+        x = stack[top]
+        for e in range(3):
+            g = fa[x, e]
+            if seen[g]:
+                continue
+            if forced[g] or fn[g, 0] * w0 + fn[g, 1] * w1 + fn[g, 2] * w2 - fo[g] > tiny:
+                seen[g] = True
+                stack[top] = g
+                top += 1
+            else:  # horizon edge (a, b) of x, seen from the kept face g
+                if nh == hz.shape[0]:
+                    return -1
+                hz[nh, 0] = fv[x, e]
+                hz[nh, 1] = fv[x, (e + 1) % 3]
+                hz[nh, 2] = g
+                nh += 1
+    return nh
+
+
+@njit(cache=True)
+def _expand(V, nv, fv, fa, fn, fo, fl, alive, nf, f, seen, forced, stack, hz, tiny):
+    # Replace the faces visible from vertex nv (a connected set grown from face f) by a cone of
+    # new faces over their horizon. A cone face that would be degenerate (its edges parallel
+    # within 1e-10) or leave the origin outside makes the kept face across its horizon edge
+    # visible too (w is on that face's plane up to rounding), and the horizon is recomputed.
+    # Returns the new face count, or -1 (nothing changed) when that does not settle or the
+    # horizon is not one simple cycle.
+    for g in range(nf):
+        forced[g] = False
+    e = np.empty(3)
+    nh = -1
+    for _ in range(8):
+        nh = _horizon(V, nv, fv, fa, fn, fo, nf, f, seen, forced, stack, hz, tiny)
+        if nh < 3:
+            return -1
+        ok = True
+        for i in range(nh):
+            a, b = hz[i, 0], hz[i, 1]
+            off, ln = _plane(V, a, b, nv, e)
+            ea = math.sqrt((V[b, 0] - V[a, 0]) ** 2 + (V[b, 1] - V[a, 1]) ** 2 + (V[b, 2] - V[a, 2]) ** 2)
+            eb = math.sqrt((V[nv, 0] - V[a, 0]) ** 2 + (V[nv, 1] - V[a, 1]) ** 2 + (V[nv, 2] - V[a, 2]) ** 2)
+            if not ln > 1e-10 * ea * eb or off < -tiny:
+                forced[hz[i, 2]] = True
+                ok = False
+        if ok:
+            break
+        nh = -1
+    if nh < 3:
+        return -1
+    # The horizon must be one cycle: every start vertex once, every end vertex some start.
+    for i in range(nh):
+        starts = 0
+        ends = 0
+        for j in range(nh):
+            if hz[j, 0] == hz[i, 0]:
+                starts += 1
+            if hz[j, 0] == hz[i, 1]:
+                ends += 1
+        if starts != 1 or ends != 1:
+            return -1
+    # Commit: free the visible faces, fill their slots (and new ones) with the cone.
+    nfree = 0
+    for g in range(nf):
+        if seen[g] and alive[g]:
+            alive[g] = False
+            stack[nfree] = g
+            nfree += 1
+    for i in range(nh):
+        if i < nfree:
+            slot = stack[i]
+        else:
+            slot = nf
+            nf += 1
+        hz[i, 3] = slot
+        _new_face(V, fv, fn, fo, fl, slot, hz[i, 0], hz[i, 1], nv)
+        alive[slot] = True
+    for i in range(nh):
+        slot = hz[i, 3]
+        _link(fv, fa, slot, hz[i, 2])
+        for j in range(nh):
+            if hz[j, 0] == hz[i, 1]:  # the next face around the cone shares edge (b, nv)
+                fa[slot, 1] = hz[j, 3]
+                fa[hz[j, 3], 2] = slot
+    # Freed slots the cone did not reuse stay dead (alive False).
+    return nf
+
+
+@njit(cache=True)
+def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res):
+    """Penetration depth of two overlapping cores from GJK's final simplex.
+
+    Parameters
+    ----------
+    sa, sb : tuple
+        Shape tuples (`collide._kernels.support`).
+    W, WA, WB : (4, 3) float64
+        GJK's final simplex (first ``n`` rows), which holds the origin within ``tol``.
+    n : int
+        1 to 4.
+    hints : (2,) int64
+        Hill-climb start vertices, updated in place.
+    tol : float
+        Absolute tolerance on the gap between a face and the support along its normal.
+    max_vertices : int
+        Polytope size cap (the bracket stays valid when it is reached).
+    lower : float
+        Lower bound on the signed distance known so far (GJK's).
+    res : (13,) float64
+        Receives ``lower, upper`` (``upper`` is ``+inf`` when the polytope is not certified),
+        ``estimate`` (minus the nearest face's offset), ``point_a (3)``, ``point_b (3)``,
+        ``normal (3)`` (the nearest face's outward normal of ``C``, i.e. from A to B) and that
+        normal's conditioning ``(|e| + |f|) / |e x f|`` (its angle is known to about that times
+        the vertices' rounding; a tiny sliver's is poor).
+
+    Returns
+    -------
+    status : int
+        `CONVERGED`, `CAPPED` (size cap or a refused expansion) or `DEGENERATE` (``C`` is flat,
+        collinear or a point near the origin: no polytope; ``upper`` is ``+inf`` and the normal is
+        the best separating direction found, ``estimate`` 0).
+    scale : float
+        Largest absolute world coordinate of the supports seen.
+    iterations : int
+    """
+    mv = max(max_vertices, 6)
+    mf = 2 * mv
+    V = np.empty((mv, 3))
+    VA = np.empty((mv, 3))
+    VB = np.empty((mv, 3))
+    fv = np.zeros((mf, 3), np.int64)
+    fa = np.zeros((mf, 3), np.int64)
+    fn = np.zeros((mf, 3))
+    fo = np.zeros(mf)
+    fl = np.zeros(mf)
+    alive = np.zeros(mf, np.bool_)
+    seen = np.zeros(mf, np.bool_)
+    forced = np.zeros(mf, np.bool_)
+    stack = np.zeros(mf, np.int64)
+    hz = np.zeros((mf, 4), np.int64)
+    pa = np.empty(3)
+    pb = np.empty(3)
+    scale = 0.0
+    for i in range(n):
+        _add_vertex(V, VA, VB, i, W[i, 0], W[i, 1], W[i, 2], WA[i], WB[i])
+        for k in range(3):
+            scale = max(scale, abs(WA[i, k]), abs(WB[i, k]))
+    nv = n
+    best_n = np.zeros(3)
+    best_n[2] = 1.0
+    # Blow a lower-dimensional simplex up to a full polytope around the origin (Ericson §9.5.1):
+    # supports along directions off its affine hull; none found means C is that thin there.
+    if nv == 1:
+        for ax in range(6):
+            d = np.zeros(3)
+            d[ax % 3] = 1.0 if ax < 3 else -1.0
+            w0, w1, w2, s = _support_c(sa, sb, d[0], d[1], d[2], hints, pa, pb)
+            scale = max(scale, s)
+            if -(d[0] * w0 + d[1] * w1 + d[2] * w2) > lower:
+                lower = -(d[0] * w0 + d[1] * w1 + d[2] * w2)
+                best_n[:] = d
+            if math.sqrt((w0 - V[0, 0]) ** 2 + (w1 - V[0, 1]) ** 2 + (w2 - V[0, 2]) ** 2) > tol:
+                nv = _add_vertex(V, VA, VB, nv, w0, w1, w2, pa, pb)
+                break
+    if nv == 2:
+        e = V[1] - V[0]
+        e /= math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2)
+        k = np.argmin(np.abs(e))
+        u = np.zeros(3)
+        u[k] = 1.0
+        u = np.cross(e, u)
+        u /= math.sqrt(u[0] ** 2 + u[1] ** 2 + u[2] ** 2)
+        t = np.cross(e, u)
+        for r in range(6):
+            ang = r * math.pi / 3.0
+            d = math.cos(ang) * u + math.sin(ang) * t
+            w0, w1, w2, s = _support_c(sa, sb, d[0], d[1], d[2], hints, pa, pb)
+            scale = max(scale, s)
+            if -(d[0] * w0 + d[1] * w1 + d[2] * w2) > lower:
+                lower = -(d[0] * w0 + d[1] * w1 + d[2] * w2)
+                best_n[:] = d
+            x = np.array([w0 - V[0, 0], w1 - V[0, 1], w2 - V[0, 2]])
+            x -= (x[0] * e[0] + x[1] * e[1] + x[2] * e[2]) * e
+            if math.sqrt(x[0] ** 2 + x[1] ** 2 + x[2] ** 2) > tol:
+                nv = _add_vertex(V, VA, VB, nv, w0, w1, w2, pa, pb)
+                break
+    nf = 0
+    if nv == 3:
+        nrm = np.empty(3)
+        off, ln = _plane(V, 0, 1, 2, nrm)
+        sides = 0
+        for sgn in (1.0, -1.0):
+            d = sgn * nrm
+            w0, w1, w2, s = _support_c(sa, sb, d[0], d[1], d[2], hints, pa, pb)
+            scale = max(scale, s)
+            h = d[0] * w0 + d[1] * w1 + d[2] * w2
+            if -h > lower:
+                lower = -h
+                best_n[:] = d
+            if h - sgn * off > tol:
+                nv = _add_vertex(V, VA, VB, nv, w0, w1, w2, pa, pb)
+                sides += 1
+        if sides == 2:
+            nf = _bipyramid(V, fv, fa, fn, fo, fl, 0, 1, 2, 3, 4)
+        elif sides == 1:
+            nf = _tetrahedron(V, fv, fa, fn, fo, fl, 0, 1, 2, 3)
+    elif nv == 4:
+        nf = _tetrahedron(V, fv, fa, fn, fo, fl, 0, 1, 2, 3)
+    if nf == 0:
+        res[0], res[1], res[2] = lower, math.inf, 0.0
+        for k in range(3):
+            res[3 + k] = WA[0, k]
+            res[6 + k] = WB[0, k]
+            res[9 + k] = best_n[k]
+        res[12] = 0.0
+        return DEGENERATE, scale, 0
+    for g in range(nf):
+        alive[g] = True
+    status = CAPPED
+    it = 0
+    f = 0
+    while True:
+        it += 1
+        f = -1
+        for g in range(nf):
+            if alive[g] and (f < 0 or fo[g] < fo[f]):
+                f = g
+        d0, d1, d2 = fn[f, 0], fn[f, 1], fn[f, 2]
+        w0, w1, w2, s = _support_c(sa, sb, d0, d1, d2, hints, pa, pb)
+        scale = max(scale, s)
+        h = d0 * w0 + d1 * w1 + d2 * w2
+        if -h > lower:
+            lower = -h
+        if h - fo[f] <= max(tol, 16.0 * _EPS * scale):
+            status = CONVERGED
+            break
+        if nv == mv:
+            break
+        _add_vertex(V, VA, VB, nv, w0, w1, w2, pa, pb)
+        tiny = 16.0 * _EPS * scale
+        nf_new = _expand(V, nv, fv, fa, fn, fo, fl, alive, nf, f, seen, forced, stack, hz, tiny)
+        if nf_new < 0:
+            break
+        nf = nf_new
+        nv += 1
+    # Certificate of the upper bound (module docstring): the winding number about the origin
+    # and the distance from the origin to the nearest triangle. A face's plane offset minus its
+    # rounding bound is a cheap lower bound of that triangle's distance; the triangle itself is
+    # measured only where that bound does not already clear the running minimum.
+    vertex_err = 8.0 * _EPS * scale
+    omega = 0.0
+    inner = math.inf
+    for g in range(nf):
+        if not alive[g]:
+            continue
+        a, b, c = fv[g, 0], fv[g, 1], fv[g, 2]
+        omega += _solid_angle(V, a, b, c)
+        bound = fo[g] - _offset_error(V, a, b, c, fl[g], vertex_err) if fl[g] > 0.0 else -math.inf
+        if bound < inner:
+            _, _, _, d2 = s2d(V, a, b, c)
+            bound = max(bound, math.sqrt(d2) - vertex_err)
+            inner = min(inner, bound)
+    upper = math.inf
+    if inner > 0.0 and abs(omega - 4.0 * math.pi) < math.pi:
+        upper = -inner
+    # Witness: the surface point closest to the origin, carried to A and B. The nearest plane's
+    # face need not hold the origin's foot point (a face of C split into coplanar triangles):
+    # among the faces within the tolerance of the nearest plane, the nearest triangle.
+    near = fo[f] + max(tol, 16.0 * _EPS * scale)
+    best = math.inf
+    la = lb = lc = 0.0
+    for g in range(nf):
+        if alive[g] and fo[g] <= near:
+            l0, l1, l2, d2 = s2d(V, fv[g, 0], fv[g, 1], fv[g, 2])
+            if d2 < best:
+                best, f, la, lb, lc = d2, g, l0, l1, l2
+    a, b, c = fv[f, 0], fv[f, 1], fv[f, 2]
+    for k in range(3):
+        res[3 + k] = la * VA[a, k] + lb * VA[b, k] + lc * VA[c, k]
+        res[6 + k] = la * VB[a, k] + lb * VB[b, k] + lc * VB[c, k]
+        res[9 + k] = fn[f, k]
+    el = 0.0
+    for x in (b, c):
+        el += math.sqrt((V[x, 0] - V[a, 0]) ** 2 + (V[x, 1] - V[a, 1]) ** 2 + (V[x, 2] - V[a, 2]) ** 2)
+    res[12] = el / fl[f] if fl[f] > 0.0 else math.inf
+    res[0], res[1], res[2] = lower, upper, -fo[f]
+    return status, scale, it

@@ -1,0 +1,140 @@
+"""Shape -> support-kernel data: the flat arrays `collide._kernels.support` reads.
+
+A `SupportData` is computed once per shape (a `PointCloud`'s hull adjacency with scipy's Qhull,
+cached per cloud) and posed per query by `SupportData.posed`, which returns the kernels' shape
+tuple. Clouds with more than `CLIMB_MIN` hull vertices are searched by hill-climbing over the
+hull's vertex graph (as MuJoCo and coal do for meshes); smaller ones, and flat or collinear ones
+(no 3D hull), by a scan of their points.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import ConvexHull, QhullError
+
+from . import hull as _hull
+from ._kernels.support import CONE, CYLINDER, ELLIPSOID, POINTS
+from .convex import Cone, Cylinder, Ellipsoid
+from .pointcloud import PointCloud
+
+__all__ = ["CLIMB_MIN", "SupportData", "support_data"]
+
+# Hull vertex count above which supports climb the vertex graph instead of scanning
+# (tests/bench/distance.py measures both sides of it).
+CLIMB_MIN = 32
+
+# Clouds whose data is kept (keyed by identity; PointCloud is immutable).
+_CACHE_SIZE = 1024
+_cache: OrderedDict = OrderedDict()
+
+_NO_ADJ = np.zeros(0, np.int32)
+
+
+@dataclass(frozen=True, eq=False)
+class SupportData:
+    """Support-function data of one convex shape in its own frame.
+
+    Attributes
+    ----------
+    kind : int
+        `POINTS`, `CYLINDER`, `CONE` or `ELLIPSOID` (`collide._kernels.support`).
+    prm : (4,) float64
+        Primitive parameters; ``prm[3]`` is the ball radius added to the core.
+    points : (n, 3) float64
+        The core's support candidates (hull vertices when climbing); ``(0, 3)`` for primitives.
+    nbr_start : (n + 1,) int32 or (0,) int32
+        CSR offsets of the vertex adjacency; empty: supports scan ``points``.
+    nbr : (m,) int32
+        CSR neighbour lists.
+    size : float
+        Half the diagonal of the core's bounding box plus the radius: the length tolerances
+        are relative to.
+    """
+
+    kind: int
+    prm: np.ndarray
+    points: np.ndarray
+    nbr_start: np.ndarray
+    nbr: np.ndarray
+    size: float
+
+    def posed(self, rot: np.ndarray, pos: np.ndarray) -> tuple:
+        """The kernels' shape tuple ``(kind, prm, pts, nbr_start, nbr, rot, pos)``.
+
+        Parameters
+        ----------
+        rot : (3, 3) float64, C-contiguous
+        pos : (3,) float64, C-contiguous
+        """
+        return (self.kind, self.prm, self.points, self.nbr_start, self.nbr, rot, pos)
+
+
+def _adjacency(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    # Hull vertices and their edge graph (CSR), or None when Qhull finds no 3D hull.
+    try:
+        h = ConvexHull(points)
+    except (QhullError, ValueError):
+        return None
+    verts = h.vertices
+    remap = np.full(len(points), -1, np.int64)
+    remap[verts] = np.arange(len(verts))
+    s = remap[h.simplices]
+    edges = np.concatenate([s[:, [0, 1]], s[:, [1, 2]], s[:, [2, 0]]])
+    edges = np.concatenate([edges, edges[:, ::-1]])
+    edges = np.unique(edges, axis=0)  # sorted by first vertex
+    start = np.searchsorted(edges[:, 0], np.arange(len(verts) + 1)).astype(np.int32)
+    return (np.ascontiguousarray(points[verts]), start, np.ascontiguousarray(edges[:, 1], dtype=np.int32))
+
+
+def _cloud_data(cloud: PointCloud) -> SupportData:
+    pts = cloud.points
+    if len(pts) == 0:
+        raise ValueError("shape: the cloud is empty (an empty set has no distance)")
+    _hull.require_bounded(pts, "shape", cloud.radius)
+    nbr_start, nbr = _NO_ADJ, _NO_ADJ
+    if len(pts) > CLIMB_MIN:
+        pts = _hull.hull_vertices(pts)
+        if len(pts) > CLIMB_MIN:
+            adj = _adjacency(pts)
+            if adj is not None:
+                pts, nbr_start, nbr = adj
+    pts = np.ascontiguousarray(pts, dtype=np.float64)
+    size = 0.5 * float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))) + cloud.radius
+    prm = np.array([0.0, 0.0, 0.0, cloud.radius])
+    return SupportData(POINTS, prm, pts, nbr_start, nbr, size)
+
+
+def support_data(shape) -> SupportData:
+    """The support data of a `PointCloud`, `Cylinder`, `Cone` or `Ellipsoid` (cached per cloud).
+
+    Raises
+    ------
+    ValueError
+        For an empty cloud, coordinates beyond `collide.hull.MAX_COORDINATE`, or another type.
+    """
+    if isinstance(shape, PointCloud):
+        key = id(shape)
+        hit = _cache.get(key)
+        if hit is not None and hit[0] is shape:
+            _cache.move_to_end(key)
+            return hit[1]
+        data = _cloud_data(shape)
+        _cache[key] = (shape, data)  # the strong reference keeps the id from being reused
+        if len(_cache) > _CACHE_SIZE:
+            _cache.popitem(last=False)
+        return data
+    empty = np.zeros((0, 3))
+    if isinstance(shape, Cylinder):
+        prm = np.array([shape.radius, shape.half_height, 0.0, 0.0])
+        return SupportData(CYLINDER, prm, empty, _NO_ADJ, _NO_ADJ, math.hypot(shape.radius, shape.half_height))
+    if isinstance(shape, Cone):
+        prm = np.array([shape.radius, shape.height, 0.0, 0.0])
+        return SupportData(CONE, prm, empty, _NO_ADJ, _NO_ADJ, 0.5 * math.hypot(2.0 * shape.radius, shape.height))
+    if isinstance(shape, Ellipsoid):
+        prm = np.array([shape.radii[0], shape.radii[1], shape.radii[2], 0.0])
+        return SupportData(ELLIPSOID, prm, empty, _NO_ADJ, _NO_ADJ, float(np.linalg.norm(shape.radii)))
+    raise ValueError(f"shape: expected a PointCloud, Cylinder, Cone or Ellipsoid, got {type(shape).__name__}")

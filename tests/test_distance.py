@@ -1,0 +1,459 @@
+"""collide.distance: signed distances of convex sets against exact oracles (issue 46, parts 1 and 3).
+
+The polytope oracle is the Minkowski difference's hull (`collide.testing.polytope_signed_distance`,
+Qhull), the curved one closed forms (`collide.testing.point_signed_distance`) or a sampled inner
+polytope with a stated error (`collide.testing.inner_cloud`); MuJoCo's `mj_geomDistance` is
+compared where it applies, the oracle deciding disagreements. Every scene asserts it produced the
+cases it is about (separated, touching, penetrating, degenerate).
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import collide
+from collide import Cone, Cylinder, Ellipsoid, PointCloud, testing
+from collide.support import CLIMB_MIN, support_data
+from collide.testing.surfaces import random_rotation
+
+EPS = np.finfo(np.float64).eps
+BOX = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+
+
+def _rounding(*arrays) -> float:
+    # Absolute rounding level of world coordinates this large (the oracle's and ours).
+    return 256.0 * EPS * max(float(np.abs(a).max()) for a in arrays)
+
+
+def _check_result(r, true, size, world_scale, tol=1e-9):
+    # The value within tol of the size of the oracle's, the bracket around the oracle's
+    # value, the witnesses consistent with the value and the unit normal.
+    slack = 1e-13 * size + world_scale
+    assert abs(r.distance - true) <= tol * size + world_scale, (r, true)
+    assert r.lower - slack <= true <= r.upper + slack, (r, true)
+    assert r.lower <= r.distance <= r.upper
+    assert abs(np.linalg.norm(r.normal) - 1.0) < 1e-12
+    assert np.allclose(r.point_b - r.point_a, r.distance * r.normal, atol=1e-9 * size + world_scale)
+
+
+# ----------------------------------------------------------------------------- known answers
+
+def test_spheres_known_answers():
+    a = PointCloud([[0.0, 0.0, 0.0]], 1.0)
+    b = PointCloud([[0.0, 0.0, 0.0]], 0.5)
+    r = collide.distance(a, b, None, (np.eye(3), np.array([0.0, 3.0, 0.0])))
+    assert r.distance == pytest.approx(1.5, abs=1e-14)
+    assert np.allclose(r.normal, [0, 1, 0]) and np.allclose(r.point_a, [0, 1, 0]) and np.allclose(r.point_b, [0, 2.5, 0])
+    r = collide.distance(a, b, None, (np.eye(3), np.array([0.0, 0.0, 1.0])))
+    assert r.distance == pytest.approx(-0.5, abs=1e-14)
+    assert r.lower <= -0.5 <= r.upper and np.allclose(r.normal, [0, 0, 1])
+    # Concentric: the depth is the sum of the radii, any normal.
+    r = collide.distance(a, b)
+    assert r.lower <= -1.5 <= r.upper and r.distance == pytest.approx(-1.5, abs=1e-14)
+
+
+def test_capsules_known_answers():
+    cap = collide.shapes.capsule(0.25, 1.0)  # along z, half length 1
+    rx = np.array([[0, 0, 1], [0, 1, 0], [-1, 0, 0]], float)  # z axis -> x axis
+    # Crossing capsules 1.5 apart on y: 1.5 - 0.5.
+    r = collide.distance(cap, cap, None, (rx, np.array([0.3, 1.5, 0.2])))
+    assert r.distance == pytest.approx(1.0, abs=1e-12)
+    assert np.allclose(np.abs(r.normal), [0, 1, 0], atol=1e-12)
+    # Parallel capsules overlapping along their length, axes 0.3 apart: 0.3 - 0.5.
+    r = collide.distance(cap, cap, None, (np.eye(3), np.array([0.3, 0.0, 0.5])))
+    assert r.distance == pytest.approx(-0.2, abs=1e-12) and r.lower <= -0.2 <= r.upper
+    # End to end along the axis: 0.5 apart.
+    r = collide.distance(cap, cap, None, (np.eye(3), np.array([0.0, 0.0, 3.0])))
+    assert r.distance == pytest.approx(0.5, abs=1e-12) and np.allclose(r.normal, [0, 0, 1])
+
+
+def test_boxes_known_answers():
+    box = PointCloud(BOX * [1.0, 0.5, 0.25])
+    cases = [([2.5, 0.1, 0.0], 0.5, [1, 0, 0]),     # face to face
+             ([1.7, 0.2, 0.05], -0.3, [1, 0, 0]),   # overlapping: x 0.3, y 0.8, z 0.45
+             ([0.0, 0.0, 0.45], -0.05, [0, 0, 1]),  # shallow, along z
+             ([0.0, 0.0, 0.0], -0.5, None)]         # coincident: the thinnest axis, both ways
+    for t, want, n in cases:
+        r = collide.distance(box, box, None, (np.eye(3), np.array(t)))
+        assert r.distance == pytest.approx(want, abs=1e-12), t
+        assert r.lower <= want + 1e-12 and want - 1e-12 <= r.upper
+        if n is not None:
+            assert np.allclose(r.normal, n, atol=1e-12), (t, r.normal)
+        else:
+            assert abs(r.normal[2]) == pytest.approx(1.0)
+    # A sphere sinking into the box's top face: depth 0.1 + its radius overlap.
+    r = collide.distance(box, PointCloud([[0.0, 0.0, 0.0]], 0.2), None, (np.eye(3), np.array([0.3, 0.1, 0.35])))
+    assert r.distance == pytest.approx(-0.1, abs=1e-12) and np.allclose(r.normal, [0, 0, 1])
+    assert np.allclose(r.point_a, [0.3, 0.1, 0.25]) and np.allclose(r.point_b, [0.3, 0.1, 0.15])
+
+
+def test_rotated_box_against_box_known_answer():
+    # A box turned 45 degrees about z above another: its lowest edge 0.1 above the top face.
+    c, s = math.cos(math.pi / 4), math.sin(math.pi / 4)
+    rz = np.array([[1, 0, 0], [0, c, -s], [0, s, c]], float)  # 45 degrees about x
+    r = collide.distance(PointCloud(BOX), PointCloud(BOX), None, (rz, np.array([0.2, 0.3, 1.1 + math.sqrt(2)])))
+    assert r.distance == pytest.approx(0.1, abs=1e-12)
+    assert np.allclose(r.normal, [0, 0, 1], atol=1e-12)
+
+
+# ---------------------------------------------------------------- random clouds against the oracle
+
+def _random_cloud(rng, kind):
+    n = int(rng.integers(1, 24))
+    if kind == "solid":
+        return rng.normal(size=(n, 3)) * rng.uniform(0.2, 1.0, 3)
+    if kind == "flat":
+        return rng.normal(size=(n, 3)) * [1.0, 1.0, 0.0]
+    if kind == "collinear":
+        return rng.normal(size=(n, 1)) * [[1.0, 0.0, 0.0]]
+    if kind == "point":
+        return rng.normal(size=(1, 3))
+    base = rng.normal(size=(max(n // 3, 1), 3))  # duplicates
+    return base[rng.integers(0, len(base), n)]
+
+
+KINDS = ("solid", "flat", "collinear", "point", "duplicates")
+WEIGHTS = (0.6, 0.1, 0.1, 0.1, 0.1)
+
+
+def _random_pair(rng):
+    scale = 10.0 ** rng.uniform(-3, 3)
+    P = _random_cloud(rng, rng.choice(KINDS, p=WEIGHTS))
+    Q = _random_cloud(rng, rng.choice(KINDS, p=WEIGHTS))
+    rp = 0.0 if rng.random() < 0.5 else rng.uniform(0.0, 0.5)
+    rq = 0.0 if rng.random() < 0.5 else rng.uniform(0.0, 0.5)
+    offset = rng.normal(size=3) * 10.0 ** rng.uniform(-1, 2)  # world far from the shapes: up to 100x
+    pose_a = (random_rotation(rng), (rng.normal(size=3) + offset) * scale)
+    pose_b = (random_rotation(rng), (rng.normal(size=3) * rng.uniform(0, 1.5) + offset) * scale)
+    return PointCloud(P * scale, rp * scale), PointCloud(Q * scale, rq * scale), pose_a, pose_b
+
+
+def _world(cloud, pose):
+    return cloud.points @ pose[0].T + pose[1]
+
+
+def _oracle(a, b, pose_a, pose_b):
+    Pw, Qw = _world(a, pose_a), _world(b, pose_b)
+    size = max(np.ptp(Pw, axis=0).max() + a.radius, np.ptp(Qw, axis=0).max() + b.radius, 1e-3 * max(
+        a.radius + b.radius, 1e-300))
+    return testing.polytope_signed_distance(Pw, Qw, a.radius, b.radius), max(size, 1e-300), _rounding(Pw, Qw)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_random_clouds_against_minkowski_oracle(seed):
+    # 700 pairs a seed: separated, penetrating, and touching (gap +-1e-9 of the size), over
+    # solid, flat, collinear, single-point and duplicate clouds, sizes 1e-3 to 1e3.
+    rng = np.random.default_rng(seed)
+    counts = {"separated": 0, "penetrating": 0, "touching": 0, "degenerate": 0}
+    for k in range(700):
+        a, b, pose_a, pose_b = _random_pair(rng)
+        true, size, world = _oracle(a, b, pose_a, pose_b)
+        if k % 3 == 2:  # touching: move B along the normal to a gap of +-1e-9 of the size
+            r0 = collide.distance(a, b, pose_a, pose_b)
+            shift = (1e-9 * size * (1 if k % 2 else -1) - true) * r0.normal
+            pose_b = (pose_b[0], pose_b[1] + shift)
+            true, size, world = _oracle(a, b, pose_a, pose_b)
+        r = collide.distance(a, b, pose_a, pose_b)
+        _check_result(r, true, size, world)
+        if abs(true) <= 2e-9 * size:
+            counts["touching"] += 1
+        elif true > 0:
+            counts["separated"] += 1
+        else:
+            counts["penetrating"] += 1
+        solid = [np.linalg.matrix_rank(c.points - c.points.mean(0), 1e-9) == 3 for c in (a, b)]
+        counts["degenerate"] += not all(solid)
+    assert min(counts.values()) >= 80, counts
+
+
+def test_witness_points_lie_on_their_sets():
+    rng = np.random.default_rng(5)
+    inside = 0
+    for _ in range(300):
+        a, b, pose_a, pose_b = _random_pair(rng)
+        r = collide.distance(a, b, pose_a, pose_b)
+        Pw, Qw = _world(a, pose_a), _world(b, pose_b)
+        size = max(np.ptp(Pw, axis=0).max() + a.radius, np.ptp(Qw, axis=0).max() + b.radius)
+        tol = 1e-9 * size + _rounding(Pw, Qw)
+        # On the set: signed distance of the witness to it ~0 (on the surface when apart).
+        da = testing.polytope_signed_distance(Pw, r.point_a[None], a.radius, 0.0)
+        db = testing.polytope_signed_distance(Qw, r.point_b[None], b.radius, 0.0)
+        assert da <= tol and db <= tol
+        if r.distance > 0:
+            assert abs(da) <= tol and abs(db) <= tol
+        inside += r.distance < 0
+    assert inside > 30
+
+
+def test_large_hulls_climb_and_agree_with_the_oracle():
+    # Hulls far above CLIMB_MIN vertices are searched by hill-climbing over their vertex graph.
+    rng = np.random.default_rng(7)
+    d = rng.normal(size=(600, 3))
+    big = PointCloud(d / np.linalg.norm(d, axis=1, keepdims=True) * [1.0, 0.7, 0.5])
+    data = support_data(big)
+    assert len(data.points) > CLIMB_MIN and len(data.nbr_start) == len(data.points) + 1
+    small = PointCloud(BOX * 0.3, 0.05)
+    seen = {True: 0, False: 0}
+    for _ in range(60):
+        pose_b = (random_rotation(rng), rng.normal(size=3) * 0.9)
+        true, size, world = _oracle(big, small, (np.eye(3), np.zeros(3)), pose_b)
+        r = collide.distance(big, small, None, pose_b)
+        _check_result(r, true, size, world)
+        seen[true > 0] += 1
+    assert min(seen.values()) > 10
+
+
+def test_warm_start_gives_the_same_answer_in_fewer_iterations():
+    rng = np.random.default_rng(3)
+    d = rng.normal(size=(400, 3))
+    a = PointCloud(d / np.linalg.norm(d, axis=1, keepdims=True))
+    b = PointCloud(rng.normal(size=(300, 3)) * 0.4)
+    cold = warm = 0
+    last = None
+    for k in range(100):
+        ang = 0.01 * k
+        rot = np.array([[math.cos(ang), -math.sin(ang), 0], [math.sin(ang), math.cos(ang), 0], [0, 0, 1]])
+        pose_b = (rot, np.array([2.2 + 0.5 * math.sin(ang), 0.3, 0.1]))
+        r0 = collide.distance(a, b, None, pose_b)
+        r1 = collide.distance(a, b, None, pose_b, warm=last)
+        assert r1.distance == pytest.approx(r0.distance, abs=1e-12)
+        cold += r0.iterations
+        warm += r1.iterations
+        last = r1
+    assert warm < cold
+    # A direction works as a warm start too.
+    r = collide.distance(a, b, None, pose_b, warm=[1.0, 0.0, 0.0])
+    assert r.distance == pytest.approx(last.distance, abs=1e-12)
+
+
+def test_iteration_cap_widens_the_bracket_but_never_breaks_it():
+    rng = np.random.default_rng(9)
+    widened = 0
+    for _ in range(60):
+        sh = Ellipsoid(rng.uniform(0.3, 1.0, 3))
+        R, t = random_rotation(rng), rng.normal(size=3)
+        p = rng.normal(size=3) * 0.8
+        true = testing.point_signed_distance(sh, R.T @ (p - t))
+        r = collide.distance(sh, PointCloud([p]), (R, t), max_iterations=4)
+        assert r.lower - 1e-12 <= true <= r.upper + 1e-12
+        widened += r.gap > 1e-6
+    assert widened > 5
+
+
+# ---------------------------------------------------------------------------- curved primitives
+
+def _random_primitive(rng, k):
+    if k % 3 == 0:
+        return Cylinder(rng.uniform(0.2, 1.0), rng.uniform(0.2, 1.0))
+    if k % 3 == 1:
+        return Cone(rng.uniform(0.2, 1.0), rng.uniform(0.2, 2.0))
+    return Ellipsoid(rng.uniform(0.2, 1.0, 3))
+
+
+def test_primitives_against_closed_forms():
+    # A point or sphere against each primitive, outside and inside, both argument orders.
+    rng = np.random.default_rng(11)
+    counts = {}
+    for k in range(900):
+        sh = _random_primitive(rng, k)
+        R, t = random_rotation(rng), rng.normal(size=3)
+        local = rng.normal(size=3) * rng.uniform(0.1, 1.5)
+        rad = 0.0 if k % 2 else rng.uniform(0.0, 0.3)
+        true = testing.point_signed_distance(sh, local) - rad
+        ball = PointCloud([R @ local + t], rad)
+        if k % 4 < 2:
+            r = collide.distance(sh, ball, (R, t))
+        else:
+            r = collide.distance(ball, sh, None, (R, t))
+        _check_result(r, true, 1.0, _rounding(t, local), tol=1e-9)
+        key = (type(sh).__name__, bool(true < 0))
+        counts[key] = counts.get(key, 0) + 1
+    assert len(counts) == 6 and min(counts.values()) >= 20, counts
+
+
+def test_ellipsoid_against_a_large_box_face():
+    # The box's top face is a plane within the ellipsoid's reach: sd = face - lowest point.
+    rng = np.random.default_rng(12)
+    slab = PointCloud(BOX * [50.0, 50.0, 1.0])  # top face z = 1
+    signs = set()
+    for _ in range(100):
+        radii = rng.uniform(0.2, 1.5, 3)
+        R = random_rotation(rng)
+        t = np.array([rng.uniform(-5, 5), rng.uniform(-5, 5), rng.uniform(0.0, 3.0)])
+        lowest = t[2] - float(np.linalg.norm(radii * R[2]))  # min z of R E + t: -|D R^T e_z|
+        r = collide.distance(slab, Ellipsoid(radii), None, (R, t))
+        true = lowest - 1.0
+        if true < -0.9:
+            continue  # deeper than the slab's thickness allows the face formula
+        _check_result(r, true, 1.0, 1e-13)
+        assert np.allclose(r.normal, [0, 0, 1], atol=1e-6)
+        signs.add(true > 0)
+    assert signs == {True, False}
+
+
+@pytest.mark.parametrize("kind", ["cylinder", "cone"])
+def test_cylinder_and_cone_against_boxes_sampled_reference(kind):
+    # Inner polytope of the true surface (512 rim samples), its error delta stated: the truth
+    # is in [sd(samples) - delta, sd(samples)], and so must our value and our bracket's overlap.
+    rng = np.random.default_rng(13)
+    signs = {True: 0, False: 0}
+    for _ in range(40):
+        sh = Cylinder(rng.uniform(0.3, 1.0), rng.uniform(0.3, 1.0)) if kind == "cylinder" else \
+            Cone(rng.uniform(0.3, 1.0), rng.uniform(0.3, 1.5))
+        pts, delta = testing.inner_cloud(sh, 512)
+        box = PointCloud(BOX * rng.uniform(0.1, 0.5, 3))
+        Ra, ta = random_rotation(rng), rng.normal(size=3) * 0.1
+        Rb, tb = random_rotation(rng), ta + rng.normal(size=3) * 0.8
+        hi = testing.polytope_signed_distance(pts @ Ra.T + ta, _world(box, (Rb, tb)))
+        lo = hi - delta
+        r = collide.distance(sh, box, (Ra, ta), (Rb, tb))
+        assert lo - 1e-12 <= r.distance <= hi + 1e-12
+        assert r.lower <= hi + 1e-12 and lo - 1e-12 <= r.upper
+        assert r.gap < 1e-9
+        signs[hi > 0] += 1
+    assert min(signs.values()) >= 5, signs
+
+
+# ---------------------------------------------------------------------------------- MuJoCo
+
+def _mujoco_scene(rng):
+    mujoco = pytest.importorskip("mujoco")
+    verts = rng.normal(size=(30, 3)) * [0.3, 0.2, 0.25]
+    verts2 = rng.normal(size=(20, 3)) * 0.2
+    geoms = [
+        '<geom type="box" size="0.3 0.2 0.1"/>',
+        '<geom type="sphere" size="0.2"/>',
+        '<geom type="capsule" size="0.1 0.3"/>',
+        '<geom type="cylinder" size="0.2 0.3"/>',
+        '<geom type="ellipsoid" size="0.3 0.2 0.15"/>',
+        '<geom type="mesh" mesh="m1"/>',
+        '<geom type="mesh" mesh="m2"/>',
+    ]
+    bodies = "".join(f'<body mocap="true" pos="{3 * i} 0 0">{g}</body>' for i, g in enumerate(geoms))
+    xml = (f'<mujoco><option><flag nativeccd="enable"/></option><asset>'
+           f'<mesh name="m1" vertex="{" ".join(map(str, verts.ravel()))}"/>'
+           f'<mesh name="m2" vertex="{" ".join(map(str, verts2.ravel()))}"/>'
+           f'</asset><worldbody>{bodies}</worldbody></mujoco>')
+    model = mujoco.MjModel.from_xml_string(xml)
+    model.opt.ccd_tolerance = 1e-10
+    model.opt.ccd_iterations = 500
+    return mujoco, model
+
+
+def _our_shape(model, g):
+    import mujoco
+    size = model.geom_size[g]
+    t = model.geom_type[g]
+    if t == mujoco.mjtGeom.mjGEOM_BOX:
+        return PointCloud(BOX * size)
+    if t == mujoco.mjtGeom.mjGEOM_SPHERE:
+        return PointCloud([[0.0, 0.0, 0.0]], size[0])
+    if t == mujoco.mjtGeom.mjGEOM_CAPSULE:
+        return collide.shapes.capsule(size[0], size[1])
+    if t == mujoco.mjtGeom.mjGEOM_CYLINDER:
+        return Cylinder(size[0], size[1])
+    if t == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
+        return Ellipsoid(size)
+    m = model.geom_dataid[g]
+    a, n = model.mesh_vertadr[m], model.mesh_vertnum[m]
+    return PointCloud(model.mesh_vert[a:a + n].astype(np.float64))
+
+
+def test_against_mujoco_geom_distance():
+    # Every geom pair of a small scene in random poses. Where MuJoCo and we differ by more than
+    # 1e-6 (its ccd tolerance's order), the oracle decides, and it must side with us.
+    rng = np.random.default_rng(17)
+    mujoco, model = _mujoco_scene(rng)
+    data = mujoco.MjData(model)
+    shapes = [_our_shape(model, g) for g in range(model.ngeom)]
+    fromto = np.zeros(6)
+    agree = disagree = 0
+    signs = {True: 0, False: 0}
+    for step in range(40):
+        for i in range(model.nbody - 1):
+            data.mocap_pos[i] = rng.normal(size=3) * 0.35
+            q = rng.normal(size=4)
+            data.mocap_quat[i] = q / np.linalg.norm(q)
+        mujoco.mj_kinematics(model, data)
+        poses = [(data.geom_xmat[g].reshape(3, 3).copy(), data.geom_xpos[g].copy()) for g in range(model.ngeom)]
+        for g1 in range(model.ngeom):
+            for g2 in range(g1 + 1, model.ngeom):
+                ours = collide.distance(shapes[g1], shapes[g2], poses[g1], poses[g2])
+                theirs = mujoco.mj_geomDistance(model, data, g1, g2, 10.0, fromto)
+                signs[ours.distance > 0] += 1
+                if abs(ours.distance - theirs) <= 1e-6:
+                    agree += 1
+                    continue
+                disagree += 1
+                ref = _reference(shapes[g1], poses[g1], shapes[g2], poses[g2])
+                assert ref[0] - 1e-9 <= ours.distance <= ref[1] + 1e-9, (g1, g2, ours, theirs, ref)
+                assert not ref[0] - 1e-9 <= theirs <= ref[1] + 1e-9, (g1, g2, ours, theirs, ref)
+    assert agree > 0.95 * (agree + disagree) and min(signs.values()) > 50, (agree, disagree, signs)
+
+
+def _reference(a, pose_a, b, pose_b):
+    # (low, high) bracket of the truth from the oracles: exact for clouds, sampled for curves.
+    def cloud(s, pose):
+        if isinstance(s, PointCloud):
+            return _world(s, pose), s.radius, 0.0
+        if isinstance(s, Ellipsoid):
+            # Fibonacci sphere samples mapped by the radii; delta from the inner polytope's inradius.
+            n = 6000
+            i = np.arange(n) + 0.5
+            z = 1 - 2 * i / n
+            ph = math.pi * (1 + 5 ** 0.5) * i
+            u = np.c_[np.sqrt(1 - z * z) * np.cos(ph), np.sqrt(1 - z * z) * np.sin(ph), z]
+            from scipy.spatial import ConvexHull
+            inr = float(-ConvexHull(u).equations[:, 3].max())
+            return (u * s.radii) @ pose[0].T + pose[1], 0.0, (1 - inr) * float(s.radii.max())
+        pts, delta = testing.inner_cloud(s, 2048)
+        return pts @ pose[0].T + pose[1], 0.0, delta
+    P, rp, da = cloud(a, pose_a)
+    Q, rq, db = cloud(b, pose_b)
+    hi = testing.polytope_signed_distance(P, Q, rp, rq)
+    return hi - da - db, hi
+
+
+# ------------------------------------------------------------------------------------ bad input
+
+def test_bad_input_raises_value_errors_naming_it():
+    a = PointCloud(BOX)
+    with pytest.raises(ValueError, match="pose_a"):
+        collide.distance(a, a, (np.eye(3), np.array([np.nan, 0, 0])))
+    with pytest.raises(ValueError, match="pose_b.*orthonormal"):
+        collide.distance(a, a, None, (2 * np.eye(3), np.zeros(3)))
+    with pytest.raises(ValueError, match="pose_b.*orthonormal"):
+        collide.distance(a, a, None, (np.diag([1.0, 1.0, -1.0]), np.zeros(3)))  # a reflection
+    with pytest.raises(ValueError, match="pose_a"):
+        collide.distance(a, a, (np.eye(2), np.zeros(3)))
+    with pytest.raises(ValueError, match="empty"):
+        collide.distance(PointCloud.empty(), a)
+    with pytest.raises(ValueError, match="radius"):
+        collide.distance(PointCloud([[0, 0, 0]], -1.0), a)
+    with pytest.raises(ValueError, match="radius"):
+        Cylinder(-1.0, 1.0)
+    with pytest.raises(ValueError, match="radii"):
+        Ellipsoid([1.0, -1.0, 1.0])
+    with pytest.raises(ValueError, match="radii"):
+        Ellipsoid([1.0, 1.0])
+    with pytest.raises(ValueError, match="shape"):
+        collide.distance(collide.shapes.plane(), a)
+    with pytest.raises(ValueError, match="tolerance"):
+        collide.distance(a, a, tolerance=-1.0)
+    with pytest.raises(ValueError, match="max_iterations"):
+        collide.distance(a, a, max_iterations=2)
+    with pytest.raises(ValueError, match="warm"):
+        collide.distance(a, a, warm=[1.0, np.nan, 0.0])
+    # float32-rounded rotations are rotations
+    rot = random_rotation(np.random.default_rng(0)).astype(np.float32)
+    assert collide.distance(a, a, None, (rot, np.array([3.0, 0, 0]))).distance > 0
+
+
+def test_homogeneous_pose_and_lists_are_accepted():
+    a = PointCloud(BOX)
+    m = np.eye(4)
+    m[:3, 3] = [0.0, 0.0, 3.0]
+    r1 = collide.distance(a, a, None, m)
+    r2 = collide.distance(a, a, None, (np.eye(3).tolist(), [0.0, 0.0, 3.0]))
+    assert r1.distance == r2.distance == pytest.approx(1.0, abs=1e-14)
