@@ -57,7 +57,7 @@ class Distance:
     lower: float
     upper: float
     iterations: int
-    hints: tuple = field(default=(0, 0), repr=False)
+    hints: tuple = field(default=(-1, -1), repr=False)
 
     @property
     def gap(self) -> float:
@@ -85,7 +85,7 @@ def _pose(pose, name: str, size: float) -> tuple[np.ndarray, np.ndarray]:
     if rot is None:
         rot, pos = as_affine(pose, name=name)
         rot, pos = np.ascontiguousarray(rot), np.ascontiguousarray(pos)
-    err = _kd.pose_error(rot, pos, ORTHONORMAL_TOL)
+    err = _kd.pose_error(rot, pos, ORTHONORMAL_TOL, size, _hull.MAX_COORDINATE)
     if err == 1:
         raise ValueError(f"{name}: non-finite value (NaN or inf) in the rotation or translation")
     if err == 2:
@@ -93,8 +93,8 @@ def _pose(pose, name: str, size: float) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError(f"{name}: the rotation is not orthonormal with determinant +1 "
                          f"(|R^T R - I| = {dev:.3g}, det = {float(np.linalg.det(rot)):.3g}; "
                          f"allowed {ORTHONORMAL_TOL:g})")
-    reach = float(np.abs(pos).max()) + size
-    if not reach <= _hull.MAX_COORDINATE:
+    if err == 3:
+        reach = float(np.abs(pos).max()) + size
         raise ValueError(f"{name}: the translation puts the shape at {reach:.3g}, beyond "
                          f"{_hull.MAX_COORDINATE:g} (squared distances would overflow float64)")
     return rot, pos
@@ -133,14 +133,14 @@ def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = 1e
     --------
     >>> from collide import PointCloud, distance
     >>> r = distance(PointCloud([[0, 0, 0]], 1.0), PointCloud([[3, 0, 0]], 0.5))
-    >>> round(r.distance, 12), r.normal.tolist()
+    >>> round(r.distance, 12), [round(float(x), 12) + 0.0 for x in r.normal]
     (1.5, [1.0, 0.0, 0.0])
     """
     da = support_data(a)
     db = support_data(b)
     ra, ta = _pose(pose_a, "pose_a", da.size)
     rb, tb = _pose(pose_b, "pose_b", db.size)
-    hint_a = hint_b = 0
+    hint_a = hint_b = -1  # cold: the hill-climbs start from the best extreme vertex
     if warm is None:
         d0 = _ZERO
     elif isinstance(warm, Distance):
@@ -155,6 +155,7 @@ def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = 1e
     tol = tolerance * (da.size + db.size)
     out = np.empty(_kd.OUT_SIZE)
     _kd.pair_distance(da.posed(ra, ta), db.posed(rb, tb), tol, d0, hint_a, hint_b, max_iterations, out)
-    return Distance(float(out[_kd.OUT_DISTANCE]), out[3:6].copy(), out[6:9].copy(), out[9:12].copy(),
+    vec = out[_kd.OUT_POINT_A:_kd.OUT_NORMAL + 3].copy()  # one copy; the fields are its views
+    return Distance(float(out[_kd.OUT_DISTANCE]), vec[0:3], vec[3:6], vec[6:9],
                     float(out[_kd.OUT_LOWER]), float(out[_kd.OUT_UPPER]), int(out[_kd.OUT_ITERATIONS]),
                     (int(out[_kd.OUT_HINT_A]), int(out[_kd.OUT_HINT_B])))

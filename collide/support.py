@@ -80,6 +80,12 @@ def _adjacency(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] 
     except (QhullError, ValueError):
         return None
     verts = h.vertices
+    # The extreme vertices along -x, +x, -y, +y, -z, +z first: a cold climb starts from the best
+    # of them (`collide._kernels.support.SEEDS`).
+    vp = points[verts]
+    seeds = list(dict.fromkeys(int(f(vp[:, k])) for k in range(3) for f in (np.argmin, np.argmax)))
+    order = np.concatenate([seeds, np.setdiff1d(np.arange(len(verts)), seeds)])
+    verts = verts[order]
     remap = np.full(len(points), -1, np.int64)
     remap[verts] = np.arange(len(verts))
     s = remap[h.simplices]

@@ -427,6 +427,8 @@ def test_bad_input_raises_value_errors_naming_it():
         collide.distance(a, a, None, (np.diag([1.0, 1.0, -1.0]), np.zeros(3)))  # a reflection
     with pytest.raises(ValueError, match="pose_a"):
         collide.distance(a, a, (np.eye(2), np.zeros(3)))
+    with pytest.raises(ValueError, match="pose_b.*beyond"):
+        collide.distance(a, a, None, (np.eye(3), np.array([1e200, 0.0, 0.0])))
     with pytest.raises(ValueError, match="empty"):
         collide.distance(PointCloud.empty(), a)
     with pytest.raises(ValueError, match="radius"):

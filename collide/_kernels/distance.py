@@ -50,7 +50,7 @@ def pair_distance(sa, sb, tol, d0, hint_a, hint_b, max_iter, out):
         First search direction, from A towards B (a warm start: the last normal); zeros for the
         difference of the two positions.
     hint_a, hint_b : int
-        Hill-climb start vertices (warm start: the last ones returned in ``out``).
+        Hill-climb start vertices (warm start: the last ones returned in ``out``; -1: cold).
     max_iter : int
         Cap on GJK iterations and on EPA's polytope vertices.
     out : (16,) float64
@@ -63,11 +63,15 @@ def pair_distance(sa, sb, tol, d0, hint_a, hint_b, max_iter, out):
     WB = np.zeros((4, 3))
     lam = np.zeros(4)
     v = np.zeros(3)
-    hints = np.array([hint_a, hint_b], np.int64)
+    hints = np.empty(2, np.int64)
+    hints[0] = hint_a
+    hints[1] = hint_b
     dirn = np.zeros(4)
-    status, n, lower, scale, iters = gjk(sa, sb, d0, hints, tol, max_iter, W, WA, WB, lam, v, dirn)
     pa = np.zeros(3)
     pb = np.zeros(3)
+    status, n, lower, scale, iters = gjk(sa, sb, d0, hints, tol, max_iter, W, WA, WB, lam, v, dirn, pa, pb)
+    pa[:] = 0.0
+    pb[:] = 0.0
     for i in range(n):
         for k in range(3):
             pa[k] += lam[i] * WA[i, k]
@@ -127,9 +131,10 @@ def pair_distance(sa, sb, tol, d0, hint_a, hint_b, max_iter, out):
 
 
 @njit(cache=True)
-def pose_error(rot, pos, tol):
-    """Check of a pose ``rot (3, 3)``, ``pos (3,)`` float64: 0 fine, 1 a non-finite entry, 2 not a
-    rotation (an entry of ``|R^T R - I|`` above ``tol``, or ``det R <= 0``)."""
+def pose_error(rot, pos, tol, size, limit):
+    """Check of a pose ``rot (3, 3)``, ``pos (3,)`` float64 for a shape of ``size``: 0 fine, 1 a
+    non-finite entry, 2 not a rotation (an entry of ``|R^T R - I|`` above ``tol``, or
+    ``det R <= 0``), 3 the shape reaching beyond ``limit`` (``max |pos| + size``)."""
     for i in range(3):
         if not np.isfinite(pos[i]):
             return 1
@@ -144,4 +149,8 @@ def pose_error(rot, pos, tol):
     det = (rot[0, 0] * (rot[1, 1] * rot[2, 2] - rot[1, 2] * rot[2, 1])
            - rot[0, 1] * (rot[1, 0] * rot[2, 2] - rot[1, 2] * rot[2, 0])
            + rot[0, 2] * (rot[1, 0] * rot[2, 1] - rot[1, 1] * rot[2, 0]))
-    return 0 if det > 0.0 else 2
+    if not det > 0.0:
+        return 2
+    if not max(abs(pos[0]), abs(pos[1]), abs(pos[2])) + size <= limit:
+        return 3
+    return 0

@@ -259,7 +259,7 @@ def _direction(W, n, v):
 
 
 @njit(cache=True)
-def gjk(sa, sb, d0, hints, tol, max_iter, W, WA, WB, lam, v, dirn):
+def gjk(sa, sb, d0, hints, tol, max_iter, W, WA, WB, lam, v, dirn, pa, pb):
     """GJK distance of the cores of two posed shapes, with a certified lower bound.
 
     Parameters
@@ -284,6 +284,8 @@ def gjk(sa, sb, d0, hints, tol, max_iter, W, WA, WB, lam, v, dirn):
     dirn : (4,) float64
         Receives the last search direction (from A towards B; any length) and its conditioning
         (its angle is known to about that times the coordinates' rounding): see `_direction`.
+    pa, pb : (3,) float64
+        Scratch for the support points (no allocation here: see `collide._kernels.distance`).
 
     Returns
     -------
@@ -298,8 +300,6 @@ def gjk(sa, sb, d0, hints, tol, max_iter, W, WA, WB, lam, v, dirn):
         Largest absolute world coordinate of any support point seen (for rounding bounds).
     iterations : int
     """
-    pa = np.empty(3)
-    pb = np.empty(3)
     dx, dy, dz = d0[0], d0[1], d0[2]
     if dx == 0.0 and dy == 0.0 and dz == 0.0:
         dx, dy, dz = sb[6][0] - sa[6][0], sb[6][1] - sa[6][1], sb[6][2] - sa[6][2]

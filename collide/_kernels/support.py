@@ -52,11 +52,25 @@ def _scan(pts, l0, l1, l2):
     return ib
 
 
+# Vertices a cold climb (no hint) starts from: `collide.support` puts the hull's extreme vertices
+# along -x, +x, -y, +y, -z, +z first, and the climb starts from the best of them.
+SEEDS = 6
+
+
 @njit(cache=True)
 def _climb(pts, nbr_start, nbr, l0, l1, l2, hint):
     # Steepest ascent over the vertex graph from ``hint``; strictly increasing, so it stops.
-    i = hint if 0 <= hint < pts.shape[0] else 0
-    best = pts[i, 0] * l0 + pts[i, 1] * l1 + pts[i, 2] * l2
+    if 0 <= hint < pts.shape[0]:
+        i = hint
+        best = pts[i, 0] * l0 + pts[i, 1] * l1 + pts[i, 2] * l2
+    else:
+        i = 0
+        best = -math.inf
+        for j in range(min(SEEDS, pts.shape[0])):
+            s = pts[j, 0] * l0 + pts[j, 1] * l1 + pts[j, 2] * l2
+            if s > best:
+                best = s
+                i = j
     while True:
         jb = -1
         for e in range(nbr_start[i], nbr_start[i + 1]):
@@ -70,7 +84,7 @@ def _climb(pts, nbr_start, nbr, l0, l1, l2, hint):
         i = jb
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def support(shape, d0, d1, d2, hint, out):
     """World support point of a shape's core in direction ``d`` (any length, non-zero).
 
@@ -81,7 +95,8 @@ def support(shape, d0, d1, d2, hint, out):
     d0, d1, d2 : float
         The direction, world frame.
     hint : int
-        Start vertex of the hill-climb (``POINTS`` with adjacency); ignored otherwise.
+        Start vertex of the hill-climb (``POINTS`` with adjacency); out of range (-1): the best of
+        the first `SEEDS` vertices. Ignored otherwise.
     out : (3,) float64
         Receives the support point, world frame.
 
