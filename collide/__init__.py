@@ -3,9 +3,12 @@
 The flat public surface; every name here is re-exported from the module that defines it.
 """
 
-from . import _cache
+from . import _cache, _checked
 
-_cache.register()  # before any kernel is defined: numba's cache keyed on the files a kernel imports
+# Before any kernel is defined: numba's cache keyed on the files a kernel imports, the checked
+# mode's kernels (COLLIDE_CHECKED=1: every kernel index checked, see _checked) in files of their own.
+_cache.register(suffix="_checked" if _checked.CHECKED else "")
+_checked.enable_boundscheck()
 
 from . import csg, hull, shapes, volumes  # noqa: E402
 from .articulation import Articulation  # noqa: E402

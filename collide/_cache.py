@@ -138,8 +138,9 @@ def _inside(path: str, root: str) -> bool:
         return False
 
 
-def register() -> None:
-    """Put `_PackageLocator` (for this copy of the package) first among numba's cache locators."""
+def register(suffix: str = "") -> None:
+    """Put `_PackageLocator` (for this copy of the package) first among numba's cache locators;
+    ``suffix`` is appended to its cache files' names (a compilation mode kept apart)."""
     try:
         from numba.core import caching
 
@@ -167,7 +168,8 @@ def register() -> None:
             return self._inner.get_cache_path()
 
         def get_disambiguator(self):
-            return self._inner.get_disambiguator()
+            # e.g. the checked mode's kernels (`collide._checked`) in cache files of their own
+            return self._inner.get_disambiguator() + suffix
 
         def get_source_stamp(self):
             try:

@@ -11,10 +11,23 @@ as a context points into it.
 
 from __future__ import annotations
 
+import numba as nb
 from llvmlite import ir
 from numba.core import cgutils, types
 from numba.extending import intrinsic
 from numba.np.arrayobj import make_array, populate_array
+
+from .._checked import CHECKED
+
+
+@nb.njit(cache=True, inline="always")
+def check_span(end, size):
+    """In the checked mode (`collide._checked`): raise IndexError unless ``0 <= end <= size``, the
+    end of the views carved out of a buffer of ``size`` items against that size. Compiled away
+    otherwise (``CHECKED`` is a constant frozen into the kernel)."""
+    if CHECKED:
+        if end < 0 or end > size:
+            raise IndexError("collide (checked mode): views carved out of a buffer reach past its end")
 
 
 def _pointer_cast(dtype):

@@ -66,7 +66,7 @@ from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
 from numba.extending import intrinsic
 import numpy as np
 
-from ._ptr import f64_ptr, i32_ptr, i64_ptr, view_of
+from ._ptr import check_span, f64_ptr, i32_ptr, i64_ptr, view_of
 from ._quat import fmuladd
 from ._simd import LANES as LANES8, _py, box_row8, gather_rows
 from ._threads import fetch_add, set_chunksize
@@ -302,6 +302,9 @@ def _views(I, F, W):
     gaabb = view_of(f64_ptr(wa + 8 * w), (G, 6))
     w += 6 * G
     gstamp = view_of(f64_ptr(wa + 8 * w), L + 1)  # gstamp[L]: the call counter
+    check_span(o + L + 1, I.shape[0])
+    check_span(f + P, F.shape[0])
+    check_span(w + L + 1, W.shape[0])
     return (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
             caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
             pair_keys,
@@ -317,6 +320,7 @@ def _cap_views(I, F):
     G = I[H_G]
     f = ROW * L + ROW * G + 5 * G + I[H_P]
     fa = np.int64(F.ctypes.data)
+    check_span(f + 4 * L + 4 * G, F.shape[0])
     return view_of(f64_ptr(fa + 8 * f), (L, 4)), view_of(f64_ptr(fa + 8 * (f + 4 * L)), (G, 4))
 
 
@@ -330,6 +334,7 @@ def _fat_views(I, W):
     fat_s = view_of(f64_ptr(wa + 48 * L), (L, 6))
     fat_t = view_of(f64_ptr(wa + 96 * L), (6, L))
     state = view_of(f64_ptr(np.int64(W.ctypes.data) + 8 * coherence_state_offset(L, I[H_G], I[H_Q])), N_COH)
+    check_span(coherence_state_offset(L, I[H_G], I[H_Q]) + N_COH, W.shape[0])
     return fat_b, fat_s, fat_t, state
 
 
@@ -2142,6 +2147,8 @@ def next_chunk(chunk_info, C):
 def chunk_buffers(ctxs, chunk_info, c):
     """Chunk c of a batch kernel: its context row, its `chunk_info` row (cleared) and its buffers
     (`_buffers`), all pointer-built."""
+    check_span(NCTX * (c + 1), ctxs.size)
+    check_span(N_CI * (c + 1), chunk_info.size)
     ctx = view_of(i64_ptr(np.int64(ctxs.ctypes.data) + 8 * NCTX * c), NCTX)
     ci = view_of(i64_ptr(np.int64(chunk_info.ctypes.data) + 8 * N_CI * c), N_CI)
     ci[CI_BAD] = -1

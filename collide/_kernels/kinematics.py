@@ -20,7 +20,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from ._ptr import f64_ptr, i32_ptr, i64_ptr
+from ._ptr import check_span, f64_ptr, i32_ptr, i64_ptr
 from ._quat import (SINCOS_MAX, _frame_point, _qmat, _qmul, _qnorm, _rotate_about, _sincos, _slide, _turn, _unit_quat,
                     _zero3)
 from ._simd import (kin_ball8, kin_ball8_origin, kin_finish8, kin_hinge8, kin_hinge8_origin, kin_slide8, kin_start8,
@@ -107,6 +107,7 @@ def _kinematics_world(q, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
         out_rot[b, 2, 0], out_rot[b, 2, 1], out_rot[b, 2, 2] = m[6], m[7], m[8]
 
 
+@nb.njit(cache=True)
 def lanes_scratch_size(L: int, nj: int) -> int:
     """float64 of `_kinematics_lanes`' scratch per worker (a row of `step_lanes_kin`'s
     ``scratch``), ``L`` bodies, ``nj`` joints."""
@@ -233,6 +234,8 @@ def scratch_size(L: int, nj: int) -> int:
 @nb.njit(cache=True, inline="always")
 def _scratch(scratch, c, L, nj):
     # Row c of scratch: xquat (L, 4), then sc (nj, 2) (pointer-built: no reference count).
+    check_span(4 * L + 2 * nj, scratch.shape[1])
+    check_span(c + 1, scratch.shape[0])
     at = np.int64(scratch.ctypes.data) + 8 * scratch.shape[1] * c
     return nb.carray(f64_ptr(at), (L, 4)), nb.carray(f64_ptr(at + 32 * L), (nj, 2))
 
@@ -287,6 +290,9 @@ def step_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
         kb = la + 8 * ko
         gpos = nb.carray(f64_ptr(kb), (LANES, NB, 3))  # the group's poses
         grot = nb.carray(f64_ptr(kb + 24 * LANES * NB), (LANES, NB, 3, 3))
+        check_span(ko + 12 * LANES * NB, LWs.shape[1])  # the group's poses after the lane workspace
+        check_span(lanes_scratch_size(NB, jnt_type.shape[0]), scratch.shape[1])
+        check_span(wk + 1, scratch.shape[0])
         ksa = np.int64(scratch.ctypes.data) + 8 * scratch.shape[1] * wk
         ps = lane_poses(LW, NB)
         st = np.zeros(N_STATS, np.int64)

@@ -33,7 +33,7 @@ from numba.cpython.unsafe.numbers import trailing_zeros
 from numba.extending import intrinsic
 import numpy as np
 
-from ._ptr import f64_ptr, i64_ptr
+from ._ptr import check_span, f64_ptr, i64_ptr
 from ._simd import _Rows, _get, _put, _py, _scalars, _splat, _Vec, _vmax, _vmin, aabb_mask8, aabb_merge8
 from ._threads import set_chunksize
 from .broadphase import (BIG, C_KEYS, C_NKEYS, CI_KEYS, H_NB, N_STATS, ROW, SLACK_POS, ST_BODY_OBB,
@@ -118,6 +118,7 @@ def _lane_views(J, L, Q, a):
     explicit_rank = J[o:o + P]
     o += P
     rank_keys = J[o:o + NR]
+    check_span(o + NR, J.shape[0])
     return (body_pairs, row_start, pair_gstart, pair_geoms, plane_start, plane_pos, plane_gstart, plane_geoms,
             explicit_rank, rank_keys)
 
@@ -360,10 +361,12 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
     o += 6 * LANES * L
     pln = nb.carray(f64_ptr(la + 8 * o), (max(Q, 1), 4, LANES))
     pln_at = la + 8 * o
+    check_span(o + 4 * LANES * max(Q, 1), LW.shape[0])
     gp_at = np.int64(gplane.ctypes.data)
     lb = np.int64(LB.ctypes.data)
     bits = nb.carray(i64_ptr(lb), (NWd, LANES))
     stamp = nb.carray(i64_ptr(lb + 8 * LANES * NWd), L)
+    check_span(LANES * NWd + L, LB.shape[0])
     valid = (np.uint64(1) << np.uint64(nl)) - np.uint64(1)  # nl <= LANES < 64
     nv = J[J_NV]  # LANES, unknown to the compiler
 
@@ -594,6 +597,7 @@ def kin_workspace_size(NB: int) -> int:
 def lane_buffers(LWs, LBs, wk):
     """Worker wk's lane workspace: its address, the float64 row ``LWs[wk]`` and the int64 row
     ``LBs[wk]`` (pointer-built)."""
+    check_span(wk + 1, min(LWs.shape[0], LBs.shape[0]))
     la = np.int64(LWs.ctypes.data) + 8 * LWs.shape[1] * wk
     return (la, nb.carray(f64_ptr(la), LWs.shape[1]),
             nb.carray(i64_ptr(np.int64(LBs.ctypes.data) + 8 * LBs.shape[1] * wk), LBs.shape[1]))
