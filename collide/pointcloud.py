@@ -144,7 +144,8 @@ class PointCloud:
         return _volumes.fit_sphere(self._points, self._radius, method)
 
     def obb(self, method: str = "optimal") -> "_volumes.OBB":
-        """Oriented box: ``"optimal"`` (near-minimal volume) or ``"pca"``."""
+        """Oriented box: ``"optimal"`` (within 1 % of the minimal volume), ``"exact"`` (minimal)
+        or ``"pca"``."""
         return _volumes.fit_obb(self._points, self._radius, method)
 
 

@@ -5,9 +5,10 @@ points themselves, so every fitted volume contains its cloud by construction (up
 whatever the fitter's quality.
 
 * `fit_aabb`: exact. `fit_sphere`: ``"exact"`` minimal sphere (Welzl 1991, move-to-front, on a
-  growing working set) or ``"ritter"`` (1990). `fit_obb`: ``"optimal"`` near-minimal volume
-  (hull-face candidates with rotating calipers, then a compass search on rotations; measured
-  in tests/bench/fitting.txt) or ``"pca"``.
+  growing working set) or ``"ritter"`` (1990). `fit_obb`: ``"exact"`` minimum volume
+  (O'Rourke 1985, collide._obb_exact), ``"optimal"`` within 1 % of it (exact on small hulls,
+  else subset searches and hull-face candidates polished by a compass search on rotations;
+  measured in tests/bench/fitting.txt) or ``"pca"``.
 * `KDOP` and `fit_kdop`: 6-, 14-, 18- and 26-DOPs (Klosowski et al. 1998).
 * `transform` (rigid maps), `aabb_of`, and `overlap` for every pair of kinds (the OBB test is
   the 15-axis separating-axis test of Gottschalk 1996 / Ericson 2005 §4.4.1), conservative
@@ -22,6 +23,7 @@ import numba
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
+from . import _obb_exact as _exact
 from . import hull as _hull
 from ._validate import as_array, as_points, as_radius
 
@@ -672,6 +674,12 @@ _FACE_CANDIDATES = 12
 _POLISH_STARTS = 3
 _POLISH_STEP = 0.1
 _POLISH_MIN_STEP = 1e-5
+# The "optimal" OBB is the exact one for hulls of up to this many vertices; larger hulls get
+# this many rounds of the exact search on a subset of their vertices (_obb_exact.exact_axes)
+# as one more start of the polish, or its box where it is certified minimal already.
+_EXACT_HULL = 32
+_SUBSET_ROUNDS = 2
+_SUBSET_TOL = 1e-6
 
 
 def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: float) -> np.ndarray:
@@ -679,6 +687,8 @@ def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: floa
     # (None for degenerate clouds). Returns the rotation of a near-minimal-volume box:
     # O'Rourke (1985) shows a minimal box has a face flush with a hull face in most cases (the
     # face candidates), the others touch edges only; the polish reaches those.
+    if len(verts) <= _EXACT_HULL:
+        return _exact_rotation(verts, radius)[0]
     axes, rank = _principal(verts)
     if rank <= 1:
         return _right_handed(axes.T)
@@ -706,6 +716,10 @@ def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: floa
             norm = float(np.linalg.norm(group_normal[g]))
             if norm > 0.0:
                 starts.append(_right_handed(_frame_from_normal(group_normal[g] / norm, verts)))
+    sub_rot, certified = _exact_rotation(verts, radius, _SUBSET_ROUNDS, 0, _SUBSET_TOL)
+    if certified:
+        return sub_rot
+    starts.append(sub_rot)
     vols = _box_volumes(verts, np.stack(starts), radius)
     chosen: list[np.ndarray] = []
     for k in np.argsort(vols, kind="stable"):
@@ -723,6 +737,35 @@ def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: floa
     return _orthonormal(best_rot)
 
 
+def _exact_rotation(verts: np.ndarray, radius: float, rounds: int | None = None,
+                    direct: int = _exact.DIRECT, tol: float = _exact.TOL) -> tuple[np.ndarray, bool]:
+    # verts: hull vertices (centred by the caller). Rotation of the minimum-volume box of
+    # hull(verts) ⊕ ball(radius) and whether it is certified (always, unless ``rounds`` limits
+    # the subset rounds of _obb_exact.exact_axes). By cases of the affine rank:
+    # 0: any box is a cube of side 2r. 1: the segment's axis; of every box of a segment of
+    # length L, prod(L |d . u_i| + 2r) is least along it (the sum of the logs is concave and
+    # increasing in each |d . u_i|, whose sum is >= 1, so its least value on the simplex, at a
+    # vertex, bounds it). 2 with r = 0: volume 0 with the plane's normal as an axis, and among
+    # those the least area (the minimal rectangle, as the "optimal" fitter). Otherwise the
+    # exact search of _obb_exact over the hull's (or the polygon's) Gauss map.
+    axes, rank = _principal(verts)
+    if rank <= 1:
+        return _right_handed(axes.T), True
+    if rank == 2 and radius == 0.0:
+        return _right_handed(_frame_from_normal(axes[2], verts)), True
+    c = verts.mean(axis=0)
+    scale = float(np.abs(verts - c).max())
+    local = (verts - c) / scale
+    if rank == 2:
+        start = _right_handed(_frame_from_normal(axes[2], verts))
+        rot, _, certified = _exact.exact_axes(local, radius / scale, start,
+                                              lambda sub: _exact.flat_graph(sub, axes), rounds, direct, tol)
+    else:
+        rot, _, certified = _exact.exact_axes(local, radius / scale, _right_handed(axes.T),
+                                              _exact.solid_graph, rounds, direct, tol)
+    return _orthonormal(rot), certified
+
+
 def fit_obb(points: np.ndarray, radius: float = 0.0, method: str = "optimal") -> OBB:
     """Oriented box of ``hull(points) ⊕ ball(radius)``.
 
@@ -732,12 +775,22 @@ def fit_obb(points: np.ndarray, radius: float = 0.0, method: str = "optimal") ->
         Non-empty.
     radius : float
         The cloud's radius, ``>= 0``.
-    method : {"optimal", "pca"}
-        ``"pca"``: principal axes of the hull vertices. ``"optimal"``: near-minimal volume
-        (within 1 % of the minimum on average, see tests/bench/fitting.txt): the best of the
-        PCA axes, the hull surface's principal axes and boxes flush with the largest hull
-        faces (each with its minimal-area rectangle by rotating calipers), polished by a
-        compass search on rotations. Flat clouds get their exact minimal-area rectangle.
+    method : {"optimal", "exact", "pca"}
+        ``"exact"``: the minimum volume, exact up to rounding (relative 1e-12), by O'Rourke's
+        theorem (1985: a minimal box has two adjacent faces flush with hull edges; it holds for
+        ``prod(e_i + 2 radius)`` too, see collide/_obb_exact.py) and a certified branch and
+        bound over its edge-pair families, on the hull's vertices; hulls of more than 64
+        vertices through subsets of them with a certificate of optimality. ``O(E^2)`` pair
+        screening plus about ``E^1.5`` evaluations (``E`` hull edges) for hulls with evenly
+        spread faces, ``O(n^3)`` at worst (``n`` hull vertices). ``"optimal"`` (the default):
+        the exact box where the hull has at most 32 vertices; otherwise two rounds of the exact
+        search on subsets of the hull's vertices (their box where that is certified minimal
+        for the whole hull), else the best of their box, the PCA axes, the hull surface's
+        principal axes and boxes flush with the largest hull faces (each with its minimal-area
+        rectangle by rotating calipers), polished by a compass search on rotations; within
+        1 % of the exact box on every cloud tested (tests/test_obb_exact.py,
+        tests/bench/fitting.txt). ``"pca"``: principal axes of the hull vertices. Flat clouds
+        (``radius = 0``) get a zero extent and their exact minimal-area rectangle.
 
     Returns
     -------
@@ -749,13 +802,18 @@ def fit_obb(points: np.ndarray, radius: float = 0.0, method: str = "optimal") ->
     points = as_points(points, "points")
     radius = as_radius(radius, "radius")
     _require_points(points, "obb", radius)
-    if method not in ("optimal", "pca"):
-        raise ValueError(f"method: expected 'optimal' or 'pca', got {method!r}")
+    if method not in ("optimal", "exact", "pca"):
+        raise ValueError(f"method: expected 'optimal', 'exact' or 'pca', got {method!r}")
     # Centre first: Qhull and the SVD lose precision on coordinates far from the origin.
     offset = 0.5 * (points.min(axis=0) + points.max(axis=0))
     local = points - offset
     verts, hull = _hull_points(local)
-    rot = pca_axes(verts) if method == "pca" else _optimal_rotation(verts, hull, radius)
+    if method == "pca":
+        rot = pca_axes(verts)
+    elif method == "exact":
+        rot = _exact_rotation(verts, radius)[0]
+    else:
+        rot = _optimal_rotation(verts, hull, radius)
     # Extents from every point, not only the hull vertices: _hull_points (axes only) treats
     # thickness below ~1e-12 of the spread as flat and drops it, the box must not.
     box = box_from_axes(local, radius, rot)

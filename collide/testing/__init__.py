@@ -4,10 +4,11 @@ Nothing in the library imports this package (DESIGN.md, layers). Each submodule 
 here so tests write ``from collide import testing`` and ``testing.<name>``.
 """
 
-from . import csg
+from . import csg, obb
 from .brute import (brute_force_bound_pairs, brute_force_pairs, filter_passing_pairs, gjk_distance,
                     hulls_intersect_lp, world_bounds, world_capsules)
 from .csg import brute_force_raycast, random_scene
+from .obb import brute_force_obb, edge_pair_search, multistart_polish
 from .scenes import (Scene, branching_tree, chain, free_hulls, hull_motion, make_plane, many_robots,
                      random_hull, scene_motion)
 from .surfaces import (SHAPE_KINDS, apply_affine, random_affine, random_polygon, random_rigid,
