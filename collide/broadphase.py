@@ -557,44 +557,41 @@ class BroadPhase:
         """
         # One call at a time per instance (workspace, arena and bookkeeping are shared): a second
         # thread waits here instead of reading rows another call is writing.
-        self._lock.acquire()
+        lock = self._lock
+        lock.acquire()
         try:
-            return self._pairs(body_pos, body_rot)
+            if body_pos is None and body_rot is None:
+                # the bound arrays' current values (see bind)
+                if self._bound is None:
+                    raise ValueError("pairs: no pose arrays given and none bound (see BroadPhase.bind)")
+                k = self._step_bound(self._ctx_addr)
+                if k < 0:
+                    k = self._rerun(*self._bound, k)
+            else:
+                # One call. The kernel checks the shapes; its dispatcher takes only C-contiguous
+                # float64 arrays and raises TypeError for anything else (no new compilation, ever).
+                try:
+                    k = self._step(body_pos, body_rot, self._ctx)
+                except TypeError:
+                    k = _k.RET_BAD_SHAPE
+                if k < 0:
+                    body_pos, body_rot = self._check(body_pos, body_rot, ())
+                    k = self._rerun(body_pos, body_rot, self._step(body_pos, body_rot, self._ctx))
+            # The kernel recorded its rows (ctx C_OFF, C_LAST) before returning: _arena_used and _last
+            # follow them here, with nothing in between that could raise but an asynchronous exception.
+            if k >= _k.RET_SAME:  # the pairs of the last non-empty result: its array again
+                return self._last
+            if k > 0:
+                o = self._arena_used  # `_take`, written out: a Python call costs ~0.1 us
+                e = o + k
+                if e <= self._arena_rows:
+                    self._arena_used = e
+                    out = self._last = self._arena[o:e]
+                    return out
+                return self._take(k)
+            return self._empty
         finally:
-            self._lock.release()
-
-    def _pairs(self, body_pos, body_rot) -> np.ndarray:
-        # `pairs`, under the instance's lock.
-        if body_pos is None and body_rot is None:
-            # the bound arrays' current values (see bind)
-            if self._bound is None:
-                raise ValueError("pairs: no pose arrays given and none bound (see BroadPhase.bind)")
-            k = self._step_bound(self._ctx_addr)
-            if k < 0:
-                k = self._rerun(*self._bound, k)
-        else:
-            # One call. The kernel checks the shapes; its dispatcher takes only C-contiguous
-            # float64 arrays and raises TypeError for anything else (no new compilation, ever).
-            try:
-                k = self._step(body_pos, body_rot, self._ctx)
-            except TypeError:
-                k = _k.RET_BAD_SHAPE
-            if k < 0:
-                body_pos, body_rot = self._check(body_pos, body_rot, ())
-                k = self._rerun(body_pos, body_rot, self._step(body_pos, body_rot, self._ctx))
-        # The kernel recorded its rows (ctx C_OFF, C_LAST) before returning: _arena_used and _last
-        # follow them here, with nothing in between that could raise but an asynchronous exception.
-        if k >= _k.RET_SAME:  # the pairs of the last non-empty result: its array again
-            return self._last
-        if k > 0:
-            o = self._arena_used  # `_take`, written out: a Python call costs ~0.1 us
-            e = o + k
-            if e <= self._arena_rows:
-                self._arena_used = e
-                out = self._last = self._arena[o:e]
-                return out
-            return self._take(k)
-        return self._empty
+            lock.release()
 
     def bind(self, body_pos: np.ndarray, body_rot: np.ndarray) -> None:
         """Read the poses from these arrays at every ``pairs()`` called without arguments.

@@ -516,50 +516,46 @@ class BroadPhase:
             non-empty call's array again when its pairs are the same, as in
             `collide.BroadPhase.pairs`.
         """
-        lock = self.broadphase._lock  # one call at a time per instance (collide.BroadPhase.pairs)
+        bp = self.broadphase
+        lock = bp._lock  # one call at a time per instance (collide.BroadPhase.pairs)
         lock.acquire()
         try:
-            return self._pairs(data)
+            if data is not self._views_of or bp._bound is not self._views:
+                self._check_data(data)  # once per MjData (here, where its arrays are bound), not per step
+                if self._disabled:
+                    return self._empty2
+                # The bindings build new numpy views at every attribute access (~0.3 us a call), and
+                # an MjData's arrays never move: bind the last MjData's views to the kernel's context
+                # (held there, so they stay valid), and each step is a call with one argument. Bound
+                # again if someone bound other arrays to self.broadphase in between.
+                bp._bind(data.xpos, data.xmat.reshape(-1, 3, 3))
+                self._views_of = data
+                self._views = bp._bound
+            # BroadPhase.pairs() on the bound arrays, written out (one Python call less on the fast path).
+            k = bp._step_bound(bp._ctx_addr)
+            if k < 0:  # a bad pose raises; full buffers are grown and the step rerun
+                try:
+                    k = bp._rerun(*bp._bound, k)
+                except ValueError as exc:
+                    if not np.any(bp._bound[1]):
+                        raise ValueError("data: body poses are all zero; run mujoco.mj_kinematics, "
+                                         "mj_forward or mj_step on it first") from exc
+                    raise
+            if k >= _RET_SAME:  # the pairs of the last non-empty result: its array again
+                out = bp._last
+            elif k == 0:
+                return self._empty2
+            else:
+                o = bp._arena_used  # BroadPhase._take, written out
+                e = o + k
+                if e <= bp._arena_rows:
+                    bp._arena_used = e
+                    out = bp._last = bp._arena[o:e]
+                else:
+                    out = bp._take(k)
+            return out if self._no_function is None else self._drop_null(out, 0)
         finally:
             lock.release()
-
-    def _pairs(self, data):
-        # `pairs`, under the broad phase's lock.
-        bp = self.broadphase
-        if data is not self._views_of or bp._bound is not self._views:
-            self._check_data(data)  # once per MjData (here, where its arrays are bound), not per step
-            if self._disabled:
-                return self._empty2
-            # The bindings build new numpy views at every attribute access (~0.3 us a call), and
-            # an MjData's arrays never move: bind the last MjData's views to the kernel's context
-            # (held there, so they stay valid), and each step is a call with one argument. Bound
-            # again if someone bound other arrays to self.broadphase in between.
-            bp._bind(data.xpos, data.xmat.reshape(-1, 3, 3))
-            self._views_of = data
-            self._views = bp._bound
-        # BroadPhase.pairs() on the bound arrays, written out (one Python call less on the fast path).
-        k = bp._step_bound(bp._ctx_addr)
-        if k < 0:  # a bad pose raises; full buffers are grown and the step rerun
-            try:
-                k = bp._rerun(*bp._bound, k)
-            except ValueError as exc:
-                if not np.any(bp._bound[1]):
-                    raise ValueError("data: body poses are all zero; run mujoco.mj_kinematics, "
-                                     "mj_forward or mj_step on it first") from exc
-                raise
-        if k >= _RET_SAME:  # the pairs of the last non-empty result: its array again
-            out = bp._last
-        elif k == 0:
-            return self._empty2
-        else:
-            o = bp._arena_used  # BroadPhase._take, written out
-            e = o + k
-            if e <= bp._arena_rows:
-                bp._arena_used = e
-                out = bp._last = bp._arena[o:e]
-            else:
-                out = bp._take(k)
-        return out if self._no_function is None else self._drop_null(out, 0)
 
     def world_bounds(self, data: mujoco.MjData, of: str = "geoms", inflate: bool = True):
         """World bounds of every geom (or body) at the poses of ``data``.
@@ -1160,3 +1156,4 @@ def default_scene(seed: int = 0, objects: int = 40) -> mujoco.MjModel:
             act.ctrllimited = 1
             act.ctrlrange = [-1.0, 1.0]
     return spec.compile()
+

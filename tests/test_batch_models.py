@@ -62,8 +62,8 @@ def random_model(seed: int, bodies: int = 8) -> mujoco.MjModel:
         else:
             inner = ""
             for k in reversed(range(int(rng.integers(1, 4)))):
-                inner = (f'<body name="b{b}_{k}" pos=".12 0 0"><joint type="hinge" axis="0 {rng.uniform(.2, 1):.2f} 1"/>'
-                         f'{geom()}{inner}</body>')
+                axis = f"0 {rng.uniform(.2, 1):.2f} 1"
+                inner = f'<body name="b{b}_{k}" pos=".12 0 0"><joint type="hinge" axis="{axis}"/>{geom()}{inner}</body>'
             body_xml.append(f'{head}><joint type="hinge" axis="0 0 1"/>{geom()}{inner}</body>')
     contact = []
     everything = names + [w.split('"')[1] for w in world]
