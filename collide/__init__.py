@@ -13,6 +13,7 @@ _checked.enable_boundscheck()
 from . import csg, hull, shapes, volumes  # noqa: E402
 from .articulation import Articulation  # noqa: E402
 from .broadphase import BroadPhase  # noqa: E402
+from .contacts import Contacts  # noqa: E402
 from .convex import Cone, Cylinder, Ellipsoid  # noqa: E402
 from .pointcloud import PointCloud, difference, intersection, union  # noqa: E402
 from .signed_distance import Distance, distance  # noqa: E402
@@ -23,6 +24,7 @@ __all__ = [
     "Articulation",
     "BroadPhase",
     "Cone",
+    "Contacts",
     "Cylinder",
     "Distance",
     "Ellipsoid",

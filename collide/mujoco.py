@@ -76,6 +76,7 @@ _TIMER_BROAD = int(mujoco.mjtTimer.mjTIMER_COL_BROAD)
 
 __all__ = [
     "BroadPhase",
+    "Collider",
     "articulation",
     "candidate_counter",
     "compare",
@@ -1157,3 +1158,5 @@ def default_scene(seed: int = 0, objects: int = 40) -> mujoco.MjModel:
             act.ctrlrange = [-1.0, 1.0]
     return spec.compile()
 
+
+from .collider import Collider  # noqa: E402  (contacts: collide.collider, which does not import mujoco)

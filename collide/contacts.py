@@ -1,0 +1,323 @@
+"""Contacts of geom pairs: the narrow phase of a MuJoCo-style model, on flat arrays.
+
+`GeomTable` reads a model's geoms once (any object with MuJoCo's ``MjModel`` attribute names:
+this module does not import ``mujoco``, DESIGN.md's layers) into the flat per-geom arrays of
+`collide._kernels.manifold`; `narrow_phase` takes a broad phase's ``(K, 2)`` pairs and the geoms'
+world poses and returns `Contacts`. `collide.mujoco.Collider` wires the two to MuJoCo's data.
+
+The shapes, as MuJoCo collides them (``src/engine/engine_collision_*.c``):
+
+* sphere, capsule, box: `PointCloud` s (a point, a segment, eight corners; plus a radius), exact;
+* mesh: the convex hull of its vertices (``mesh_vert``, in the geom frame);
+* cylinder, ellipsoid: the exact `collide.Cylinder` and `collide.Ellipsoid` (a support function);
+* plane: the half-space ``z <= 0`` of its frame (its size is visual only);
+* height field and SDF: not collided; their pairs are reported in `Contacts.skipped`.
+
+When a contact is made (MuJoCo 4, ``getMargin`` / ``getGap`` in engine_collision_driver.c, and
+checked on this install by tests/test_contacts.py): a pair makes contacts when their signed
+distance is at most ``margin + gap``, with ``margin`` the sum of the two geoms' ``geom_margin``
+and ``gap`` the sum of their ``geom_gap``, or the ``<pair>``'s own ``margin`` and ``gap`` for an
+explicit pair; with ``mjENBL_OVERRIDE`` every margin is ``opt.o_margin`` (the gaps stay). A
+contact at or beyond ``margin`` lies in the gap (MuJoCo keeps it, flagged ``exclude``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import shapes as _shapes
+from ._kernels import manifold as _km
+from .convex import Cylinder, Ellipsoid
+from .support import support_data
+
+__all__ = ["Contacts", "GEOM_TYPES", "GeomTable", "geom_distance", "narrow_phase"]
+
+# MuJoCo's geom types (mjtGeom; tests/test_contacts.py checks them against the bindings).
+PLANE, HFIELD, SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX, MESH, SDF = range(9)
+GEOM_TYPES = {"plane": PLANE, "hfield": HFIELD, "sphere": SPHERE, "capsule": CAPSULE, "ellipsoid": ELLIPSOID,
+              "cylinder": CYLINDER, "box": BOX, "mesh": MESH, "sdf": SDF}
+# MuJoCo's mjENBL_OVERRIDE bit (mjtEnableBit; checked likewise).
+ENBL_OVERRIDE = 1 << 0
+
+
+@dataclass(frozen=True, eq=False)
+class Contacts:
+    """Contacts of a set of geom pairs, one row per contact point.
+
+    Attributes
+    ----------
+    geom : (K, 2) int32
+        The two geoms, lower id first.
+    dist : (K,) float64
+        Signed distance at the contact (negative: penetration).
+    pos : (K, 3) float64
+        Midway between the two surfaces, world frame (MuJoCo's ``contact.pos``).
+    normal : (K, 3) float64
+        Unit, from ``geom[:, 0]`` to ``geom[:, 1]`` (MuJoCo's ``contact.frame[:3]`` for that order).
+    margin : (K,) float64
+        The pair's margin (MuJoCo's ``includemargin``): a contact with ``dist >= margin`` lies
+        in the gap, and MuJoCo flags it ``exclude``.
+    skipped : (S, 2) int32
+        Pairs not collided (a height field or SDF geom): reported, not dropped silently.
+    """
+
+    geom: np.ndarray
+    dist: np.ndarray
+    pos: np.ndarray
+    normal: np.ndarray
+    margin: np.ndarray
+    skipped: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.dist)
+
+    def deepest(self) -> dict:
+        """``{(g1, g2): row}``: each pair's deepest contact (the row of its smallest ``dist``)."""
+        best: dict = {}
+        for i, (a, b) in enumerate(self.geom.tolist()):
+            j = best.get((a, b))
+            if j is None or self.dist[i] < self.dist[j]:
+                best[(a, b)] = i
+        return best
+
+
+def _geom_shape(gtype: int, size: np.ndarray, vert: np.ndarray | None):
+    # (shape for support_data, plane rule, below-centre flag), or None for a plane/skipped type.
+    if gtype == SPHERE:
+        return _shapes.sphere(float(size[0])), _km.RULE_POINTS, False
+    if gtype == CAPSULE:
+        return _shapes.capsule(float(size[0]), float(size[1])), _km.RULE_POINTS, False
+    if gtype == BOX:
+        return _shapes.box(np.asarray(size[:3], dtype=np.float64)), _km.RULE_VERTICES, True
+    if gtype == MESH:
+        return _shapes.mesh(np.asarray(vert, dtype=np.float64)), _km.RULE_VERTICES, False
+    if gtype == CYLINDER:
+        return Cylinder(float(size[0]), float(size[1])), _km.RULE_CYLINDER, False
+    if gtype == ELLIPSOID:
+        return Ellipsoid(np.asarray(size[:3], dtype=np.float64)), _km.RULE_SUPPORT, False
+    raise ValueError(f"unsupported geom type {gtype}")
+
+
+class GeomTable:
+    """Per-geom narrow-phase data of a model, flat (the arrays `collide._kernels.manifold` reads).
+
+    Parameters
+    ----------
+    model : mujoco.MjModel or an object with its attribute names
+        Read once: ``geom_type``, ``geom_size``, ``geom_dataid``, ``mesh_vertadr``,
+        ``mesh_vertnum``, ``mesh_vert``, ``geom_margin``, ``geom_gap``, ``pair_geom1``,
+        ``pair_geom2``, ``pair_margin``, ``pair_gap``, ``opt.enableflags``, ``opt.o_margin``.
+
+    Attributes
+    ----------
+    ngeom : int
+    cls : (G,) int8
+        `collide._kernels.manifold.PLANE`, ``CONVEX`` or ``SKIPPED``.
+    rule : (G,) int8
+        Plane rule (``RULE_*``).
+    below : (G,) bool
+    kind : (G,) int64
+    prm : (G, 4) float64
+    pts : (N, 3) float64
+    pts_adr, pts_num, nbr_start_adr, nbr_start_num, nbr_adr, nbr_num : (G,) int64
+    nbr_start, nbr : int32 arrays
+        Each geom's `collide.support.SupportData`, concatenated.
+    rbound : (G,) float64
+        A ball about the geom's origin holding the geom.
+    size : (G,) float64
+    geom_margin, geom_gap : (G,) float64
+    pair_key : (P,) int64
+        ``g1 * G + g2``, lower id first, sorted; ``pair_margin``, ``pair_gap`` : (P,) float64 in its order.
+    override : bool
+    o_margin : float
+    """
+
+    def __init__(self, model):
+        types = np.asarray(model.geom_type, dtype=np.int64)
+        G = len(types)
+        self.ngeom = G
+        sizes = np.asarray(model.geom_size, dtype=np.float64).reshape(G, 3)
+        self.cls = np.full(G, _km.CONVEX, np.int8)
+        self.rule = np.zeros(G, np.int8)
+        self.below = np.zeros(G, np.bool_)
+        self.kind = np.zeros(G, np.int64)
+        self.prm = np.zeros((G, 4))
+        self.rbound = np.zeros(G)
+        self.size = np.ones(G)
+        pts, ns, nb = [], [], []
+        self.pts_adr, self.pts_num = np.zeros(G, np.int64), np.zeros(G, np.int64)
+        self.nbr_start_adr, self.nbr_start_num = np.zeros(G, np.int64), np.zeros(G, np.int64)
+        self.nbr_adr, self.nbr_num = np.zeros(G, np.int64), np.zeros(G, np.int64)
+        npts = nns = nnb = 0
+        for g in range(G):
+            t = int(types[g])
+            if t == PLANE:
+                self.cls[g] = _km.PLANE
+                continue
+            if t in (HFIELD, SDF):
+                self.cls[g] = _km.SKIPPED
+                continue
+            vert = None
+            if t == MESH:
+                mid = int(model.geom_dataid[g])
+                adr, num = int(model.mesh_vertadr[mid]), int(model.mesh_vertnum[mid])
+                vert = np.asarray(model.mesh_vert[adr:adr + num], dtype=np.float64)
+            try:
+                shape, rule, below = _geom_shape(t, sizes[g], vert)
+                sd = support_data(shape)
+            except ValueError as exc:
+                raise ValueError(f"model: geom {g}: {exc}") from None
+            self.rule[g], self.below[g], self.kind[g], self.prm[g] = rule, below, sd.kind, sd.prm
+            self.size[g] = sd.size
+            if t == CYLINDER:
+                rb = math.hypot(sizes[g, 0], sizes[g, 1])
+            elif t == ELLIPSOID:
+                rb = float(np.max(sizes[g]))
+            else:
+                rb = float(np.sqrt(np.max(np.einsum("ij,ij->i", sd.points, sd.points)))) + float(sd.prm[3])
+            self.rbound[g] = rb * (1.0 + 1e-12)
+            self.pts_adr[g], self.pts_num[g] = npts, len(sd.points)
+            self.nbr_start_adr[g], self.nbr_start_num[g] = nns, len(sd.nbr_start)
+            self.nbr_adr[g], self.nbr_num[g] = nnb, len(sd.nbr)
+            npts += len(sd.points)
+            nns += len(sd.nbr_start)
+            nnb += len(sd.nbr)
+            pts.append(sd.points)
+            ns.append(sd.nbr_start)
+            nb.append(sd.nbr)
+        self.pts = np.ascontiguousarray(np.concatenate(pts) if pts else np.zeros((0, 3)))
+        self.nbr_start = np.ascontiguousarray(np.concatenate(ns) if ns else np.zeros(0, np.int32), dtype=np.int32)
+        self.nbr = np.ascontiguousarray(np.concatenate(nb) if nb else np.zeros(0, np.int32), dtype=np.int32)
+        self.geom_margin = np.ascontiguousarray(model.geom_margin, dtype=np.float64)
+        self.geom_gap = np.ascontiguousarray(model.geom_gap, dtype=np.float64)
+        p1 = np.asarray(model.pair_geom1, dtype=np.int64)
+        p2 = np.asarray(model.pair_geom2, dtype=np.int64)
+        key = np.minimum(p1, p2) * G + np.maximum(p1, p2)
+        order = np.argsort(key, kind="stable")  # the first of duplicate <pair>s wins
+        self.pair_key = np.ascontiguousarray(key[order])
+        self.pair_margin = np.ascontiguousarray(np.asarray(model.pair_margin, dtype=np.float64)[order])
+        self.pair_gap = np.ascontiguousarray(np.asarray(model.pair_gap, dtype=np.float64)[order])
+        self.override = bool(int(model.opt.enableflags) & ENBL_OVERRIDE)
+        self.o_margin = float(model.opt.o_margin)
+
+    def kernel_args(self) -> tuple:
+        """The per-geom arguments of `collide._kernels.manifold.collide_pairs`, in its order."""
+        return (self.cls, self.rule, self.below, self.kind, self.prm, self.pts, self.pts_adr, self.pts_num,
+                self.nbr_start, self.nbr_start_adr, self.nbr_start_num, self.nbr, self.nbr_adr, self.nbr_num,
+                self.rbound, self.size, self.geom_margin, self.geom_gap, self.pair_key, self.pair_margin,
+                self.pair_gap, self.override, self.o_margin)
+
+    def shape_args(self) -> tuple:
+        """The per-geom arguments of `collide._kernels.manifold.pair_signed_distance`, in its order."""
+        return (self.cls, self.kind, self.prm, self.pts, self.pts_adr, self.pts_num, self.nbr_start,
+                self.nbr_start_adr, self.nbr_start_num, self.nbr, self.nbr_adr, self.nbr_num, self.size)
+
+
+def _poses(table: GeomTable, geom_xpos, geom_xmat) -> tuple[np.ndarray, np.ndarray]:
+    # Contiguous float64 (G, 3) and (G, 3, 3) views (copies only when needed), shapes checked.
+    G = table.ngeom
+    xpos = np.asarray(geom_xpos)
+    xmat = np.asarray(geom_xmat)
+    if xpos.shape != (G, 3):
+        raise ValueError(f"geom_xpos: expected shape ({G}, 3), got {xpos.shape}")
+    if xmat.shape not in ((G, 9), (G, 3, 3)):
+        raise ValueError(f"geom_xmat: expected shape ({G}, 9) or ({G}, 3, 3), got {xmat.shape}")
+    xpos = np.ascontiguousarray(xpos, dtype=np.float64)
+    xmat = np.ascontiguousarray(xmat, dtype=np.float64).reshape(G, 3, 3)
+    return xpos, xmat
+
+
+def narrow_phase(table: GeomTable, pairs, geom_xpos, geom_xmat) -> Contacts:
+    """Contacts of the geom pairs ``pairs`` at the geoms' world poses.
+
+    Parameters
+    ----------
+    table : GeomTable
+    pairs : (K, 2) array_like of int
+        Geom ids (a broad phase's output), lower first.
+    geom_xpos : (G, 3) array_like of float
+    geom_xmat : (G, 9) or (G, 3, 3) array_like of float
+        World poses of every geom (MuJoCo's ``data.geom_xpos``, ``data.geom_xmat``).
+
+    Returns
+    -------
+    Contacts
+
+    Raises
+    ------
+    ValueError
+        Wrong shapes, a geom id out of range or a pair not lower-id first, or a non-finite pose
+        of a geom in a pair (naming it).
+    """
+    P = np.asarray(pairs)
+    if P.ndim != 2 or P.shape[1] != 2 or (P.size and not np.issubdtype(P.dtype, np.integer)):
+        raise ValueError(f"pairs: expected a (K, 2) integer array, got shape {P.shape}, dtype {P.dtype}")
+    P = np.ascontiguousarray(P, dtype=np.int32)
+    if len(P) and (P.min() < 0 or P.max() >= table.ngeom or np.any(P[:, 0] >= P[:, 1])):
+        raise ValueError(f"pairs: geom ids must be in [0, {table.ngeom}) with the lower id first")
+    xpos, xmat = _poses(table, geom_xpos, geom_xmat)
+    K = len(P)
+    cap = _km.MAX_PER_PAIR * K
+    geom = np.empty((cap, 2), np.int32)
+    dist = np.empty(cap)
+    pos = np.empty((cap, 3))
+    normal = np.empty((cap, 3))
+    margin = np.empty(cap)
+    skipped = np.zeros(K, np.bool_)
+    n = _km.collide_pairs(P, xpos, xmat, *table.kernel_args(), geom, dist, pos, normal, margin, skipped)
+    if n < 0:
+        g = (-n - 1) // 8
+        raise ValueError(f"geom_xpos/geom_xmat: non-finite pose (NaN or inf) of geom {g}")
+    return Contacts(geom[:n], dist[:n], pos[:n], normal[:n], margin[:n], P[skipped])
+
+
+def geom_distance(table: GeomTable, g1: int, g2: int, geom_xpos, geom_xmat, distmax: float) -> tuple[float, np.ndarray]:
+    """Signed distance of two geoms, capped at ``distmax``, and the segment between them.
+
+    Parameters
+    ----------
+    table : GeomTable
+    g1, g2 : int
+        Two different geom ids, in any order.
+    geom_xpos : (G, 3) array_like of float
+    geom_xmat : (G, 9) or (G, 3, 3) array_like of float
+    distmax : float
+
+    Returns
+    -------
+    dist : float
+        ``min(signed distance, distmax)``; ``distmax`` for two planes (no function, as in MuJoCo).
+    fromto : (6,) float64
+        The nearest point of ``g1`` then of ``g2`` (world frame) when ``dist < distmax``, else zeros
+        (as ``mujoco.mj_geomDistance``).
+
+    Raises
+    ------
+    ValueError
+        A bad id, a height field or SDF geom (not supported), a non-finite pose or ``distmax``.
+    """
+    G = table.ngeom
+    for name, g in (("g1", g1), ("g2", g2)):
+        if not (isinstance(g, (int, np.integer)) and 0 <= int(g) < G):
+            raise ValueError(f"{name}: expected a geom id in [0, {G}), got {g!r}")
+    if int(g1) == int(g2):
+        raise ValueError(f"g1, g2: the same geom ({int(g1)})")
+    distmax = float(distmax)
+    if not math.isfinite(distmax):
+        raise ValueError(f"distmax: must be finite, got {distmax}")
+    xpos, xmat = _poses(table, geom_xpos, geom_xmat)
+    out = np.zeros(7)
+    err = _km.pair_signed_distance(int(g1), int(g2), xpos, xmat, *table.shape_args(), out)
+    if err == 2:
+        raise ValueError(f"g1, g2: geom {int(g1) if table.cls[int(g1)] == _km.SKIPPED else int(g2)} is a height "
+                         "field or SDF, which the narrow phase does not collide")
+    if err == 3:
+        raise ValueError(f"geom_xpos/geom_xmat: non-finite pose (NaN or inf) of geom {int(g1)} or {int(g2)}")
+    fromto = np.zeros(6)
+    if err == 1 or not out[0] < distmax:
+        return distmax, fromto
+    fromto[:] = out[1:7]
+    return float(out[0]), fromto
