@@ -19,6 +19,9 @@ distance is at most ``margin + gap``, with ``margin`` the sum of the two geoms' 
 and ``gap`` the sum of their ``geom_gap``, or the ``<pair>``'s own ``margin`` and ``gap`` for an
 explicit pair; with ``mjENBL_OVERRIDE`` every margin is ``opt.o_margin`` (the gaps stay). A
 contact at or beyond ``margin`` lies in the gap (MuJoCo keeps it, flagged ``exclude``).
+With ``mjENBL_OVERRIDE`` MuJoCo's broad phase grows its body boxes by ``o_margin / 2`` per geom
+without the gaps (``makeAAMM``), so a dynamic pair between ``o_margin`` and ``o_margin + gap``
+gets contacts from MuJoCo only where its boxes (in its sweep frame) still overlap; ours always.
 """
 
 from __future__ import annotations
