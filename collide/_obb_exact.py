@@ -156,7 +156,7 @@ def _supports(P: np.ndarray, rotation: np.ndarray, k: int = 1) -> np.ndarray:
 
 
 def exact_axes(P: np.ndarray, radius: float, rotation: np.ndarray, graph, rounds: int | None = None,
-               direct: int = DIRECT, tol: float = TOL):
+               direct: int = DIRECT, tol: float = TOL, seeds=(), seed_k: int = 1):
     """Axes of the minimum-volume box of ``hull(P) ⊕ ball(radius)``.
 
     Parameters
@@ -178,6 +178,9 @@ def exact_axes(P: np.ndarray, radius: float, rotation: np.ndarray, graph, rounds
         Hulls of up to this many vertices are searched whole (no subset rounds).
     tol : float
         Relative tolerance of the searches (and of the certificate).
+    seeds : sequence of (3, 3) float64
+        Rotations whose boxes' ``seed_k`` most extreme vertices along each axis join the first
+        subset (good boxes found otherwise: their supports are likely the optimum's).
 
     Returns
     -------
@@ -209,6 +212,8 @@ def exact_axes(P: np.ndarray, radius: float, rotation: np.ndarray, graph, rounds
         keep[np.argmax(proj, axis=0)] = True
         keep[np.argmin(proj, axis=0)] = True
         keep[_supports(P, best_rot)] = True
+        for seed in seeds:
+            keep[_supports(P, seed, seed_k)] = True
         done = 0
         limit = m // 3 if rounds is None else m
         while keep.sum() <= limit and (rounds is None or done < rounds):

@@ -128,18 +128,25 @@ def _fixed(P, sup, ax, radius, out):
 
 
 @nb.njit(cache=True)
-def _s2_min(p0, qc, rs, lo, hi):
-    # Minimum over t in [lo, hi] of p0 + qc cos 2t + rs sin 2t (= |a(t) x d2|^2).
-    f0 = p0 + qc * np.cos(2.0 * lo) + rs * np.sin(2.0 * lo)
-    f1 = p0 + qc * np.cos(2.0 * hi) + rs * np.sin(2.0 * hi)
-    m = min(f0, f1)
+def _s2_min(fam, lo, hi):
+    # Minimum over t in [lo, hi] of |a(t) x d2|^2 = alpha^2 + beta^2 = p0 + qc cos 2t + rs sin 2t.
+    # Without cancellation: at the ends from alpha and beta themselves, and at the trough (if
+    # inside) as D^2 / (p0 + k), the product of the squared singular values of (alpha, beta)'s
+    # 2 x 2 map over its largest, rather than p0 - k.
+    m = np.inf
+    for t in (lo, hi):
+        ct, st = np.cos(t), np.sin(t)
+        al = fam[18] * ct + fam[19] * st
+        be = fam[20] * ct + fam[21] * st
+        m = min(m, al * al + be * be)
+    p0, qc, rs = fam[23], fam[24], fam[25]
     k = np.sqrt(qc * qc + rs * rs)
     if k > 0.0:
         trough = 0.5 * (np.arctan2(rs, qc) + np.pi)  # 2t - atan2(rs, qc) = pi
         trough = lo + (trough - lo) % np.pi
         if trough <= hi:
-            m = p0 - k
-    return max(m, 0.0)
+            m = fam[22] * fam[22] / (p0 + k)
+    return m
 
 
 @nb.njit(cache=True)
@@ -152,7 +159,7 @@ def _speeds(fam, lo, hi, spd):
     if dd == 0.0:
         p1, p2 = 0.0, 0.0
     else:
-        s2m = _s2_min(fam[23], fam[24], fam[25], lo, hi)
+        s2m = _s2_min(fam, lo, hi)
         if s2m <= 0.0:
             return False
         p1 = dd / s2m
@@ -228,44 +235,45 @@ def _crossing(lo, hi, fam, P, sup_l, sup_h, radius, ax, g):
 
 
 @nb.njit(cache=True)
-def _frozen(P, sup, ax, ax_lo, ax_hi, radius, h):
+def _frozen(P, sup, ax, ax_lo, ax_hi, radius, h, tmp):
     # Lower bound over [lo, hi] (width h) of the bound function of the supports sup, taking b's
     # motion as a displacement: b(x) stays within beta = max |b(end) - b(t)| of b = b(t) (it
     # turns one way along its circle), so g_b >= g_b(t) - |d_b| beta and, as c = a x b,
     # g_c(x) >= d_c . (a(x) x b) - |d_c| beta. What is left, F = G_a(x) (d_c . (a(x) x b) + 2r -
     # |d_c| beta), has |a'| = |a''| = 1 only: its Taylor bound stays sharp where b's speed
     # bounds blow up (near a = +-d2, where b hardly moves), and where F cannot turn on the
-    # interval its least value is at an end.
+    # interval its least value is at an end. tmp: (3,) scratch.
     a, b = ax[0], ax[1]
     beta = 0.0
     for e in range(2):
         x = ax_lo[1] if e == 0 else ax_hi[1]
-        dist = np.sqrt((x[0] - b[0]) ** 2 + (x[1] - b[1]) ** 2 + (x[2] - b[2]) ** 2)
-        beta = max(beta, dist)
-    d = np.empty((3, 3))
-    nd = np.empty(3)
-    for i in range(3):
-        hv, lv = sup[2 * i], sup[2 * i + 1]
-        for k in range(3):
-            d[i, k] = P[hv, k] - P[lv, k]
-        nd[i] = np.sqrt(d[i, 0] ** 2 + d[i, 1] ** 2 + d[i, 2] ** 2)
-    gb = dot3(d[1], b) + 2.0 * radius - nd[1] * beta
-    ga = dot3(d[0], a) + 2.0 * radius
-    hh = dot3(d[2], ax[2]) + 2.0 * radius - nd[2] * beta
-    low_a, low_h = ga - nd[0] * 0.5 * h, hh - nd[2] * 0.5 * h
+        beta = max(beta, np.sqrt((x[0] - b[0]) ** 2 + (x[1] - b[1]) ** 2 + (x[2] - b[2]) ** 2))
+    ha, la, hb, lb_, hc, lc = sup[0], sup[1], sup[2], sup[3], sup[4], sup[5]
+    da0, da1, da2 = P[ha, 0] - P[la, 0], P[ha, 1] - P[la, 1], P[ha, 2] - P[la, 2]
+    db0, db1, db2 = P[hb, 0] - P[lb_, 0], P[hb, 1] - P[lb_, 1], P[hb, 2] - P[lb_, 2]
+    dc0, dc1, dc2 = P[hc, 0] - P[lc, 0], P[hc, 1] - P[lc, 1], P[hc, 2] - P[lc, 2]
+    na = np.sqrt(da0 * da0 + da1 * da1 + da2 * da2)
+    nb_ = np.sqrt(db0 * db0 + db1 * db1 + db2 * db2)
+    nc = np.sqrt(dc0 * dc0 + dc1 * dc1 + dc2 * dc2)
+    gb = db0 * b[0] + db1 * b[1] + db2 * b[2] + 2.0 * radius - nb_ * beta
+    ga = da0 * a[0] + da1 * a[1] + da2 * a[2] + 2.0 * radius
+    c = ax[2]
+    hh = dc0 * c[0] + dc1 * c[1] + dc2 * c[2] + 2.0 * radius - nc * beta
+    low_a, low_h = ga - na * 0.5 * h, hh - nc * 0.5 * h
     if not (gb >= 0.0 and low_a >= 0.0 and low_h >= 0.0):
         return 0.0
-    tmp = np.empty(3)
     cross3(ax[3], b, tmp)  # a' x b
     f = ga * hh
-    fp = dot3(d[0], ax[3]) * hh + ga * dot3(d[2], tmp)
-    m2 = nd[0] * (hh + nd[2] * 0.5 * h) + 2.0 * nd[0] * nd[2] + (ga + nd[0] * 0.5 * h) * nd[2]
+    ap = ax[3]
+    fp = (da0 * ap[0] + da1 * ap[1] + da2 * ap[2]) * hh + ga * (dc0 * tmp[0] + dc1 * tmp[1] + dc2 * tmp[2])
+    m2 = na * (hh + nc * 0.5 * h) + 2.0 * na * nc + (ga + na * 0.5 * h) * nc
     lb = max(low_a * low_h, f - abs(fp) * 0.5 * h - m2 * h * h / 8.0)
     if abs(fp) > m2 * 0.5 * h:
         end = ax_lo if fp > 0.0 else ax_hi
         cross3(end[0], b, tmp)
-        fe = ((dot3(d[0], end[0]) + 2.0 * radius)
-              * (dot3(d[2], tmp) + 2.0 * radius - nd[2] * beta))
+        e0 = end[0]
+        fe = ((da0 * e0[0] + da1 * e0[1] + da2 * e0[2] + 2.0 * radius)
+              * (dc0 * tmp[0] + dc1 * tmp[1] + dc2 * tmp[2] + 2.0 * radius - nc * beta))
         lb = max(lb, fe)
     return gb * lb
 
@@ -285,6 +293,7 @@ def _interval(lo, hi, fam, P, start, adj, radius, sup_l, sup_h, v_lo, v_hi, sup_
     # Returns (volume at the midpoint, bound, best volume measured here, its t).
     h = hi - lo
     mid = 0.5 * (lo + hi)
+    thr = best * (1.0 - tol)  # a bound this high drops the interval: the cheap ones first
     ax, ax_lo, ax_hi, g, spd = wk[0:7], wk[7:14], wk[14:21], wk[21:24], wk[24:26]
     _axes(mid, fam, ax)
     sup_m[:] = sup_l
@@ -292,12 +301,45 @@ def _interval(lo, hi, fam, P, start, adj, radius, sup_l, sup_h, v_lo, v_hi, sup_
     found, t_found = v_mid, mid
     _axes(lo, fam, ax_lo)
     _axes(hi, fam, ax_hi)
-    lb = 0.0
+    lb = _frozen(P, sup_m, ax, ax_lo, ax_hi, radius, h, wk[26])
+    if lb >= thr:
+        return v_mid, lb, found, t_found
+    speeds = _speeds(fam, lo, hi, spd)
+    rise_m, rise_l, rise_h = 0, 0, 0  # +1: increasing on the interval, -1: decreasing
     for x in range(3):
         sup = sup_m if x == 0 else (sup_l if x == 1 else sup_h)
-        lb = max(lb, _frozen(P, sup, ax, ax_lo, ax_hi, radius, h))
-    if not _speeds(fam, lo, hi, spd):
-        return v_mid, lb, found, t_found
+        if x > 0:
+            lb = max(lb, _frozen(P, sup, ax, ax_lo, ax_hi, radius, h, wk[26]))
+        if speeds:
+            _fixed(P, sup, ax, radius, g)
+            b, slope, m2 = _taylor(g, spd, h)
+            lb = max(lb, b)
+            if b >= 0.0 and abs(slope) > m2 * 0.5 * h:
+                rise = 1 if slope > 0.0 else -1
+                if x == 0:
+                    rise_m = rise
+                elif x == 1:
+                    rise_l = rise
+                else:
+                    rise_h = rise
+        if lb >= thr:
+            return v_mid, lb, found, t_found
+    if rise_l == 1:
+        lb = max(lb, v_lo)
+    if rise_h == -1:
+        lb = max(lb, v_hi)
+    if rise_m != 0:
+        lb = max(lb, _fixed(P, sup_m, ax_lo if rise_m == 1 else ax_hi, radius, g))
+    if rise_l == -1 and rise_h == 1 and lb < thr:
+        cross, tc = _crossing(lo, hi, fam, P, sup_l, sup_h, radius, ax, g)
+        lb = max(lb, cross)
+        if cross >= 0.0 and cross < thr:
+            _axes(tc, fam, ax)
+            sup = sup_m.copy()
+            v = _measure(P, start, adj, ax, sup, radius)
+            if v < found:
+                found, t_found = v, tc
+    return v_mid, lb, found, t_found
     rise = np.zeros(3, dtype=np.int64)  # +1: increasing on the interval, -1: decreasing
     for x in range(3):
         sup = sup_m if x == 0 else (sup_l if x == 1 else sup_h)
@@ -425,3 +467,37 @@ def min_volume_axes(P, start, adj, s, q, phi, radius: float, rotation: np.ndarra
     frame = np.ascontiguousarray(rotation, dtype=np.float64).copy()
     best, evals = _search(P, start, adj, s, q, ids, span, float(radius), best, frame, float(tol))
     return frame, best, len(ids), evals
+
+
+@nb.njit(cache=True)
+def _family_boxes(P, start, adj, s, q, ids, span, radius):
+    # The boxes of every family at both ends and the midpoint of its interval: volumes (3K,)
+    # and axes (3K, 3, 3) (columns), measured with warm climbs.
+    k = ids.shape[0]
+    fam = np.empty(27)
+    wk = np.zeros((32, 3))
+    ax = wk[0:7]
+    sup = np.zeros(6, dtype=np.int64)
+    vols = np.empty(3 * k)
+    frames = np.empty((3 * k, 3, 3))
+    last_b = np.zeros(3)
+    for f in range(k):
+        _family(s, q, ids[f, 0], ids[f, 1], fam)
+        lo, hi = span[f, 0], span[f, 1]
+        _axes(0.5 * (lo + hi), fam, ax)
+        if dot3(ax[1], last_b) < 0.0:
+            fam[26] = -1.0
+        for e in range(3):
+            _axes(lo if e == 0 else (hi if e == 1 else 0.5 * (lo + hi)), fam, ax)
+            vols[3 * f + e] = _measure(P, start, adj, ax, sup, radius)
+            frames[3 * f + e] = ax[0:3].T
+        last_b[:] = ax[1]
+    return vols, frames
+
+
+def family_boxes(P, start, adj, s, q, phi, radius: float):
+    """The exact search's candidate boxes without its branch and bound: each edge-pair family
+    at both ends and the midpoint of its interval. Returns volumes ``(3K,)`` and rotations
+    ``(3K, 3, 3)`` (columns are axes), for a hull's Gauss map (`_obb_exact.solid_graph`)."""
+    ids, span = families(s, q, phi)
+    return _family_boxes(P, start, adj, s, q, ids, span, float(radius))

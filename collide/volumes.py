@@ -674,12 +674,16 @@ _FACE_CANDIDATES = 12
 _POLISH_STARTS = 3
 _POLISH_STEP = 0.1
 _POLISH_MIN_STEP = 1e-5
-# The "optimal" OBB is the exact one for hulls of up to this many vertices; larger hulls get
-# this many rounds of the exact search on a subset of their vertices (_obb_exact.exact_axes)
-# as one more start of the polish, or its box where it is certified minimal already.
-_EXACT_HULL = 32
-_SUBSET_ROUNDS = 2
+# The "optimal" OBB is the exact one for hulls of up to _EXACT_HULL vertices. Larger hulls get
+# _SUBSET_ROUNDS rounds of the exact search (to a relative _SUBSET_TOL) on their vertices
+# extreme along 13 directions and the _SEED_SUPPORTS most extreme along each axis of the best
+# _POLISH_STARTS starting boxes (_obb_exact.exact_axes): its box where it is certified minimal
+# for the whole hull, else one more start, polished first. Chosen with tests/bench/fitting.py
+# (the ablation in fitting.txt).
+_EXACT_HULL = 64
+_SUBSET_ROUNDS = 1
 _SUBSET_TOL = 1e-6
+_SEED_SUPPORTS = 2
 
 
 def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: float) -> np.ndarray:
@@ -716,13 +720,20 @@ def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: floa
             norm = float(np.linalg.norm(group_normal[g]))
             if norm > 0.0:
                 starts.append(_right_handed(_frame_from_normal(group_normal[g] / norm, verts)))
-    sub_rot, certified = _exact_rotation(verts, radius, _SUBSET_ROUNDS, 0, _SUBSET_TOL)
-    if certified:
-        return sub_rot
-    starts.append(sub_rot)
     vols = _box_volumes(verts, np.stack(starts), radius)
+    order = np.argsort(vols, kind="stable")
+    if _SUBSET_ROUNDS > 0:
+        # The exact search on the vertices extreme along 13 directions and near the faces of
+        # the best starting boxes: its box is the exact one where it is certified minimal for
+        # the whole hull, and otherwise one more start.
+        sub_rot, certified = _exact_rotation(verts, radius, _SUBSET_ROUNDS, 0, _SUBSET_TOL,
+                                             [starts[k] for k in order[:_POLISH_STARTS]])
+        if certified:
+            return sub_rot
+        starts.append(sub_rot)
+        order = np.r_[len(starts) - 1, order]
     chosen: list[np.ndarray] = []
-    for k in np.argsort(vols, kind="stable"):
+    for k in order:
         if len(chosen) == _POLISH_STARTS:
             break
         if not any(_same_axes(starts[k], c) for c in chosen):
@@ -738,7 +749,7 @@ def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: floa
 
 
 def _exact_rotation(verts: np.ndarray, radius: float, rounds: int | None = None,
-                    direct: int = _exact.DIRECT, tol: float = _exact.TOL) -> tuple[np.ndarray, bool]:
+                    direct: int = _exact.DIRECT, tol: float = _exact.TOL, seeds=()) -> tuple[np.ndarray, bool]:
     # verts: hull vertices (centred by the caller). Rotation of the minimum-volume box of
     # hull(verts) ⊕ ball(radius) and whether it is certified (always, unless ``rounds`` limits
     # the subset rounds of _obb_exact.exact_axes). By cases of the affine rank:
@@ -756,13 +767,16 @@ def _exact_rotation(verts: np.ndarray, radius: float, rounds: int | None = None,
     c = verts.mean(axis=0)
     scale = float(np.abs(verts - c).max())
     local = (verts - c) / scale
+    # In units of the hull's size; beyond 1e15 every orientation's volume is (2r)^3 within
+    # rounding (the widths change it by 3e-15 at most), and the cap keeps the cubes finite.
+    r = min(radius / scale, 1e15)
     if rank == 2:
         start = _right_handed(_frame_from_normal(axes[2], verts))
-        rot, _, certified = _exact.exact_axes(local, radius / scale, start,
-                                              lambda sub: _exact.flat_graph(sub, axes), rounds, direct, tol)
+        rot, _, certified = _exact.exact_axes(local, r, start, lambda sub: _exact.flat_graph(sub, axes),
+                                              rounds, direct, tol, seeds, _SEED_SUPPORTS)
     else:
-        rot, _, certified = _exact.exact_axes(local, radius / scale, _right_handed(axes.T),
-                                              _exact.solid_graph, rounds, direct, tol)
+        rot, _, certified = _exact.exact_axes(local, r, _right_handed(axes.T), _exact.solid_graph,
+                                              rounds, direct, tol, seeds, _SEED_SUPPORTS)
     return _orthonormal(rot), certified
 
 
@@ -783,12 +797,13 @@ def fit_obb(points: np.ndarray, radius: float = 0.0, method: str = "optimal") ->
         vertices through subsets of them with a certificate of optimality. ``O(E^2)`` pair
         screening plus about ``E^1.5`` evaluations (``E`` hull edges) for hulls with evenly
         spread faces, ``O(n^3)`` at worst (``n`` hull vertices). ``"optimal"`` (the default):
-        the exact box where the hull has at most 32 vertices; otherwise two rounds of the exact
-        search on subsets of the hull's vertices (their box where that is certified minimal
-        for the whole hull), else the best of their box, the PCA axes, the hull surface's
-        principal axes and boxes flush with the largest hull faces (each with its minimal-area
-        rectangle by rotating calipers), polished by a compass search on rotations; within
-        1 % of the exact box on every cloud tested (tests/test_obb_exact.py,
+        the exact box where the hull has at most 64 vertices. Otherwise one round of the exact
+        search on a subset of the hull's vertices (those extreme along 13 directions and near
+        the faces of the best starting boxes below): its box if it is certified minimal for the
+        whole hull; else it joins the starts (the PCA axes, the hull surface's principal axes
+        and boxes flush with the largest hull faces, each with its minimal-area rectangle by
+        rotating calipers), and the best three are polished by a compass search on rotations.
+        Within 1 % of the exact box on every cloud tested (tests/test_obb_exact.py,
         tests/bench/fitting.txt). ``"pca"``: principal axes of the hull vertices. Flat clouds
         (``radius = 0``) get a zero extent and their exact minimal-area rectangle.
 

@@ -7,6 +7,7 @@ box contains the cloud (the points themselves with no slack, and the points push
 radius in random directions with the usual 1e-9).
 """
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -160,6 +161,13 @@ def test_degenerate_clouds():
         box = V.fit_obb(seg, radius, "exact")
         assert np.allclose(np.sort(box.half_extents), np.sort([radius, radius, 1.5 + radius]), atol=1e-9)
         assert np.all(box.contains(seg))
+        # tiny and huge clouds (a radius 1e200 times the cloud's size: no overflow)
+        for scale in (1e-200, 1e-12, 1e100):
+            p = rng.normal(size=(12, 3)) * scale
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")
+                box = V.fit_obb(p, radius, "exact")
+            assert np.all(box.contains(p)) and _is_rotation(box.rotation)
         # two, three and four points
         for n in (2, 3, 4):
             p = rng.normal(size=(n, 3))
