@@ -5,7 +5,8 @@ A family is an ordered pair of hull edges ``(e1, e2)`` and an interval of ``t``:
 normal of one of its faces towards the other's, orthogonal to the edge), the axis
 ``b = a x d2 / |a x d2|`` is orthogonal to ``a`` and to ``e2``'s direction ``d2``, and the
 interval keeps ``b`` (or ``-b``) on the arc of ``e2``: there ``e1`` is flush with a face of the
-box and ``e2`` with an adjacent one.
+box and ``e2`` with an adjacent one. Each pair of edges is taken in one order only, unless the
+edges are orthogonal (see `_pieces`).
 """
 
 from __future__ import annotations

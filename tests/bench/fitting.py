@@ -1,25 +1,32 @@
-"""Benchmark: OBB and sphere fitting on 1000-point clouds (collide.volumes).
+"""Benchmark: OBB and sphere fitting (collide.volumes).
 
-For each kind of cloud, ``INSTANCES`` random instances (random rotation and offset) are fitted:
+OBBs, on 1000-point clouds: for each kind of cloud, ``INSTANCES`` random instances (random
+rotation and offset) are fitted by ``fit_obb(method="exact")``, ``"optimal"``, ``"pca"`` and
+``trimesh.bounds.oriented_bounds``; volumes are divided by the exact box's. As a cross-check
+of the exact box, a multistart search (``STARTS`` random rotations, each polished by a compass
+search on SO(3), the best few refined by Nelder-Mead on a rotation vector) must never beat it.
+Then the exact search alone on hulls of 20 to 2000 vertices (points on ellipsoids and spheres,
+every point a hull vertex), beside ``"optimal"`` and trimesh; the radius (the exact box of
+``hull ⊕ ball`` against the zero-radius optimum grown by the radius); and an ablation of the
+``"optimal"`` fitter's settings.
 
-* OBBs: ``fit_obb(method="optimal")``, ``fit_obb(method="pca")`` and
-  ``trimesh.bounds.oriented_bounds``. Volumes are divided by the best box found by a
-  multistart search (``STARTS`` random rotations, each polished by a compass search on SO(3),
-  the best few refined by Nelder-Mead on a rotation vector); the reference is the smallest of
-  that search and every method's box, and the table counts how often a method beat the search.
-* Spheres: ``fit_sphere(method="exact")``, ``"ritter"`` and ``trimesh.nsphere.minimum_nsphere``.
-  Radii are divided by the minimal radius: the exact sphere checked by the optimality
-  certificate (centre in the convex hull of the farthest points, by NNLS) and against an
-  independent SLSQP minimax solution.
+Spheres: ``fit_sphere(method="exact")``, ``"ritter"`` and ``trimesh.nsphere.minimum_nsphere``.
+Radii are divided by the minimal radius: the exact sphere checked by the optimality
+certificate (centre in the convex hull of the farthest points, by NNLS) and against an
+independent SLSQP minimax solution.
 
-Times are medians over instances of the median of ``REPEATS`` calls, all measured in this run.
+Times are CPU seconds of this process (``time.process_time``: the machine is shared, and
+every method timed is single-threaded), medians over instances of the median of ``REPEATS``
+calls, all measured in this run.
 
 Run: ``python tests/bench/fitting.py > tests/bench/fitting.txt``
 """
 
 from __future__ import annotations
 
+import os
 import platform
+import subprocess
 import sys
 import time
 
@@ -78,9 +85,9 @@ KINDS = ["ellipsoid surface", "elongated (gaussian)", "flat", "elbow (two limbs)
 def _timed(fn, *args):
     times, out = [], None
     for _ in range(REPEATS):
-        t = time.perf_counter()
+        t = time.process_time()
         out = fn(*args)
-        times.append(time.perf_counter() - t)
+        times.append(time.process_time() - t)
     return out, float(np.median(times))
 
 
@@ -139,71 +146,92 @@ def _certificate(points, center) -> float:
     return res / scale
 
 
-def main() -> None:
-    cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo")
-                if line.startswith("model name")), "?")
-    import os
+def _machine() -> str:
+    try:
+        lscpu = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
+        cpu = next(line.split(":", 1)[1].strip() for line in lscpu.splitlines() if "Model name" in line)
+    except (OSError, subprocess.CalledProcessError, StopIteration):
+        cpu = "?"
+    import numba
 
-    print("# OBB and sphere fitting, 1000-point clouds (tests/bench/fitting.py)")
-    print(f"# machine: {os.cpu_count()} cores, Python {platform.python_version()}, {cpu}; "
-          f"trimesh {trimesh.__version__}, numpy {np.__version__}")
-    print(f"# {INSTANCES} instances per kind, times = median over instances of the median "
-          f"of {REPEATS} calls")
-    print(f"# OBB reference: best of a {STARTS}-start search (compass polish + Nelder-Mead) "
-          "and every method's box")
+    return (f"{os.cpu_count()} cores, Model name: {cpu}, load average {os.getloadavg()[0]:.1f} at the "
+            f"start; Python {platform.python_version()}, numpy {np.__version__}, numba "
+            f"{numba.__version__}, trimesh {trimesh.__version__}")
+
+
+def _area(box) -> float:
+    return float(np.prod(np.sort(box.half_extents)[1:] * 2))
+
+
+def fmt_ratio(r):
+    return f"{np.mean(r):7.4f} {np.max(r):7.4f}" if len(r) else f"{'n/a':>7s} {'n/a':>7s}"
+
+
+def fmt_time(t):
+    return f"{np.median(t) * 1e3:8.2f}" if len(t) else f"{'n/a':>8s}"
+
+
+METHODS = ["optimal", "pca", "trimesh"]
+
+
+def main() -> None:
+    print("# OBB and sphere fitting (tests/bench/fitting.py), "
+          f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
+    print(f"# machine: {_machine()}")
+    print(f"# times: CPU time of this process, median over instances of the median of {REPEATS} calls")
     rng = np.random.default_rng(2026)
     V.fit_obb(rng.normal(size=(50, 3)))  # numba compilation / cache load outside the timings
-    all_ratio = {"optimal": [], "pca": [], "trimesh": []}
-    all_time = {"optimal": [], "pca": [], "trimesh": []}
+    V.fit_obb(rng.normal(size=(50, 3)), 0.0, "exact")
+    all_ratio = {k: [] for k in METHODS}
+    all_time = {k: [] for k in METHODS + ["exact"]}
     sph = {"exact": [], "ritter": [], "nsphere": []}
     sph_time = {"exact": [], "ritter": [], "nsphere": []}
     rows, srows = [], []
     worst_exact_vs_slsqp, worst_cert = -np.inf, 0.0
-    beat_search = 0
-    kept = []  # (cloud, reference volume) of the non-flat instances, for the ablation
+    least_search = np.inf
+    kept = []  # (cloud, exact volume) of the non-flat instances, for the ablation
     for kind in KINDS:
-        ratio = {k: [] for k in all_ratio}
-        times = {k: [] for k in all_ratio}
+        ratio = {k: [] for k in METHODS}
+        times = {k: [] for k in METHODS + ["exact"]}
         sratio = {k: [] for k in sph}
         stimes = {k: [] for k in sph}
         hull_sizes = []
         for _ in range(INSTANCES):
             p = _cloud(kind, rng) @ _rotation(rng).T + rng.normal(size=3) * 10
             hull_sizes.append(len(V._hull_points(p - p.mean(axis=0))[0]))
+            ex, times_ex = _timed(V.fit_obb, p, 0.0, "exact")
             opt, t_opt = _timed(V.fit_obb, p)
             pca, t_pca = _timed(V.fit_obb, p, 0.0, "pca")
             tm, t_tm = _timed(_trimesh_obb, p)
-            search = _multistart(p, rng)
-            vols = {"optimal": opt.volume(), "pca": pca.volume(), "trimesh": tm}
-            numeric = [v for v in vols.values() if isinstance(v, float)]
-            ref = min([search] + numeric)
+            times["exact"].append(times_ex)
             if kind == "flat":
                 # zero volume for every box with the plane's normal as an axis: compare areas
-                def area(box):
-                    return float(np.prod(np.sort(box.half_extents)[1:] * 2))
-                ref_area = min(area(opt), _flat_search(p, rng))
-                vols = {"optimal": area(opt), "pca": area(pca), "trimesh": tm}
-                ref = ref_area
-            beat_search += vols["optimal"] < search * (1 - 1e-9) and kind != "flat"
-            if kind != "flat":
+                ref = _area(ex)
+                least_search = min(least_search, _flat_search(p, rng) / ref)
+                vols = {"optimal": _area(opt), "pca": _area(pca), "trimesh": tm}
+            else:
+                ref = ex.volume()
+                least_search = min(least_search, _multistart(p, rng) / ref)
                 kept.append((p, ref))
-            for k in ratio:
+                vols = {"optimal": opt.volume(), "pca": pca.volume(), "trimesh": tm}
+            for k in METHODS:
                 if isinstance(vols[k], float):
                     ratio[k].append(vols[k] / ref)
                     times[k].append({"optimal": t_opt, "pca": t_pca, "trimesh": t_tm}[k])
-            ex, t_ex = _timed(V.fit_sphere, p)
+            sp, t_ex = _timed(V.fit_sphere, p)
             ri, t_ri = _timed(V.fit_sphere, p, 0.0, "ritter")
             ns_r, t_ns = _timed(_trimesh_nsphere, p)
-            r_min = ex.radius
-            worst_cert = max(worst_cert, _certificate(p, ex.center))
-            worst_exact_vs_slsqp = max(worst_exact_vs_slsqp, (ex.radius - _slsqp_radius(p)) / r_min)
-            for k, r, t in (("exact", ex.radius, t_ex), ("ritter", ri.radius, t_ri), ("nsphere", ns_r, t_ns)):
+            r_min = sp.radius
+            worst_cert = max(worst_cert, _certificate(p, sp.center))
+            worst_exact_vs_slsqp = max(worst_exact_vs_slsqp, (sp.radius - _slsqp_radius(p)) / r_min)
+            for k, r, t in (("exact", sp.radius, t_ex), ("ritter", ri.radius, t_ri), ("nsphere", ns_r, t_ns)):
                 if r is None:
                     continue
                 sratio[k].append(r / r_min)
                 stimes[k].append(t)
-        for k in ratio:
+        for k in all_ratio:
             all_ratio[k] += ratio[k]
+        for k in all_time:
             all_time[k] += times[k]
         for k in sph:
             sph[k] += sratio[k]
@@ -211,37 +239,32 @@ def main() -> None:
         rows.append((kind, int(np.median(hull_sizes)), ratio, times))
         srows.append((kind, sratio, stimes))
 
-    def fmt_ratio(r):
-        return f"{np.mean(r):7.4f} {np.max(r):7.4f}" if r else f"{'n/a':>7s} {'n/a':>7s}"
-
-    def fmt_time(t):
-        return f"{np.median(t) * 1e3:8.2f}" if t else f"{'n/a':>8s}"
-
     print()
-    print("## OBB volume / reference (mean, worst) and median time [ms]  (flat: area / reference area)")
-    print(f"{'cloud':32s} {'hull':>5s} | {'optimal':>15s} {'pca':>15s} {'trimesh':>15s} | "
-          f"{'t_opt':>8s} {'t_pca':>8s} {'t_trim':>8s} {'trim/opt':>8s}")
+    print(f"## OBB volume / exact box's volume (mean, worst) and median time [ms], {N}-point clouds, "
+          f"{INSTANCES} instances each (flat: area / exact area)")
+    print(f"{'cloud':30s} {'hull':>5s} | {'optimal':>15s} {'pca':>15s} {'trimesh':>15s} | "
+          f"{'t_exact':>8s} {'t_opt':>8s} {'t_pca':>8s} {'t_trim':>8s}")
     for kind, h, ratio, times in rows:
-        speed = (f"{np.median(times['trimesh']) / np.median(times['optimal']):8.1f}"
-                 if times["trimesh"] else f"{'n/a':>8s}")
-        print(f"{kind:32s} {h:5d} | {fmt_ratio(ratio['optimal'])} {fmt_ratio(ratio['pca'])} "
-              f"{fmt_ratio(ratio['trimesh'])} | {fmt_time(times['optimal'])} {fmt_time(times['pca'])} "
-              f"{fmt_time(times['trimesh'])} {speed}")
-    print(f"{'all':32s} {'':5s} | {fmt_ratio(all_ratio['optimal'])} {fmt_ratio(all_ratio['pca'])} "
-          f"{fmt_ratio(all_ratio['trimesh'])} | {fmt_time(all_time['optimal'])} {fmt_time(all_time['pca'])} "
-          f"{fmt_time(all_time['trimesh'])}")
+        print(f"{kind:30s} {h:5d} | {fmt_ratio(ratio['optimal'])} {fmt_ratio(ratio['pca'])} "
+              f"{fmt_ratio(ratio['trimesh'])} | {fmt_time(times['exact'])} {fmt_time(times['optimal'])} "
+              f"{fmt_time(times['pca'])} {fmt_time(times['trimesh'])}")
+    print(f"{'all':30s} {'':5s} | {fmt_ratio(all_ratio['optimal'])} {fmt_ratio(all_ratio['pca'])} "
+          f"{fmt_ratio(all_ratio['trimesh'])} | {fmt_time(all_time['exact'])} {fmt_time(all_time['optimal'])} "
+          f"{fmt_time(all_time['pca'])} {fmt_time(all_time['trimesh'])}")
     print("# n/a: trimesh.bounds.oriented_bounds raised on flat clouds here (it needs networkx)")
-    print(f"# optimal beat the {STARTS}-start search in {beat_search} of "
-          f"{INSTANCES * (len(KINDS) - 1)} non-flat instances")
+    print(f"# cross-check: a {STARTS}-start search (compass polish + Nelder-Mead; flat: a dense angle search) "
+          f"never beat the exact box: least search / exact = {least_search:.12f}")
+    _by_hull_size(rng)
+    _radius(rng)
     print()
     print("## Sphere radius / minimal radius (mean, worst) and median time [ms]")
-    print(f"{'cloud':32s} | {'exact':>15s} {'ritter':>15s} {'tm nsphere':>15s} | "
+    print(f"{'cloud':30s} | {'exact':>15s} {'ritter':>15s} {'tm nsphere':>15s} | "
           f"{'t_exact':>8s} {'t_ritter':>8s} {'t_nsph':>8s}")
     for kind, sratio, stimes in srows:
-        print(f"{kind:32s} | {fmt_ratio(sratio['exact'])} {fmt_ratio(sratio['ritter'])} "
+        print(f"{kind:30s} | {fmt_ratio(sratio['exact'])} {fmt_ratio(sratio['ritter'])} "
               f"{fmt_ratio(sratio['nsphere'])} | {fmt_time(stimes['exact'])} {fmt_time(stimes['ritter'])} "
               f"{fmt_time(stimes['nsphere'])}")
-    print(f"{'all':32s} | {fmt_ratio(sph['exact'])} {fmt_ratio(sph['ritter'])} {fmt_ratio(sph['nsphere'])} | "
+    print(f"{'all':30s} | {fmt_ratio(sph['exact'])} {fmt_ratio(sph['ritter'])} {fmt_ratio(sph['nsphere'])} | "
           f"{fmt_time(sph_time['exact'])} {fmt_time(sph_time['ritter'])} {fmt_time(sph_time['nsphere'])}")
     print(f"# exact sphere: worst optimality-certificate residual {worst_cert:.2e} (0 = centre in the hull "
           f"of the farthest points);")
@@ -251,30 +274,84 @@ def main() -> None:
     _ablation(kept)
 
 
-ABLATION = [  # (face candidates, polished starts, first polish step)
-    (0, 1, 0.1), (0, 2, 0.1), (4, 1, 0.1), (12, 1, 0.1), (12, 2, 0.1), (12, 3, 0.1),
-    (24, 3, 0.1), (12, 3, 0.3), (12, 3, 0.03)]
+SIZES = [20, 50, 100, 200, 500, 1000, 2000]
+SIZE_INSTANCES = 3
+
+
+def _by_hull_size(rng) -> None:
+    # Points on an ellipsoid (3:2:1) and on a sphere: every point is a hull vertex. The sphere is
+    # the hard case for the exact search's subset rounds (every orientation is nearly as good).
+    print()
+    print(f"## The exact search by hull size: median time [ms] over {SIZE_INSTANCES} instances, "
+          "and volume / exact (mean, worst)")
+    print(f"{'cloud':22s} {'hull':>5s} | {'t_exact':>8s} {'t_opt':>8s} {'t_trim':>8s} | "
+          f"{'optimal':>15s} {'trimesh':>15s}")
+    for name, axes in (("ellipsoid 3:2:1", [3.0, 2.0, 1.0]), ("sphere", [1.0, 1.0, 1.0])):
+        for n in SIZES:
+            times = {"exact": [], "optimal": [], "trimesh": []}
+            ratio = {"optimal": [], "trimesh": []}
+            for _ in range(SIZE_INSTANCES):
+                p = _sphere_surface(rng, n) * axes @ _rotation(rng).T
+                ex, t_ex = _timed(V.fit_obb, p, 0.0, "exact")
+                opt, t_opt = _timed(V.fit_obb, p)
+                tm, t_tm = _timed(_trimesh_obb, p)
+                times["exact"].append(t_ex)
+                times["optimal"].append(t_opt)
+                times["trimesh"].append(t_tm)
+                ratio["optimal"].append(opt.volume() / ex.volume())
+                ratio["trimesh"].append(tm / ex.volume())
+            print(f"{name:22s} {n:5d} | {fmt_time(times['exact'])} {fmt_time(times['optimal'])} "
+                  f"{fmt_time(times['trimesh'])} | {fmt_ratio(ratio['optimal'])} {fmt_ratio(ratio['trimesh'])}")
+
+
+def _radius(rng) -> None:
+    # The box of hull ⊕ ball(r) minimises prod(e_i + 2r): the exact box against the r = 0
+    # optimum grown by r, and "optimal" against the exact box; r = 10 % of the cloud's spread.
+    print()
+    print(f"## Radius r = 0.1 x the cloud's largest spread: volume / exact box's (mean, worst), "
+          f"{INSTANCES} instances each")
+    print(f"{'cloud':30s} | {'r=0 optimum+r':>15s} {'optimal':>15s}")
+    for kind in KINDS:
+        grown, opt = [], []
+        for _ in range(INSTANCES):
+            p = _cloud(kind, rng) @ _rotation(rng).T
+            r = 0.1 * float(np.ptp(p, axis=0).max())
+            ex = V.fit_obb(p, r, "exact").volume()
+            grown.append(V.box_from_axes(p, r, V.fit_obb(p, 0.0, "exact").rotation).volume() / ex)
+            opt.append(V.fit_obb(p, r).volume() / ex)
+        print(f"{kind:30s} | {fmt_ratio(grown)} {fmt_ratio(opt)}")
+
+
+ABLATION = [  # (exact up to hull size, subset rounds, seed supports, polished starts)
+    (0, 0, 1, 3), (32, 0, 1, 3), (64, 0, 1, 3), (32, 1, 1, 3), (64, 1, 1, 3), (64, 1, 2, 3),
+    (64, 1, 2, 5), (64, 2, 1, 3)]
 
 
 def _ablation(kept) -> None:
-    # The "optimal" fitter's settings, on the non-flat instances above (same references).
-    saved = (V._FACE_CANDIDATES, V._POLISH_STARTS, V._POLISH_STEP)
-    default = saved
+    # The "optimal" fitter's settings, on the non-flat instances above (ratios to the exact box).
+    names = ("_EXACT_HULL", "_SUBSET_ROUNDS", "_SEED_SUPPORTS", "_POLISH_STARTS")
+    saved = tuple(getattr(V, k) for k in names)
     print()
     print("## Ablation of fit_obb(method=\"optimal\") settings, non-flat instances above "
-          "(volume / reference: mean, worst; median time [ms])")
-    print(f"{'faces':>5s} {'starts':>6s} {'step':>5s} | {'mean':>7s} {'worst':>7s} | {'time':>7s}")
-    for faces, starts, step in ABLATION:
-        V._FACE_CANDIDATES, V._POLISH_STARTS, V._POLISH_STEP = faces, starts, step
+          "(volume / exact: mean, worst; median time [ms])")
+    print(f"{'exact<=':>7s} {'rounds':>6s} {'seeds':>5s} {'starts':>6s} | {'mean':>7s} {'worst':>7s} | "
+          f"{'time':>7s}")
+    for setting in ABLATION:
+        for k, v in zip(names, setting):
+            setattr(V, k, v)
         ratios, times = [], []
         for p, ref in kept:
             box, t = _timed(V.fit_obb, p)
             ratios.append(box.volume() / ref)
             times.append(t)
-        mark = "  <- default" if (faces, starts, step) == default else ""
-        print(f"{faces:5d} {starts:6d} {step:5.2f} | {np.mean(ratios):7.4f} {np.max(ratios):7.4f} | "
-              f"{np.median(times) * 1e3:7.2f}{mark}")
-    V._FACE_CANDIDATES, V._POLISH_STARTS, V._POLISH_STEP = saved
+        mark = "  <- default" if setting == saved else ""
+        print(f"{setting[0]:7d} {setting[1]:6d} {setting[2]:5d} {setting[3]:6d} | {np.mean(ratios):7.4f} "
+              f"{np.max(ratios):7.4f} | {np.median(times) * 1e3:7.2f}{mark}")
+    for k, v in zip(names, saved):
+        setattr(V, k, v)
+    print("# exact<=: the exact box up to this hull size; rounds: subset rounds of the exact search above it;")
+    print("# seeds: extreme vertices per axis of each polished start joining the subset; starts: polished")
+    print("# starts. (0, 0, 1, 3) is the fitter before the exact search (no exact box, no subset round).")
 
 
 def _flat_search(points, rng) -> float:
