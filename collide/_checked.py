@@ -10,7 +10,8 @@ checked mode
 - every set of views carved out of one buffer (`_kernels._ptr.check_span`) is checked to end
   inside that buffer.
 
-The kernels run several times slower; the answers are the same. Checked kernels are cached apart
+The kernels run several times slower and the batch kernels on one thread (numba runs a parallel
+loop that may raise serially); the answers are the same. Checked kernels are cached apart
 from the normal ones (their cache files carry ``checked`` in their name), so switching modes
 compiles each mode once. CI runs the broad-phase and MuJoCo tests once in this mode.
 """

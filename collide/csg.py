@@ -1098,9 +1098,10 @@ def _reorigin(bvh: BVH, o: np.ndarray, d: np.ndarray):
     # A ray that starts far from the scene (1e16 away from a unit box) has its entry and exit
     # parameters rounded to one value, and misses. Such a ray's origin is moved along it to just
     # before the root bound, o' = o + t0 d computed in double-double (`_two_prod`, `_two_sum`) so
-    # that o' is the point of the given ray to within an ulp of o' (near the scene, small), and
-    # t0 is added back to the distances. Rays starting near the scene are left bit for bit as
-    # they are.
+    # that o' is the point of the given ray to within an ulp of o', and the t0s are added back to
+    # the distances. t0 is a float: from 1e100 away one step lands within ~1e85 of the scene, so
+    # the step is repeated (each gains ~15 digits). Rays starting within 64 radii of the scene
+    # are left bit for bit as they are.
     if bvh.volume == "aabb":
         c = 0.5 * (bvh.node_lo[0] + bvh.node_hi[0])
         rad = 0.5 * float(np.linalg.norm(bvh.node_hi[0] - bvh.node_lo[0]))
@@ -1111,18 +1112,28 @@ def _reorigin(bvh: BVH, o: np.ndarray, d: np.ndarray):
     if not (np.all(np.isfinite(c)) and np.isfinite(rad)):
         return o, None
     dd = np.einsum("ij,ij->i", d, d)
-    size = max(rad, float(np.abs(c).max()), 1e-300)
-    t0 = np.einsum("ij,ij->i", c - o, d) / dd - 2.0 * rad / np.sqrt(dd)
-    far = (t0 > 0) & (t0 * np.sqrt(dd) > 1e6 * size)
-    if not np.any(far):
-        return o, None
-    t0 = np.where(far, t0, 0.0)
-    with np.errstate(over="ignore", invalid="ignore"):
-        p, pe = _two_prod(t0[:, None], d)
-        s, se = _two_sum(o, p)
-        moved = s + (se + pe)
-    far &= np.all(np.isfinite(moved), axis=1)  # the split overflows past ~1e290: left as given
-    return np.where(far[:, None], moved, o), np.where(far, t0, 0.0)
+    total = np.zeros(len(o))
+    for _ in range(32):
+        # The closest approach to the bound's centre, less its radius, less 8 ulps of itself:
+        # rounding t0 (1e17: an ulp is 16, the box's radius 0.9) must not carry the new origin
+        # into the bound or past it. A ray is moved while that leaves it 64 radii nearer.
+        with np.errstate(over="ignore", invalid="ignore"):
+            t0 = np.einsum("ij,ij->i", c - o, d) / dd - 2.0 * rad / np.sqrt(dd)
+            t0 = t0 - 8.0 * np.spacing(np.abs(t0))
+            far = (t0 > 0) & np.isfinite(t0) & (t0 * np.sqrt(dd) > 64.0 * max(rad, 1e-300))
+        if not np.any(far):
+            break
+        t0 = np.where(far, t0, 0.0)
+        with np.errstate(over="ignore", invalid="ignore"):
+            p, pe = _two_prod(t0[:, None], d)
+            s, se = _two_sum(o, p)
+            moved = s + (se + pe)
+        far &= np.all(np.isfinite(moved), axis=1)  # the split overflows past ~1e290: left as given
+        if not np.any(far):
+            break
+        o = np.where(far[:, None], moved, o)
+        total = total + np.where(far, t0, 0.0)
+    return o, (total if np.any(total) else None)
 
 
 def raycast(bvh: BVH, origins, directions) -> RayHits:
@@ -1142,6 +1153,13 @@ def raycast(bvh: BVH, origins, directions) -> RayHits:
     Returns
     -------
     RayHits
+
+    Notes
+    -----
+    Rays may start at any distance: one that starts far away is first moved along itself to the
+    scene (exactly, to an ulp of the new origin). A scene part smaller than the spacing of float64
+    at its own coordinates (a 1000-wide box at 1e20, where that spacing is 16384) is not
+    representable and may be missed.
     """
     if not isinstance(bvh, BVH):
         raise ValueError(f"bvh: expected a BVH from build_bvh, got {type(bvh).__name__}")

@@ -256,3 +256,58 @@ def test_two_threads_share_one_broad_phase():
         th.join(timeout=300)
     assert not any(th.is_alive() for th in threads), "hang"
     assert not errors, errors[:5]
+
+
+@pytest.mark.parametrize("kind", ["box", "capsule", "mesh"])
+def test_large_margins_keep_every_mujoco_contact(kind):
+    # MuJoCo's box-box collider makes contacts up to the margin along its separating axes, which
+    # may be farther apart than the margin (0.536 apart, margin 0.5: a contact at dist 0.467); a
+    # box's margin counts sqrt(3) times in our bounds (`collide.mujoco._box_factor`).
+    other = {"box": 'type="box" size=".1 .07 .12"', "capsule": 'type="capsule" size=".05 .1"',
+             "mesh": 'type="mesh" mesh="m"'}[kind]
+    model = mujoco.MjModel.from_xml_string(f"""<mujoco><asset>
+      <mesh name="m" vertex="0 0 0  .2 0 0  0 .15 0  0 0 .1  .1 .1 .1"/></asset>
+      <option gravity="0 0 0"/><worldbody>
+      <body><freejoint/><geom name="a" {other}/></body>
+      <body><freejoint/><geom name="b" type="box" size=".0465 .077 .1156" margin=".5"/></body>
+      </worldbody></mujoco>""")
+    data = mujoco.MjData(model)
+    bp = cm.BroadPhase(model)
+    rng = np.random.default_rng(1)
+    contacts = 0
+    qs = []
+    for _ in range(1500):
+        q = np.zeros(14)
+        q[3:7] = rng.normal(size=4)
+        u = rng.normal(size=3)
+        q[7:10] = u / np.linalg.norm(u) * rng.uniform(.3, .9)
+        q[10:14] = rng.normal(size=4)
+        data.qpos[:] = q
+        mujoco.mj_forward(model, data)
+        if data.ncon:
+            contacts += 1
+            qs.append(q)
+            assert bp.pairs(data).tolist() == [[0, 1]], q.tolist()
+    assert contacts > 200
+    got = bp.pairs_batch(model, np.array(qs))
+    assert len(got) == len(qs)
+
+
+def test_box_box_contact_beyond_the_margin_is_a_candidate():
+    # The adversarial review's case: MuJoCo's box-box contact at dist 0.467 (margin 0.5) between
+    # boxes 0.536 apart, missed while a box's margin counted once.
+    model = mujoco.MjModel.from_xml_string("""<mujoco><option gravity="0 0 0"/><worldbody>
+      <body><freejoint/><geom name="a" type="box" size=".1163 .06995 .1085"/></body>
+      <body><freejoint/><geom name="b" type="box" size=".0465 .07714 .1156" margin=".5"/>
+        <geom name="c" type="sphere" size=".05" pos="0 0 .5" contype="2" conaffinity="2"/></body>
+      </worldbody></mujoco>""")
+    data = mujoco.MjData(model)
+    data.qpos[:] = [-0.09841431725372346, -0.34682515893257604, 0.4843929762194805, 0.9525042289516391,
+                    -0.19462775322404907, -0.22719040527611578, -0.056923204887606424, -0.3410626978929295,
+                    0.39994245052926247, 0.44397810031146, 0.7238608522091402, 0.34612956672524203,
+                    -0.5948488039961971, -0.04873079172296647]
+    mujoco.mj_forward(model, data)
+    assert [(c.geom1, c.geom2) for c in data.contact[:data.ncon]] == [(0, 1)]
+    assert mujoco.mj_geomDistance(model, data, 0, 1, 10.0, None) > 0.5  # farther than the margin
+    assert cm.BroadPhase(model).pairs(data).tolist() == [[0, 1]]
+    assert cm.BroadPhase(model).pairs_batch(model, data.qpos[None]).tolist() == [[0, 0, 1]]

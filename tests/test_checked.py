@@ -14,18 +14,20 @@ from collide._kernels._ptr import check_span
 checked_only = pytest.mark.skipif(not _checked.CHECKED, reason="run with COLLIDE_CHECKED=1 (CI runs this file so)")
 
 
-@numba.njit(cache=True)
+# Not cached: a test file's kernels are cached by numba's own locator, in the same files in
+# both modes, so a kernel compiled in the normal mode would be loaded unchecked in the checked one.
+@numba.njit
 def _views_of(I, F, W):
     return _k._views(I, F, W)[0]
 
 
-@numba.njit(cache=True)
+@numba.njit
 def _span(end, size):
     check_span(end, size)
     return end
 
 
-@numba.njit(cache=True)
+@numba.njit
 def _read(a, i):
     return a[i]
 

@@ -102,7 +102,14 @@ def test_raycast_from_far_away_hits(x, volume):
     assert hits.leaf[:3].tolist() == [0, 0, 0] and hits.leaf[3] == -1  # the last passes beside it
     want = np.full(3, x - 0.5)  # the diagonal ray enters at x = y = -0.5 too
     np.testing.assert_allclose(hits.distance[:3], want, rtol=1e-12)
-    np.testing.assert_allclose(np.abs(hits.normal[:2, 0]), 1.0)
+    assert hits.normal[0].tolist() == [-1.0, 0.0, 0.0] and hits.normal[1].tolist() == [1.0, 0.0, 0.0]  # entries
+    # a box away from the origin, an axis-parallel ray down through its middle
+    M = np.eye(4)
+    M[:3, 3] = [1e8, 3e7, 0]
+    moved = csg.build_bvh(csg.Transform(M, csg.box([0.5, 0.5, 0.5])), volume=volume)
+    hit = csg.raycast(moved, np.array([[1e8, x, 0.0]]), np.array([[0.0, -1.0, 0.0]]))
+    assert hit.leaf[0] == 0 and hit.normal[0].tolist() == [0.0, 1.0, 0.0]
+    np.testing.assert_allclose(hit.distance[0], x - 3e7 - 0.5, rtol=1e-12)
 
 
 def test_raycast_near_rays_unchanged():
