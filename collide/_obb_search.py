@@ -467,37 +467,3 @@ def min_volume_axes(P, start, adj, s, q, phi, radius: float, rotation: np.ndarra
     frame = np.ascontiguousarray(rotation, dtype=np.float64).copy()
     best, evals = _search(P, start, adj, s, q, ids, span, float(radius), best, frame, float(tol))
     return frame, best, len(ids), evals
-
-
-@nb.njit(cache=True)
-def _family_boxes(P, start, adj, s, q, ids, span, radius):
-    # The boxes of every family at both ends and the midpoint of its interval: volumes (3K,)
-    # and axes (3K, 3, 3) (columns), measured with warm climbs.
-    k = ids.shape[0]
-    fam = np.empty(27)
-    wk = np.zeros((32, 3))
-    ax = wk[0:7]
-    sup = np.zeros(6, dtype=np.int64)
-    vols = np.empty(3 * k)
-    frames = np.empty((3 * k, 3, 3))
-    last_b = np.zeros(3)
-    for f in range(k):
-        _family(s, q, ids[f, 0], ids[f, 1], fam)
-        lo, hi = span[f, 0], span[f, 1]
-        _axes(0.5 * (lo + hi), fam, ax)
-        if dot3(ax[1], last_b) < 0.0:
-            fam[26] = -1.0
-        for e in range(3):
-            _axes(lo if e == 0 else (hi if e == 1 else 0.5 * (lo + hi)), fam, ax)
-            vols[3 * f + e] = _measure(P, start, adj, ax, sup, radius)
-            frames[3 * f + e] = ax[0:3].T
-        last_b[:] = ax[1]
-    return vols, frames
-
-
-def family_boxes(P, start, adj, s, q, phi, radius: float):
-    """The exact search's candidate boxes without its branch and bound: each edge-pair family
-    at both ends and the midpoint of its interval. Returns volumes ``(3K,)`` and rotations
-    ``(3K, 3, 3)`` (columns are axes), for a hull's Gauss map (`_obb_exact.solid_graph`)."""
-    ids, span = families(s, q, phi)
-    return _family_boxes(P, start, adj, s, q, ids, span, float(radius))
