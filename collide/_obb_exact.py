@@ -24,13 +24,15 @@ families' end points. Large hulls are searched through subsets of their vertices
 certificate of optimality (`exact_axes`).
 
 Cost, for a hull of ``n`` vertices and ``E`` edges: ``O(E^2)`` to screen the edge pairs, then
-one evaluation per family, and branch and bound on those whose lower bound does not clear the
-best box (few: ``O(log(1 / TOL))`` steps each at a box flush with three edges, where the
-search converges; more near a smooth minimum). There are ``K <= E^2`` families, about
-``E^1.5`` when the hull's face normals are spread evenly (as Jylänki 2015 counts for the same
-enumeration); an evaluation is six hill climbs on the hull's vertex graph, ``O(1)`` steps when
-warm and ``O(n)`` at worst. So ``O(n^3)`` in the worst case, as O'Rourke's, and ``O(n^1.5)``
-evaluations for round hulls; the subset rounds add a bounded factor (see `exact_axes`).
+one evaluation per family, and branch and bound on the families whose lower bound does not
+clear the best box. There are ``K = O(E^2)`` families (O'Rourke's), about ``E^1.5`` when the
+hull's face normals are spread evenly (as Jylänki 2015 counts for the same enumeration); an
+evaluation is six hill climbs on the hull's vertex graph, ``O(1)`` steps when warm and ``O(n)``
+at worst. The bounds are second order and resolve kinks at their crossing, so a family that
+reaches the best box takes ``O(log(1 / TOL))`` steps (seen in the tests and benchmarks; the
+splitting stops at intervals of 1e-13 rad in any case); with that, ``O(n^3 log(1 / TOL))`` at
+worst, as O'Rourke's ``O(n^3)``, and ``O(n^1.5)`` evaluations for round hulls. The subset rounds add a
+bounded factor (see `exact_axes`).
 """
 
 from __future__ import annotations
