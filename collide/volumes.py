@@ -823,20 +823,27 @@ def fit_obb(points: np.ndarray, radius: float = 0.0, method: str = "optimal") ->
     # Centre first: Qhull and the SVD lose precision on coordinates far from the origin.
     offset = 0.5 * (points.min(axis=0) + points.max(axis=0))
     local = points - offset
-    verts, hull = _hull_points(local)
+    # The axes are chosen on the cloud scaled to unit size by a power of two (exact): a 1e-160
+    # cloud's squares and products underflow, and its rotations came out not orthonormal. The
+    # radius scales with it (capped where it dwarfs the cloud: any axes then do).
+    e = int(np.frexp(float(np.abs(local).max()))[1])
+    unit = np.ldexp(local, -e)
+    unit_radius = min(float(np.ldexp(radius, -e)), 1e15)
+    verts, hull = _hull_points(unit)
     if method == "pca":
         rot = pca_axes(verts)
     elif method == "exact":
-        rot = _exact_rotation(verts, radius)[0]
+        rot = _exact_rotation(verts, unit_radius)[0]
     else:
-        rot = _optimal_rotation(verts, hull, radius)
+        rot = _optimal_rotation(verts, hull, unit_radius)
     # Extents from every point, not only the hull vertices: _hull_points (axes only) treats
     # thickness below ~1e-12 of the spread as flat and drops it, the box must not.
     box = box_from_axes(local, radius, rot)
     # A few ulps of the coordinates' size: moving the centre back by ``offset`` and a later
     # containment test in world coordinates each round by about eps * |x| (DESIGN.md: a tiny
     # conservative inflation rather than an exact comparison that rounding can break).
-    pad = _ROUNDING_PAD * (float(np.abs(offset).max()) + float(np.abs(local).max())) + _PAD_FLOOR
+    # The radius too: half extent + radius rounds by up to an ulp of the radius.
+    pad = _ROUNDING_PAD * (float(np.abs(offset).max()) + float(np.abs(local).max()) + radius) + _PAD_FLOOR
     return OBB(box.center + offset, box.rotation, box.half_extents + pad)
 
 
@@ -1043,7 +1050,7 @@ def fit_sphere(points: np.ndarray, radius: float = 0.0, method: str = "exact") -
     else:
         raise ValueError(f"method: expected 'exact' or 'ritter', got {method!r}")
     dist = float(np.max(row_norms(points - center)))
-    pad = _ROUNDING_PAD * float(np.abs(points).max()) + _PAD_FLOOR  # see fit_obb
+    pad = _ROUNDING_PAD * (float(np.abs(points).max()) + radius) + _PAD_FLOOR  # see fit_obb
     return Sphere(center, dist + pad + radius)
 
 

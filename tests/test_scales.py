@@ -124,3 +124,40 @@ def test_raycast_near_rays_unchanged():
     assert (hits.leaf >= 0).sum() > 20
     np.testing.assert_array_equal(hits.leaf >= 0, ref_leaf >= 0)
     np.testing.assert_allclose(hits.distance[hits.leaf >= 0], ref_t[ref_leaf >= 0], rtol=1e-9)
+
+
+@pytest.mark.parametrize("method", ["optimal", "exact", "pca"])
+@pytest.mark.parametrize("scale", [1e-160, 1e-300, 1.0, 1e140])
+def test_obb_at_every_scale(method, scale):
+    # A 1e-160 cloud's fitted rotation was not orthonormal (ValueError from inside the fitter).
+    rng = np.random.default_rng(3)
+    for _ in range(8):
+        pts = rng.normal(size=(30, 3)) * rng.uniform(0.1, 3.0, size=3) * scale
+        box = collide.PointCloud(pts, 0.0).obb(method)
+        e = -int(np.frexp(np.abs(pts).max())[1])  # exactly to unit size: local coordinates there
+        q = (np.ldexp(pts, e) - np.ldexp(box.center, e)) @ box.rotation
+        assert np.all(np.abs(q) <= np.ldexp(box.half_extents, e) * (1 + 1e-12))
+        assert np.prod(np.ldexp(box.half_extents, e)) > 0
+
+
+def test_sphere_and_obb_with_a_radius_much_larger_than_the_cloud():
+    # The sum distance + radius rounds by up to an ulp of the radius: the sphere was 0.43 ulp short.
+    from decimal import Decimal, getcontext
+    getcontext().prec = 60
+    rng = np.random.default_rng(9)
+    for _ in range(200):
+        pts = rng.normal(size=(6, 3))
+        r = 1000.0
+        cloud = collide.PointCloud(pts, r)
+        s = cloud.sphere()
+        c = [Decimal(float(x)) for x in s.center]
+        need = max(sum((Decimal(float(p[k])) - c[k]) ** 2 for k in range(3)).sqrt() for p in pts) + Decimal(r)
+        assert Decimal(s.radius) >= need
+        box = cloud.obb()
+        # each face at least the radius beyond the farthest point along its axis (float estimate
+        # with the pad's margin: the sums are checked in Decimal)
+        R = box.rotation
+        for k in range(3):
+            proj = [sum(Decimal(float(p[i])) * Decimal(float(R[i, k])) for i in range(3)) for p in pts]
+            ctr = sum(Decimal(float(box.center[i])) * Decimal(float(R[i, k])) for i in range(3))
+            assert Decimal(float(box.half_extents[k])) >= max(abs(x - ctr) for x in proj) + Decimal(r)
