@@ -33,6 +33,8 @@ def _parser() -> argparse.ArgumentParser:
                       "time_ours_us, time_mujoco_broad_us, ratio, the per-step times and more "
                       "(see collide.mujoco.compare)")
     cmp_.add_argument("--plot", metavar="FILE.png", help="write a per-step plot (matplotlib)")
+    cmp_.add_argument("--no-contacts", action="store_true", help="compare candidate pairs only, not "
+                      "contacts (our narrow phase against MuJoCo's contacts, each pair's deepest)")
     return parser
 
 
@@ -89,7 +91,8 @@ def compare_main(args: argparse.Namespace) -> int:
         name = "built-in scene (figure falling on a pile)"
     # Said before the run: the first one also compiles the kernels (about a minute, silent).
     print(f"{name}: simulating {args.steps} steps with random controls (seed {args.seed})...", flush=True)
-    result = cm.compare(model, steps=args.steps, seed=args.seed, name=name, hold=args.hold)
+    result = cm.compare(model, steps=args.steps, seed=args.seed, name=name, hold=args.hold,
+                        contacts=not args.no_contacts)
     print(cm.format_report(result))
     if args.json:
         Path(args.json).write_text(json.dumps(result, indent=1))

@@ -833,7 +833,7 @@ def _random_controls(model: mujoco.MjModel, steps: int, seed: int, hold: int) ->
 
 
 def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str = "model",
-            broadphase: BroadPhase | None = None, on_step=None, hold: int = 100) -> dict:
+            broadphase: BroadPhase | None = None, on_step=None, hold: int = 100, contacts: bool = True) -> dict:
     """Simulate ``model`` with random controls; every step, compare MuJoCo's contacts with ours.
 
     Controls are random and piecewise constant: every ``hold`` steps each actuator is set to
@@ -862,6 +862,9 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
         ``on_step(step, data, candidates)`` after each step (the demo uses it to render).
     hold : int
         Steps between control changes, ``>= 1``.
+    contacts : bool, default True
+        Also compare contacts: `Collider.contacts` on the states of the counting run (below)
+        against MuJoCo's, each geom pair's deepest contact.
 
     Returns
     -------
@@ -878,7 +881,17 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
         ``mujoco_count_replayed`` (True when the counting run reproduced every step's contacts),
         ``contact_pairs_total`` (MuJoCo contact pairs summed over the steps),
         ``flex_contacts_total`` (MuJoCo contacts involving a flex, summed over the steps: not geom
-        pairs, so left out of the comparison), ``nbody`` and ``ngeom``.
+        pairs, so left out of the comparison), ``nbody`` and ``ngeom``; ``contacts`` (None without
+        ``contacts``): geom pairs in contact by MuJoCo (``mujoco_pairs``), by us (``our_pairs``),
+        by both (``matched``), MuJoCo's pairs we made no contact for (``missed``) and ours it
+        made none for (``extra``), lists of ``{step, geom1, geom2, name1, name2, dist}``, and how
+        many of each lie within MuJoCo's ``ccd_tolerance`` of touching (``missed_near_touching``,
+        ``extra_near_touching``, ``tolerance``: its GJK/EPA answers within it); contact
+        counts (``mujoco_contacts``, ``our_contacts``); over the matched pairs' deepest contacts,
+        the largest and median ``dist`` difference (``dist_error_max``, ``dist_error_median``; the
+        pair with the largest, ``dist_error_worst``, with both answers) and
+        angle between the normals (``normal_error_max_rad``, ``normal_error_median_rad``: large
+        where the normal is not unique, a face on a face).
     """
     steps = as_count(steps, "steps", 1)
     seed = as_count(seed, "seed", 0)
@@ -936,6 +949,8 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
     npair = int(model.npair)
     data2 = mujoco.MjData(model)
     mujoco.mj_forward(model, data2)  # as run 1 did
+    # Our contacts on the same states (`Collider`), against MuJoCo's: each geom pair's deepest.
+    agreement = _ContactAgreement(model) if contacts else None
     with candidate_counter(model) as counter:
         for step in range(steps):
             if step % hold == 0 and len(ctrls):
@@ -945,6 +960,8 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
             rec.mujoco_candidates.append(counter.count + npair)
             if replayed and not np.array_equal(data2.contact.geom[:data2.ncon], raw_contacts[step]):
                 replayed = False
+            if agreement is not None:
+                agreement.add(step, data2)
     ng = np.int64(model.ngeom)
     flex_contacts = 0
     for step, (geoms, cand) in enumerate(zip(raw_contacts, raw_candidates)):
@@ -983,7 +1000,80 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
         "ngeom": int(model.ngeom),
         "unstable_resets": resets,
         "mujoco_count_replayed": replayed,
+        "contacts": agreement.summary() if agreement is not None else None,
     }
+
+
+class _ContactAgreement:
+    # `compare`'s contact check: per step, MuJoCo's deepest contact of each geom pair (flex
+    # contacts left out) against ours (`Collider.contacts` on the same MjData).
+    def __init__(self, model: mujoco.MjModel):
+        self.model = model
+        self.collider = Collider(model)
+        # MuJoCo's GJK/EPA answers within opt.ccd_tolerance: a pair that near touching may have
+        # a contact in one answer and not in the other.
+        self.tolerance = max(float(model.opt.ccd_tolerance), 0.0)
+        self.mujoco_pairs = self.ours_pairs = self.matched = 0
+        self.missed: list = []
+        self.extra: list = []
+        self.dist_err: list = []
+        self.normal_err: list = []
+        self.contacts_mujoco = self.contacts_ours = 0
+        self.worst_err, self.worst = -1.0, None  # the matched pair whose dist differs most
+
+    def add(self, step: int, data: mujoco.MjData) -> None:
+        theirs: dict = {}
+        for i in range(data.ncon):
+            c = data.contact[i]
+            a, b = int(c.geom[0]), int(c.geom[1])
+            if a < 0 or b < 0:
+                continue
+            n = np.array(c.frame[:3])
+            if a > b:
+                a, b, n = b, a, -n
+            self.contacts_mujoco += 1
+            if (a, b) not in theirs or c.dist < theirs[(a, b)][0]:
+                theirs[(a, b)] = (float(c.dist), n)
+        ours = self.collider.contacts(data)
+        self.contacts_ours += len(ours)
+        best = ours.deepest()
+        self.mujoco_pairs += len(theirs)
+        self.ours_pairs += len(best)
+        for key, (dist, n) in theirs.items():
+            i = best.get(key)
+            if i is None:
+                self.missed.append(self._entry(step, key, dist))
+                continue
+            self.matched += 1
+            self.dist_err.append(abs(float(ours.dist[i]) - dist))
+            if self.dist_err[-1] >= self.worst_err:
+                self.worst_err = self.dist_err[-1]
+                self.worst = dict(self._entry(step, key, dist), ours=float(ours.dist[i]))
+            self.normal_err.append(float(np.arccos(np.clip(np.dot(ours.normal[i], n), -1.0, 1.0))))
+        for key, i in best.items():
+            if key not in theirs:
+                self.extra.append(self._entry(step, key, float(ours.dist[i])))
+
+    def _entry(self, step: int, key: tuple, dist: float) -> dict:
+        g1, g2 = key
+        return {"step": step, "geom1": g1, "geom2": g2, "name1": _geom_name(self.model, g1),
+                "name2": _geom_name(self.model, g2), "dist": dist}
+
+    def summary(self) -> dict:
+        d, n = np.asarray(self.dist_err), np.asarray(self.normal_err)
+        return {
+            "mujoco_pairs": self.mujoco_pairs, "our_pairs": self.ours_pairs, "matched": self.matched,
+            "missed": self.missed, "extra": self.extra,
+            "missed_near_touching": sum(e["dist"] > -self.tolerance for e in self.missed),
+            "extra_near_touching": sum(e["dist"] < self.tolerance for e in self.extra),
+            "tolerance": self.tolerance,
+            "mujoco_contacts": self.contacts_mujoco, "our_contacts": self.contacts_ours,
+            "dist_error_max": float(d.max()) if len(d) else 0.0,
+            "dist_error_median": float(np.median(d)) if len(d) else 0.0,
+            "dist_error_worst": self.worst,
+            "normal_error_max_rad": float(n.max()) if len(n) else 0.0,
+            "normal_error_median_rad": float(np.median(n)) if len(n) else 0.0,
+        }
 
 
 def format_report(result: dict) -> str:
@@ -1017,6 +1107,27 @@ def format_report(result: dict) -> str:
         f"(mjTIMER_COL_BROAD), "
         + (f"ratio {result['ratio']:.2f}x" if np.isfinite(result["ratio"]) else "ratio n/a (MuJoCo's timer read 0)"),
     ]
+    ct = result.get("contacts")
+    if ct:
+        lines += [
+            "",
+            f"contacts: {ct['matched']} of {ct['mujoco_pairs']} geom pairs MuJoCo made contacts for had ours "
+            f"({len(ct['missed'])} missed, {ct['missed_near_touching']} of them within MuJoCo's ccd_tolerance "
+            f"{ct['tolerance']:g} of touching; {len(ct['extra'])} of ours beyond MuJoCo's, "
+            f"{ct['extra_near_touching']} within it); "
+            f"{ct['our_contacts']} contact points against MuJoCo's {ct['mujoco_contacts']}",
+            f"  deepest contact of each pair: dist differs by {ct['dist_error_median']:.2g} (median), "
+            f"{ct['dist_error_max']:.2g} (max); normals by {ct['normal_error_median_rad']:.2g} rad (median), "
+            f"{ct['normal_error_max_rad']:.2g} rad (max)",
+        ]
+        w = ct.get("dist_error_worst")
+        if w:
+            lines.append(f"  largest dist difference: step {w['step']}, {w['name1']} ({w['geom1']}) - {w['name2']} "
+                         f"({w['geom2']}): MuJoCo {w['dist']:.6g}, ours {w['ours']:.6g}")
+        for kind in ("missed", "extra"):
+            for e in ct[kind][:5]:
+                lines.append(f"  {kind.upper()} step {e['step']}: {e['name1']} ({e['geom1']}) - {e['name2']} "
+                             f"({e['geom2']}), dist {e['dist']:.3g}")
     if result.get("mujoco_count_replayed") is False:
         lines.append("note: the run counting MuJoCo's candidates did not reproduce the timed run's contacts")
     if result.get("flex_contacts_total"):

@@ -46,6 +46,21 @@ def test_compare_writes_consistent_json_and_plot(tmp_path):
     assert contacts.sum() > 0, "the built-in scene must have real contacts"
     assert np.all(ours >= contacts)
     assert png.is_file() and png.stat().st_size > 10_000
+    # contact agreement, our narrow phase against MuJoCo's contacts on the same states
+    ct = result["contacts"]
+    assert ct["mujoco_pairs"] == int(contacts.sum())  # the pairs MuJoCo made contacts for, each step
+    assert ct["matched"] + len(ct["missed"]) == ct["mujoco_pairs"]
+    assert ct["matched"] > 0.99 * ct["mujoco_pairs"]
+    assert ct["missed_near_touching"] == len(ct["missed"])  # any miss within MuJoCo's own tolerance
+    assert ct["our_contacts"] > 0 and ct["mujoco_contacts"] > 0
+    assert ct["dist_error_median"] < 1e-6
+
+
+def test_compare_without_contacts(capsys):
+    assert main(["compare", "--steps", "20", "--no-contacts"]) == 0
+    out = capsys.readouterr().out
+    assert "recall:" in out and "contacts:" not in out
+    assert cm.compare(cm.default_scene(), steps=5, contacts=False)["contacts"] is None
 
 
 def test_compare_on_a_model_file(tmp_path):
