@@ -81,6 +81,7 @@ __all__ = [
     "candidate_counter",
     "compare",
     "contact_pairs",
+    "mujoco_deepest",
     "default_scene",
     "exclusion_rules",
     "format_report",
@@ -1004,6 +1005,30 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
     }
 
 
+def mujoco_deepest(data: mujoco.MjData) -> dict:
+    """MuJoCo's deepest contact of each geom pair in ``data.contact`` (flex contacts left out).
+
+    Returns
+    -------
+    dict
+        ``{(g1, g2): (dist, normal, includemargin)}``, ``g1 < g2``, ``normal`` ``(3,) float64``
+        from ``g1`` to ``g2`` (``contact.frame[:3]``, turned for that order).
+    """
+    out: dict = {}
+    for i in range(data.ncon):
+        c = data.contact[i]
+        a, b = int(c.geom[0]), int(c.geom[1])
+        if a < 0 or b < 0:
+            continue
+        n = np.array(c.frame[:3])
+        if a > b:
+            a, b, n = b, a, -n
+        old = out.get((a, b))
+        if old is None or c.dist < old[0]:
+            out[(a, b)] = (float(c.dist), n, float(c.includemargin))
+    return out
+
+
 class _ContactAgreement:
     # `compare`'s contact check: per step, MuJoCo's deepest contact of each geom pair (flex
     # contacts left out) against ours (`Collider.contacts` on the same MjData).
@@ -1022,24 +1047,14 @@ class _ContactAgreement:
         self.worst_err, self.worst = -1.0, None  # the matched pair whose dist differs most
 
     def add(self, step: int, data: mujoco.MjData) -> None:
-        theirs: dict = {}
-        for i in range(data.ncon):
-            c = data.contact[i]
-            a, b = int(c.geom[0]), int(c.geom[1])
-            if a < 0 or b < 0:
-                continue
-            n = np.array(c.frame[:3])
-            if a > b:
-                a, b, n = b, a, -n
-            self.contacts_mujoco += 1
-            if (a, b) not in theirs or c.dist < theirs[(a, b)][0]:
-                theirs[(a, b)] = (float(c.dist), n)
+        theirs = mujoco_deepest(data)
+        self.contacts_mujoco += int(np.count_nonzero(np.all(data.contact.geom[:data.ncon] >= 0, axis=1)))
         ours = self.collider.contacts(data)
         self.contacts_ours += len(ours)
         best = ours.deepest()
         self.mujoco_pairs += len(theirs)
         self.ours_pairs += len(best)
-        for key, (dist, n) in theirs.items():
+        for key, (dist, n, _) in theirs.items():
             i = best.get(key)
             if i is None:
                 self.missed.append(self._entry(step, key, dist))

@@ -54,21 +54,9 @@ def pair_tolerance(model, g1: int, g2: int) -> float:
 
 
 def mujoco_deepest(model, data) -> dict:
-    """``{(g1, g2): (dist, normal from g1 to g2, margin + gap)}``: MuJoCo's deepest contact per
-    geom pair (lower id first), flex contacts left out."""
-    out: dict = {}
-    for i in range(data.ncon):
-        c = data.contact[i]
-        a, b = int(c.geom[0]), int(c.geom[1])
-        if a < 0 or b < 0:
-            continue
-        n = np.array(c.frame[:3])
-        if a > b:
-            a, b, n = b, a, -n
-        old = out.get((a, b))
-        if old is None or c.dist < old[0]:
-            out[(a, b)] = (float(c.dist), n, float(c.includemargin))
-    return out
+    """``{(g1, g2): (dist, normal from g1 to g2, includemargin)}``: MuJoCo's deepest contact per
+    geom pair (lower id first), flex contacts left out (`collide.mujoco.mujoco_deepest`)."""
+    return cm.mujoco_deepest(data)
 
 
 def contact_distance(table: cc.GeomTable, g1: int, g2: int) -> tuple[float, float]:
