@@ -10,13 +10,15 @@ from . import _cache, _checked
 _cache.register(suffix="_checked" if _checked.CHECKED else "")
 _checked.enable_boundscheck()
 
-from . import csg, hull, shapes, volumes  # noqa: E402
+from . import csg, deformations, hull, shapes, volumes  # noqa: E402
 from .articulation import Articulation  # noqa: E402
 from .broadphase import BroadPhase  # noqa: E402
 from .contacts import Contacts  # noqa: E402
 from .convex import Cone, Cylinder, Ellipsoid  # noqa: E402
+from .deforming import deform  # noqa: E402
 from .pointcloud import PointCloud, difference, intersection, union  # noqa: E402
 from .signed_distance import Distance, distance  # noqa: E402
+from .sweep import swept  # noqa: E402
 from .volumes import AABB, KDOP, OBB, Sphere, overlap  # noqa: E402
 
 __all__ = [
@@ -33,12 +35,15 @@ __all__ = [
     "PointCloud",
     "Sphere",
     "csg",
+    "deform",
+    "deformations",
     "difference",
     "distance",
     "hull",
     "intersection",
     "overlap",
     "shapes",
+    "swept",
     "union",
     "volumes",
 ]

@@ -124,6 +124,13 @@ class PointCloud:
                              f"map norm {float(np.abs(linear).max()):.3g})")
         return PointCloud(moved, radius)
 
+    def swept(self, pose0, pose1, max_angle: float = np.pi / 4) -> "PointCloud":
+        """A cloud containing every position of this one while it moves from ``pose0`` to
+        ``pose1`` (``(R, t)`` pairs; constant-rate turn, linear translation): see `collide.swept`."""
+        from .sweep import swept  # sweep imports this module
+
+        return swept(self, pose0, pose1, max_angle)
+
     def reduced(self) -> "PointCloud":
         """The same set with only the points that span the hull (robust to degenerate input)."""
         if len(self) <= 1:

@@ -8,6 +8,7 @@ from . import csg, obb
 from .brute import (brute_force_bound_pairs, brute_force_pairs, filter_passing_pairs, gjk_distance,
                     hulls_intersect_lp, world_bounds, world_capsules)
 from .csg import brute_force_raycast, random_scene
+from .deform import cloud_volume, deformed_sample, sample_cloud, signed_excess, swept_sample
 from .obb import brute_force_obb, edge_pair_search, multistart_polish
 from .scenes import (Scene, branching_tree, chain, free_hulls, hull_motion, make_plane, many_robots,
                      random_hull, scene_motion)
