@@ -1,5 +1,8 @@
 """collide.deform and collide.deformations: the deformed set always inside, the bounds proven."""
 
+import itertools
+import zlib
+
 import numpy as np
 import pytest
 
@@ -37,7 +40,7 @@ SHAPES = {
 @pytest.mark.parametrize("f", MAPS, ids=repr)
 @pytest.mark.parametrize("kind", sorted(SHAPES))
 def test_deformed_shapes_inside(f, kind):
-    rng = np.random.default_rng(abs(hash((repr(f), kind))) % 2**32)
+    rng = np.random.default_rng(zlib.crc32(f"{f!r}-{kind}".encode()))
     params = SHAPES[kind]
     cloud = getattr(shapes, kind)(**params)
     out = collide.deform(cloud, f)
@@ -102,6 +105,34 @@ def test_second_derivative_bounds_hold_and_are_attained():
         ratio = np.linalg.norm(d2, axis=1) / M
         assert ratio.max() <= 1 + 1e-5, (f, ratio.max())
         assert ratio.max() >= 0.5, (f, ratio.max())
+
+
+@pytest.mark.parametrize("k", [1, 2, 3, 5])
+def test_edgewise_subdivision_diameter(k):
+    # The proof's claim: Kuhn's triangulation of the cumulative coordinates cuts a tetrahedron
+    # into k³ tetrahedra with lattice vertices, each of diameter <= H / k (deforming._spans).
+    from collide.deforming import _spans
+
+    rng = np.random.default_rng(k)
+    for _ in range(20):
+        tet, span = _spans(rng.normal(size=(1, 4, 3)) * rng.uniform(0.1, 3, 3), 3)
+        v = tet[0]
+        vol = abs(np.linalg.det(v[1:] - v[0])) / 6
+        total, worst, count = 0.0, 0.0, 0
+        for z in itertools.product(range(k), repeat=3):
+            for perm in itertools.permutations(range(3)):
+                Y = [np.array(z, float)]
+                for i in perm:
+                    Y.append(Y[-1] + np.eye(3)[i])
+                Y = np.array(Y)
+                if not np.all((Y[:, 0] >= Y[:, 1]) & (Y[:, 1] >= Y[:, 2]) & (Y[:, 2] >= 0) & (Y[:, 0] <= k)):
+                    continue
+                x = v[0] + (Y / k) @ (v[1:] - v[:-1])
+                count += 1
+                total += abs(np.linalg.det(x[1:] - x[0])) / 6
+                worst = max(worst, max(np.linalg.norm(x[i] - x[j]) for i in range(4) for j in range(i)))
+        assert count == k**3 and total == pytest.approx(vol, rel=1e-9)
+        assert worst <= span[0] / k * (1 + 1e-12)
 
 
 def test_user_map_with_stated_bound():
