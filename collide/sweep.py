@@ -82,7 +82,7 @@ def swept(cloud: PointCloud, pose0, pose1, max_angle: float = math.pi / 4) -> Po
     PointCloud
         Hull vertices of the ``m + 1`` sub-step clouds (in the world frame), radius the cloud's
         plus ``sweep_deviation(ρ_max, θ, m)`` plus rounding slack. A pure translation gives the
-        hull of the two end clouds exactly.
+        hull of the two end clouds (radius: the cloud's plus rounding slack).
 
     Raises
     ------
