@@ -686,13 +686,23 @@ _SUBSET_TOL = 1e-6
 _SEED_SUPPORTS = 1
 
 
+# Hulls thinner than this (smallest principal spread over the largest) take the local search
+# in the "optimal" fitter, not the exact one (see _optimal_rotation).
+_THIN = 1e-3
+
+
 def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: float) -> np.ndarray:
     # verts: hull vertices, centred; hull: Qhull's hull of a superset of verts in the same frame
     # (None for degenerate clouds). Returns the rotation of a box within 1 % of the minimum
     # volume on every cloud tested (the rule is in fit_obb's docstring): a minimal box often has
     # a face flush with a hull face (the face candidates), otherwise two adjacent faces flush
     # with hull edges (O'Rourke 1985), which the exact search on a subset and the polish reach.
-    if len(verts) <= _EXACT_HULL:
+    # Near-flat hulls skip the exact search: its branch and bound splits in proportion to
+    # 1 / thickness (a 2e-7 thick box took minutes); the starts below include the box flush
+    # with the slab's face, and the polish.
+    sv = np.linalg.svd(verts - verts.mean(axis=0), compute_uv=False) if len(verts) > 3 else np.zeros(1)
+    thin = len(sv) < 3 or sv[2] <= _THIN * sv[0]
+    if len(verts) <= _EXACT_HULL and not thin:
         return _exact_rotation(verts, radius)[0]
     axes, rank = _principal(verts)
     if rank <= 1:
@@ -723,7 +733,7 @@ def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: floa
                 starts.append(_right_handed(_frame_from_normal(group_normal[g] / norm, verts)))
     vols = _box_volumes(verts, np.stack(starts), radius)
     order = np.argsort(vols, kind="stable")
-    if _SUBSET_ROUNDS > 0:
+    if _SUBSET_ROUNDS > 0 and not thin:
         # The exact search on the vertices extreme along 13 directions and near the faces of
         # the best starting boxes: its box is the exact one where it is certified minimal for
         # the whole hull, and otherwise one more start.
@@ -797,8 +807,11 @@ def fit_obb(points: np.ndarray, radius: float = 0.0, method: str = "optimal") ->
         bound over its edge-pair families, on the hull's vertices; hulls of more than 64
         vertices through subsets of them with a certificate of optimality. ``O(E^2)`` pair
         screening plus about ``E^1.5`` evaluations (``E`` hull edges) for hulls with evenly
-        spread faces, ``O(n^3)`` at worst (``n`` hull vertices). ``"optimal"`` (the default):
-        the exact box where the hull has at most 64 vertices. Otherwise one round of the exact
+        spread faces, ``O(n^3)`` at worst (``n`` hull vertices); near-flat hulls take time in
+        proportion to 1 / thickness (smallest over largest principal spread). ``"optimal"`` (the
+        default): the exact box where the hull has at most 64 vertices and is not near-flat
+        (thickness above 1e-3; a near-flat hull takes the local search below without the exact
+        rounds, its starts including the box flush with the slab's face). Otherwise one round of the exact
         search on a subset of the hull's vertices (those extreme along 13 directions and near
         the faces of the best starting boxes below): its box if it is certified minimal for the
         whole hull; else it joins the starts (the PCA axes, the hull surface's principal axes
