@@ -158,7 +158,7 @@ def _supports(P: np.ndarray, rotation: np.ndarray, k: int = 1) -> np.ndarray:
 
 
 def exact_axes(P: np.ndarray, radius: float, rotation: np.ndarray, graph, rounds: int | None = None,
-               direct: int = DIRECT, tol: float = TOL, seeds=(), seed_k: int = 1):
+               direct: int = DIRECT, tol: float = TOL, seeds=(), seed_k: int = 1, budget: int = -1):
     """Axes of the minimum-volume box of ``hull(P) ⊕ ball(radius)``.
 
     Parameters
@@ -183,6 +183,9 @@ def exact_axes(P: np.ndarray, radius: float, rotation: np.ndarray, graph, rounds
     seeds : sequence of (3, 3) float64
         Rotations whose boxes' ``seed_k`` most extreme vertices along each axis join the first
         subset (good boxes found otherwise: their supports are likely the optimum's).
+    budget : int
+        > 0: a search of the whole hull stops after about this many box evaluations with the
+        best box so far, not certified (near-flat hulls cost in proportion to 1 / thickness).
 
     Returns
     -------
@@ -240,5 +243,5 @@ def exact_axes(P: np.ndarray, radius: float, rotation: np.ndarray, graph, rounds
             keep = grown
         if rounds is not None:
             return best_rot, best, False
-    rot, vol = min_volume_axes(*graph(P), radius, best_rot, tol)[:2]
-    return rot, vol, True
+    rot, vol, _, evals = min_volume_axes(*graph(P), radius, best_rot, tol, budget)
+    return rot, vol, not (budget > 0 and evals > budget)

@@ -367,7 +367,7 @@ def _interval(lo, hi, fam, P, start, adj, radius, sup_l, sup_h, v_lo, v_hi, sup_
 
 
 @nb.njit(cache=True)
-def _search(P, start, adj, s, q, ids, span, radius, best, best_frame, tol):
+def _search(P, start, adj, s, q, ids, span, radius, best, best_frame, tol, budget):
     # Branch and bound over every family; best / best_frame: the incumbent (volume, axes as
     # columns), improved in place. Returns (best volume, evaluations).
     k = ids.shape[0]
@@ -411,6 +411,8 @@ def _search(P, start, adj, s, q, ids, span, radius, best, best_frame, tol):
     st_i = np.empty((depth, 12), dtype=np.int64)
     sup_m = np.empty(6, dtype=np.int64)
     for f in np.argsort(v_mid):
+        if evals > budget:  # out of budget: the best so far, not certified (the caller sees evals)
+            break
         if lb_root[f] >= best * (1.0 - tol) or span[f, 1] - span[f, 0] <= _H_MIN:
             continue
         _family(s, q, ids[f, 0], ids[f, 1], fam)
@@ -429,7 +431,7 @@ def _search(P, start, adj, s, q, ids, span, radius, best, best_frame, tol):
             st_f[0, 2 + e] = vol
             st_i[0, 6 * e:6 * e + 6] = sup
         top = 1
-        while top > 0:
+        while top > 0 and evals <= budget:
             top -= 1
             lo, hi, v_lo, v_hi = st_f[top, 0], st_f[top, 1], st_f[top, 2], st_f[top, 3]
             v_m, lb, found, t_found = _interval(lo, hi, fam, P, start, adj, radius, st_i[top, 0:6],
@@ -452,18 +454,21 @@ def _search(P, start, adj, s, q, ids, span, radius, best, best_frame, tol):
     return best, evals
 
 
-def min_volume_axes(P, start, adj, s, q, phi, radius: float, rotation: np.ndarray, tol: float = TOL):
+def min_volume_axes(P, start, adj, s, q, phi, radius: float, rotation: np.ndarray, tol: float = TOL,
+                    budget: int = -1):
     """Axes of the minimum-volume box of ``hull(P) ⊕ ball(radius)``, given the Gauss map of
     the hull (`solid_graph` or `flat_graph`) and a starting rotation (its box is the first
     incumbent), to a relative ``tol``.
 
     Returns ``(rotation (3, 3) float64, volume, families, evaluations)``; columns of rotation
     are the axes, right-handed. ``P`` should be centred and of unit size (the tolerances are
-    absolute in angle and relative in volume).
+    absolute in angle and relative in volume). ``budget`` (> 0): stop after about that many
+    evaluations with the best box so far (then ``evaluations > budget``: not certified).
     """
     ids, span = families(s, q, phi)
     proj = P @ rotation
     best = float(np.prod(np.ptp(proj, axis=0) + 2.0 * radius))
     frame = np.ascontiguousarray(rotation, dtype=np.float64).copy()
-    best, evals = _search(P, start, adj, s, q, ids, span, float(radius), best, frame, float(tol))
+    cap = int(budget) if budget > 0 else np.iinfo(np.int64).max
+    best, evals = _search(P, start, adj, s, q, ids, span, float(radius), best, frame, float(tol), cap)
     return frame, best, len(ids), evals

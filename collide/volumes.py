@@ -686,9 +686,9 @@ _SUBSET_TOL = 1e-6
 _SEED_SUPPORTS = 1
 
 
-# Hulls thinner than this (smallest principal spread over the largest) take the local search
-# in the "optimal" fitter, not the exact one (see _optimal_rotation).
-_THIN = 1e-3
+# Box evaluations the "optimal" fitter gives the exact search of a small hull (see
+# _optimal_rotation): a round hull needs a few thousand, a box 1e-4 thick ~2e5.
+_EXACT_BUDGET = 300_000
 
 
 def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: float) -> np.ndarray:
@@ -697,13 +697,15 @@ def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: floa
     # volume on every cloud tested (the rule is in fit_obb's docstring): a minimal box often has
     # a face flush with a hull face (the face candidates), otherwise two adjacent faces flush
     # with hull edges (O'Rourke 1985), which the exact search on a subset and the polish reach.
-    # Near-flat hulls skip the exact search: its branch and bound splits in proportion to
-    # 1 / thickness (a 2e-7 thick box took minutes); the starts below include the box flush
-    # with the slab's face, and the polish.
-    sv = np.linalg.svd(verts - verts.mean(axis=0), compute_uv=False) if len(verts) > 3 else np.zeros(1)
-    thin = len(sv) < 3 or sv[2] <= _THIN * sv[0]
-    if len(verts) <= _EXACT_HULL and not thin:
-        return _exact_rotation(verts, radius)[0]
+    # The exact search within a budget of box evaluations: its branch and bound splits in
+    # proportion to 1 / thickness on near-flat hulls (a 2e-7 thick box took minutes). Out of
+    # budget, its best box joins the starts below (which include the box flush with the slab's
+    # face) and the polish.
+    exact_rot = None
+    if len(verts) <= _EXACT_HULL:
+        exact_rot, certified = _exact_rotation(verts, radius, budget=_EXACT_BUDGET)
+        if certified:
+            return exact_rot
     axes, rank = _principal(verts)
     if rank <= 1:
         return _right_handed(axes.T)
@@ -731,9 +733,11 @@ def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: floa
             norm = float(np.linalg.norm(group_normal[g]))
             if norm > 0.0:
                 starts.append(_right_handed(_frame_from_normal(group_normal[g] / norm, verts)))
+    if exact_rot is not None:
+        starts.append(exact_rot)
     vols = _box_volumes(verts, np.stack(starts), radius)
     order = np.argsort(vols, kind="stable")
-    if _SUBSET_ROUNDS > 0 and not thin:
+    if _SUBSET_ROUNDS > 0 and exact_rot is None:
         # The exact search on the vertices extreme along 13 directions and near the faces of
         # the best starting boxes: its box is the exact one where it is certified minimal for
         # the whole hull, and otherwise one more start.
@@ -760,7 +764,8 @@ def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: floa
 
 
 def _exact_rotation(verts: np.ndarray, radius: float, rounds: int | None = None,
-                    direct: int = _exact.DIRECT, tol: float = _exact.TOL, seeds=()) -> tuple[np.ndarray, bool]:
+                    direct: int = _exact.DIRECT, tol: float = _exact.TOL, seeds=(),
+                    budget: int = -1) -> tuple[np.ndarray, bool]:
     # verts: hull vertices (centred by the caller). Rotation of the minimum-volume box of
     # hull(verts) ⊕ ball(radius) and whether it is certified (always, unless ``rounds`` limits
     # the subset rounds of _obb_exact.exact_axes). By cases of the affine rank:
@@ -784,10 +789,10 @@ def _exact_rotation(verts: np.ndarray, radius: float, rounds: int | None = None,
     if rank == 2:
         start = _right_handed(_frame_from_normal(axes[2], verts))
         rot, _, certified = _exact.exact_axes(local, r, start, lambda sub: _exact.flat_graph(sub, axes),
-                                              rounds, direct, tol, seeds, _SEED_SUPPORTS)
+                                              rounds, direct, tol, seeds, _SEED_SUPPORTS, budget)
     else:
         rot, _, certified = _exact.exact_axes(local, r, _right_handed(axes.T), _exact.solid_graph,
-                                              rounds, direct, tol, seeds, _SEED_SUPPORTS)
+                                              rounds, direct, tol, seeds, _SEED_SUPPORTS, budget)
     return _orthonormal(rot), certified
 
 
@@ -809,9 +814,10 @@ def fit_obb(points: np.ndarray, radius: float = 0.0, method: str = "optimal") ->
         screening plus about ``E^1.5`` evaluations (``E`` hull edges) for hulls with evenly
         spread faces, ``O(n^3)`` at worst (``n`` hull vertices); near-flat hulls take time in
         proportion to 1 / thickness (smallest over largest principal spread). ``"optimal"`` (the
-        default): the exact box where the hull has at most 64 vertices and is not near-flat
-        (thickness above 1e-3; a near-flat hull takes the local search below without the exact
-        rounds, its starts including the box flush with the slab's face). Otherwise one round of the exact
+        default): the exact box where the hull has at most 64 vertices and its search ends
+        within 300,000 box evaluations (near-flat hulls may not: their best box so far then
+        joins the local search's starts below, with the box flush with the slab's face).
+        Otherwise one round of the exact
         search on a subset of the hull's vertices (those extreme along 13 directions and near
         the faces of the best starting boxes below): its box if it is certified minimal for the
         whole hull; else it joins the starts (the PCA axes, the hull surface's principal axes

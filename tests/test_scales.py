@@ -164,14 +164,17 @@ def test_sphere_and_obb_with_a_radius_much_larger_than_the_cloud():
             assert Decimal(float(box.half_extents[k])) >= max(abs(x - ctr) for x in proj) + Decimal(r)
 
 
-@pytest.mark.parametrize("thickness", [1e-4, 3e-4])
-def test_optimal_obb_of_near_flat_clouds_within_one_percent_of_exact(thickness):
-    # Near-flat hulls take the local search in "optimal" (the exact search's cost grows as
-    # 1 / thickness: a 2e-7 thick box took minutes); still within 1 % of the exact box.
+@pytest.mark.parametrize("thickness, radius", [(1e-4, 0.0), (3e-4, 0.0), (1.3e-4, 1.3e-5), (1e-6, 1e-7)])
+def test_optimal_obb_of_near_flat_clouds_within_one_percent_of_exact(thickness, radius):
+    # "optimal" gives the exact search a budget (its cost grows as 1 / thickness: a 2e-7 thick
+    # box took minutes), its best box joining the local search's starts when out of it; within
+    # 1 % of the exact box either way (the adversarial review's thin cloud with a radius was
+    # 1.0134 when near-flat hulls skipped the exact search).
     rng = np.random.default_rng(12)
-    for _ in range(6):
+    for _ in range(6 if thickness > 1e-5 else 2):
         pts = rng.normal(size=(25, 3)) * [1.0, 0.6, thickness]
         pts = pts @ collide.testing.random_rotation(rng).T
-        opt, ex = collide.PointCloud(pts, 0.0).obb("optimal"), collide.PointCloud(pts, 0.0).obb("exact")
+        opt = collide.PointCloud(pts, radius).obb("optimal")
+        ex = collide.PointCloud(pts, radius).obb("exact")
         assert opt.volume() <= 1.01 * ex.volume()
         assert np.all(opt.contains(pts, rtol=1e-12)) and np.all(ex.contains(pts, rtol=1e-12))
