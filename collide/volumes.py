@@ -812,8 +812,10 @@ def fit_obb(points: np.ndarray, radius: float = 0.0, method: str = "optimal") ->
         bound over its edge-pair families, on the hull's vertices; hulls of more than 64
         vertices through subsets of them with a certificate of optimality. ``O(E^2)`` pair
         screening plus about ``E^1.5`` evaluations (``E`` hull edges) for hulls with evenly
-        spread faces, ``O(n^3)`` at worst (``n`` hull vertices); near-flat hulls take time in
-        proportion to 1 / thickness (smallest over largest principal spread). ``"optimal"`` (the
+        spread faces, ``O(n^3)`` at worst (``n`` hull vertices). Slow cases (measured in the
+        review of 2026-11-28): near-flat hulls take time in proportion to 1 / thickness
+        (smallest over largest principal spread; a 10 x 1e-5 rectangle with a radius: 98 s), and
+        highly symmetric ones are slow (a prism over a regular 1000-gon: 135 s). ``"optimal"`` (the
         default): the exact box where the hull has at most 64 vertices and its search ends
         within 300,000 box evaluations (near-flat hulls may not: their best box so far then
         joins the local search's starts below, with the box flush with the slab's face).
