@@ -687,7 +687,7 @@ _SEED_SUPPORTS = 1
 
 
 # Box evaluations the "optimal" fitter gives the exact search of a small hull (see
-# _optimal_rotation): a round hull needs a few thousand, a box 1e-4 thick ~2e5.
+# _optimal_rotation); round hulls need far fewer, near-flat ones more.
 _EXACT_BUDGET = 300_000
 
 
@@ -698,7 +698,7 @@ def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: floa
     # a face flush with a hull face (the face candidates), otherwise two adjacent faces flush
     # with hull edges (O'Rourke 1985), which the exact search on a subset and the polish reach.
     # The exact search within a budget of box evaluations: its branch and bound splits in
-    # proportion to 1 / thickness on near-flat hulls (a 2e-7 thick box took minutes). Out of
+    # proportion to 1 / thickness on near-flat hulls. Out of
     # budget, its best box joins the starts below (which include the box flush with the slab's
     # face) and the polish.
     exact_rot = None
@@ -812,10 +812,10 @@ def fit_obb(points: np.ndarray, radius: float = 0.0, method: str = "optimal") ->
         bound over its edge-pair families, on the hull's vertices; hulls of more than 64
         vertices through subsets of them with a certificate of optimality. ``O(E^2)`` pair
         screening plus about ``E^1.5`` evaluations (``E`` hull edges) for hulls with evenly
-        spread faces, ``O(n^3)`` at worst (``n`` hull vertices). Slow cases (measured in the
-        review of 2026-11-28): near-flat hulls take time in proportion to 1 / thickness
-        (smallest over largest principal spread; a 10 x 1e-5 rectangle with a radius: 98 s), and
-        highly symmetric ones are slow (a prism over a regular 1000-gon: 135 s). ``"optimal"`` (the
+        spread faces, ``O(n^3)`` at worst (``n`` hull vertices). Slow cases: near-flat hulls
+        take time in proportion to 1 / thickness (smallest over largest principal spread), and
+        highly symmetric hulls (prisms over regular polygons) approach the worst case.
+        ``"optimal"`` (the
         default): the exact box where the hull has at most 64 vertices and its search ends
         within 300,000 box evaluations (near-flat hulls may not: their best box so far then
         joins the local search's starts below, with the box flush with the slab's face).
