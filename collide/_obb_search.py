@@ -340,30 +340,6 @@ def _interval(lo, hi, fam, P, start, adj, radius, sup_l, sup_h, v_lo, v_hi, sup_
             if v < found:
                 found, t_found = v, tc
     return v_mid, lb, found, t_found
-    rise = np.zeros(3, dtype=np.int64)  # +1: increasing on the interval, -1: decreasing
-    for x in range(3):
-        sup = sup_m if x == 0 else (sup_l if x == 1 else sup_h)
-        _fixed(P, sup, ax, radius, g)
-        b, slope, m2 = _taylor(g, spd, h)
-        lb = max(lb, b)
-        if b >= 0.0 and abs(slope) > m2 * 0.5 * h:
-            rise[x] = 1 if slope > 0.0 else -1
-    if rise[1] == 1:
-        lb = max(lb, v_lo)
-    if rise[2] == -1:
-        lb = max(lb, v_hi)
-    if rise[0] != 0:
-        lb = max(lb, _fixed(P, sup_m, ax_lo if rise[0] == 1 else ax_hi, radius, g))
-    if rise[1] == -1 and rise[2] == 1 and lb < best * (1.0 - tol):
-        cross, tc = _crossing(lo, hi, fam, P, sup_l, sup_h, radius, ax, g)
-        lb = max(lb, cross)
-        if cross >= 0.0 and cross < best * (1.0 - tol):
-            _axes(tc, fam, ax)
-            sup = sup_m.copy()
-            v = _measure(P, start, adj, ax, sup, radius)
-            if v < found:
-                found, t_found = v, tc
-    return v_mid, lb, found, t_found
 
 
 @nb.njit(cache=True)
