@@ -15,6 +15,11 @@ to its stamp the content hashes of every file of this package the kernel's file 
 transitively; numba discards an index whose stamp differs and compiles afresh. It is registered
 when `collide` is imported, before any kernel is defined. (``NUMBA_CACHE_LOCATOR_CLASSES``, where
 set, replaces numba's list of locators, this one included: numba's own stamps then.)
+
+A cache miss means a compile, and the first one takes about a minute with no output: `register`
+also listens to numba's ``numba:compile`` event (numba.core.event, broadcast only when a kernel is
+compiled, not when it is loaded from the cache) and says so on stderr, once a process, when a
+kernel of this package starts compiling.
 """
 
 from __future__ import annotations
@@ -138,9 +143,44 @@ def _inside(path: str, root: str) -> bool:
         return False
 
 
+COMPILE_NOTICE = "compiling {}'s kernels, once: about a minute (cached afterwards)"
+
+
+def _announce_compiles(root: str) -> None:
+    # Once a process, on stderr, when a kernel of the package at ``root`` starts compiling (a cache
+    # miss): the first run is otherwise a silent minute. Loading from the cache broadcasts nothing.
+    try:
+        from numba.core import event
+    except ImportError:  # pragma: no cover (every numba this package supports has it)
+        return
+    pkg = os.path.basename(root)
+
+    class _Notice(event.Listener):
+        _collide_root = root
+        said = False
+
+        def on_start(self, ev):
+            if self.said:
+                return
+            disp = (ev.data or {}).get("dispatcher")
+            module = getattr(getattr(disp, "py_func", None), "__module__", "") or ""
+            if module == pkg or module.startswith(pkg + "."):
+                self.said = True
+                print(COMPILE_NOTICE.format(pkg), file=sys.stderr, flush=True)
+
+        def on_end(self, ev):
+            pass
+
+    listeners = getattr(event, "_registered", {}).get("numba:compile", [])  # one listener per copy
+    if not any(getattr(lst, "_collide_root", None) == root for lst in listeners):
+        event.register("numba:compile", _Notice())
+
+
 def register(suffix: str = "") -> None:
     """Put `_PackageLocator` (for this copy of the package) first among numba's cache locators;
-    ``suffix`` is appended to its cache files' names (a compilation mode kept apart)."""
+    ``suffix`` is appended to its cache files' names (a compilation mode kept apart). Also says
+    on stderr, once a process, when a kernel of the package starts compiling (`COMPILE_NOTICE`)."""
+    _announce_compiles(_ROOT)
     try:
         from numba.core import caching
 

@@ -51,6 +51,37 @@ def test_a_cached_kernel_is_recompiled_when_a_file_it_inlines_from_changes(tmp_p
     assert _run(tmp_path) == "3"
 
 
+def test_a_compile_is_announced_on_stderr_once_and_a_cache_load_is_not(tmp_path):
+    # The first call compiles for about a minute with no output: the package says so first.
+    pkg = tmp_path / "pkgx"
+    pkg.mkdir()
+    shutil.copy(PACKAGE / "_cache.py", pkg / "_cache.py")
+    (pkg / "__init__.py").write_text("from . import _cache\n_cache.register()\n")
+    (pkg / "b.py").write_text(textwrap.dedent("""
+        import numba as nb
+        @nb.njit(cache=True)
+        def g(x):
+            return x + 1
+        @nb.njit(cache=True)
+        def h(x):
+            return g(x) * 2
+    """))
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_CACHE")}
+    notice = _cache.COMPILE_NOTICE.format("pkgx")
+
+    def run():
+        out = subprocess.run([sys.executable, "-c", "import pkgx.b as b; print(b.h(1))"], cwd=tmp_path, env=env,
+                             capture_output=True, text=True, timeout=300)
+        assert out.returncode == 0, out.stderr
+        assert out.stdout.strip() == "4"
+        return out.stderr
+
+    first = run()
+    assert first.count(notice) == 1, first  # two kernels compiled, one notice
+    assert list((pkg / "__pycache__").glob("b.h-*.nbi")), "h was not cached: the second run would compile"
+    assert notice not in run()
+
+
 def _module(base: Path, dotted: str) -> Path | None:
     p = base.joinpath(*dotted.split(".")) if dotted else base
     for cand in (p.with_suffix(".py") if dotted else None, p / "__init__.py"):
