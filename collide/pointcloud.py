@@ -141,7 +141,7 @@ class PointCloud:
         """A radius-0 cloud whose hull contains this cloud's set (radius turned into points)."""
         return PointCloud(_hull.minkowski_ball(self._points, self._radius, level), 0.0)
 
-    # Bounding volumes (fitting lives in volumes.py; these are conveniences).
+    # Bounding volumes (fitting lives in collide.volumes; these are conveniences).
     def aabb(self) -> "_volumes.AABB":
         """Axis-aligned box of the set (exact: the points' extremes plus the radius)."""
         return _volumes.fit_aabb(self._points, self._radius)

@@ -1,4 +1,4 @@
-"""The exact minimum-volume OBB (``fit_obb(method="exact")``, collide._obb_exact) against its
+"""The exact minimum-volume OBB (``fit_obb(method="exact")``, collide.volumes._obb_exact) against its
 brute-force twins (collide.testing.obb), and the ``"optimal"`` fitter against the exact box.
 
 On every cloud: the exact box is within 1e-9 of the twin's best box (or better), the twin finds
@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from collide import volumes as V
+from collide.volumes._axes import _hull_points
 from collide.testing import obb as twin
 from collide.testing import random_rotation
 
@@ -229,6 +230,6 @@ def test_model_meshes():
             exact, _ = _fits(p, radius, rng)
             local = twin.polish(p, radius, exact.rotation)[0]
             assert local >= exact.volume() * (1 - RTOL), (name, radius)
-            if len(V._hull_points(p - p.mean(axis=0))[0]) <= 40:  # small enough for the dense twin
+            if len(_hull_points(p - p.mean(axis=0))[0]) <= 40:  # small enough for the dense twin
                 found = twin.edge_pair_search(p, radius, samples=180, refine=32)[0]
                 assert exact.volume() <= found * (1 + RTOL) and found <= exact.volume() * (1 + 1e-6), name

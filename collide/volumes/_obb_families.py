@@ -1,4 +1,4 @@
-"""O'Rourke's edge-pair families of box orientations, enumerated for `collide._obb_exact`.
+"""O'Rourke's edge-pair families of box orientations, enumerated for `collide.volumes._obb_exact`.
 
 A family is an ordered pair of hull edges ``(e1, e2)`` and an interval of ``t``: the axis
 ``a(t) = cos t s1 + sin t q1`` runs along the arc of ``e1`` in the hull's Gauss map (from the

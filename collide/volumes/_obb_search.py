@@ -1,6 +1,6 @@
-"""Branch and bound on t over the edge-pair families (`collide._obb_families`), for
-`collide._obb_exact`: the least box volume of each family to a relative ``TOL``, with certified
-lower bounds (see `_interval`).
+"""Branch and bound on t over the edge-pair families (`collide.volumes._obb_families`), for
+`collide.volumes._obb_exact`: the least box volume of each family to a relative ``TOL``, with
+certified lower bounds (see `_interval`).
 
 The box of family ``(e1, e2)`` at ``t`` has axes ``a(t)``, ``b(t) = a x d2 / |a x d2|`` and
 ``c = a x b``; its volume is measured by hill climbing on the hull's vertex graph (a vertex with

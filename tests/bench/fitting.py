@@ -35,6 +35,8 @@ import trimesh
 from scipy.optimize import minimize, nnls
 
 from collide import volumes as V
+from collide.volumes import _fit_box as VF  # the "optimal" fitter's settings, for the ablation
+from collide.volumes._axes import _hull_points, _rodrigues
 
 N = 1000
 INSTANCES = 10
@@ -63,7 +65,7 @@ def _cloud(kind: str, rng) -> np.ndarray:
     if kind == "elbow (two limbs)":
         upper = rng.uniform(size=(N // 2, 3)) * [4.0, 0.6, 0.6]
         fore = rng.uniform(size=(N - N // 2, 3)) * [4.0, 0.5, 0.5]
-        bend = V._rodrigues(np.array([[0.0, 0.0, rng.uniform(0.4, 1.6)]]))[0]
+        bend = _rodrigues(np.array([[0.0, 0.0, rng.uniform(0.4, 1.6)]]))[0]
         return np.vstack([upper, fore @ bend.T])
     if kind == "trimesh icosphere (perturbed)":
         m = trimesh.creation.icosphere(subdivisions=4)
@@ -99,12 +101,12 @@ def _multistart(points, rng) -> float:
     p = np.ascontiguousarray(points - points.mean(axis=0))
     found = []
     for _ in range(STARTS):
-        rot, vol = V._nb_polish(p, _rotation(rng), 0.0, 0.5, 1e-7, 5000, V._COMPASS)
+        rot, vol = VF._nb_polish(p, _rotation(rng), 0.0, 0.5, 1e-7, 5000, VF._COMPASS)
         found.append((vol, rot))
     found.sort(key=lambda x: x[0])
     best = found[0][0]
     for vol, rot in found[:3]:
-        res = minimize(lambda w: _box_volume(p, rot @ V._rodrigues(w[None])[0]), np.zeros(3),
+        res = minimize(lambda w: _box_volume(p, rot @ _rodrigues(w[None])[0]), np.zeros(3),
                        method="Nelder-Mead", options={"xatol": 1e-9, "fatol": 1e-14, "maxiter": 4000})
         best = min(best, vol, float(res.fun))
     return best
@@ -198,7 +200,7 @@ def main() -> None:
         hull_sizes = []
         for _ in range(INSTANCES):
             p = _cloud(kind, rng) @ _rotation(rng).T + rng.normal(size=3) * 10
-            hull_sizes.append(len(V._hull_points(p - p.mean(axis=0))[0]))
+            hull_sizes.append(len(_hull_points(p - p.mean(axis=0))[0]))
             ex, times_ex = _timed(V.fit_obb, p, 0.0, "exact")
             opt, t_opt = _timed(V.fit_obb, p)
             pca, t_pca = _timed(V.fit_obb, p, 0.0, "pca")
@@ -330,7 +332,7 @@ ABLATION = [  # (exact up to hull size, subset rounds, seed supports, polished s
 def _ablation(kept) -> None:
     # The "optimal" fitter's settings, on the non-flat instances above (ratios to the exact box).
     names = ("_EXACT_HULL", "_SUBSET_ROUNDS", "_SEED_SUPPORTS", "_POLISH_STARTS")
-    saved = tuple(getattr(V, k) for k in names)
+    saved = tuple(getattr(VF, k) for k in names)
     print()
     print("## Ablation of fit_obb(method=\"optimal\") settings, non-flat instances above "
           "(volume / exact: mean, worst; median time [ms])")
@@ -338,7 +340,7 @@ def _ablation(kept) -> None:
           f"{'time':>7s}")
     for setting in ABLATION:
         for k, v in zip(names, setting):
-            setattr(V, k, v)
+            setattr(VF, k, v)
         ratios, times = [], []
         for p, ref in kept:
             box, t = _timed(V.fit_obb, p)
@@ -348,7 +350,7 @@ def _ablation(kept) -> None:
         print(f"{setting[0]:7d} {setting[1]:6d} {setting[2]:5d} {setting[3]:6d} | {np.mean(ratios):7.4f} "
               f"{np.max(ratios):7.4f} | {np.median(times) * 1e3:7.2f}{mark}")
     for k, v in zip(names, saved):
-        setattr(V, k, v)
+        setattr(VF, k, v)
     print("# exact<=: the exact box up to this hull size; rounds: subset rounds of the exact search above it;")
     print("# seeds: extreme vertices per axis of each polished start joining the subset; starts: polished")
     print("# starts. (0, 0, 1, 3) is the fitter before the exact search (no exact box, no subset round).")
