@@ -1,5 +1,5 @@
 """The command line: ``python -m collide compare [MODEL.xml] [--steps N] [--seed S] [--hold H]
-[--json FILE] [--plot FILE.png]``.
+[--json FILE] [--plot FILE.png] [--rerun FILE.rrd]``.
 
 ``compare`` simulates a MuJoCo model with random controls and, every step, checks that every
 contact MuJoCo generated is among `collide`'s candidates, counts candidates on both sides and
@@ -33,6 +33,9 @@ def _parser() -> argparse.ArgumentParser:
                       "time_ours_us, time_mujoco_broad_us, ratio, the per-step times and more "
                       "(see collide.mujoco.compare)")
     cmp_.add_argument("--plot", metavar="FILE.png", help="write a per-step plot (matplotlib)")
+    cmp_.add_argument("--rerun", metavar="FILE.rrd", help="record every step to Rerun (needs rerun-sdk: "
+                      "pip install 'collide[viz]'): geoms, our bounds, candidate pairs, MuJoCo's contacts and "
+                      "ours, missed pairs; open it with `rerun FILE.rrd` (see docs/visualising.md)")
     cmp_.add_argument("--no-contacts", action="store_true", help="compare candidate pairs only, not "
                       "contacts (our narrow phase against MuJoCo's contacts, each pair's deepest)")
     return parser
@@ -69,7 +72,14 @@ def compare_main(args: argparse.Namespace) -> int:
             print(f"error: --plot: matplotlib cannot write '.{fmt}' files (use one of: "
                   f"{', '.join(sorted(supported))})", file=sys.stderr)
             return 2
-    for flag, out in (("--json", args.json), ("--plot", args.plot)):
+    if args.rerun:
+        try:
+            import rerun  # noqa: F401  (said before the run, not after it)
+        except ImportError:
+            print("error: --rerun needs rerun-sdk: pip install 'collide[viz]' (or pip install rerun-sdk)",
+                  file=sys.stderr)
+            return 2
+    for flag, out in (("--json", args.json), ("--plot", args.plot), ("--rerun", args.rerun)):
         # The outputs are checked now, not after the whole run (and exit status 1 means a miss).
         if out:
             if Path(out).is_dir():
@@ -91,9 +101,17 @@ def compare_main(args: argparse.Namespace) -> int:
         name = "built-in scene (figure falling on a pile)"
     # Said before the run: the first one also compiles the kernels (about a minute, silent).
     print(f"{name}: simulating {args.steps} steps with random controls (seed {args.seed})...", flush=True)
-    result = cm.compare(model, steps=args.steps, seed=args.seed, name=name, hold=args.hold,
-                        contacts=not args.no_contacts)
+    if args.rerun:
+        from .rerun_log import record_compare
+
+        result, _ = record_compare(model, args.rerun, steps=args.steps, seed=args.seed, name=name,
+                                   hold=args.hold, contacts=not args.no_contacts)
+    else:
+        result = cm.compare(model, steps=args.steps, seed=args.seed, name=name, hold=args.hold,
+                            contacts=not args.no_contacts)
     print(cm.format_report(result))
+    if args.rerun:
+        print(f"\nwrote {args.rerun} (open it with: rerun {args.rerun})")
     if args.json:
         Path(args.json).write_text(json.dumps(result, indent=1))
         print(f"\nwrote {args.json}")

@@ -89,6 +89,7 @@ __all__ = [
     "geom_frames",
     "geom_inflation",
     "kinematics_batch",
+    "log_rerun",
     "model_excludes",
     "mujoco_timer",
     "pair_inflation",
@@ -1301,3 +1302,4 @@ def default_scene(seed: int = 0, objects: int = 40) -> mujoco.MjModel:
 
 
 from .collider import Collider  # noqa: E402  (contacts: collide.collider, which does not import mujoco)
+from .rerun_log import log_rerun  # noqa: E402  (a Rerun recording; rerun itself imported when one is made)

@@ -1,0 +1,541 @@
+"""A run's geoms, bounds, candidate pairs and contacts, recorded to Rerun (``rerun-sdk``).
+
+Robotics people look at a simulation on a timeline rather than in tables: `RerunLog` writes, per
+step, what `collide` computes on a MuJoCo model, to an ``.rrd`` file or a live viewer
+(``rerun out.rrd`` opens one). ``rerun`` is imported when a log is made, never by the library
+(``pip install collide[viz]``). Like `collide.contacts`, this module reads the model through
+MuJoCo's attribute names and never imports ``mujoco`` (DESIGN.md's layers); `record_compare`
+drives `collide.mujoco.compare`, imported when it is called.
+
+The entities (timeline ``step``; ``sim_time`` too, in seconds):
+
+==================================  ========================================================
+``world/geoms/<kind>``              the collidable geoms, MuJoCo's primitives by kind
+                                    (Boxes3D, Ellipsoids3D, Capsules3D, Cylinders3D, planes
+                                    as flat boxes), instances by geom id
+``world/geoms/mesh/<name>``         a mesh geom: its Mesh3D (static) and pose (Transform3D)
+``world/visual/...``                the same for geoms that never collide (``contype`` and
+                                    ``conaffinity`` 0, no explicit pair): a robot's visual meshes
+``world/bounds/geom_obbs``          our world OBB of each collidable geom (the broad phase's,
+                                    margins included: `BroadPhase.world_bounds`), wireframes:
+                                    orange when the geom is in a candidate pair, blue otherwise
+``world/bounds/geom_spheres``       our world sphere of each collidable geom
+``world/bounds/body_obbs``,         our bounds of each body (its geoms together), what the
+``world/bounds/body_spheres``       tree culls with
+``world/pairs/candidates``          one line per candidate pair, between the two geoms
+``world/pairs/missed``              MuJoCo contact pairs missing from our candidates (red)
+``world/contacts/mujoco/points``,   MuJoCo's contacts: points at ``contact.pos`` and arrows
+``world/contacts/mujoco/normals``   along ``contact.frame[:3]``
+``world/contacts/collide/points``,  ours (`collide.mujoco.Collider.contacts`), the same way
+``world/contacts/collide/normals``
+``world/contacts/missed``           MuJoCo's contacts of pairs we made no contact for (red)
+``stats/pairs/<series>``            candidates, contact pairs, missed pairs per step
+``stats/contacts/<series>``         contact points per step, MuJoCo's and ours
+``stats/time_us/<series>``          time per step (see `RerunLog.log` and `record_compare`)
+==================================  ========================================================
+
+Geoms whose bounds are unbounded (planes) or empty (bodies without a collidable geom) have no
+bound drawn; height fields and SDF geoms are not drawn (their bounds are).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ._validate import as_count
+from .collider import Collider
+from .contacts import GEOM_TYPES
+
+__all__ = ["RerunLog", "StepRecord", "log_rerun", "record_compare"]
+
+_T = GEOM_TYPES
+# The geom kinds drawn as one entity each (instances by geom id); meshes get an entity each.
+_KINDS = {_T["plane"]: "planes", _T["sphere"]: "spheres", _T["capsule"]: "capsules",
+          _T["ellipsoid"]: "ellipsoids", _T["cylinder"]: "cylinders", _T["box"]: "boxes"}
+_IN_PAIR = (255, 140, 0, 255)  # orange: a geom in one of our candidate pairs
+_NOT_IN_PAIR = (70, 130, 255, 110)  # blue, faint
+_SPHERE = (150, 150, 150, 90)
+_BODY = (170, 90, 220, 160)
+_CANDIDATE = (255, 170, 40, 200)
+_MISSED = (230, 20, 20, 255)
+_MUJOCO = (40, 120, 255, 255)
+_OURS = (30, 190, 80, 255)
+
+
+def _rerun():
+    try:
+        import rerun
+    except ImportError:
+        raise ImportError("rerun-sdk is not installed: pip install 'collide[viz]' (or pip install rerun-sdk)") from None
+    return rerun
+
+
+@dataclass(frozen=True)
+class StepRecord:
+    """What `RerunLog.log` logged at one step (counts of instances, for checks and summaries).
+
+    Attributes
+    ----------
+    step : int
+    candidates : int
+        Our candidate pairs (lines in ``world/pairs/candidates``).
+    mujoco_pairs : int
+        Geom pairs MuJoCo made contacts for (flex contacts left out).
+    mujoco_contacts, our_contacts : int
+        Contact points, MuJoCo's (flex contacts left out) and ours.
+    missed_pairs : int
+        MuJoCo contact pairs not among our candidates (``world/pairs/missed``).
+    missed_contacts : int
+        MuJoCo contact points of pairs we made no contact for (``world/contacts/missed``).
+    geom_bounds, body_bounds : int
+        OBBs (and as many spheres) drawn.
+    """
+
+    step: int
+    candidates: int
+    mujoco_pairs: int
+    mujoco_contacts: int
+    our_contacts: int
+    missed_pairs: int
+    missed_contacts: int
+    geom_bounds: int
+    body_bounds: int
+
+
+def _quat_xyzw(rot: np.ndarray) -> np.ndarray:
+    # Rerun's quaternions are (x, y, z, w).
+    return Rotation.from_matrix(np.asarray(rot).reshape(-1, 3, 3)).as_quat()
+
+
+def _rgba8(rgba: np.ndarray) -> np.ndarray:
+    return np.clip(np.round(np.asarray(rgba) * 255.0), 0, 255).astype(np.uint8)
+
+
+def _vertex_normals(vert: np.ndarray, face: np.ndarray) -> np.ndarray:
+    # Area-weighted face normals summed at the vertices (smooth shading of MuJoCo's meshes).
+    n = np.zeros_like(vert)
+    fn = np.cross(vert[face[:, 1]] - vert[face[:, 0]], vert[face[:, 2]] - vert[face[:, 0]])
+    for k in range(3):
+        np.add.at(n, face[:, k], fn)
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    return n / np.where(length > 0, length, 1.0)
+
+
+def _pairs_key(pairs: np.ndarray, ngeom: int) -> np.ndarray:
+    p = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    return p[:, 0] * ngeom + p[:, 1]
+
+
+class RerunLog:
+    """Records a MuJoCo model's run, step by step, to Rerun.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+        Read once (geometry, colours, filters): the geoms are logged now, as static data.
+    path : str or path-like, optional
+        Write the recording to this ``.rrd`` file (open it with ``rerun FILE``).
+    spawn : bool, default False
+        Also start a Rerun viewer and stream to it.
+    recording : rerun.RecordingStream, optional
+        Log to this stream instead (its sinks are the caller's); ``path`` and ``spawn`` then
+        add sinks to it.
+    bodies : bool, default True
+        Log the bodies' bounds too.
+    visual : bool, default True
+        Log the geoms that never collide (a robot's visual meshes) under ``world/visual``.
+    application_id : str, default "collide"
+        The recording's application id (the viewer groups recordings by it).
+
+    Raises
+    ------
+    ImportError
+        ``rerun-sdk`` is not installed.
+    ValueError
+        None of ``path``, ``spawn`` and ``recording`` given (the log would go nowhere).
+
+    Notes
+    -----
+    Use it as a context manager, or call `close`, so that the file is complete.
+    """
+
+    def __init__(self, model, path=None, *, spawn: bool = False, recording=None, bodies: bool = True,
+                 visual: bool = True, application_id: str = "collide"):
+        rr = _rerun()
+        if path is None and not spawn and recording is None:
+            raise ValueError("RerunLog: give a path, spawn=True or a recording (else nothing is recorded)")
+        self.rr = rr
+        self.model = model
+        self.collider = Collider(model)
+        self.broadphase = self.collider.broadphase  # collide.mujoco.BroadPhase
+        self.bodies = bool(bodies)
+        self.visual = bool(visual)
+        self.ngeom = int(model.ngeom)
+        self._next_step = 0
+        self._scratch = None  # an MjData for replayed states (`record_compare`)
+        self._snapshots: list = []
+        self._own = recording is None
+        self.rec = rec = recording if recording is not None else rr.RecordingStream(application_id)
+        blueprint = self._blueprint()
+        if path is not None:
+            rec.save(str(path), default_blueprint=blueprint)
+        if spawn:
+            rec.spawn(default_blueprint=blueprint)
+        self._static()
+
+    # ------------------------------------------------------------------ set-up, once per model
+
+    def _blueprint(self):
+        rrb = self.rr.blueprint
+        return rrb.Blueprint(
+            rrb.Horizontal(
+                rrb.Spatial3DView(origin="/world", name="scene"),
+                rrb.Vertical(
+                    rrb.TimeSeriesView(origin="/stats/pairs", name="geom pairs per step"),
+                    rrb.TimeSeriesView(origin="/stats/contacts", name="contact points per step"),
+                    rrb.TimeSeriesView(origin="/stats/time_us", name="time per step (us)"),
+                ),
+                column_shares=[3, 2],
+            ),
+            collapse_panels=True,
+        )
+
+    def _static(self) -> None:
+        rr, m, rec = self.rr, self.model, self.rec
+        rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)  # MuJoCo's z is up
+        gtype = np.asarray(m.geom_type)
+        explicit = np.zeros(self.ngeom, bool)
+        explicit[np.asarray(m.pair_geom1, dtype=np.int64)] = True
+        explicit[np.asarray(m.pair_geom2, dtype=np.int64)] = True
+        collides = (np.asarray(m.geom_contype) != 0) | (np.asarray(m.geom_conaffinity) != 0) | explicit
+        self.geom_collides = collides
+        rgba = np.array(m.geom_rgba, dtype=np.float64)
+        matid = np.asarray(m.geom_matid)
+        has_mat = matid >= 0
+        rgba[has_mat] = np.asarray(m.mat_rgba)[matid[has_mat]]
+        self._rgba = _rgba8(rgba)
+        size = np.asarray(m.geom_size, dtype=np.float64)
+        extent = float(m.stat.extent) if float(m.stat.extent) > 0 else 1.0
+        self.normal_length = 0.05 * extent
+        self._groups = []  # (entity, kind, geom ids, static half sizes or (lengths, radii))
+        self._meshes = []  # (entity, geom id)
+        for prefix, mask in (("world/geoms", collides), ("world/visual", ~collides if self.visual else None)):
+            if mask is None:
+                continue
+            for t, kind in _KINDS.items():
+                ids = np.flatnonzero(mask & (gtype == t))
+                if len(ids):
+                    self._groups.append((f"{prefix}/{kind}", t, ids))
+            for g in np.flatnonzero(mask & (gtype == _T["mesh"])):
+                entity = f"{prefix}/mesh/{rr.escape_entity_path_part(self._name(g))}"
+                mesh = int(m.geom_dataid[g])
+                v0, nv = int(m.mesh_vertadr[mesh]), int(m.mesh_vertnum[mesh])
+                f0, nf = int(m.mesh_faceadr[mesh]), int(m.mesh_facenum[mesh])
+                vert = np.asarray(m.mesh_vert[v0:v0 + nv], dtype=np.float64)  # in the geom frame
+                face = np.asarray(m.mesh_face[f0:f0 + nf], dtype=np.int64)
+                rec.log(entity, rr.Mesh3D(vertex_positions=vert, triangle_indices=face,
+                                          vertex_normals=_vertex_normals(vert, face),
+                                          albedo_factor=self._rgba[g]), static=True)
+                self._meshes.append((entity, int(g)))
+        self._size = size
+        self._extent = extent
+        # Series styles, static: names and colours of the lines in the plots.
+        for entity, colour, name in (
+                ("stats/pairs/candidates", _CANDIDATE, "our candidates"),
+                ("stats/pairs/mujoco_candidates", (120, 120, 120, 255), "MuJoCo broad-phase candidates"),
+                ("stats/pairs/mujoco_contact_pairs", _MUJOCO, "MuJoCo contact pairs"),
+                ("stats/pairs/missed", _MISSED, "MuJoCo contact pairs missed"),
+                ("stats/contacts/mujoco", _MUJOCO, "MuJoCo contact points"),
+                ("stats/contacts/collide", _OURS, "our contact points"),
+                ("stats/contacts/missed", _MISSED, "MuJoCo contact points of pairs we missed"),
+                ("stats/time_us/collide_broad", _CANDIDATE, "our broad phase"),
+                ("stats/time_us/collide_contacts", _OURS, "our broad + narrow phase"),
+                ("stats/time_us/mujoco_broad", _MUJOCO, "MuJoCo broad phase")):
+            rec.log(entity, rr.SeriesLines(colors=[colour], names=[name]), static=True)
+
+    def _name(self, g: int) -> str:
+        adr = int(self.model.name_geomadr[g])
+        names = bytes(self.model.names)
+        name = names[adr:names.index(b"\0", adr)].decode() if adr >= 0 else ""
+        return f"{g}_{name}" if name else f"geom{g}"
+
+    # ------------------------------------------------------------------ per step
+
+    def log(self, data, step: int | None = None, candidates=None) -> StepRecord:
+        """Log the state of ``data`` (after ``mj_step`` or ``mj_forward``) as one step.
+
+        Parameters
+        ----------
+        data : mujoco.MjData
+            Of the model the log was made for; read: body and geom poses, ``contact``, ``time``.
+        step : int, optional
+            The step's index on the ``step`` timeline (default: one more than the last).
+        candidates : (K, 2) int array, optional
+            Our candidate pairs, when the caller has them; computed here otherwise (and timed:
+            ``stats/time_us/collide_broad``). Our contacts are computed here (timed:
+            ``stats/time_us/collide_contacts``, the broad phase included).
+
+        Returns
+        -------
+        StepRecord
+            Counts of what was logged.
+
+        Raises
+        ------
+        ValueError
+            ``data`` of another model, a non-finite pose, a negative ``step``.
+        """
+        step = self._next_step if step is None else as_count(step, "step", 0)
+        perf = time.perf_counter_ns
+        times = {}
+        if candidates is None:
+            t0 = perf()
+            candidates = self.collider.pairs(data)
+            times["collide_broad"] = (perf() - t0) * 1e-3
+        t0 = perf()
+        ours = self.collider.contacts(data)
+        times["collide_contacts"] = (perf() - t0) * 1e-3
+        n = int(data.ncon)
+        c = data.contact
+        theirs = (np.array(c.geom[:n], dtype=np.int64), np.array(c.pos[:n]), np.array(c.frame[:n, :3]))
+        return self._log(step, float(data.time), data, candidates, ours, theirs, times)
+
+    def _log(self, step, sim_time, data, candidates, ours, theirs, times) -> StepRecord:
+        rr, rec, ng = self.rr, self.rec, self.ngeom
+        self._next_step = step + 1
+        rec.set_time("step", sequence=step)
+        rec.set_time("sim_time", duration=sim_time)
+        gpos = np.asarray(data.geom_xpos)
+        gmat = np.asarray(data.geom_xmat).reshape(-1, 3, 3)
+        self._log_geoms(gpos, gmat)
+        cand = np.asarray(candidates, dtype=np.int64).reshape(-1, 2)
+
+        # Our bounds (what the broad phase tests).
+        wb = self.broadphase.world_bounds(data)
+        in_pair = np.zeros(ng, bool)
+        in_pair[cand.ravel()] = True
+        keep = self.geom_collides & np.all(np.isfinite(wb.obb_half), axis=1)
+        colours = np.where(in_pair[keep, None], np.array(_IN_PAIR, np.uint8), np.array(_NOT_IN_PAIR, np.uint8))
+        n_geom = self._log_bounds("world/bounds/geom", wb, keep, colours)
+        n_body = 0
+        if self.bodies:
+            bb = self.broadphase.world_bounds(data, of="bodies")
+            keep_b = np.all(np.isfinite(bb.obb_half), axis=1) & (bb.sphere_radius >= 0)
+            n_body = self._log_bounds("world/bounds/body", bb, keep_b, np.array(_BODY, np.uint8))
+
+        # Candidate pairs and MuJoCo's contact pairs we missed.
+        rec.log("world/pairs/candidates", rr.LineStrips3D(self._segments(cand, gpos, gmat), radii=0.0015,
+                                                          colors=_CANDIDATE))
+        geom, cpos, cnormal = theirs
+        solid = np.all(geom >= 0, axis=1)  # flex contacts are not geom pairs
+        geom, cpos, cnormal = np.sort(geom[solid], axis=1), cpos[solid], cnormal[solid]
+        keys = geom[:, 0] * ng + geom[:, 1]
+        mj_keys = np.unique(keys)
+        missed = mj_keys[~np.isin(mj_keys, _pairs_key(cand, ng))]
+        missed_pairs = np.stack(np.divmod(missed, ng), axis=1)
+        rec.log("world/pairs/missed", rr.LineStrips3D(self._segments(missed_pairs, gpos, gmat), radii=0.006,
+                                                      colors=_MISSED))
+
+        # Contacts: MuJoCo's, ours, and MuJoCo's of pairs we made no contact for.
+        L = self.normal_length
+        rec.log("world/contacts/mujoco/points", rr.Points3D(cpos, radii=0.006, colors=_MUJOCO))
+        rec.log("world/contacts/mujoco/normals", rr.Arrows3D(origins=cpos, vectors=cnormal * L, radii=0.002,
+                                                            colors=_MUJOCO))
+        rec.log("world/contacts/collide/points", rr.Points3D(ours.pos, radii=0.0045, colors=_OURS))
+        rec.log("world/contacts/collide/normals", rr.Arrows3D(origins=ours.pos, vectors=ours.normal * L,
+                                                             radii=0.0015, colors=_OURS))
+        no_ours = ~np.isin(keys, _pairs_key(ours.geom, ng))
+        rec.log("world/contacts/missed", rr.Points3D(cpos[no_ours], radii=0.012, colors=_MISSED))
+
+        counts = StepRecord(step=step, candidates=len(cand), mujoco_pairs=len(mj_keys),
+                            mujoco_contacts=len(cpos), our_contacts=len(ours), missed_pairs=len(missed),
+                            missed_contacts=int(np.count_nonzero(no_ours)), geom_bounds=n_geom,
+                            body_bounds=n_body)
+        for entity, value in (("stats/pairs/candidates", counts.candidates),
+                              ("stats/pairs/mujoco_contact_pairs", counts.mujoco_pairs),
+                              ("stats/pairs/missed", counts.missed_pairs),
+                              ("stats/contacts/mujoco", counts.mujoco_contacts),
+                              ("stats/contacts/collide", counts.our_contacts),
+                              ("stats/contacts/missed", counts.missed_contacts)):
+            rec.log(entity, rr.Scalars(float(value)))
+        for key, value in times.items():
+            rec.log(f"stats/time_us/{key}", rr.Scalars(value))
+        return counts
+
+    def _log_geoms(self, gpos: np.ndarray, gmat: np.ndarray) -> None:
+        rr, rec, size = self.rr, self.rec, self._size
+        for entity, t, ids in self._groups:
+            pos, rot, s = gpos[ids], gmat[ids], size[ids]
+            q = _quat_xyzw(rot)
+            colours = self._rgba[ids]
+            if t == _T["box"]:
+                arch = rr.Boxes3D(half_sizes=s, centers=pos, quaternions=q, colors=colours, fill_mode="solid")
+            elif t == _T["plane"]:
+                # A plane's size is visual only (0: infinite); drawn as a flat box of that size.
+                half = np.where(s[:, :2] > 0, s[:, :2], 2.0 * self._extent)
+                half = np.column_stack([half, np.zeros(len(ids))])
+                arch = rr.Boxes3D(half_sizes=half, centers=pos, quaternions=q, colors=colours, fill_mode="solid")
+            elif t == _T["sphere"]:
+                arch = rr.Ellipsoids3D(half_sizes=np.repeat(s[:, :1], 3, axis=1), centers=pos, quaternions=q,
+                                       colors=colours, fill_mode="solid")
+            elif t == _T["ellipsoid"]:
+                arch = rr.Ellipsoids3D(half_sizes=s, centers=pos, quaternions=q, colors=colours, fill_mode="solid")
+            elif t == _T["cylinder"]:
+                arch = rr.Cylinders3D(lengths=2.0 * s[:, 1], radii=s[:, 0], centers=pos, quaternions=q,
+                                      colors=colours, fill_mode="solid")
+            else:  # capsule: Rerun's runs from its origin along +z; MuJoCo's is centred
+                base = pos - rot[:, :, 2] * s[:, 1:2]
+                arch = rr.Capsules3D(lengths=2.0 * s[:, 1], radii=s[:, 0], translations=base, quaternions=q,
+                                     colors=colours, fill_mode="solid")
+            rec.log(entity, arch)
+        for entity, g in self._meshes:
+            rec.log(entity, rr.Transform3D(translation=gpos[g], mat3x3=gmat[g]))
+
+    def _log_bounds(self, prefix: str, wb, keep: np.ndarray, colours) -> int:
+        rr, rec = self.rr, self.rec
+        rec.log(f"{prefix}_obbs", rr.Boxes3D(half_sizes=wb.obb_half[keep], centers=wb.obb_center[keep],
+                                             quaternions=_quat_xyzw(wb.obb_rot[keep]), colors=colours,
+                                             radii=0.001, fill_mode="majorwireframe"))
+        r = wb.sphere_radius[keep]
+        rec.log(f"{prefix}_spheres", rr.Ellipsoids3D(half_sizes=np.repeat(r[:, None], 3, axis=1),
+                                                     centers=wb.sphere_center[keep], colors=_SPHERE,
+                                                     line_radii=0.0006, fill_mode="majorwireframe"))
+        return int(np.count_nonzero(keep))
+
+    def _segments(self, pairs: np.ndarray, gpos: np.ndarray, gmat: np.ndarray) -> np.ndarray:
+        # A line between the two geoms' centres; a plane's end is the foot of the other centre on it.
+        pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+        a, b = gpos[pairs[:, 0]].copy(), gpos[pairs[:, 1]].copy()
+        plane = np.asarray(self.model.geom_type) == _T["plane"]
+        for end, other, col in ((a, b, 0), (b, a, 1)):
+            rows = np.flatnonzero(plane[pairs[:, col]])
+            if len(rows):
+                g = pairs[rows, col]
+                n = gmat[g, :, 2]
+                end[rows] = other[rows] - n * np.einsum("ij,ij->i", other[rows] - gpos[g], n)[:, None]
+        return np.stack([a, b], axis=1)
+
+    # ------------------------------------------------------------------ replayed states
+
+    def snapshot(self, step: int, data, candidates) -> None:
+        """Keep the state of ``data`` for `flush_snapshots` (for a timed loop: copies only).
+
+        The ``on_step(step, data, candidates)`` hook of `collide.mujoco.compare`.
+        """
+        if self._scratch is None:  # an MjData to replay the states in (mujoco not imported here)
+            self._scratch = type(data)(self.model)
+        n = int(data.ncon)
+        c = data.contact
+        self._snapshots.append((int(step), float(data.time), np.array(data.xpos), np.array(data.xmat),
+                                np.array(data.geom_xpos), np.array(data.geom_xmat), candidates,
+                                (np.array(c.geom[:n], dtype=np.int64), np.array(c.pos[:n]),
+                                 np.array(c.frame[:n, :3]))))
+
+    def flush_snapshots(self) -> list[StepRecord]:
+        """Log the states kept by `snapshot`, in order; our contacts computed on each."""
+        out = []
+        for step, sim_time, xpos, xmat, gpos, gmat, cand, theirs in self._snapshots:
+            d = self._scratch
+            d.xpos[:], d.xmat[:], d.geom_xpos[:], d.geom_xmat[:] = xpos, xmat, gpos, gmat
+            ours = self.collider.contacts(d)
+            out.append(self._log(step, sim_time, d, cand, ours, theirs, {}))
+        self._snapshots = []
+        return out
+
+    def log_series(self, entity: str, values, steps=None) -> None:
+        """Log a whole per-step series at once (``stats/...``), e.g. from `collide.mujoco.compare`.
+
+        Parameters
+        ----------
+        entity : str
+            Entity path, e.g. ``"stats/time_us/mujoco_broad"``.
+        values : (n,) array_like of float
+        steps : (n,) array_like of int, optional
+            Their steps (default ``0 .. n - 1``).
+        """
+        rr = self.rr
+        v = np.asarray(values, dtype=np.float64).ravel()
+        s = np.arange(len(v)) if steps is None else np.asarray(steps, dtype=np.int64).ravel()
+        if len(s) != len(v):
+            raise ValueError(f"steps: {len(s)} given for {len(v)} values")
+        self.rec.send_columns(entity, indexes=[rr.TimeColumn("step", sequence=s)],
+                              columns=rr.Scalars.columns(scalars=v))
+
+    def close(self) -> None:
+        """Flush the recording (and close it, when this log made it)."""
+        self.rec.flush()
+        if self._own:
+            self.rec.disconnect()
+
+    def __enter__(self) -> RerunLog:
+        return self
+
+    def __exit__(self, *exc) -> bool:
+        self.close()
+        return False
+
+
+def log_rerun(model, path=None, *, spawn: bool = False, recording=None, **options) -> RerunLog:
+    """A `RerunLog` of ``model``: call ``.log(data)`` after each step of your loop, then ``.close()``.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+    path, spawn, recording, **options
+        See `RerunLog`.
+
+    Returns
+    -------
+    RerunLog
+
+    Examples
+    --------
+    >>> import mujoco, collide.mujoco as cm                          # doctest: +SKIP
+    >>> model = cm.default_scene(); data = mujoco.MjData(model)      # doctest: +SKIP
+    >>> with cm.log_rerun(model, "run.rrd") as log:                  # doctest: +SKIP
+    ...     for _ in range(300):
+    ...         mujoco.mj_step(model, data)
+    ...         log.log(data)
+    """
+    return RerunLog(model, path, spawn=spawn, recording=recording, **options)
+
+
+def record_compare(model, path=None, *, spawn: bool = False, recording=None, steps: int = 1000, seed: int = 0,
+                   name: str = "model", hold: int = 100, contacts: bool = True, **options) -> tuple[dict, list]:
+    """`collide.mujoco.compare`, with every step recorded to Rerun.
+
+    The timed run only keeps copies of each step's state (`RerunLog.snapshot`); they are logged
+    after it, with our contacts computed on them, so the comparison's times are those of a run
+    without a log. Then its per-step series: MuJoCo's broad-phase candidates
+    (``stats/pairs/mujoco_candidates``), our broad phase's time and MuJoCo's
+    (``stats/time_us/collide_broad``, ``stats/time_us/mujoco_broad``).
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+    path, spawn, recording, **options
+        See `RerunLog`.
+    steps, seed, name, hold, contacts
+        See `collide.mujoco.compare`.
+
+    Returns
+    -------
+    result : dict
+        `collide.mujoco.compare`'s.
+    records : list of StepRecord
+        What was logged at each step.
+    """
+    from . import mujoco as cm
+
+    with RerunLog(model, path, spawn=spawn, recording=recording, **options) as log:
+        result = cm.compare(model, steps=steps, seed=seed, name=name, broadphase=log.broadphase,
+                            on_step=log.snapshot, hold=hold, contacts=contacts)
+        records = log.flush_snapshots()
+        log.log_series("stats/pairs/mujoco_candidates", result["mujoco_candidates_per_step"])
+        log.log_series("stats/time_us/collide_broad", result["time_ours_us_per_step"])
+        log.log_series("stats/time_us/mujoco_broad", result["time_mujoco_broad_us_per_step"])
+    return result, records

@@ -1,0 +1,229 @@
+"""The Rerun recording (`collide.rerun_log`), read back with Rerun's own reader.
+
+A run is written to an ``.rrd`` file, read back through Rerun's dataframe API (``rerun.chunk``'s
+reader, a DataFusion table indexed by the ``step`` timeline), and what it holds is compared with
+what `collide.mujoco.compare` computed: a recording that logged nothing, or the wrong pairs,
+fails. Skipped, with the reason, where ``rerun-sdk`` (and its ``catalog`` extra, DataFusion) is
+not installed: ``pip install -e '.[test]'`` installs them.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import mujoco
+import numpy as np
+import pytest
+
+import collide.mujoco as cm
+from collide.contacts import GEOM_TYPES
+
+rr = pytest.importorskip("rerun", reason="rerun-sdk is not installed (pip install 'collide[viz]')")
+pytest.importorskip("datafusion", reason="Rerun's dataframe reader needs DataFusion (pip install 'rerun-sdk[catalog]')")
+
+from collide.rerun_log import RerunLog, StepRecord, log_rerun, record_compare  # noqa: E402
+
+BALLS = """
+<mujoco>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+    <body name="ball" pos="0 0 0.095"><freejoint/><geom name="ball" type="sphere" size="0.1"/></body>
+    <body name="cube" pos="0.5 0 0.09"><freejoint/><geom name="cube" type="box" size="0.1 0.1 0.1"/></body>
+    <body name="far" pos="0 0 2"><freejoint/><geom name="far" type="capsule" size="0.05 0.1"/></body>
+    <geom name="ghost" type="sphere" size="0.05" pos="1 1 1" contype="0" conaffinity="0"/>
+  </worldbody>
+</mujoco>
+"""
+
+
+def _table(path):
+    """The recording as a ``{column: list per row}`` dict, rows by step, and its steps."""
+    from rerun.chunk import RrdReader
+
+    store = RrdReader(str(path)).stream().collect()
+    # Semantically empty columns kept: a step with no missed pair logs an empty list, not nothing.
+    table = store.reader(index="step", include_semantically_empty_columns=True).to_arrow_table().to_pydict()
+    static = store.reader(index=None).to_arrow_table().to_pydict()
+    return table, np.asarray(table["step"], dtype=np.int64), static
+
+
+def _col(table, entity, component):
+    key = f"/{entity}:{component}"
+    assert key in table, f"{key} not in the recording ({sorted(table)})"
+    return table[key]
+
+
+def _lengths(column):
+    return np.array([0 if v is None else len(v) for v in column])
+
+
+def _scalars(column):
+    return np.array([np.nan if v is None else v[0] for v in column])
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory):
+    model = cm.default_scene(seed=0, objects=24)
+    path = tmp_path_factory.mktemp("rerun") / "scene.rrd"
+    result, records = record_compare(model, path, steps=40, seed=0, name="scene", hold=20)
+    return model, path, result, records
+
+
+def test_recording_holds_what_compare_computed(recorded):
+    model, path, result, records = recorded
+    table, steps, static = _table(path)
+    n = result["steps"]
+    assert list(steps) == list(range(n))
+    assert result["mujoco_count_replayed"]  # the logged states are the ones compare counted on
+    cand = np.array(result["candidates_per_step"])
+    # The scene really produced pairs and contacts (a recording of nothing cannot pass).
+    assert cand.sum() > 0 and sum(result["contact_pairs_per_step"]) > 0
+    assert result["contacts"]["our_contacts"] > 0
+    # One line per candidate pair, per step, and the series says the same.
+    assert list(_lengths(_col(table, "world/pairs/candidates", "LineStrips3D:strips"))) == list(cand)
+    assert list(_scalars(_col(table, "stats/pairs/candidates", "Scalars:scalars"))) == list(cand)
+    assert list(_scalars(_col(table, "stats/pairs/mujoco_contact_pairs", "Scalars:scalars"))) == \
+        result["contact_pairs_per_step"]
+    assert list(_scalars(_col(table, "stats/pairs/mujoco_candidates", "Scalars:scalars"))) == \
+        result["mujoco_candidates_per_step"]
+    np.testing.assert_array_equal(_scalars(_col(table, "stats/time_us/collide_broad", "Scalars:scalars")),
+                                  result["time_ours_us_per_step"])
+    np.testing.assert_array_equal(_scalars(_col(table, "stats/time_us/mujoco_broad", "Scalars:scalars")),
+                                  result["time_mujoco_broad_us_per_step"])
+    # Missed pairs: as many lines per step as compare listed (none on this scene).
+    missed = np.bincount([m["step"] for m in result["missed"]], minlength=n)
+    assert list(_lengths(_col(table, "world/pairs/missed", "LineStrips3D:strips"))) == list(missed)
+    # Contact points: MuJoCo's and ours, summed over the steps, as compare counted them.
+    mj = _lengths(_col(table, "world/contacts/mujoco/points", "Points3D:positions"))
+    ours = _lengths(_col(table, "world/contacts/collide/points", "Points3D:positions"))
+    assert mj.sum() == result["contacts"]["mujoco_contacts"]
+    assert ours.sum() == result["contacts"]["our_contacts"]
+    assert list(_lengths(_col(table, "world/contacts/mujoco/normals", "Arrows3D:vectors"))) == list(mj)
+    assert list(_lengths(_col(table, "world/contacts/collide/normals", "Arrows3D:vectors"))) == list(ours)
+    missed_c = _lengths(_col(table, "world/contacts/missed", "Points3D:positions"))
+    assert missed_c.sum() == sum(1 for r in records for _ in range(r.missed_contacts))
+    # The StepRecords say what went in, step by step.
+    assert [r.candidates for r in records] == list(cand)
+    assert [r.our_contacts for r in records] == list(ours)
+    assert [r.mujoco_contacts for r in records] == list(mj)
+    # Bounds: an OBB and a sphere per collidable non-plane geom, per body with a solid geom.
+    gtype = np.asarray(model.geom_type)
+    solid = int(np.count_nonzero(gtype != GEOM_TYPES["plane"]))
+    assert set(_lengths(_col(table, "world/bounds/geom_obbs", "Boxes3D:half_sizes"))) == {solid}
+    assert set(_lengths(_col(table, "world/bounds/geom_spheres", "Ellipsoids3D:half_sizes"))) == {solid}
+    moving = len(set(np.asarray(model.geom_bodyid)[gtype != GEOM_TYPES["plane"]]))
+    assert set(_lengths(_col(table, "world/bounds/body_obbs", "Boxes3D:half_sizes"))) == {moving}
+    # The geoms: a static mesh per mesh geom, moved every step; primitives by kind.
+    meshes = np.flatnonzero(gtype == GEOM_TYPES["mesh"])
+    assert len(meshes) > 0
+    mesh_cols = [k for k in static if k.endswith("Mesh3D:vertex_positions")]
+    assert len(mesh_cols) == len(meshes)
+    for k in mesh_cols:
+        pose = table[k.replace("Mesh3D:vertex_positions", "Transform3D:translation")]
+        assert _lengths(pose).min() == 1
+    boxes = _lengths(_col(table, "world/geoms/boxes", "Boxes3D:half_sizes"))
+    assert set(boxes) == {int(np.count_nonzero(gtype == GEOM_TYPES["box"]))}
+
+
+def test_recorded_poses_are_mujocos(recorded):
+    # The boxes' centres at the last step are MuJoCo's geom positions in a replay of the run.
+    model, path, result, _ = recorded
+    table, steps, _ = _table(path)
+    centres = _col(table, "world/geoms/boxes", "Boxes3D:centers")[-1]
+    bounds = _col(table, "world/bounds/geom_obbs", "Boxes3D:centers")[-1]
+    data = mujoco.MjData(model)
+    bp = cm.BroadPhase(model)
+    states = []
+    cm.compare(model, steps=result["steps"], seed=0, name="scene", hold=20, broadphase=bp, contacts=False,
+               on_step=lambda s, d, c: states.append((np.array(d.geom_xpos), np.array(d.xpos), np.array(d.xmat))))
+    gpos, xpos, xmat = states[-1]
+    boxes = np.flatnonzero(np.asarray(model.geom_type) == GEOM_TYPES["box"])
+    np.testing.assert_allclose(np.array(centres), gpos[boxes], atol=1e-5)  # Rerun stores float32
+    wb = bp.broadphase.world_bounds(xpos, xmat.reshape(-1, 3, 3))
+    solid = np.flatnonzero(np.asarray(model.geom_type) != GEOM_TYPES["plane"])
+    np.testing.assert_allclose(np.array(bounds), wb.obb_center[solid], atol=1e-5)
+    del data
+
+
+def test_own_loop_and_a_missed_pair(tmp_path):
+    model = mujoco.MjModel.from_xml_string(BALLS)
+    data = mujoco.MjData(model)
+    path = tmp_path / "loop.rrd"
+    collider = cm.Collider(model)
+    floor, ball = (mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, n) for n in ("floor", "ball"))
+    records = []
+    with log_rerun(model, path) as log:
+        for step in range(6):
+            mujoco.mj_step(model, data)
+            if step == 5:
+                # Candidates without the ball-floor pair: MuJoCo's contact there is a miss.
+                cand = collider.pairs(data)
+                assert [floor, ball] in cm.contact_pairs(model, data).tolist()
+                cand = cand[~((cand[:, 0] == floor) & (cand[:, 1] == ball))]
+                records.append(log.log(data, candidates=cand))
+            else:
+                records.append(log.log(data))
+    assert [r.step for r in records] == list(range(6))
+    table, steps, static = _table(path)
+    assert list(steps) == list(range(6))
+    ours = _lengths(_col(table, "world/contacts/collide/points", "Points3D:positions"))
+    assert list(ours) == [r.our_contacts for r in records]
+    expected = collider.contacts(data)
+    assert ours[-1] == len(expected) > 0
+    np.testing.assert_allclose(np.array(_col(table, "world/contacts/collide/points", "Points3D:positions")[-1]),
+                               expected.pos, atol=1e-6)
+    # Steps 0-4: nothing missed; step 5: the ball-floor pair, drawn as a red line down to the floor.
+    missed = _col(table, "world/pairs/missed", "LineStrips3D:strips")
+    assert list(_lengths(missed)) == [0] * 5 + [1]
+    assert records[-1].missed_pairs == 1 and records[-1].candidates == records[-2].candidates - 1
+    (a, b), = missed[-1]
+    centre = data.geom_xpos[ball]
+    np.testing.assert_allclose(a, [centre[0], centre[1], 0.0], atol=1e-6)  # its foot on the floor
+    np.testing.assert_allclose(b, centre, atol=1e-6)
+    assert list(_scalars(_col(table, "stats/pairs/missed", "Scalars:scalars"))) == [0] * 5 + [1]
+    # Timed in a loop of one's own: our broad phase, and broad + narrow phase.
+    assert np.all(_scalars(_col(table, "stats/time_us/collide_contacts", "Scalars:scalars")) > 0)
+    # The visual-only geom is drawn apart; the far capsule has bounds but no pair.
+    assert "/world/visual/spheres:Ellipsoids3D:half_sizes" in static or \
+        "/world/visual/spheres:Ellipsoids3D:half_sizes" in table
+    assert set(_lengths(_col(table, "world/bounds/geom_obbs", "Boxes3D:half_sizes"))) == {3}
+
+
+def test_bad_input(tmp_path):
+    model = mujoco.MjModel.from_xml_string(BALLS)
+    with pytest.raises(ValueError, match="path, spawn=True or a recording"):
+        RerunLog(model)
+    other = cm.default_scene(objects=2)
+    with RerunLog(model, tmp_path / "bad.rrd") as log:
+        data = mujoco.MjData(model)
+        mujoco.mj_forward(model, data)
+        with pytest.raises(ValueError, match="step"):
+            log.log(data, step=-1)
+        with pytest.raises(ValueError, match="data"):
+            log.log(mujoco.MjData(other))
+        with pytest.raises(ValueError, match="steps"):
+            log.log_series("stats/x", [1.0, 2.0], steps=[0])
+        assert isinstance(log.log(data), StepRecord)  # still works after the errors
+
+
+def test_command_line(tmp_path, capsys):
+    from collide.__main__ import main
+
+    out = tmp_path / "sub" / "run.rrd"
+    assert main(["compare", "--steps", "5", "--no-contacts", "--rerun", str(out)]) == 0
+    assert f"wrote {out}" in capsys.readouterr().out
+    table, steps, _ = _table(out)
+    assert list(steps) == list(range(5))
+    assert _lengths(_col(table, "world/pairs/candidates", "LineStrips3D:strips")).sum() > 0
+
+
+def test_without_rerun(monkeypatch, capsys):
+    # Where rerun-sdk is missing: a clear ImportError, and the CLI refuses before running.
+    from collide.__main__ import main
+
+    monkeypatch.setitem(sys.modules, "rerun", None)
+    model = mujoco.MjModel.from_xml_string(BALLS)
+    with pytest.raises(ImportError, match="pip install"):
+        log_rerun(model, "never.rrd")
+    assert main(["compare", "--steps", "1", "--rerun", "never.rrd"]) == 2
+    assert "rerun-sdk" in capsys.readouterr().err
