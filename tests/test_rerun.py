@@ -94,12 +94,12 @@ def test_recording_holds_what_compare_computed(recorded):
     missed = np.bincount([m["step"] for m in result["missed"]], minlength=n)
     assert list(_lengths(_col(table, "world/pairs/missed", "LineStrips3D:strips"))) == list(missed)
     # Contact points: MuJoCo's and ours, summed over the steps, as compare counted them.
-    mj = _lengths(_col(table, "world/contacts/mujoco/points", "Points3D:positions"))
-    ours = _lengths(_col(table, "world/contacts/collide/points", "Points3D:positions"))
+    mj = _lengths(_col(table, "world/contacts/mujoco", "Points3D:positions"))
+    ours = _lengths(_col(table, "world/contacts/collide", "Points3D:positions"))
     assert mj.sum() == result["contacts"]["mujoco_contacts"]
     assert ours.sum() == result["contacts"]["our_contacts"]
-    assert list(_lengths(_col(table, "world/contacts/mujoco/normals", "Arrows3D:vectors"))) == list(mj)
-    assert list(_lengths(_col(table, "world/contacts/collide/normals", "Arrows3D:vectors"))) == list(ours)
+    assert list(_lengths(_col(table, "world/contacts/mujoco", "Arrows3D:vectors"))) == list(mj)
+    assert list(_lengths(_col(table, "world/contacts/collide", "Arrows3D:vectors"))) == list(ours)
     missed_c = _lengths(_col(table, "world/contacts/missed", "Points3D:positions"))
     assert missed_c.sum() == sum(1 for r in records for _ in range(r.missed_contacts))
     # The StepRecords say what went in, step by step.
@@ -166,11 +166,11 @@ def test_own_loop_and_a_missed_pair(tmp_path):
     assert [r.step for r in records] == list(range(6))
     table, steps, static = _table(path)
     assert list(steps) == list(range(6))
-    ours = _lengths(_col(table, "world/contacts/collide/points", "Points3D:positions"))
+    ours = _lengths(_col(table, "world/contacts/collide", "Points3D:positions"))
     assert list(ours) == [r.our_contacts for r in records]
     expected = collider.contacts(data)
     assert ours[-1] == len(expected) > 0
-    np.testing.assert_allclose(np.array(_col(table, "world/contacts/collide/points", "Points3D:positions")[-1]),
+    np.testing.assert_allclose(np.array(_col(table, "world/contacts/collide", "Points3D:positions")[-1]),
                                expected.pos, atol=1e-6)
     # Steps 0-4: nothing missed; step 5: the ball-floor pair, drawn as a red line down to the floor.
     missed = _col(table, "world/pairs/missed", "LineStrips3D:strips")
@@ -227,3 +227,25 @@ def test_without_rerun(monkeypatch, capsys):
         log_rerun(model, "never.rrd")
     assert main(["compare", "--steps", "1", "--rerun", "never.rrd"]) == 2
     assert "rerun-sdk" in capsys.readouterr().err
+
+
+def test_quaternions_match_scipy():
+    # Rerun's (x, y, z, w) quaternions of rotation matrices, against scipy, on random rotations and
+    # the half turns and near-half turns where a trace-only formula loses its digits.
+    from scipy.spatial.transform import Rotation
+
+    from collide.rerun_log import _quat_xyzw
+
+    rng = np.random.default_rng(7)
+    rots = [Rotation.random(200, random_state=7)]
+    axes = rng.normal(size=(50, 3))
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    for angle in (np.pi, np.pi - 1e-9, 1e-12, 0.0):
+        rots.append(Rotation.from_rotvec(axes * angle))
+    for r in rots:
+        m = r.as_matrix()
+        q = _quat_xyzw(m)
+        ref = r.as_quat()
+        sign = np.sign(np.sum(q * ref, axis=1))[:, None]  # q and -q are the same rotation
+        np.testing.assert_allclose(q, sign * ref, atol=1e-12)
+        np.testing.assert_allclose(Rotation.from_quat(q).as_matrix(), m, atol=1e-12)
