@@ -35,6 +35,11 @@ from . import volumes as _volumes
 from ._validate import as_array
 from .pointcloud import PointCloud, union
 
+__all__ = [
+    "Articulation", "BOUND_GUARD", "MARGIN_SLACK", "MIN_GEOM_SIZE", "ORTHO_TOL", "POSE_ORTHO_TOL",
+    "ROTATION_SLACK", "fit_capsule", "fit_local_obb", "fit_local_sphere",
+]
+
 # Relative guard added to every local bound so that the rounding of the fitters (extents measured
 # as differences of rotated coordinates) can never leave a cloud point outside its volume.
 BOUND_GUARD = 1e-10

@@ -18,6 +18,11 @@ from scipy.spatial import ConvexHull, QhullError
 
 from ._validate import as_array, as_count, as_points, as_radius
 
+__all__ = [
+    "FLAT_TOL", "MAX_BALL_LEVEL", "MAX_COORDINATE", "affine_basis", "ball_polytope", "clip_hull",
+    "hull_indices", "hull_vertices", "intersect_hulls", "minkowski_ball", "require_bounded",
+]
+
 # Relative size of a singular value, against the largest, below which a direction is treated as
 # flat. 1e-12 keeps the neglected thickness at the level of float64 rounding of the coordinates.
 FLAT_TOL = 1e-12

@@ -16,6 +16,10 @@ from . import hull as _hull
 from . import volumes as _volumes
 from ._validate import as_affine, as_count, as_points, as_radius
 
+__all__ = [
+    "BALL_LEVEL", "PointCloud", "SIMILARITY_TOL", "difference", "intersection", "union",
+]
+
 # Ball-polytope level used when a radius must become points (general affine maps, mixed radii,
 # intersections): 42 points, at most 7.1 % wider than the ball (see hull.ball_polytope).
 BALL_LEVEL = 1

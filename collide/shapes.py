@@ -32,6 +32,12 @@ from . import hull as _hull
 from ._validate import as_array, as_count, as_points, as_positive, as_radius
 from .pointcloud import PointCloud
 
+__all__ = [
+    "MAX_POINTS", "Plane", "TANGENT_INFLATE", "bezier_patch", "box", "bspline_patch", "capsule", "cone",
+    "cone_sweep", "cylinder", "ellipsoid", "extrude", "mesh", "nurbs_patch", "plane", "revolve", "sphere",
+    "sphere_polytope_circumradius", "superquadric", "superquadric_support", "torus",
+]
+
 # Relative outward inflation of every tangent-plane construction: the polytope vertices are
 # computed in floating point (cos, sin, divisions), so an edge can sit an ulp inside the curve it
 # should touch. 1e-12 is far above that rounding and far below any tolerance a user sees

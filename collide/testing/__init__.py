@@ -16,3 +16,14 @@ from .surfaces import (SHAPE_KINDS, apply_affine, random_affine, random_polygon,
                        random_rotation, random_shape_params, random_similarity, sample_surface)
 from .narrow import (inner_cloud, minkowski_difference, origin_signed_distance, point_signed_distance,
                      polytope_signed_distance)
+
+__all__ = [
+    "SHAPE_KINDS", "Scene", "apply_affine", "branching_tree", "brute_force_bound_pairs", "brute_force_obb",
+    "brute_force_pairs", "brute_force_raycast", "chain", "cloud_volume", "csg", "deformed_sample",
+    "edge_pair_search", "filter_passing_pairs", "free_hulls", "gjk_distance", "hull_motion",
+    "hulls_intersect_lp", "inner_cloud", "make_plane", "many_robots", "minkowski_difference",
+    "multistart_polish", "obb", "origin_signed_distance", "point_signed_distance", "polytope_signed_distance",
+    "random_affine", "random_hull", "random_polygon", "random_rigid", "random_rotation", "random_scene",
+    "random_shape_params", "random_similarity", "sample_cloud", "sample_surface", "scene_motion",
+    "signed_excess", "swept_sample", "world_bounds", "world_capsules",
+]

@@ -18,6 +18,11 @@ from .._kernels import broadphase as _k
 from ..articulation import Articulation
 from ..broadphase import check_pose_values, world_planes
 
+__all__ = [
+    "brute_force_bound_pairs", "brute_force_pairs", "filter_passing_pairs", "gjk_distance",
+    "hulls_intersect_lp", "world_bounds", "world_capsules",
+]
+
 
 # ------------------------------------------------------------------------------- static filter
 

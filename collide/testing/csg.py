@@ -15,6 +15,10 @@ import numpy as np
 
 from .. import csg
 
+__all__ = [
+    "brute_force_raycast", "leaf_spans", "random_leaf", "random_scene", "winding_number",
+]
+
 _BIG = 1e300
 
 

@@ -24,6 +24,11 @@ from scipy.spatial import ConvexHull
 
 from .surfaces import random_rotation
 
+__all__ = [
+    "box_volumes", "brute_force_obb", "edge_pair_search", "hull_edges", "min_area_rectangle",
+    "multistart_polish", "polish",
+]
+
 
 def box_volumes(points: np.ndarray, radius: float, rotations: np.ndarray) -> np.ndarray:
     """Volumes ``(k,)`` of the boxes with axes ``rotations`` ``(k, 3, 3)`` (columns) around

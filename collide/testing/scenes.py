@@ -18,6 +18,11 @@ from .. import shapes as _shapes
 from ..articulation import Articulation
 from ..pointcloud import PointCloud
 
+__all__ = [
+    "Scene", "axis_angle", "branching_tree", "chain", "free_hulls", "hull_motion", "make_plane",
+    "many_robots", "quat_to_mat", "random_hull", "random_rotation", "random_shape", "scene_motion",
+]
+
 
 @dataclass(frozen=True)
 class _Plane:

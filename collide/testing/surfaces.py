@@ -16,6 +16,11 @@ import numpy as np
 from scipy.interpolate import BSpline
 from scipy.special import comb
 
+__all__ = [
+    "SHAPE_KINDS", "apply_affine", "random_affine", "random_polygon", "random_rigid", "random_rotation",
+    "random_shape_params", "random_similarity", "sample_surface",
+]
+
 # Every kind `sample_surface` knows; each is also the name of its constructor in collide.shapes.
 SHAPE_KINDS = (
     "box", "sphere", "capsule", "cylinder", "cone", "ellipsoid", "torus", "superquadric",
