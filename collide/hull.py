@@ -34,8 +34,8 @@ FLAT_TOL = 1e-12
 MAX_COORDINATE = 1e150
 
 
-# Finest ball polytope: 10 * 4**level + 2 points, 163 842 at level 7 (about 3 s to build; level 9
-# ran for minutes: review, 2026-11-22).
+# Finest ball polytope: 10 * 4**level + 2 points, 163 842 at level 7 (each level four times the
+# last's points and work; a level-9 request was impractical: review, 2026-11-22).
 MAX_BALL_LEVEL = 7
 
 

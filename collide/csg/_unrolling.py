@@ -71,7 +71,7 @@ def _key_env(node, env, ctx):
 
 # The most leaves `leaves` and `build_bvh` unroll: a graph past it is refused before unrolling
 # (a Recursive whose body refers to itself twice doubles per level: 40 levels are 2^40 leaves,
-# which unrolled for hours; review, 2026-11-22). The flower demo has 6641.
+# far more than can be unrolled; review, 2026-11-22). The flower demo has 6641.
 MAX_LEAVES = 1_000_000
 
 

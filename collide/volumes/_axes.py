@@ -26,8 +26,8 @@ def _right_handed(rot: np.ndarray) -> np.ndarray:
 
 def _principal(points: np.ndarray) -> tuple[np.ndarray, int]:
     # Principal axes (rows, largest spread first) and affine rank, with the thresholds of
-    # hull.affine_basis but a thin SVD: hull.affine_basis takes a full one (an (n, n) factor,
-    # 8 ms at n = 1000 and out of memory at n = 1e5, measured 2026-11-21).
+    # hull.affine_basis but a thin SVD: hull.affine_basis takes a full one (an (n, n) factor:
+    # quadratic in time and memory, out of memory at n = 1e5).
     centred = points - points.mean(axis=0)
     extent = float(np.abs(centred).max()) if len(points) > 1 else 0.0
     if extent == 0.0 or extent <= _hull.FLAT_TOL * float(np.abs(points.mean(axis=0)).max()):
@@ -59,9 +59,9 @@ def _hull_points(points: np.ndarray) -> tuple[np.ndarray, "ConvexHull | None"]:
     # Hull vertices of a cloud (centred by the caller), and Qhull's hull when it was computed
     # on the full-rank cloud (its facets serve the OBB candidates). This mirrors
     # hull.hull_indices (work in the affine hull's dimension) with the thin SVD of _principal:
-    # hull.affine_basis takes a full one, which costs 15 ms on 256 points and 4 s on 10k here
-    # (measured 2026-11-21). If Qhull still refuses, hull.hull_vertices reduces the cloud in
-    # chunks: hull(P) = hull(union of the chunks' hull vertices).
+    # hull.affine_basis takes a full one, quadratic in the number of points. If Qhull still
+    # refuses, hull.hull_vertices reduces the cloud in chunks: hull(P) = hull(union of the
+    # chunks' hull vertices).
     axes, rank = _principal(points)
     if rank == 0:
         return points[:1], None
@@ -175,7 +175,7 @@ def _frame_from_normal(normal: np.ndarray, points: np.ndarray) -> np.ndarray:
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    # np.cross costs ~15 us of argument handling per call on 3-vectors.
+    # np.cross's argument handling outweighs its arithmetic many times over on 3-vectors.
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 

@@ -101,8 +101,9 @@ def _welzl_mtf(pts: np.ndarray, end: int, support: list) -> tuple[np.ndarray, fl
 
 # min_sphere_center: clouds up to _SPHERE_DIRECT points go straight to Welzl; larger ones grow
 # a working set by _SPHERE_ADD violators per round, for at most _SPHERE_ROUNDS rounds before
-# falling back to Welzl on the whole cloud. Timed on gaussian clouds of 8 to 1000 points
-# (2026-11-21): 0.45-2.2 ms per cloud, against 0.6-2.1 ms (and 2 ms at 50 points) with 16 and 64.
+# falling back to Welzl on the whole cloud. Chosen by timing gaussian clouds of 8 to 1000 points
+# against the settings 16 and 64 (2026-11-21): about as fast on large clouds, without their slow
+# case near 50 points.
 _SPHERE_DIRECT = 16
 _SPHERE_ADD = 8
 _SPHERE_ROUNDS = 64
