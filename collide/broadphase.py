@@ -38,6 +38,7 @@ import numpy as np
 
 from ._kernels import broadphase as _k
 from ._kernels import lanes as _lanes
+from ._kernels import layout as _layout
 from .articulation import Articulation
 
 LOOSE = 4.0  # see `single` in BroadPhase.__init__
@@ -306,14 +307,20 @@ class BroadPhase:
                                                         ex_start, ex[:, 1], a.filter_parent)
         smask = self._static_masks(hasb, weld, ctor, caor, parent_pos, ex_start, ex[:, 1], a.filter_parent, gstart,
                                    pgeoms, a.geom_contype, a.geom_conaffinity, pair_keys, _k.key_shift(G))
+        dims = {"L": Lp, "G": G, "Gs": len(pgeoms), "Q": len(planes), "E": len(ex), "P": len(pair_keys),
+                "NB": L}
         self._I, self._F = _k.pack(
-            order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag,
-            ctor, caor, children, gstart, pgeoms, ex_start, ex[:, 1], planes, plane_ok, a.geom_body,
-            a.geom_contype, a.geom_conaffinity, a.pairs, pair_keys, a.filter_parent, blocal, glocal,
-            a.geom_plane, a.geom_bound_margin, a.pair_bound_margin, flat_root, flat_n, flat_mask, bcap, gcap,
-            smask, n_virtual=V)
+            dims, n_virtual=V, filter_parent=a.filter_parent,
+            order=order, pos_of=pos_of, end=end, parent_pos=parent_pos, weld=weld, nchild=nchild,
+            child_start=child_start, single=single, hasb=hasb, pairflag=pairflag, contype=ctor, conaffinity=caor,
+            children=children, gstart=gstart, pgeoms=pgeoms, ex_start=ex_start, ex_other=ex[:, 1], planes=planes,
+            plane_ok=plane_ok, geom_bid=a.geom_body, geom_contype=a.geom_contype,
+            geom_conaffinity=a.geom_conaffinity, pair_g=a.pairs, pair_keys=pair_keys, flat_root=flat_root,
+            flat_n=flat_n, flat_mask=flat_mask, smask=smask,
+            blocal=blocal, glocal=glocal, gplane=a.geom_plane, gmargin=a.geom_bound_margin, pair_m=a.pair_bound_margin,
+            bcap=bcap, gcap=gcap)
         self.position_count = Lp
-        self._nW = _k.workspace_size(Lp, G, len(planes))
+        self._nW = _k.workspace_size(self._I)
         self._sap_init = _k.sap_state(children)
         self._W = np.zeros(self._nW)
         self._sap = self._sap_init.copy()
@@ -464,12 +471,13 @@ class BroadPhase:
             return int(np.searchsorted(rank_keys, k)) if k >= 0 else -1
 
         body_pairs = np.array(body_pairs, np.int64).reshape(-1, 2)
-        return _lanes.pack_lanes(body_pairs, np.searchsorted(body_pairs[:, 0], np.arange(L + 1)),
-                                 np.array([(g1, g2, rank(key(g1, g2))) for g1, g2 in pair_geoms],
-                                          np.int64).reshape(-1, 3),
-                                 pair_gstart, plane_pos, plane_start,
-                                 np.array([(g, rank(k)) for g, k in plane_geoms], np.int64).reshape(-1, 2),
-                                 plane_gstart, [rank(k) for k in explicit_keys], rank_keys)
+        return _lanes.pack_lanes(
+            L, len(planes), body_pairs=body_pairs, row_start=np.searchsorted(body_pairs[:, 0], np.arange(L + 1)),
+            pair_gstart=pair_gstart,
+            pair_geoms=np.array([(g1, g2, rank(key(g1, g2))) for g1, g2 in pair_geoms], np.int64).reshape(-1, 3),
+            plane_start=plane_start, plane_pos=plane_pos, plane_gstart=plane_gstart,
+            plane_geoms=np.array([(g, rank(k)) for g, k in plane_geoms], np.int64).reshape(-1, 2),
+            explicit_rank=[rank(k) for k in explicit_keys], rank_keys=rank_keys)
 
     @staticmethod
     def _plane_filter(planes, plane_pos, weld, parent_pos, hasb, ctor, caor, ex_start, ex_other, gct, gca,
@@ -854,12 +862,10 @@ class BroadPhase:
                            "stats": np.zeros((C, _k.N_STATS), np.int64), "info": np.zeros((C, 4), np.int64),
                            "ctx": np.zeros((C, _k.NCTX), np.int64)}
             if self._J is not None:
-                # a worker's lane workspace, then room for a group's poses computed in the call
-                ko = _lanes.lane_workspace_size(L, self.position_count, G, int(self._I[_k.H_Q]))
-                self._batch["LW"] = _lane_rows_zeros(rows, ko + _lanes.kin_workspace_size(L))
-                self._batch["ko"] = ko
-                self._batch["LB"] = np.zeros((rows, _lanes.lane_bits_size(self.position_count,
-                                                                         int(self._J[_lanes.J_NR]))), np.int64)
+                # a worker's lane workspace (with room for a group's poses computed in the call) and bitsets
+                self._batch["LW"] = _lane_rows_zeros(rows, _layout.LANE_WORK.size(_k.model_dims(self._I)))
+                self._batch["LB"] = np.zeros((rows, _layout.LANE_BITS.size(_lanes.lane_dims(
+                    self._J, self.position_count))), np.int64)
             self._set_batch_buffers(4 * L + 64, max(256, 2 * G * per))
         bt = self._batch
         # world_info is written for bad worlds only, and the kernel writes every world's count and

@@ -671,7 +671,7 @@ class BroadPhase:
                 shape = (bt["LW"].shape[0], _kin.lanes_scratch_size(model.nbody, model.njnt))
                 if self._kin_scratch is None or self._kin_scratch.shape != shape:
                     self._kin_scratch = np.empty(shape)
-                return _kin.step_lanes_kin(q, *arrays, bt["ctx"], bp._J, bt["LW"], bt["ko"], bt["LB"],
+                return _kin.step_lanes_kin(q, *arrays, bt["ctx"], bp._J, bt["LW"], bt["LB"],
                                            self._kin_scratch, world_count, world_info, chunk_info, S, bp._stats)
 
             try:

@@ -9,6 +9,7 @@ from collide import Articulation, BroadPhase, PointCloud, shapes, testing
 from collide._kernels import broadphase as _kern
 from collide._kernels import _ptr
 from collide._kernels import lanes as _lanes
+from collide._kernels import layout as _layout
 from collide.broadphase import ARENA_ROWS
 from collide.testing.scenes import random_rotation
 
@@ -18,6 +19,15 @@ EYE = np.eye(3)
 
 def _rows(a):
     return set(map(tuple, np.asarray(a).tolist()))
+
+
+def _field(bp, name):
+    # A field of a BroadPhase's flat buffers by its declared name (`_kernels.layout`), read through
+    # the field table as the kernels read it.
+    for lay, buf in ((_layout.INT, bp._I), (_layout.FLT, bp._F), (_layout.WORK, bp._W)):
+        if any(f[0] == name for f in lay.fields):
+            return lay.view(bp._I, buf, name)
+    raise KeyError(name)
 
 
 def _check_sorted_unique(p):
@@ -870,7 +880,10 @@ def test_lane_workspace_rows_are_cache_line_aligned():
     LW = bp._batch["LW"]
     assert LW.ctypes.data % 64 == 0 and LW.strides[0] % 64 == 0
     assert LW.shape[0] == min(numba.config.NUMBA_NUM_THREADS, bp._batch["ctx"].shape[0])  # a row a worker
-    assert bp._batch["ko"] % lanes.LANES == 0  # the poses computed in a call (collide.mujoco) follow
+    from collide._kernels import broadphase as _k, layout
+
+    # every block of the lane workspace starts on a cache line as its row does
+    assert all(off % lanes.LANES == 0 for off, _ in layout.LANE_WORK.spans(_k.model_dims(bp._I)))
     assert len(out) > 0
     for w in range(B):
         assert np.array_equal(out[out[:, 0] == w, 1:], bp.pairs(pos[w], rot[w]))
@@ -1007,8 +1020,7 @@ def test_loose_multi_geom_bodies_skip_body_tests_and_lose_nothing():
     I = bp._I
     Lp, V = I[_kern.H_L], I[_kern.H_V]
     assert V == n_walls and Lp == art.body_count + V == bp.position_count
-    single = I[_kern.HEADER + art.body_count + 6 * Lp:][:Lp]
-    hasb = I[_kern.HEADER + art.body_count + 7 * Lp:][:Lp]
+    single, hasb = _field(bp, "single"), _field(bp, "hasb")
     assert hasb[0] == 0 and np.all(single[1:V + 1] == 1)
     assert np.sum(single < 0) == n_free // 3
     hits = touching = explicit = 0
@@ -1080,7 +1092,7 @@ def test_traversal_paths_equal_bounds_twin():
     parent = np.r_[0, 0, np.arange(1, n), 0, np.arange(n + 1, 2 * n)]
     a = Articulation(parent, np.arange(1, 2 * n + 1), [PointCloud([[0, 0, 0], [0.1, 0, 0]], 0.04)] * (2 * n))
     bp = BroadPhase(a, coherent=False)  # the walk itself (its subtree AABBs are read below)
-    assert n * n > _kern.FLAT_MAX and not _kern._views(bp._I, bp._F, bp._W)[-4].any()
+    assert n * n > _kern.FLAT_MAX and not _field(bp, "flat_root").any()
     total = 0
     for _ in range(5):
         pos = rng.uniform(-1, 1, (2 * n + 1, 3))
@@ -1089,8 +1101,7 @@ def test_traversal_paths_equal_bounds_twin():
         assert np.array_equal(got, testing.brute_force_bound_pairs(a, pos, rot))
         total += len(got)
         # the two chains' lists (bodies meeting the other chain's subtree AABB) exceed FLAT_MAX
-        v = _kern._views(bp._I, bp._F, bp._W)
-        baabb, saabb = v[33], v[34]
+        baabb, saabb = _field(bp, "baabb"), _field(bp, "saabb")
         meets = [((baabb[ch, :3] <= saabb[other, 3:]) & (saabb[other, :3] <= baabb[ch, 3:])).all(axis=1).sum()
                  for ch, other in ((np.arange(1, n + 1), n + 1), (np.arange(n + 1, 2 * n + 1), 1))]
         assert meets[0] * meets[1] > _kern.FLAT_MAX
@@ -1098,7 +1109,7 @@ def test_traversal_paths_equal_bounds_twin():
 
     sc = testing.many_robots(11, 6, seed=32, spread=0.5)
     bp = BroadPhase(sc.articulation)
-    flat_root = _kern._views(bp._I, bp._F, bp._W)[-4]
+    flat_root = _field(bp, "flat_root")
     assert flat_root.sum() >= 5 and bp.position_count > _kern.MASK_MAX  # walked: up to 64, no tree
     pos, rot = sc.poses(np.random.default_rng(33), worlds=6)
     total = 0
@@ -1122,8 +1133,7 @@ def test_flat_root_of_64_positions():
     cloud = PointCloud([[0, 0, 0], [0.3, 0, 0]], 0.1)
     a = Articulation(parent, np.arange(1, n + 1), [cloud] * n, geom_contype=coll, geom_conaffinity=coll)
     bp = BroadPhase(a)
-    v = _kern._views(bp._I, bp._F, bp._W)
-    flat_root, flat_mask = v[-4], v[-2]
+    flat_root, flat_mask = _field(bp, "flat_root"), _field(bp, "flat_mask")
     assert flat_root[1] == 1 and flat_mask.min() < 0  # one flat root, a mask with bit 63 set
     rng = np.random.default_rng(64)
     total = last = 0
@@ -1460,10 +1470,7 @@ COHERENT_SCENES = [
 
 
 def _coherence_state(bp):
-    a = bp.articulation
-    L, Q = bp.position_count, int(bp._I[_kern.H_Q])
-    o = _kern.coherence_state_offset(L, a.geom_count, Q)
-    return bp._W[o:o + _kern.N_COH]
+    return _field(bp, "coh")
 
 
 def _motion(sc, rng, steps, step=0.01):
@@ -1517,12 +1524,14 @@ def _check_static_masks(bp, a):
     # bounds) passes, less those without a geom pair whose masks match that is not an explicit pair
     # (their geom loop would emit nothing); returns how many were dropped so.
     L = bp.position_count
-    v = _kern._views(bp._I, bp._F, bp._W)
-    smask = v[-1]
-    single, hasb, weld, parent_pos, ctor, caor, ex_start, ex_other = v[9], v[10], v[6], v[5], v[12], v[13], v[17], v[18]
+    smask = _field(bp, "smask")
+    single, hasb, weld, parent_pos, ctor, caor, ex_start, ex_other = (
+        _field(bp, n) for n in ("single", "hasb", "weld", "parent_pos", "contype", "conaffinity", "ex_start",
+                                "ex_other"))
     allp = np.array([(x, y) for x in range(L) for y in range(x + 1, L) if hasb[x] and hasb[y]], np.int64)
     n = _kern._filter(allp, len(allp), ctor, caor, weld, parent_pos, a.filter_parent, ex_start, ex_other, single)
-    gstart, pgeoms, gct, gca, explicit = v[15], v[16], v[22], v[23], set(v[25].tolist())
+    gstart, pgeoms, gct, gca = (_field(bp, n) for n in ("gstart", "pgeoms", "geom_contype", "geom_conaffinity"))
+    explicit = set(_field(bp, "pair_keys").tolist())
     S = int(bp._I[_kern.H_KS])
     want = np.zeros(L, np.uint64)
     dropped = 0
@@ -1550,7 +1559,7 @@ def test_static_masks_equal_the_twin_and_keep_no_list(make):
     L = coh.position_count
     assert L <= _kern.MASK_MAX and coh._J is not None
     _check_static_masks(coh, a)
-    smask = _kern._views(coh._I, coh._F, coh._W)[-1]
+    smask = _field(coh, "smask")
     rng = np.random.default_rng(7)
     pos, rot = _motion(sc, rng, 60, 0.01)
     pairs = 0

@@ -4,17 +4,18 @@ Layout (built by `collide.broadphase.BroadPhase` from an `Articulation`, see `pa
 addressed by depth-first *position* ``p`` (every subtree is the range ``[p, end[p])``), geoms by
 their ids. When the world has several solid geoms, each is a leaf of its own at positions 1..V
 (posed by body 0, with the world's rules), so static scenery is culled geom by geom at the root.
-A bounds record ("row") is 19 float64: OBB centre (3), OBB rotation (9, row-major, columns are the
-box axes), OBB half extents (3), sphere centre (3), sphere radius (1). Each row also has a
-capsule (half segment (3), radius (1): after the rows in ``F``, `_cap_views`) centred on its OBB
-centre: a body's or geom's world AABB is its OBB's cut to its capsule's (`_cap_aabb`).
+A bounds record ("row", `layout.ROW`) is 19 float64: OBB centre (3), OBB rotation (9, row-major,
+columns are the box axes), OBB half extents (3), sphere centre (3), sphere radius (1). Each row also
+has a capsule (half segment (3), radius (1)) centred on its OBB centre: a body's or geom's world
+AABB is its OBB's cut to its capsule's (`_cap_aabb`).
 
-The static model travels as two flat arrays (``I`` int64 with a header of counts, ``F`` float64)
-and the workspace as one (``W`` float64); one step is a call with three arguments (the two pose
+The static model travels as two flat arrays (``I`` int64 with a header of counts and the field
+table, ``F`` float64) and the workspace as one (``W`` float64), every field of each declared once
+in `layout` (`INT`, `FLT`, `WORK`); one step is a call with three arguments (the two pose
 arrays and a *context* of buffer addresses, see `_ptr` and `context`), or with the context's own
 address alone when it holds the pose arrays' addresses too (`step_bound`: arrays that stay put, as
-MuJoCo's): a numba call pays ~0.1 us per array argument, and views built from pointers carry no
-reference count. `_views` cuts the buffers back into named arrays (no copy).
+MuJoCo's): a numba call pays for every array argument, and views built from pointers carry no
+reference count. `_views` cuts the buffers back into named arrays (no copy) through the table.
 
 One step, for one world (`_world`):
 1. validate each body's pose (finite, proper orthonormal rotation: one combined test) and move
@@ -70,6 +71,12 @@ from ._ptr import check_span, f64_ptr, i32_ptr, i64_ptr, view_of
 from ._quat import fmuladd
 from ._simd import LANES as LANES8, _py, box_row8, gather_rows
 from ._threads import fetch_add, set_chunksize
+from .layout import (F_BCAP, F_BLOCAL, F_GCAP, F_GLOCAL, F_GMARGIN, F_GPLANE, F_PAIR_M, FLT, I_CHILD_START, I_CHILDREN,
+                     I_CONAFFINITY, I_CONTYPE, I_END, I_EX_OTHER, I_EX_START, I_FLAT_MASK, I_FLAT_N, I_FLAT_ROOT,
+                     I_GEOM_BID, I_GEOM_CONAFFINITY, I_GEOM_CONTYPE, I_GSTART, I_HASB, I_NCHILD, I_ORDER, I_PAIR_G,
+                     I_PAIR_KEYS, I_PAIRFLAG, I_PARENT_POS, I_PGEOMS, I_PLANE_OK, I_PLANES, I_POS_OF, I_SINGLE,
+                     I_SMASK, I_WELD, INT, N_COH, ROW, W_BAABB, W_BAABB_T, W_BW, W_COH, W_FAT_B, W_FAT_S, W_FAT_T,
+                     W_GAABB, W_GSTAMP, W_GW, W_PLW, W_SAABB, W_TMP, WORK, view_f1, view_f2, view_i1, view_i2)
 
 # The per-step functions are compiled without numba's reference counting: in them an array value
 # costs nothing when copied or dropped, where numba emits a call to its runtime for each (~50 a step
@@ -80,7 +87,6 @@ from ._threads import fetch_add, set_chunksize
 # interleaved (Intel Xeon, a noisy machine): humanoid 0.89-0.95, the robots 0.97-0.99.
 NO_NRT = dict(cache=True, _nrt=False)
 
-ROW = 19
 BIG = 1e300  # empty AABB: lo = BIG, hi = -BIG (finite, so n . lo never meets inf - inf)
 ORTHO_TOL = 1e-6  # max |R^T R - I| accepted for a body rotation (articulation.POSE_ORTHO_TOL: bounds carry the slack)
 # Conservative slack: rounding must never separate touching bounds. AbsR gets EPS_PAR (Ericson's
@@ -120,15 +126,12 @@ N_STATS = 10
 # exact AABBs instead of walking the tree: two AABBs inside two fat boxes can only meet if the fat
 # boxes do (the broad phase of Bullet's and Box2D's dynamic trees: fat AABBs; Catto, "Dynamic
 # AABB Trees", GDC 2019). The answer is the walk's, bit for bit. State, float64, in the workspace
-# after the fat boxes (`coherence_state_offset`): the list is valid, its length, a decayed count of
+# in the workspace's ``coh`` field (`layout.W_COH`): the list is valid, its length, a decayed count of
 # recent rebuilds (x COH_DECAY a call, +1 a rebuild), calls left on the exact walk, and the length
 # of the next such spell.
 FAT_GROW = 0.2
 COH_VALID, COH_N, COH_SCORE, COH_SKIP, COH_BACKOFF = range(5)
-N_COH = 8
-# `_traverse`'s row tests (`_simd.box_row8`) read up to LANES8 - 1 float64 past the last column of
-# the transposed boxes: past fat_t, that is this state, the end of W.
-assert N_COH >= LANES8 - 1
+assert COH_BACKOFF < N_COH
 COH_DECAY = 0.875
 # Above this decayed count (rebuilds in more than about a third of the calls, 8 x the rate in a
 # steady state: bodies leave their fat boxes all the time, as 22 falling humanoids do), rebuilding
@@ -150,32 +153,32 @@ H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP, H_KS, H_NB, H_V, H_FLAT = range(11)
 HEADER = 11
 
 
-def pack(order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor, caor,
-         children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g, pair_keys,
-         filter_parent, blocal, glocal, gplane, gmargin, pair_m, flat_root, flat_n, flat_mask, bcap, gcap,
-         smask, n_virtual=0):
-    """Flatten the static model into ``I`` (int64) and ``F`` (float64); see `_views` for the order
-    (``F`` ends with the capsules ``bcap`` (L, 4) and ``gcap`` (G, 4), read by `_cap_views`).
+def pack(dims: dict, n_virtual: int = 0, filter_parent: bool = False, **fields) -> tuple[np.ndarray, np.ndarray]:
+    """The static model as ``I`` (int64: the counts, the field table, then `layout.INT`'s fields)
+    and ``F`` (float64, `layout.FLT`'s fields), every field by name with its declared shape.
 
     Excluded body pairs travel as lists of partners per position (``ex_other[ex_start[x]:
     ex_start[x + 1]]``, both directions): a body has none or a few, so a scan of its own list beats
-    a binary search of all (22 humanoids: 154 exclusions, a search per body pair and plane test).
-    ``flat_root`` (L) marks the subtrees whose body pairs are tested from the static masks
-    ``flat_mask`` (L), ``flat_n[x]`` pairs in the root x's (see `_traverse`). ``smask`` (L + 1): where
-    L <= MASK_MAX, bit y of ``smask[x]`` is the body pair (x, y), x < y, when it passes the static
-    filter (`_scan_masks`), and ``smask[L]`` the count of those pairs; zeros otherwise.
+    a binary search of all. ``flat_root`` (L) marks the subtrees whose body pairs are tested from the
+    static masks ``flat_mask`` (L), ``flat_n[x]`` pairs in the root x's (see `_traverse`). ``smask``
+    (L + 1): where L <= MASK_MAX, bit y of ``smask[x]`` is the body pair (x, y), x < y, when it
+    passes the static filter (`_scan_masks`), and ``smask[L]`` the count of those pairs; zeros
+    otherwise.
     """
-    L, G, Gs, Q, E, P = len(order), len(geom_bid), len(pgeoms), len(planes), len(ex_other), len(pair_keys)
     head = np.zeros(HEADER, np.int64)
     head[[H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP, H_KS, H_NB, H_V, H_FLAT]] = (
-        L, G, Gs, Q, E, P, int(filter_parent), key_shift(G), len(pos_of), n_virtual, int(np.any(flat_root)))
-    parts = [head, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
-             caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca,
-             np.asarray(pair_g).reshape(-1), pair_keys, flat_root, flat_n, flat_mask, smask]
-    I = np.concatenate([np.asarray(p, np.int64).reshape(-1) for p in parts])
-    F = np.concatenate([np.asarray(p, np.float64).reshape(-1)
-                        for p in (blocal, glocal, gplane, gmargin, pair_m, bcap, gcap)])
+        dims["L"], dims["G"], dims["Gs"], dims["Q"], dims["E"], dims["P"], int(filter_parent), key_shift(dims["G"]),
+        dims["NB"], n_virtual, int(np.any(fields["flat_root"])))
+    I = INT.pack(dims, head, **{f[0]: fields[f[0]] for f in INT.fields})
+    F = FLT.pack(dims, **{f[0]: fields[f[0]] for f in FLT.fields})
     return I, F
+
+
+def model_dims(I: np.ndarray) -> dict:
+    """The counts of the layouts of `layout.MODEL` (``I``, ``F``, ``W``, the lanes' ``LW``) from
+    ``I``'s header."""
+    return {"L": int(I[H_L]), "G": int(I[H_G]), "Gs": int(I[H_GS]), "Q": int(I[H_Q]), "E": int(I[H_E]),
+            "P": int(I[H_P]), "NB": int(I[H_NB])}
 
 
 def key_shift(G: int) -> int:
@@ -183,159 +186,41 @@ def key_shift(G: int) -> int:
     return max(1, int(G - 1).bit_length())
 
 
-@nb.njit(cache=True)
-def coherence_offset(L: int, G: int, Q: int) -> int:
-    """Where the frame-coherence part of ``W`` starts: fat boxes (L, 6), fat subtree boxes (L, 6),
-    fat boxes transposed (6, L), then ``N_COH`` of state (see ``FAT_GROW``). Compiled: the kernel
-    (`_fat_views`) and the Python side (`workspace_size`, `context`) share this one formula."""
-    return ROW * L + ROW * G + 18 * L + 4 * max(Q, 1) + 2 * ROW + 6 * G + L + 1
-
-
-@nb.njit(cache=True)
-def coherence_state_offset(L: int, G: int, Q: int) -> int:
-    """Where the ``N_COH`` frame-coherence state slots start in ``W``: after the fat boxes."""
-    return coherence_offset(L, G, Q) + 18 * L
-
-
-def workspace_size(L: int, G: int, Q: int) -> int:
-    """Length of the float64 workspace ``W`` of one world (``L`` positions)."""
-    return int(coherence_state_offset(L, G, Q)) + N_COH
+def workspace_size(I: np.ndarray) -> int:
+    """Length of the float64 workspace ``W`` of one world of the model ``I``."""
+    return WORK.size(model_dims(I))
 
 
 @nb.njit(cache=True, inline="always")
 def _views(I, F, W):
-    # Views built from pointers, not slices: a slice's bounds handling (negative ends, clamping) is
-    # ~25 instructions and a few branches, 28 of them on every call (humanoid after mj_step: 1,130
-    # instructions and 77 instruction-cache misses fewer a step; tests/bench/footprint.py). The
-    # layout is `pack`'s, so every view's extent is known exactly.
-    L = I[H_L]
-    G = I[H_G]
-    Gs = I[H_GS]
-    Q = I[H_Q]
-    E = I[H_E]
-    P = I[H_P]
-    ia = np.int64(I.ctypes.data)
-    o = HEADER
-    order = view_of(i64_ptr(ia + 8 * o), L)
-    o += L
-    pos_of = view_of(i64_ptr(ia + 8 * o), I[H_NB])
-    o += I[H_NB]
-    end = view_of(i64_ptr(ia + 8 * o), L)
-    o += L
-    parent_pos = view_of(i64_ptr(ia + 8 * o), L)
-    o += L
-    weld = view_of(i64_ptr(ia + 8 * o), L)
-    o += L
-    nchild = view_of(i64_ptr(ia + 8 * o), L)
-    o += L
-    child_start = view_of(i64_ptr(ia + 8 * o), L)
-    o += L
-    single = view_of(i64_ptr(ia + 8 * o), L)
-    o += L
-    hasb = view_of(i64_ptr(ia + 8 * o), L)
-    o += L
-    pairflag = view_of(i64_ptr(ia + 8 * o), L)
-    o += L
-    ctor = view_of(i64_ptr(ia + 8 * o), L)
-    o += L
-    caor = view_of(i64_ptr(ia + 8 * o), L)
-    o += L
-    children = view_of(i64_ptr(ia + 8 * o), L - 1)
-    o += L - 1
-    gstart = view_of(i64_ptr(ia + 8 * o), L + 1)
-    o += L + 1
-    pgeoms = view_of(i64_ptr(ia + 8 * o), Gs)
-    o += Gs
-    ex_start = view_of(i64_ptr(ia + 8 * o), L + 1)
-    o += L + 1
-    ex_other = view_of(i64_ptr(ia + 8 * o), E)
-    o += E
-    planes = view_of(i64_ptr(ia + 8 * o), Q)
-    o += Q
-    plane_ok = view_of(i64_ptr(ia + 8 * o), (Q, L))
-    o += Q * L
-    geom_bid = view_of(i64_ptr(ia + 8 * o), G)
-    o += G
-    gct = view_of(i64_ptr(ia + 8 * o), G)
-    o += G
-    gca = view_of(i64_ptr(ia + 8 * o), G)
-    o += G
-    pair_g = view_of(i64_ptr(ia + 8 * o), (P, 2))
-    o += 2 * P
-    pair_keys = view_of(i64_ptr(ia + 8 * o), P)
-    o += P
-    flat_root = view_of(i64_ptr(ia + 8 * o), L)
-    o += L
-    flat_n = view_of(i64_ptr(ia + 8 * o), L)
-    o += L
-    flat_mask = view_of(i64_ptr(ia + 8 * o), L)
-    o += L
-    smask = view_of(i64_ptr(ia + 8 * o), L + 1)
-    fa = np.int64(F.ctypes.data)
-    wa = np.int64(W.ctypes.data)
-    f = 0
-    blocal = view_of(f64_ptr(fa + 8 * f), (L, ROW))
-    f += ROW * L
-    glocal = view_of(f64_ptr(fa + 8 * f), (G, ROW))
-    f += ROW * G
-    gplane = view_of(f64_ptr(fa + 8 * f), (G, 4))
-    f += 4 * G
-    gmargin = view_of(f64_ptr(fa + 8 * f), G)
-    f += G
-    pair_m = view_of(f64_ptr(fa + 8 * f), P)
-    w = 0
-    bw = view_of(f64_ptr(wa + 8 * w), (L, ROW))
-    w += ROW * L
-    gw = view_of(f64_ptr(wa + 8 * w), (G, ROW))
-    w += ROW * G
-    baabb = view_of(f64_ptr(wa + 8 * w), (L, 6))
-    w += 6 * L
-    saabb = view_of(f64_ptr(wa + 8 * w), (L, 6))
-    w += 6 * L
-    baabb_t = view_of(f64_ptr(wa + 8 * w), (6, L))  # baabb's columns, for the flat roots' rows
-    w += 6 * L
-    Qm = max(Q, 1)
-    plw = view_of(f64_ptr(wa + 8 * w), (Qm, 4))
-    w += 4 * Qm
-    tmp = view_of(f64_ptr(wa + 8 * w), (2, ROW))
-    w += 2 * ROW
-    gaabb = view_of(f64_ptr(wa + 8 * w), (G, 6))
-    w += 6 * G
-    gstamp = view_of(f64_ptr(wa + 8 * w), L + 1)  # gstamp[L]: the call counter
-    check_span(o + L + 1, I.shape[0])
-    check_span(f + P, F.shape[0])
-    check_span(w + L + 1, W.shape[0])
-    return (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
-            caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
-            pair_keys,
-            blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp, baabb_t,
-            flat_root, flat_n, flat_mask, smask)
+    # Every field of the static model and the workspace, read through I's field table
+    # (`layout`: no offset is written here).
+    return (I[H_L], I[H_G], view_i1(I, I, I_ORDER), view_i1(I, I, I_POS_OF), view_i1(I, I, I_END),
+            view_i1(I, I, I_PARENT_POS), view_i1(I, I, I_WELD), view_i1(I, I, I_NCHILD),
+            view_i1(I, I, I_CHILD_START), view_i1(I, I, I_SINGLE), view_i1(I, I, I_HASB), view_i1(I, I, I_PAIRFLAG),
+            view_i1(I, I, I_CONTYPE), view_i1(I, I, I_CONAFFINITY), view_i1(I, I, I_CHILDREN),
+            view_i1(I, I, I_GSTART), view_i1(I, I, I_PGEOMS), view_i1(I, I, I_EX_START), view_i1(I, I, I_EX_OTHER),
+            view_i1(I, I, I_PLANES), view_i2(I, I, I_PLANE_OK), view_i1(I, I, I_GEOM_BID),
+            view_i1(I, I, I_GEOM_CONTYPE), view_i1(I, I, I_GEOM_CONAFFINITY), view_i2(I, I, I_PAIR_G),
+            view_i1(I, I, I_PAIR_KEYS),
+            view_f2(I, F, F_BLOCAL), view_f2(I, F, F_GLOCAL), view_f2(I, F, F_GPLANE), view_f1(I, F, F_GMARGIN),
+            view_f1(I, F, F_PAIR_M), view_f2(I, W, W_BW), view_f2(I, W, W_GW), view_f2(I, W, W_BAABB),
+            view_f2(I, W, W_SAABB), view_f2(I, W, W_PLW), view_f2(I, W, W_TMP), view_f2(I, W, W_GAABB),
+            view_f1(I, W, W_GSTAMP), view_f2(I, W, W_BAABB_T),
+            view_i1(I, I, I_FLAT_ROOT), view_i1(I, I, I_FLAT_N), view_i1(I, I, I_FLAT_MASK), view_i1(I, I, I_SMASK))
 
 
 @nb.njit(cache=True, inline="always")
 def _cap_views(I, F):
-    # The capsules after `_views`' blocks of F (`pack`): by position (L, 4) and by geom (G, 4), each
-    # (half segment (3), radius) in the body frame, centred on the row's OBB centre.
-    L = I[H_L]
-    G = I[H_G]
-    f = ROW * L + ROW * G + 5 * G + I[H_P]
-    fa = np.int64(F.ctypes.data)
-    check_span(f + 4 * L + 4 * G, F.shape[0])
-    return view_of(f64_ptr(fa + 8 * f), (L, 4)), view_of(f64_ptr(fa + 8 * (f + 4 * L)), (G, 4))
+    # The capsules (half segment (3), radius) in the body frame, centred on the row's OBB centre:
+    # by position (L, 4) and by geom (G, 4).
+    return view_f2(I, F, F_BCAP), view_f2(I, F, F_GCAP)
 
 
 @nb.njit(cache=True, inline="always")
 def _fat_views(I, W):
-    # The frame-coherence part of W (see coherence_offset): fat_b (L, 6), fat_s (L, 6), fat_t (6, L),
-    # state (N_COH).
-    L = I[H_L]
-    wa = np.int64(W.ctypes.data) + 8 * coherence_offset(L, I[H_G], I[H_Q])
-    fat_b = view_of(f64_ptr(wa), (L, 6))
-    fat_s = view_of(f64_ptr(wa + 48 * L), (L, 6))
-    fat_t = view_of(f64_ptr(wa + 96 * L), (6, L))
-    state = view_of(f64_ptr(np.int64(W.ctypes.data) + 8 * coherence_state_offset(L, I[H_G], I[H_Q])), N_COH)
-    check_span(coherence_state_offset(L, I[H_G], I[H_Q]) + N_COH, W.shape[0])
-    return fat_b, fat_s, fat_t, state
+    # The frame-coherence part of W: fat_b (L, 6), fat_s (L, 6), fat_t (6, L), state (N_COH).
+    return view_f2(I, W, W_FAT_B), view_f2(I, W, W_FAT_S), view_f2(I, W, W_FAT_T), view_f1(I, W, W_COH)
 
 
 # ------------------------------------------------------------------------------- small tests
@@ -1387,7 +1272,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
     ``bp`` and reruns); keys beyond ``keys.shape[0]`` are counted but not written (likewise).
     With ``coherent``, the body-pair list is kept between calls in ``cl`` (``bp``'s shape; see
     ``FAT_GROW``): a caller that replaces ``cl`` clears ``W``'s ``COH_VALID``
-    (`coherence_state_offset`). A batch's worlds are unrelated: no coherence there.
+    (`layout.W_COH`). A batch's worlds are unrelated: no coherence there.
     """
     (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
      caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
@@ -1956,7 +1841,7 @@ def context(I, F, W, sap, bp, keys, scr, stats, info, out=None, cl=None) -> np.n
                    stats.ctypes.data, info.ctypes.data)
     ctx[C_CL] = 0 if cl is None else cl.ctypes.data
     # the list (if any) starts empty: the next call rebuilds it
-    W[coherence_state_offset(int(I[H_L]), int(I[H_G]), int(I[H_Q])) + COH_VALID] = 0.0
+    WORK.view(I, W, "coh")[COH_VALID] = 0.0
     return ctx
 
 

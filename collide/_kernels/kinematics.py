@@ -27,7 +27,8 @@ from ._simd import (kin_ball8, kin_ball8_origin, kin_finish8, kin_hinge8, kin_hi
                     kin_start8_unit, sincos8)
 from ._threads import set_chunksize
 from .broadphase import CI_KEYS, N_STATS, chunk_buffers, gather_batch, next_chunk, start_chunks
-from .lanes import J_NR, LANES, _lane_group, lane_buffers, lane_poses
+from .lanes import LANES, _lane_group, lane_buffers
+from .layout import LW_GPOS, LW_GROT, LW_POSES, view_f3, view_f4
 
 JNT_FREE, JNT_BALL, JNT_SLIDE, JNT_HINGE = 0, 1, 2, 3  # mjtJoint
 
@@ -118,7 +119,7 @@ def lanes_scratch_size(L: int, nj: int) -> int:
 def _kinematics_lanes(qp, g0, nl, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type,
                       jnt_qposadr, jnt_pos, jnt_axis, ps, at):
     # `_kinematics_world` of the worlds g0 .. g0 + nl - 1 of qp (B, nq), one a lane, into the lanes'
-    # poses ps (L, 12, LANES) (`lanes.lane_poses`; lanes past nl repeat world g0, as lanes._group
+    # poses ps (L, 12, LANES) (`layout.LW_POSES`; lanes past nl repeat world g0, as lanes._group
     # does). Every world has the same tree and joints, so each branch holds for all the lanes, and
     # each step runs on all of them at once (`_simd.kin_start8` ...: the scalar steps' operations,
     # the same bits); what reads qpos (free and ball joints, slides, the hinges' half angles) fills
@@ -267,11 +268,11 @@ def kinematics_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr
 
 @nb.njit(cache=True, parallel=True)
 def step_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr,
-                   jnt_pos, jnt_axis, ctxs, J, LWs, ko, LBs, scratch, world_count, world_info, chunk_info, S,
+                   jnt_pos, jnt_axis, ctxs, J, LWs, LBs, scratch, world_count, world_info, chunk_info, S,
                    stats_out):
     """`lanes.step_lanes` on the poses of ``qpos (B, nq)``, each group's computed into its worker's
-    workspace just before its tests (see the module docstring): each row of ``LWs`` holds
-    `lanes.kin_workspace_size` float64 from column ``ko`` on; ``scratch`` has a row of
+    workspace just before its tests (see the module docstring), a group's poses in the workspace's
+    ``gpos`` and ``grot`` (`layout.LANE_WORK`) when it holds a bad one; ``scratch`` has a row of
     `lanes_scratch_size` per worker (as many rows as ``LWs``). Same result as
     `lanes.step_lanes` on `kinematics_worlds`' poses (`_kinematics_lanes`: the same bits)."""
     B = qpos.shape[0]
@@ -282,25 +283,22 @@ def step_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
         qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr, jnt_pos, jnt_axis)
     qp = nb.carray(f64_ptr(np.int64(qpos.ctypes.data)), (B, nq))
     Jv = nb.carray(i64_ptr(np.int64(J.ctypes.data)), J.shape[0])
-    NWd = (Jv[J_NR] + 63) // 64
     nw = min(start_chunks(chunk_info, C), LWs.shape[0], LBs.shape[0], scratch.shape[0])  # a workspace a worker
     chunksize = set_chunksize(1)  # one worker a thread (`_threads`)
     for wk in nb.prange(nw):
-        la, LW, LB = lane_buffers(LWs, LBs, wk)
-        kb = la + 8 * ko
-        gpos = nb.carray(f64_ptr(kb), (LANES, NB, 3))  # the group's poses
-        grot = nb.carray(f64_ptr(kb + 24 * LANES * NB), (LANES, NB, 3, 3))
-        check_span(ko + 12 * LANES * NB, LWs.shape[1])  # the group's poses after the lane workspace
+        LW, LB = lane_buffers(LWs, LBs, wk)
         check_span(lanes_scratch_size(NB, jnt_type.shape[0]), scratch.shape[1])
         check_span(wk + 1, scratch.shape[0])
         ksa = np.int64(scratch.ctypes.data) + 8 * scratch.shape[1] * wk
-        ps = lane_poses(LW, NB)
         st = np.zeros(N_STATS, np.int64)
         while True:
             c = next_chunk(chunk_info, C)
             if c >= C:
                 break
             ctx, ci, I, F, W, sap, bp, scr, stats, info = chunk_buffers(ctxs, chunk_info, c)
+            ps = view_f3(I, LW, LW_POSES)
+            gpos = view_f3(I, LW, LW_GPOS)  # the group's poses, when it holds a bad one
+            grot = view_f4(I, LW, LW_GROT)
             for s in range(N_STATS):
                 st[s] = 0
             off = 0
@@ -309,7 +307,7 @@ def step_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
             for g0 in range(w0, w1, LANES):
                 nl = min(LANES, w1 - g0)
                 _kinematics_lanes(qp, g0, nl, q0, par, bpos, bquat, jadr, jnum, jtype, jqadr, jpos, jaxis, ps, ksa)
-                off = _lane_group(gpos, grot, 0, g0, nl, I, F, W, sap, bp, scr, stats, info, Jv, LW, LB, NWd, ctx, off,
+                off = _lane_group(gpos, grot, 0, g0, nl, I, F, W, sap, bp, scr, stats, info, Jv, LW, LB, ctx, off,
                                   st, world_count, world_info, ci, True)
             for s in range(N_STATS):
                 stats[s] = st[s]

@@ -36,6 +36,9 @@ import numpy as np
 from ._ptr import check_span, f64_ptr, i64_ptr
 from ._simd import _Rows, _get, _put, _py, _scalars, _splat, _Vec, _vmax, _vmin, aabb_mask8, aabb_merge8
 from ._threads import set_chunksize
+from .layout import (J_BODY_PAIRS, J_EXPLICIT_RANK, J_PAIR_GEOMS, J_PAIR_GSTART, J_PLANE_GEOMS, J_PLANE_GSTART,
+                     J_PLANE_POS, J_PLANE_START, J_RANK_KEYS, J_ROW_START, LB_BITS, LB_STAMP, LTAB, LW_GA, LW_GW,
+                     LW_PLN, LW_POSES, LW_SA, LW_WA, LW_WB, address, view_f3, view_i1, view_i2)
 from .broadphase import (BIG, C_KEYS, C_NKEYS, CI_KEYS, H_NB, N_STATS, ROW, SLACK_POS, ST_BODY_OBB,
                          ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT, ST_PLANE, ST_SUBTREE,
                          _batch_world, _bounds_ok, _cap_views, _explicit_hit, _plane_hit_local, _pose_ok,
@@ -48,14 +51,22 @@ POSE_BYTES = 8 * 12 * LANES
 ROW_BYTES = 8 * ROW * LANES
 MAX_BODY_PAIRS = 4096  # above this many static body pairs, the tree of the per-world kernel culls better
 
-# Header of J: counts.
-J_NP, J_NLG, J_NPL, J_NPLG, J_NR, J_P, J_NV = range(7)
-J_HEADER = 7
+# Header of J: counts (then the field table of `layout.LANE_TABLES`).
+J_NP, J_NLG, J_NPL, J_NPLG, J_NR, J_P, J_NV, J_Q = range(8)
+J_HEADER = 8
 
 
-def pack_lanes(body_pairs, row_start, pair_geoms, pair_gstart, plane_pos, plane_start, plane_geoms, plane_gstart,
-               explicit_rank, rank_keys) -> np.ndarray:
-    """Flatten the lane tables into one int64 array (see `_lane_views` for the order).
+def lane_dims(J: np.ndarray, L: int) -> dict:
+    """The counts of the layouts of `layout.LANE_TABLES` (``J``, the bitsets ``LB``) from ``J``'s
+    header, for ``L`` positions."""
+    NR = int(J[J_NR])
+    return {"NP": int(J[J_NP]), "NLG": int(J[J_NLG]), "NPL": int(J[J_NPL]), "NPLG": int(J[J_NPLG]), "NR": NR,
+            "P": int(J[J_P]), "L": L, "Q": int(J[J_Q]), "NWd": (NR + 63) // 64}
+
+
+def pack_lanes(L: int, Q: int, **fields) -> np.ndarray:
+    """The lane tables as one int64 array (`layout.LTAB`'s fields by name, for ``L`` positions and
+    ``Q`` planes).
 
     ``body_pairs`` (NP, 2) positions, sorted, position a's at ``row_start[a]:row_start[a + 1]``;
     ``pair_geoms`` (NLG, 3) ``(g1, g2, rank)`` with pair p's at ``pair_gstart[p]:pair_gstart[p + 1]``;
@@ -63,64 +74,11 @@ def pack_lanes(body_pairs, row_start, pair_geoms, pair_gstart, plane_pos, plane_
     ``plane_geoms`` (NPLG, 2) ``(g, rank)``, entry e's at ``plane_gstart[e]:plane_gstart[e + 1]``;
     ``explicit_rank`` (P,) (-1: never reported); ``rank_keys`` (NR,) sorted keys.
     """
-    head = np.array([len(body_pairs), len(pair_geoms), len(plane_pos), len(plane_geoms), len(rank_keys),
-                     len(explicit_rank), LANES], np.int64)
-    parts = [head, body_pairs, row_start, pair_gstart, pair_geoms, plane_start, plane_pos, plane_gstart, plane_geoms,
-             explicit_rank, rank_keys]
-    return np.concatenate([np.asarray(p, np.int64).reshape(-1) for p in parts])
-
-
-def lane_workspace_size(NB: int, L: int, G: int, Q: int) -> int:
-    """float64 workspace of one thread: poses, body and geom rows and AABBs, planes (all x LANES),
-    two scratch rows; rounded up to whole (LANES,) rows, so that what follows it in a row of the
-    batch's workspace (`kin_workspace_size`) starts on a cache line as the row does."""
-    n = LANES * (12 * NB + (ROW + 12) * L + (ROW + 6) * G + 4 * max(Q, 1)) + 2 * ROW
-    return -(-n // LANES) * LANES
-
-
-def lane_bits_size(L: int, NR: int) -> int:
-    """int64 scratch of one thread: the lanes' bitsets over the ranks, then a stamp per position."""
-    return LANES * ((NR + 63) // 64) + L
-
-
-@nb.njit(cache=True, inline="always")
-def lane_poses(LW, NB):
-    """The lanes' poses ``(NB, 12, LANES)``, the first block of a thread's lane workspace ``LW``: per
-    body, position (3) then rotation (9, row-major), each entry a row over the lanes."""
-    return nb.carray(f64_ptr(np.int64(LW.ctypes.data)), (NB, 12, LANES))
-
-
-@nb.njit(cache=True, inline="always")
-def _lane_views(J, L, Q, a):
-    NP = J[J_NP]
-    NLG = J[J_NLG]
-    NPL = J[J_NPL]
-    NPLG = J[J_NPLG]
-    NR = J[J_NR]
-    P = J[J_P]
-    o = J_HEADER
-    body_pairs = nb.carray(i64_ptr(a + 8 * o), (NP, 2))
-    o += 2 * NP
-    row_start = J[o:o + L + 1]
-    o += L + 1
-    pair_gstart = J[o:o + NP + 1]
-    o += NP + 1
-    pair_geoms = nb.carray(i64_ptr(a + 8 * o), (NLG, 3))
-    o += 3 * NLG
-    plane_start = J[o:o + Q + 1]
-    o += Q + 1
-    plane_pos = J[o:o + NPL]
-    o += NPL
-    plane_gstart = J[o:o + NPL + 1]
-    o += NPL + 1
-    plane_geoms = nb.carray(i64_ptr(a + 8 * o), (NPLG, 2))
-    o += 2 * NPLG
-    explicit_rank = J[o:o + P]
-    o += P
-    rank_keys = J[o:o + NR]
-    check_span(o + NR, J.shape[0])
-    return (body_pairs, row_start, pair_gstart, pair_geoms, plane_start, plane_pos, plane_gstart, plane_geoms,
-            explicit_rank, rank_keys)
+    head = np.zeros(J_HEADER, np.int64)
+    head[[J_NP, J_NLG, J_NPL, J_NPLG, J_NR, J_P, J_NV, J_Q]] = (
+        len(fields["body_pairs"]), len(fields["pair_geoms"]), len(fields["plane_pos"]), len(fields["plane_geoms"]),
+        len(fields["rank_keys"]), len(fields["explicit_rank"]), LANES, Q)
+    return LTAB.pack(lane_dims(head, L), head, **fields)
 
 
 # ------------------------------------------------------------------------------- lane tests
@@ -153,7 +111,7 @@ def bounds8(typingctx, pa, ma, pb, mb):
 @intrinsic
 def plane8(typingctx, psb, gp, dst):
     """dst ``(4, LANES)`` = `broadphase.plane_world` of the static local plane at ``gp`` (4 float64:
-    n, d) under each lane's pose in the `lane_poses` block at ``psb``: its source replayed on
+    n, d) under each lane's pose in the `layout.LW_POSES` block at ``psb``: its source replayed on
     vectors (the same bits; a loop over the lanes ran scalar, four divisions a lane)."""
     if not all(isinstance(a, types.Integer) for a in (psb, gp, dst)):
         return None
@@ -213,7 +171,7 @@ def plane_hit8(typingctx, pa, mq, row):
 
 @intrinsic
 def pose_ok8(typingctx, psb):
-    """Bit l set when lane l's pose in the `lane_poses` block ``(12, LANES)`` at address ``psb`` passes
+    """Bit l set when lane l's pose in the `layout.LW_POSES` block ``(12, LANES)`` at address ``psb`` passes
     `broadphase._pose_ok` (its source replayed on vectors: the same outcome)."""
     if not isinstance(psb, types.Integer):
         return None
@@ -229,7 +187,7 @@ def pose_ok8(typingctx, psb):
 def place8(typingctx, psb, src, cap, m, dst, box, box2):
     """One body's (or geom's) bounds in every lane: the world rows ``(ROW, LANES)`` at address
     ``dst`` of the static local row at ``src`` (ROW float64) under the lanes' poses at ``psb`` (a
-    `lane_poses` block ``(12, LANES)``), and their AABBs ``(6, LANES)`` at ``box`` and ``box2``:
+    `layout.LW_POSES` block ``(12, LANES)``), and their AABBs ``(6, LANES)`` at ``box`` and ``box2``:
     the OBB's inflated by ``m`` cut to the capsule's (static row at ``cap``: half segment, radius)
     inflated by ``m``. `broadphase._pose_row`, `aabb_slack`, `capsule_half` and `dot3` replayed on
     ``<LANES x double>`` vectors (`_simd._py`), the cut as numba's ``max``/``min``: the operations
@@ -330,7 +288,7 @@ def _lane_pair(p, m, x, y, single, wb, wa_at, stamp, order, gstart, pgeoms, gloc
 def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
     """Worlds ``w0 .. w0 + nl - 1`` (nl <= LANES) into the bitsets ``LB[:LANES * NWd]``; returns
     False (nothing written) when a pose is bad. ``posed``: the poses are in the lanes already (the
-    workspace's first block, `lane_poses`; ``pos_all`` and ``rot_all`` are not read)."""
+    workspace's `layout.LW_POSES`; ``pos_all`` and ``rot_all`` are not read)."""
     (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
      caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
      pair_keys,
@@ -338,35 +296,31 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
      flat_root, flat_n, flat_mask, smask) = _views(I, F, W)
     Q = planes.shape[0]
     bcap, gcap = _cap_views(I, F)
-    (body_pairs, row_start, pair_gstart, pair_geoms, plane_start, plane_pos, plane_gstart, plane_geoms,
-     explicit_rank, rank_keys) = _lane_views(J, L, Q, np.int64(J.ctypes.data))
+    body_pairs = view_i2(J, J, J_BODY_PAIRS)
+    row_start = view_i1(J, J, J_ROW_START)
+    pair_gstart = view_i1(J, J, J_PAIR_GSTART)
+    pair_geoms = view_i2(J, J, J_PAIR_GEOMS)
+    plane_start = view_i1(J, J, J_PLANE_START)
+    plane_pos = view_i1(J, J, J_PLANE_POS)
+    plane_gstart = view_i1(J, J, J_PLANE_GSTART)
+    plane_geoms = view_i2(J, J, J_PLANE_GEOMS)
+    explicit_rank = view_i1(J, J, J_EXPLICIT_RANK)
     NB = I[H_NB]
-    NR = rank_keys.shape[0]
-    NWd = (NR + 63) // 64
-    la = np.int64(LW.ctypes.data)
-    ps = lane_poses(LW, NB)
-    o = 12 * LANES * NB
-    wb = nb.carray(f64_ptr(la + 8 * o), (L, ROW, LANES))
-    o += ROW * LANES * L
-    wa = nb.carray(f64_ptr(la + 8 * o), (L, 6, LANES))
-    wa_at = la + 8 * o  # (6, LANES) blocks of 384 bytes, for aabb_mask8
-    o += 6 * LANES * L
-    gwl = nb.carray(f64_ptr(la + 8 * o), (G, ROW, LANES))
-    o += ROW * LANES * G
-    gal = nb.carray(f64_ptr(la + 8 * o), (G, 6, LANES))
-    gal_at = la + 8 * o
-    o += 6 * LANES * G
-    sa = nb.carray(f64_ptr(la + 8 * o), (L, 6, LANES))
-    sa_at = la + 8 * o
-    o += 6 * LANES * L
-    pln = nb.carray(f64_ptr(la + 8 * o), (max(Q, 1), 4, LANES))
-    pln_at = la + 8 * o
-    check_span(o + 4 * LANES * max(Q, 1), LW.shape[0])
+    ps = view_f3(I, LW, LW_POSES)
+    ps_at = address(I, LW, LW_POSES)
+    wb = view_f3(I, LW, LW_WB)
+    wa = view_f3(I, LW, LW_WA)
+    wa_at = address(I, LW, LW_WA)  # (6, LANES) blocks of 384 bytes, for aabb_mask8
+    gwl = view_f3(I, LW, LW_GW)
+    gal = view_f3(I, LW, LW_GA)
+    gal_at = address(I, LW, LW_GA)
+    sa = view_f3(I, LW, LW_SA)
+    sa_at = address(I, LW, LW_SA)
+    pln = view_f3(I, LW, LW_PLN)
+    pln_at = address(I, LW, LW_PLN)
     gp_at = np.int64(gplane.ctypes.data)
-    lb = np.int64(LB.ctypes.data)
-    bits = nb.carray(i64_ptr(lb), (NWd, LANES))
-    stamp = nb.carray(i64_ptr(lb + 8 * LANES * NWd), L)
-    check_span(LANES * NWd + L, LB.shape[0])
+    bits = view_i2(J, LB, LB_BITS)
+    stamp = view_i1(J, LB, LB_STAMP)
     valid = (np.uint64(1) << np.uint64(nl)) - np.uint64(1)  # nl <= LANES < 64
     nv = J[J_NV]  # LANES, unknown to the compiler
 
@@ -382,17 +336,17 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
     bad = False
     every = (np.uint64(1) << np.uint64(LANES)) - np.uint64(1)
     for b in range(NB):
-        bad |= pose_ok8(la + POSE_BYTES * b) != every
+        bad |= pose_ok8(ps_at + POSE_BYTES * b) != every
     if bad:
         return False
-    wb_at = la + POSE_BYTES * NB
+    wb_at = address(I, LW, LW_WB)
     bl_at = np.int64(blocal.ctypes.data)
     bc_at = np.int64(bcap.ctypes.data)
     for x in range(L):
         stamp[x] = 0
         if hasb[x]:
             # world rows and AABBs (the OBB's cut to the capsule's), as broadphase._place
-            place8(la + POSE_BYTES * order[x], bl_at + 8 * ROW * x, bc_at + 32 * x, 0.0, wb_at + ROW_BYTES * x,
+            place8(ps_at + POSE_BYTES * order[x], bl_at + 8 * ROW * x, bc_at + 32 * x, 0.0, wb_at + ROW_BYTES * x,
                    wa_at + 384 * x, sa_at + 384 * x)
         else:
             for i in range(3):
@@ -404,7 +358,7 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
     # subtree AABBs in every lane (`_world`, stage 2)
     for x in range(L - 1, 0, -1):
         aabb_merge8(sa_at + 384 * parent_pos[x], sa_at + 384 * x)
-    for wi in range(NWd):
+    for wi in range(bits.shape[0]):
         for l in range(nv):
             bits[wi, l] = 0
     nlanes = np.int64(nl)
@@ -447,7 +401,7 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
         b = geom_bid[qg]
         mq = gmargin[qg]
         pa = pln_at + 32 * LANES * i
-        plane8(la + POSE_BYTES * b, gp_at + 32 * qg, pa)
+        plane8(ps_at + POSE_BYTES * b, gp_at + 32 * qg, pa)
         stats[ST_PLANE] += (plane_start[i + 1] - plane_start[i]) * nlanes
         for e in range(plane_start[i], plane_start[i + 1]):
             x = plane_pos[e]
@@ -542,16 +496,15 @@ def _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gcap, gmargin, ps, gwl,
 # ------------------------------------------------------------------------------- entry point
 
 @nb.njit(cache=True, inline="always")
-def _lane_group(pos_src, rot_src, l0, g0, nl, I, F, W, sap, bp, scr, stats, info, Jv, LW, LB, NWd, ctx, off, st,
+def _lane_group(pos_src, rot_src, l0, g0, nl, I, F, W, sap, bp, scr, stats, info, Jv, LW, LB, ctx, off, st,
                 world_count, world_info, ci, posed=False):
     """Worlds ``g0 .. g0 + nl - 1`` (poses ``pos_src[l0 + l]``, ``rot_src[l0 + l]``) of a chunk whose
     keys (in ``ctx``) run to ``off``: `_group`, then each world's keys read from the bitsets, or on a
     bad pose world by world through `broadphase._world`; returns the new ``off``. ``posed``: the
-    poses are in the lanes already (`lane_poses`), copied out to ``pos_src[l0:]``, ``rot_src[l0:]``
+    poses are in the lanes already (`layout.LW_POSES`), copied out to ``pos_src[l0:]``, ``rot_src[l0:]``
     only for a group that holds a bad pose."""
-    bits = nb.carray(i64_ptr(np.int64(LB.ctypes.data)), (NWd, LANES))
-    NR = Jv[J_NR]
-    rank_keys = Jv[Jv.shape[0] - NR:]
+    bits = view_i2(Jv, LB, LB_BITS)
+    rank_keys = view_i1(Jv, Jv, J_RANK_KEYS)
     cap = ctx[C_NKEYS]
     kp = ctx[C_KEYS]
     keys_all = nb.carray(i64_ptr(kp), cap)
@@ -562,7 +515,7 @@ def _lane_group(pos_src, rot_src, l0, g0, nl, I, F, W, sap, bp, scr, stats, info
             st[s] += stats[s]
         for l in range(nl):
             k = 0
-            for wi in range(NWd):
+            for wi in range(bits.shape[0]):
                 word = np.uint64(bits[wi, l])
                 while word != 0:
                     if off + k < cap:
@@ -574,7 +527,7 @@ def _lane_group(pos_src, rot_src, l0, g0, nl, I, F, W, sap, bp, scr, stats, info
             st[ST_OUT] += k
         return off
     if posed:
-        ps = lane_poses(LW, I[H_NB])
+        ps = view_f3(I, LW, LW_POSES)
         for l in range(nl):
             for b in range(I[H_NB]):
                 for i in range(3):
@@ -587,19 +540,13 @@ def _lane_group(pos_src, rot_src, l0, g0, nl, I, F, W, sap, bp, scr, stats, info
     return off
 
 
-def kin_workspace_size(NB: int) -> int:
-    """float64 a thread needs after `lane_workspace_size` when the poses are computed in the call
-    (`kinematics.step_lanes_kin`): a group's poses (the kinematics' scratch is passed apart)."""
-    return LANES * 12 * NB
-
-
 @nb.njit(cache=True, inline="always")
 def lane_buffers(LWs, LBs, wk):
-    """Worker wk's lane workspace: its address, the float64 row ``LWs[wk]`` and the int64 row
-    ``LBs[wk]`` (pointer-built)."""
+    """Worker wk's lane workspace: the float64 row ``LWs[wk]`` (`layout.LANE_WORK`) and the int64
+    row ``LBs[wk]`` (`layout.LANE_BITS`), pointer-built."""
     check_span(wk + 1, min(LWs.shape[0], LBs.shape[0]))
     la = np.int64(LWs.ctypes.data) + 8 * LWs.shape[1] * wk
-    return (la, nb.carray(f64_ptr(la), LWs.shape[1]),
+    return (nb.carray(f64_ptr(la), LWs.shape[1]),
             nb.carray(i64_ptr(np.int64(LBs.ctypes.data) + 8 * LBs.shape[1] * wk), LBs.shape[1]))
 
 
@@ -616,11 +563,10 @@ def step_lanes(body_pos, body_rot, ctxs, J, LWs, LBs, world_count, world_info, c
     pos_all = nb.carray(f64_ptr(np.int64(body_pos.ctypes.data)), (B, NB, 3))
     rot_all = nb.carray(f64_ptr(np.int64(body_rot.ctypes.data)), (B, NB, 3, 3))
     Jv = nb.carray(i64_ptr(np.int64(J.ctypes.data)), J.shape[0])
-    NWd = (Jv[J_NR] + 63) // 64
     nw = min(start_chunks(chunk_info, C), LWs.shape[0], LBs.shape[0])  # a lane workspace a worker
     chunksize = set_chunksize(1)  # one worker a thread (`_threads`)
     for wk in nb.prange(nw):
-        la, LW, LB = lane_buffers(LWs, LBs, wk)
+        LW, LB = lane_buffers(LWs, LBs, wk)
         st = np.zeros(N_STATS, np.int64)
         while True:
             c = next_chunk(chunk_info, C)
@@ -634,7 +580,7 @@ def step_lanes(body_pos, body_rot, ctxs, J, LWs, LBs, world_count, world_info, c
             off = 0
             for g0 in range(w0, w1, LANES):
                 off = _lane_group(pos_all, rot_all, g0, g0, min(LANES, w1 - g0), I, F, W, sap, bp, scr, stats, info,
-                                  Jv, LW, LB, NWd, ctx, off, st, world_count, world_info, ci)
+                                  Jv, LW, LB, ctx, off, st, world_count, world_info, ci)
             for s in range(N_STATS):
                 stats[s] = st[s]
             ci[CI_KEYS] = off
