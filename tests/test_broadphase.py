@@ -1549,6 +1549,30 @@ def _check_static_masks(bp, a):
 
 
 @pytest.mark.parametrize("make", [s[1] for s in MASK_SCENES], ids=[s[0] for s in MASK_SCENES])
+def test_kernel_filter_is_the_static_filter(make):
+    """`_kernels.broadphase._filter` (the per-step filter of the pairs the walk finds) and
+    `broadphase.tables.StaticFilter.bodies` (from which masks, flat roots, planes and lanes derive)
+    agree on every position pair with bounds: the one rule, in its two forms."""
+    from collide.broadphase import tables
+
+    a = make().articulation
+    bp = BroadPhase(a)
+    _, fields, filt = tables.model_tables(a)
+    hasb = fields["hasb"]
+    L = bp.position_count
+    allp = np.array([(x, y) for x in range(L) for y in range(L) if x != y and hasb[x] and hasb[y]], np.int64)
+    want = filt.bodies(allp[:, 0], allp[:, 1])
+    got = np.zeros(len(allp), bool)
+    for i, (x, y) in enumerate(allp):  # one pair a call: the kernel compacts its buffer
+        one = np.array([[x, y]], np.int64)
+        got[i] = _kern._filter(one, 1, *(_field(bp, n) for n in ("contype", "conaffinity", "weld", "parent_pos")),
+                               a.filter_parent, _field(bp, "ex_start"), _field(bp, "ex_other"),
+                               _field(bp, "single")) == 1
+    assert np.array_equal(got, want)
+    assert want.any() and not want.all()  # the scenes have pairs the filter keeps and drops
+
+
+@pytest.mark.parametrize("make", [s[1] for s in MASK_SCENES], ids=[s[0] for s in MASK_SCENES])
 def test_static_masks_equal_the_twin_and_keep_no_list(make):
     # Up to MASK_MAX positions the body pairs come from static masks (`_scan_masks`), with or
     # without coherence (the same code then: no list is kept): the bounds twin's pairs at every

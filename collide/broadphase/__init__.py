@@ -1,8 +1,8 @@
 """BroadPhase: body poses in, candidate geom pairs out, every step; one world or many.
 
-All per-step work is one numba kernel call (`collide._kernels.broadphase`); this module lays the
-`Articulation` out as flat arrays once, owns the workspaces, and turns the kernel's status codes
-into ``ValueError`` s. See the kernel module's docstring for the pipeline: validated poses ->
+All per-step work is one numba kernel call (`collide._kernels.broadphase`); `tables` lays the
+`Articulation` out as flat arrays once; this module owns the workspaces and turns the kernel's
+status codes into ``ValueError`` s. See the kernel module's docstring for the pipeline: validated poses ->
 world OBBs, spheres and AABBs (each OBB's cut to its capsule's) -> subtree AABBs -> culling down
 the kinematic tree (a hash grid or sweep-and-prune at nodes with many children) -> body sphere and
 OBB tests -> filter -> geoms.
@@ -12,17 +12,12 @@ Example
 >>> bp = BroadPhase(articulation)
 >>> pairs = bp.pairs(data.xpos, data.xmat.reshape(-1, 3, 3))   # (K, 2) int32 geom ids
 
-Measured (tests/bench/broadphase.txt and mujoco_models.txt, 2 shared cores; see those files for
-the figures of the latest run): random convex hulls from 256 bodies (64 in most runs) take less
-time than MuJoCo 4.0's broad phase (~0.25x at 4096 bodies) with 3-4x fewer candidates. Small scenes are dominated by
-fixed costs: around the kernel's own work, the Python call into numba, the keys-to-rows conversion
-and the view of the result add ~1 us (franka, hot: 0.9 us of work, 2.0 us per call with the
-arrays passed, 1.9 with them bound by `bind`; an unchanged result is handed out again, no view),
-and in a simulation loop the first call after ``mj_step`` runs 1.3-1.6x slower than a repeat
-(caches and predictors left to MuJoCo's code and data). Batches of a small model (`pairs_batch`)
-run eight worlds at a time in SIMD lanes (`_kernels.lanes`): per world, 0.5x to 0.8x of MuJoCo's
-single-world broad-phase time on one core (humanoid, on an AMD and an Intel machine), 0.2x to 0.5x
-on two (humanoid, a 64-link chain; with the machine's load).
+Batches of a small model (`pairs_batch`) run eight worlds at a time in SIMD lanes
+(`_kernels.lanes`). Measurements live in ``tests/bench/*.txt`` and ``docs/performance.md``.
+
+The package: `tables` lays the articulation out once (positions, the one static filter and what
+derives from it); `_kernels.layout` declares every flat buffer; `_kernels.broadphase` and
+`_kernels.lanes` are the per-step kernels; this module owns the buffers and the calls.
 
 `BroadPhase.world_bounds` returns the world spheres and OBBs the broad phase tests (of geoms or
 bodies) and their AABBs, for drawing them, debugging a pair, or feeding another spatial structure.
@@ -36,25 +31,16 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from ._kernels import broadphase as _k
-from ._kernels import lanes as _lanes
-from ._kernels import layout as _layout
-from .articulation import Articulation
+from .._kernels import broadphase as _k
+from .._kernels import lanes as _lanes
+from .._kernels import layout as _layout
+from ..articulation import Articulation
+from . import tables as _tables
 
-LOOSE = 4.0  # see `single` in BroadPhase.__init__
+__all__ = ["BroadPhase", "WorldBounds", "check_pose_values", "world_planes"]
+
 _STAT_NAMES = ("subtree_tests", "body_aabb_tests", "body_sphere_tests", "body_obb_tests",
                "geom_sphere_tests", "geom_obb_tests", "plane_tests", "pairs", "geom_aabb_tests", "reused")
-
-
-def _local_rows(center, rot, half, sc, sr) -> np.ndarray:
-    n = len(center)
-    rows = np.empty((n, _k.ROW))
-    rows[:, 0:3] = center
-    rows[:, 3:12] = rot.reshape(n, 9)
-    rows[:, 12:15] = half
-    rows[:, 15:18] = sc
-    rows[:, 18] = sr
-    return rows
 
 
 class WorldBounds(NamedTuple):
@@ -156,8 +142,6 @@ def world_planes(rot: np.ndarray, pos: np.ndarray, local: np.ndarray,
 # fallback) and the world-by-world kernel's (whose workspace is the chunk's).
 CHUNKS_LANES = 16
 CHUNKS = 4
-FLAT_BODIES = 64  # see BroadPhase._flat_lists
-FLAT_PAIRS = 128
 # Rows of a new output arena (32 KB: below malloc's mmap threshold, so arenas reuse freed heap
 # memory instead of faulting fresh pages in); see BroadPhase._new_arena.
 ARENA_ROWS = 4096
@@ -227,101 +211,12 @@ class BroadPhase:
         a = self.articulation = articulation
         L, G = a.body_count, a.geom_count
         self.body_count, self.geom_count = L, G
-        i64 = np.int64
-        # Positions: the bodies in depth-first order, except that when the world has several solid
-        # geoms (static scenery: a ring of walls, obstacles on the floor) each becomes a leaf of
-        # its own at positions 1..V, child of the world, posed by body 0. One box around all the
-        # scenery would meet every moving body; leaves are culled one by one by the sweep or the
-        # grid at the root (humanoid100: 916 geom AABB tests a step -> ~40).
-        solid = np.flatnonzero(~a.geom_is_plane)
-        world_geoms = solid[a.geom_body[solid] == 0]
-        V = len(world_geoms) if len(world_geoms) > 1 else 0
-        Lp = L + V
-        order = np.concatenate([[0], np.zeros(V, i64), a.body_dfs_order[1:]]).astype(i64)  # position -> body
-        pos_of = (a.body_dfs_pos + V).astype(i64)
-        pos_of[0] = 0
-        geom_pos = pos_of[a.geom_body].astype(i64)  # position of every geom (planes: their body's)
-        geom_pos[world_geoms[:V]] = np.arange(1, V + 1)
-        end = a.body_subtree_end[order].astype(i64) + V
-        end[1:V + 1] = np.arange(2, V + 2)
-        parent_pos = pos_of[a.body_parent[order]].astype(i64)
-        parent_pos[0] = 0
-        nchild = np.bincount(parent_pos[1:], minlength=Lp).astype(i64)
-        # Children of each position, in position order (a parent's children are increasing).
-        children = np.argsort(parent_pos[1:], kind="stable").astype(i64) + 1
-        child_start = np.concatenate([[0], np.cumsum(nchild)[:-1]]).astype(i64)
-        gpos = geom_pos[solid]
-        srt = np.argsort(gpos, kind="stable")
-        pgeoms = solid[srt].astype(i64)
-        gstart = np.searchsorted(gpos[srt], np.arange(Lp + 1)).astype(i64)
-        gcount = np.diff(gstart)
-        # 1: one geom (its bounds are the body's); 0: several; -1: several whose body OBB is more
-        # than LOOSE times the volume of their own OBBs (two geoms far apart): the kernel skips
-        # that body's body-level sphere and OBB tests, which it passes against nearly everything.
-        single = (gcount == 1).astype(i64)
-        multi = np.flatnonzero(gcount > 1)
-        if len(multi):
-            gvol = np.prod(2 * (a.geom_obb_half + a.geom_margin[:, None]), axis=1)
-            cs = np.concatenate([[0.0], np.cumsum(gvol[pgeoms])])
-            own = cs[gstart[multi + 1]] - cs[gstart[multi]]
-            bvol = np.prod(2 * a.body_obb_half[order[multi]], axis=1)
-            single[multi[bvol > LOOSE * own]] = -1
-        hasb = (gcount > 0).astype(i64)
-        weld = a.body_weld[order].astype(i64)
-        ctor = np.zeros(Lp, i64)
-        caor = np.zeros(Lp, i64)
-        np.bitwise_or.at(ctor, gpos, a.geom_contype[solid])
-        np.bitwise_or.at(caor, gpos, a.geom_conaffinity[solid])
-        pairflag = np.zeros(Lp, bool)
-        if len(a.pairs):
-            pairflag[geom_pos[a.pairs.ravel()]] = True
-        # Excluded partners per position, both directions (see `_k.pack`); an exclusion of the
-        # world holds for each of its leaves.
-        world_at = np.arange(V + 1)
-        ex = [(x, y) for b1, b2 in a.exclude
-              for x in (world_at if b1 == 0 else (pos_of[b1],)) for y in (world_at if b2 == 0 else (pos_of[b2],))]
-        ex = np.array(ex, i64).reshape(-1, 2)
-        ex = np.concatenate([ex, ex[:, ::-1]]).astype(i64)
-        ex = ex[np.lexsort((ex[:, 1], ex[:, 0]))]
-        ex_start = np.searchsorted(ex[:, 0], np.arange(Lp + 1)).astype(i64)
-        planes = np.flatnonzero(a.geom_is_plane).astype(i64)
-        plane_ok = self._plane_filter(planes, geom_pos[planes], weld, parent_pos, hasb, ctor, caor, ex_start,
-                                      ex[:, 1], a.geom_contype, a.geom_conaffinity, a.filter_parent)
-        blocal = _local_rows(a.body_obb_center, a.body_obb_rot, a.body_obb_half, a.body_sphere_center,
-                             a.body_sphere_radius)[order]
-        glocal = _local_rows(a.geom_obb_center, a.geom_obb_rot, a.geom_obb_half, a.geom_sphere_center,
-                             a.geom_sphere_radius)
-        if V:
-            # A leaf's bounds are its geom's, inflated, as for any single-geom body.
-            blocal[1:V + 1] = glocal[world_geoms]
-            blocal[1:V + 1, 12:15] += a.geom_bound_margin[world_geoms, None]
-            blocal[1:V + 1, 18] += a.geom_bound_margin[world_geoms]
-        # Capsules (half segment, radius) by position and by geom, for the world AABBs.
-        bcap = np.column_stack([a.body_capsule_half, a.body_capsule_radius])[order]
-        gcap = np.column_stack([a.geom_capsule_half, a.geom_capsule_radius])
-        if V:
-            bcap[1:V + 1] = gcap[world_geoms]
-            bcap[1:V + 1, 3] += a.geom_bound_margin[world_geoms]
-        pair_keys = (a.pairs[:, 0].astype(i64) << _k.key_shift(G)) | a.pairs[:, 1]
-        flat_root, flat_n, flat_mask = self._flat_lists(end, parent_pos, nchild, hasb, weld, ctor, caor,
-                                                        ex_start, ex[:, 1], a.filter_parent)
-        smask = self._static_masks(hasb, weld, ctor, caor, parent_pos, ex_start, ex[:, 1], a.filter_parent, gstart,
-                                   pgeoms, a.geom_contype, a.geom_conaffinity, pair_keys, _k.key_shift(G))
-        dims = {"L": Lp, "G": G, "Gs": len(pgeoms), "Q": len(planes), "E": len(ex), "P": len(pair_keys),
-                "NB": L}
-        self._I, self._F = _k.pack(
-            dims, n_virtual=V, filter_parent=a.filter_parent,
-            order=order, pos_of=pos_of, end=end, parent_pos=parent_pos, weld=weld, nchild=nchild,
-            child_start=child_start, single=single, hasb=hasb, pairflag=pairflag, contype=ctor, conaffinity=caor,
-            children=children, gstart=gstart, pgeoms=pgeoms, ex_start=ex_start, ex_other=ex[:, 1], planes=planes,
-            plane_ok=plane_ok, geom_bid=a.geom_body, geom_contype=a.geom_contype,
-            geom_conaffinity=a.geom_conaffinity, pair_g=a.pairs, pair_keys=pair_keys, flat_root=flat_root,
-            flat_n=flat_n, flat_mask=flat_mask, smask=smask,
-            blocal=blocal, glocal=glocal, gplane=a.geom_plane, gmargin=a.geom_bound_margin, pair_m=a.pair_bound_margin,
-            bcap=bcap, gcap=gcap)
+        dims, fields, filt = _tables.model_tables(a)
+        self._I, self._F = _k.pack(dims, **fields)
+        Lp = dims["L"]
         self.position_count = Lp
         self._nW = _k.workspace_size(self._I)
-        self._sap_init = _k.sap_state(children)
+        self._sap_init = _k.sap_state(fields["children"])
         self._W = np.zeros(self._nW)
         self._sap = self._sap_init.copy()
         self._stats = np.zeros(_k.N_STATS, np.int64)
@@ -335,166 +230,10 @@ class BroadPhase:
         self._set_buffers(4 * L + 64, 4 * G + 64)
         self._new_arena(ARENA_ROWS)
         self._batch = None
-        self._J = self._lane_tables(end, parent_pos, hasb, weld, ctor, caor, ex_start, ex[:, 1], a.filter_parent,
-                                    gstart, pgeoms, planes, plane_ok, a.geom_contype, a.geom_conaffinity,
-                                    pair_keys, a.pairs, a.geom_is_plane, _k.key_shift(G))
+        self._J = _tables.lane_tables(filt, fields["gstart"], fields["pgeoms"], fields["planes"], fields["plane_ok"],
+                                      a.pairs, a.geom_is_plane)
         self._empty = np.zeros((0, 2), np.int32)
         self._empty.flags.writeable = False
-
-    @staticmethod
-    def _static_masks(hasb, weld, ctor, caor, parent_pos, ex_start, ex_other, filter_parent, gstart, pgeoms, gct,
-                      gca, pair_keys, S) -> np.ndarray:
-        # (L + 1,) int64 for `_k._scan_masks`: where L <= MASK_MAX, bit y of [x] the body pair (x, y),
-        # x < y, when it passes the static filter as `_k._filter` applies it (bounds on both, masks,
-        # weld groups, the parent rule, exclusions) and has a geom pair whose masks match that is
-        # not an explicit pair (those are tested on their own); [L] their count. Zeros beyond.
-        L = len(hasb)
-        out = np.zeros(L + 1, np.uint64)
-        if L > _k.MASK_MAX:
-            return out.view(np.int64)
-        for x in range(L):
-            g1 = pgeoms[gstart[x]:gstart[x + 1]]
-            for y in range(x + 1, L):
-                if not (hasb[x] and hasb[y]) or weld[x] == weld[y]:
-                    continue
-                if (ctor[x] & caor[y]) == 0 and (ctor[y] & caor[x]) == 0:
-                    continue
-                if filter_parent and parent_pos[y] == x and x != 0:  # x < y: only y can be x's child
-                    continue
-                if y in ex_other[ex_start[x]:ex_start[x + 1]]:
-                    continue
-                g2 = pgeoms[gstart[y]:gstart[y + 1]]
-                ok = (((gct[g1][:, None] & gca[g2][None, :]) != 0) | ((gct[g2][None, :] & gca[g1][:, None]) != 0))
-                if len(pair_keys) and ok.any():
-                    keys = (np.minimum(g1[:, None], g2[None, :]) << S) | np.maximum(g1[:, None], g2[None, :])
-                    ok &= ~np.isin(keys, pair_keys)
-                if not ok.any():
-                    continue
-                out[x] |= np.uint64(1) << np.uint64(y)
-                out[L] += np.uint64(1)
-        return out.view(np.int64)
-
-    @staticmethod
-    def _flat_lists(end, parent_pos, nchild, hasb, weld, ctor, caor, ex_start, ex_other, filter_parent):
-        # Small subtrees hand the traversal their body pairs, as static bit masks: every pair
-        # inside that passes the static filter (bounds on both, masks, weld groups, the parent
-        # rule, exclusions), tested per step by its AABBs alone, a vectorised row at a time.
-        # Top-down from the world's children: a branching subtree of at most FLAT_BODIES
-        # positions whose list holds at most FLAT_PAIRS pairs is flat (a robot, a hand); else its
-        # children are tried. A chain is never flat: the walk down it stops a few links below
-        # each body (64-link chain after mj_step: 3.9 us walked, 5.0 with its last 20 links flat).
-        # Returns flat_root (L,) 0/1, flat_n (L,) the pair count of each flat root, and flat_mask
-        # (L,) int64: bit i of flat_mask[p] is the pair (p, r + i) of p's flat root r (p < r + i).
-        L = len(end)
-        flat_root = np.zeros(L, np.int64)
-        lists = {}
-        todo = [x for x in range(1, L) if parent_pos[x] == 0]
-        while todo:
-            r = todo.pop()
-            m = end[r] - r
-            if m <= FLAT_BODIES and (nchild[r:end[r]] >= 2).any():
-                x = np.arange(r, end[r])
-                p, q = np.triu_indices(m, 1)
-                p, q = x[p], x[q]
-                ok = (hasb[p] != 0) & (hasb[q] != 0) & (weld[p] != weld[q])
-                ok &= ((ctor[p] & caor[q]) != 0) | ((ctor[q] & caor[p]) != 0)
-                if filter_parent:
-                    ok &= parent_pos[q] != p  # p < q: only q can be p's child (r > 0: never the world)
-                for i in np.flatnonzero(ok):
-                    if p[i] in ex_other[ex_start[q[i]]:ex_start[q[i] + 1]]:
-                        ok[i] = False
-                if ok.sum() <= FLAT_PAIRS:
-                    flat_root[r] = 1
-                    lists[r] = np.stack([p[ok], q[ok]], axis=1)
-                    continue
-            todo.extend(x for x in range(r + 1, end[r]) if parent_pos[x] == r)
-        flat_n = np.zeros(L, np.int64)
-        flat_mask = np.zeros(L, np.uint64)
-        for r, pq in lists.items():
-            flat_n[r] = len(pq)
-            for p, q in pq:
-                flat_mask[p] |= np.uint64(1) << np.uint64(q - r)
-        return flat_root, flat_n, flat_mask.view(np.int64)
-
-    @staticmethod
-    def _lane_tables(end, parent_pos, hasb, weld, ctor, caor, ex_start, ex_other, filter_parent, gstart, pgeoms,
-                     planes, plane_ok, gct, gca, pair_keys, pairs, is_plane, S):
-        # The static candidates of `pairs_batch`'s lane kernel (`_kernels.lanes`): body pairs that
-        # pass the static filter with their geom pairs, (plane, body) pairs with their geoms, the
-        # explicit pairs, each geom pair with its rank among all keys. None when the model has
-        # more than lanes.MAX_BODY_PAIRS body pairs (the per-world kernel's tree culls better).
-        L = len(end)
-        if L * (L - 1) // 2 > 16 * _lanes.MAX_BODY_PAIRS:
-            return None
-        p, q = np.triu_indices(L, 1)
-        ok = (hasb[p] != 0) & (hasb[q] != 0) & (weld[p] != weld[q])
-        ok &= ((ctor[p] & caor[q]) != 0) | ((ctor[q] & caor[p]) != 0)
-        if filter_parent:
-            ok &= ~((parent_pos[q] == p) & (p != 0))  # p < q: only q can be p's child
-        if ok.sum() - len(ex_other) // 2 > _lanes.MAX_BODY_PAIRS:  # too many even if every exclusion hits
-            return None
-        for i in np.flatnonzero(ok):
-            if q[i] in ex_other[ex_start[p[i]]:ex_start[p[i] + 1]]:
-                ok[i] = False
-        if ok.sum() > _lanes.MAX_BODY_PAIRS:
-            return None
-        explicit = set(int(k) for k in pair_keys)
-
-        def key(g1, g2):
-            return (min(g1, g2) << S) | max(g1, g2)
-
-        def masks(g1, g2):
-            return (gct[g1] & gca[g2]) != 0 or (gct[g2] & gca[g1]) != 0
-
-        body_pairs, pair_geoms, pair_gstart = [], [], [0]
-        for x, y in zip(p[ok], q[ok]):
-            gp = [(g1, g2) for g1 in pgeoms[gstart[x]:gstart[x + 1]] for g2 in pgeoms[gstart[y]:gstart[y + 1]]
-                  if masks(g1, g2) and key(g1, g2) not in explicit]
-            if gp:
-                body_pairs.append((x, y))
-                pair_geoms.extend(gp)
-                pair_gstart.append(len(pair_geoms))
-        plane_pos, plane_start, plane_geoms, plane_gstart = [], [0], [], [0]
-        for i, qg in enumerate(planes):
-            for x in np.flatnonzero(plane_ok[i]):
-                gs = [g for g in pgeoms[gstart[x]:gstart[x + 1]] if masks(g, qg) and key(g, qg) not in explicit]
-                if gs:
-                    plane_pos.append(x)
-                    plane_geoms.extend((g, key(g, qg)) for g in gs)
-                    plane_gstart.append(len(plane_geoms))
-            plane_start.append(len(plane_pos))
-        explicit_keys = [key(g1, g2) if not (is_plane[g1] and is_plane[g2]) else -1 for g1, g2 in pairs]
-        rank_keys = np.unique(np.array([key(g1, g2) for g1, g2 in pair_geoms] + [k for _, k in plane_geoms]
-                                       + [k for k in explicit_keys if k >= 0], np.int64))
-
-        def rank(k):
-            return int(np.searchsorted(rank_keys, k)) if k >= 0 else -1
-
-        body_pairs = np.array(body_pairs, np.int64).reshape(-1, 2)
-        return _lanes.pack_lanes(
-            L, len(planes), body_pairs=body_pairs, row_start=np.searchsorted(body_pairs[:, 0], np.arange(L + 1)),
-            pair_gstart=pair_gstart,
-            pair_geoms=np.array([(g1, g2, rank(key(g1, g2))) for g1, g2 in pair_geoms], np.int64).reshape(-1, 3),
-            plane_start=plane_start, plane_pos=plane_pos, plane_gstart=plane_gstart,
-            plane_geoms=np.array([(g, rank(k)) for g, k in plane_geoms], np.int64).reshape(-1, 2),
-            explicit_rank=[rank(k) for k in explicit_keys], rank_keys=rank_keys)
-
-    @staticmethod
-    def _plane_filter(planes, plane_pos, weld, parent_pos, hasb, ctor, caor, ex_start, ex_other, gct, gca,
-                      filter_parent) -> np.ndarray:
-        # (Q, L) 0/1: may the body at position x pair with plane i at all (the static filter, once;
-        # the kernel's plane walk reads one flag per body instead of five arrays).
-        L = len(weld)
-        x = np.arange(L)
-        ok = np.zeros((len(planes), L), np.int64)
-        for i, (qg, qx) in enumerate(zip(planes, plane_pos)):
-            m = (hasb != 0) & (x != qx) & (weld != weld[qx])
-            m &= ((gct[qg] & caor) != 0) | ((ctor & gca[qg]) != 0)
-            if filter_parent:
-                m &= ~(((parent_pos == qx) & (qx != 0)) | ((x == parent_pos[qx]) & (x != 0)))
-            m[ex_other[ex_start[qx]:ex_start[qx + 1]]] = False
-            ok[i] = m
-        return ok
 
     def _set_buffers(self, body_pairs: int, keys: int) -> None:
         # The kernel reaches every buffer through self._ctx (addresses): replace a buffer only here.
