@@ -11,10 +11,10 @@ import itertools
 import numpy as np
 import pytest
 from scipy.optimize import minimize, nnls
+from scipy.spatial.transform import Rotation
 
 from collide import PointCloud
 from collide import volumes as V
-from collide.volumes._axes import _rodrigues
 
 RTOL = 1e-9
 
@@ -82,7 +82,7 @@ def _multistart_obb_volume(points: np.ndarray, rng, starts: int = 40) -> float:
     best = np.inf
     for _ in range(starts):
         r0 = _rotation(rng)
-        res = minimize(lambda w: vol(r0 @ _rodrigues(w[None])[0]), np.zeros(3), method="Nelder-Mead",
+        res = minimize(lambda w: vol(r0 @ Rotation.from_rotvec(w).as_matrix()), np.zeros(3), method="Nelder-Mead",
                        options={"xatol": 1e-7, "fatol": 1e-12, "maxiter": 2000})
         best = min(best, float(res.fun))
     return best
@@ -268,7 +268,7 @@ def test_optimal_obb_near_the_multistart_optimum_and_never_worse_than_pca():
     rng = np.random.default_rng(5)
     import trimesh
 
-    bend = _rodrigues(np.array([[0, 0, 1.1]]))[0]
+    bend = Rotation.from_rotvec([0, 0, 1.1]).as_matrix()
     clouds = [_sphere_surface(rng, 400) * [3, 2, 1],
               rng.normal(size=(400, 3)) * [10, 1, 0.5],
               np.vstack([rng.uniform(size=(200, 3)) * [4, .6, .6],
