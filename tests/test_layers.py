@@ -61,7 +61,6 @@ def test_public_surface_is_flat_and_complete():
     assert list(collide.__all__) == sorted(collide.__all__)
 
 
-
 def test_every_public_module_declares_all():
     # DESIGN.md: `__all__` in public modules, every name in it defined. Private modules (a leading
     # underscore in any part of the path) and the command line's __main__ are exempt.
