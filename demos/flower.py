@@ -6,8 +6,10 @@ plus a copy of the blossom rotated by the golden angle, slightly shrunk and lift
 has a few thousand primitives. Built bottom-up from its children's transformed boxes, the root box
 grows by up to 73 % per rotation and ends orders of magnitude too large (the paper: ±31700 against
 [-4.3, 5.0; -3.0, 4.9; 0.0, 12.9]); built from point clouds it is the exact box of the plant's
-primitive points. The demo prints the three root boxes, renders the plant with each hierarchy
-(512 x 512, PNGs in demos/output/) and prints a table like the paper's Table 1.
+primitive points. The demo prints the three root boxes, ray traces the plant with each hierarchy
+(512 x 512; every hierarchy gives the same image) and prints a table like the paper's Table 1. Its
+two PNGs in demos/output/ draw one level of each hierarchy's boxes over the plant, outlined: the
+point clouds' boxes wrap the branches; the box-of-boxes' boxes at that level are larger than the view.
 
 Run: python demos/flower.py   (writes demos/output/flower_*.png; its printout is flower.txt)
 """
@@ -109,6 +111,91 @@ def shade(hits: csg.RayHits, bvh: csg.BVH, directions: np.ndarray, parts: dict,
     return img.reshape(size, size, 3)
 
 
+def node_depths(bvh: csg.BVH) -> np.ndarray:
+    """Depth of every node of ``bvh`` (the root's is 0): ``(N,) int64``."""
+    depth = np.full(bvh.n_nodes, -1, dtype=np.int64)
+    depth[0] = 0
+    order = [0]
+    for n in order:  # breadth first: a parent before its children
+        kids = bvh.node_child[bvh.node_first[n]:bvh.node_first[n] + bvh.node_count[n]]
+        depth[kids] = depth[n] + 1
+        order.extend(kids.tolist())
+    return depth
+
+
+def box_edges_2d(lo: np.ndarray, hi: np.ndarray, eye, target, size: int, fov_deg: float,
+                 up=(0.0, 0.0, 1.0), near: float = 0.05) -> np.ndarray:
+    """The 12 edges of each box ``[lo, hi]`` (``(n, 3)`` each) in the pixels of `csg.pinhole_rays`'
+    camera: ``(m, 2, 2)`` (column, row) segments, cut where they pass behind the camera's near plane
+    (a box larger than the view has edges behind it)."""
+    eye = np.asarray(eye, float)
+    fwd = np.asarray(target, float) - eye
+    fwd /= np.linalg.norm(fwd)
+    right = np.cross(fwd, up)
+    right /= np.linalg.norm(right)
+    true_up = np.cross(right, fwd)
+    s = np.tan(np.radians(fov_deg) / 2)
+    bits = np.array([[(k >> i) & 1 for i in range(3)] for k in range(8)])
+    edges = [(a, b) for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).count("1") == 1]
+    corners = np.where(bits[None], hi[:, None], lo[:, None])  # (n, 8, 3)
+    p = corners[:, [a for a, _ in edges]].reshape(-1, 3)
+    q = corners[:, [b for _, b in edges]].reshape(-1, 3)
+    zp, zq = (p - eye) @ fwd, (q - eye) @ fwd
+    keep = (zp > near) | (zq > near)
+    p, q, zp, zq = p[keep], q[keep], zp[keep], zq[keep]
+    # move the end behind the near plane onto it
+    t = np.clip((near - zp) / np.where(zq != zp, zq - zp, 1.0), 0.0, 1.0)
+    p = np.where((zp < near)[:, None], p + t[:, None] * (q - p), p)
+    t = np.clip((near - zq) / np.where(zp != zq, zp - zq, 1.0), 0.0, 1.0)
+    q = np.where((zq < near)[:, None], q + t[:, None] * (p - q), q)
+
+    def pixels(x):
+        v = x - eye
+        z = v @ fwd
+        col = ((v @ right) / z / s + 1) / 2 * size - 0.5  # a square image: the same scale both ways
+        row = (1 - (v @ true_up) / z / s) / 2 * size - 0.5
+        return np.stack([col, row], axis=1)
+
+    seg = np.stack([pixels(p), pixels(q)], axis=1)
+    # Far outside the image only its direction matters: a huge box's edges reach millions of pixels.
+    return np.clip(seg, -50.0 * size, 51.0 * size)
+
+
+def save_level(path: str, image: np.ndarray, bvh: csg.BVH, level: int, camera: tuple, title: str,
+               colour) -> dict:
+    """The plant ``image`` with the boxes of one ``level`` of ``bvh`` outlined over it, a title and a
+    legend; returns the level's figures (boxes, their widths)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import LineCollection
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    eye, target, size, fov = camera
+    nodes = np.flatnonzero(node_depths(bvh) == level)
+    lo, hi = bvh.node_lo[nodes], bvh.node_hi[nodes]
+    width = np.max(hi - lo, axis=1)
+    fig = plt.figure(figsize=(size / 100, size / 100 + 0.95), dpi=100)
+    ax = fig.add_axes([0, 0, 1, size / (size + 95)])
+    ax.imshow(image)
+    ax.add_collection(LineCollection(box_edges_2d(lo, hi, eye, target, size, fov), colors=[colour],
+                                     linewidths=1.2))
+    ax.set_xlim(-0.5, size - 0.5)
+    ax.set_ylim(size - 0.5, -0.5)
+    ax.set_axis_off()
+    fig.suptitle(title, y=0.99, fontsize=10)
+    handles = [Line2D([], [], color=colour, lw=1.5,
+                      label=f"level {level}: {len(nodes)} boxes, {width.min():.3g} to {width.max():.3g} wide")]
+    handles += [Patch(color=c, label=k) for k, c in COLOURS.items()]
+    fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 1 - 26 / (size + 95)), ncol=3,
+               fontsize=8, frameon=False)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return {"boxes": len(nodes), "width_min": float(width.min()), "width_max": float(width.max())}
+
+
 def exact_box(node: csg.Node) -> tuple[np.ndarray, np.ndarray]:
     """Box of every unrolled primitive's cloud moved by its world matrix, one by one (no
     hierarchy); an intersection (a petal's lens) counts as one primitive, its exact hull
@@ -127,7 +214,7 @@ def fmt_box(lo, hi) -> str:
     return "[" + "; ".join(f"{a:.4g}, {b:.4g}" for a, b in zip(lo, hi)) + "]"
 
 
-def run(size: int = 512, save: bool = True) -> dict:
+def run(size: int = 512, save: bool = True, level: int = 4) -> dict:
     """Build, render and time each hierarchy; print the paper-style report; return the figures."""
     plant, parts = flower()
     n_leaves = len(csg.leaves(plant))
@@ -157,13 +244,19 @@ def run(size: int = 512, save: bool = True) -> dict:
         tracemalloc.stop()
         rows[label] = dict(bvh=bvh, hits=hits, setup=t1 - t0, render=t2 - t1, peak=peak,
                            bound=int(hits.bound_tests.sum()), prim=int(hits.primitive_tests.sum()))
-        if save and tighten and volume == "aabb":
-            import matplotlib.pyplot as plt
-
-            name = "flower_box_of_box.png" if method == "box_of_box" else "flower_pointcloud.png"
-            plt.imsave(os.path.join(OUT, name), shade(hits, bvh, directions, parts, size))
 
     bob, pc = rows["box of boxes"], rows["point clouds"]
+    drawn = {}
+    if save:
+        # One image of the plant (every hierarchy gives the same), one level of each hierarchy over it.
+        image = shade(pc["hits"], pc["bvh"], directions, parts, size)
+        plant_width = float(np.max(hi - lo))
+        for label, name, colour in (("box of boxes", "flower_box_of_box.png", "crimson"),
+                                    ("point clouds", "flower_pointcloud.png", "royalblue")):
+            drawn[label] = save_level(
+                os.path.join(OUT, name), image, rows[label]["bvh"], level, (eye, target, size, 40.0),
+                f"{label}: level {level} of the hierarchy's boxes over the plant ({plant_width:.3g} wide)",
+                colour)
     hit = pc["hits"].hit
     same = all(np.array_equal(r["hits"].leaf, pc["hits"].leaf)
                and np.allclose(r["hits"].distance[hit], pc["hits"].distance[hit])
@@ -197,6 +290,9 @@ def run(size: int = 512, save: bool = True) -> dict:
           f"render time x{bob['render'] / pc['render']:.1f}")
     print(f"all hierarchies give the same image (same leaf and distance on every ray): {same}; "
           f"pixels covered: {pc['hits'].hit.mean():.1%}")
+    for label, d in drawn.items():
+        print(f"drawn ({label}): level {level}, {d['boxes']} boxes, {d['width_min']:.3g} to "
+              f"{d['width_max']:.3g} wide")
     print("peak MiB: Python-side allocations of the set-up (tracemalloc, a second build); render "
           "adds the output arrays and the kernel's per-thread span buffers (not traced).")
     return rows
