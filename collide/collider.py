@@ -52,6 +52,7 @@ class Collider:
         self.model = model
         self.table = _contacts.GeomTable(model)
         self._checked = None  # the last MjData checked (an MjData's arrays never move)
+        self._views = None  # its geom_xpos, geom_xmat as (G, 3), (G, 3, 3) views
 
     def __repr__(self) -> str:
         return f"collide.mujoco.Collider({self.model.nbody} bodies, {self.model.ngeom} geoms)"
@@ -64,10 +65,14 @@ class Collider:
         return self.broadphase.pairs(data)
 
     def _poses(self, data) -> tuple[np.ndarray, np.ndarray]:
+        # The geom poses of data as the kernel takes them, (G, 3) and (G, 3, 3) views: an MjData's
+        # arrays never move, and the bindings build new views at every attribute access, so the
+        # last MjData's are kept (checked once).
         if data is not self._checked:
             self.broadphase._check_data(data)
+            self._views = _contacts._poses(self.table, data.geom_xpos, data.geom_xmat)
             self._checked = data
-        return data.geom_xpos, data.geom_xmat
+        return self._views
 
     def contacts(self, data) -> _contacts.Contacts:
         """Contacts at the poses of ``data`` (after ``mj_kinematics``, ``mj_forward`` or a step).
@@ -90,8 +95,9 @@ class Collider:
             ``data`` of another model, or a non-finite pose (naming the body or geom).
         """
         pairs = self.broadphase.pairs(data)  # checks data on its first use
-        xpos, xmat = self._poses(data)
-        return _contacts.narrow_phase(self.table, pairs, xpos, xmat)
+        xpos, xmat = self._poses(data) if data is not self._checked else self._views
+        # the broad phase's pairs are int32, C-contiguous, in range, lower first: not checked again
+        return _contacts.contacts_of(self.table, pairs, xpos, xmat)
 
     def geom_distance(self, data, g1: int, g2: int, distmax: float) -> tuple[float, np.ndarray]:
         """Signed distance of geoms ``g1`` and ``g2``, like ``mujoco.mj_geomDistance``.

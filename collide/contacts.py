@@ -36,7 +36,7 @@ from ._kernels import manifold as _km
 from .convex import Cylinder, Ellipsoid
 from .support import support_data
 
-__all__ = ["Contacts", "GEOM_TYPES", "GeomTable", "geom_distance", "narrow_phase"]
+__all__ = ["Contacts", "GEOM_TYPES", "GeomTable", "contacts_of", "geom_distance", "narrow_phase"]
 
 # MuJoCo's geom types (mjtGeom; tests/test_contacts.py checks them against the bindings).
 PLANE, HFIELD, SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX, MESH, SDF = range(9)
@@ -205,6 +205,11 @@ class GeomTable:
         self.pair_gap = np.ascontiguousarray(np.asarray(model.pair_gap, dtype=np.float64)[order])
         self.override = bool(int(model.opt.enableflags) & ENBL_OVERRIDE)
         self.o_margin = float(model.opt.o_margin)
+        # Per step, `narrow_phase` reuses these (building the tuple costs a Python call).
+        self._kargs = self.kernel_args()
+        self._any_skipped = bool(np.any(self.cls == _km.SKIPPED))
+        self._no_skipped = np.zeros((0, 2), np.int32)
+        self._no_skipped.flags.writeable = False
 
     def kernel_args(self) -> tuple:
         """The per-geom arguments of `collide._kernels.manifold.collide_pairs`, in its order."""
@@ -262,19 +267,43 @@ def narrow_phase(table: GeomTable, pairs, geom_xpos, geom_xmat) -> Contacts:
     if len(P) and (P.min() < 0 or P.max() >= table.ngeom or np.any(P[:, 0] >= P[:, 1])):
         raise ValueError(f"pairs: geom ids must be in [0, {table.ngeom}) with the lower id first")
     xpos, xmat = _poses(table, geom_xpos, geom_xmat)
-    K = len(P)
+    return contacts_of(table, P, xpos, xmat)
+
+
+def contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.ndarray) -> Contacts:
+    """`narrow_phase` on checked input (the per-step path of `collide.mujoco.Collider`).
+
+    Parameters
+    ----------
+    table : GeomTable
+    pairs : (K, 2) int32, C-contiguous
+        Geom ids in ``[0, G)``, lower first (a broad phase's output: not checked here).
+    xpos : (G, 3) float64, C-contiguous
+    xmat : (G, 3, 3) float64, C-contiguous
+
+    Returns
+    -------
+    Contacts
+
+    Raises
+    ------
+    ValueError
+        A non-finite pose of a geom in a pair (naming it): the kernel checks those.
+    """
+    K = len(pairs)
     cap = _km.MAX_PER_PAIR * K
     geom = np.empty((cap, 2), np.int32)
     dist = np.empty(cap)
     pos = np.empty((cap, 3))
     normal = np.empty((cap, 3))
     margin = np.empty(cap)
-    skipped = np.zeros(K, np.bool_)
-    n = _km.collide_pairs(P, xpos, xmat, *table.kernel_args(), geom, dist, pos, normal, margin, skipped)
+    skipped = np.empty(K, np.bool_)  # the kernel writes every entry
+    n = _km.collide_pairs(pairs, xpos, xmat, *table._kargs, geom, dist, pos, normal, margin, skipped)
     if n < 0:
         g = (-n - 1) // 8
         raise ValueError(f"geom_xpos/geom_xmat: non-finite pose (NaN or inf) of geom {g}")
-    return Contacts(geom[:n], dist[:n], pos[:n], normal[:n], margin[:n], P[skipped])
+    return Contacts(geom[:n], dist[:n], pos[:n], normal[:n], margin[:n],
+                    pairs[skipped] if table._any_skipped else table._no_skipped)
 
 
 def geom_distance(table: GeomTable, g1: int, g2: int, geom_xpos, geom_xmat, distmax: float) -> tuple[float, np.ndarray]:

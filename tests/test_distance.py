@@ -167,6 +167,38 @@ def test_random_clouds_against_minkowski_oracle(seed):
     assert min(counts.values()) >= 80, counts
 
 
+def test_spheres_and_capsules_closed_form_against_the_oracle():
+    # Cores of one or two points (spheres, capsules) take the closed-form segment distance
+    # (`collide._kernels.distance.segment_distance`), GJK/EPA only where its certificate does not
+    # close (crossing or nearly touching cores): both against the oracle, over general, parallel,
+    # nearly collinear and point cores, sizes 1e-2 to 1e2, far from the origin.
+    rng = np.random.default_rng(11)
+    closed = fallback = parallel = 0
+    for k in range(1500):
+        scale = 10.0 ** rng.uniform(-2, 2)
+        P = rng.normal(size=(int(rng.integers(1, 3)), 3))
+        Q = rng.normal(size=(int(rng.integers(1, 3)), 3))
+        if k % 5 == 0 and len(P) == 2 and len(Q) == 2:  # parallel segments
+            Q = P + rng.normal(size=3) * 0.5
+            parallel += 1
+        elif k % 7 == 0 and len(Q) == 2:  # nearly collinear with A's axis
+            Q[1] = Q[0] + (P[-1] - P[0]) * rng.uniform(-2, 2) + rng.normal(size=3) * 1e-9
+        a = PointCloud(P * scale, rng.uniform(0.0, 0.5) * scale)
+        b = PointCloud(Q * scale, rng.uniform(0.0, 0.5) * scale)
+        pose_a = (random_rotation(rng), rng.normal(size=3) * 10 * scale)
+        pose_b = (random_rotation(rng), pose_a[1] + rng.normal(size=3) * 0.1 * scale)
+        if k % 4 == 1:  # cores crossing (B through A's middle): GJK/EPA
+            u = rng.normal(size=3)
+            b = PointCloud(P.mean(0) * scale + np.array([u, -u]) * scale, b.radius)
+            pose_b = pose_a
+        true, size, world = _oracle(a, b, pose_a, pose_b)
+        r = collide.distance(a, b, pose_a, pose_b)
+        _check_result(r, true, size, world)
+        closed += r.iterations == 1
+        fallback += r.iterations > 1
+    assert closed > 1000 and fallback > 50 and parallel > 50, (closed, fallback, parallel)
+
+
 def test_witness_points_lie_on_their_sets():
     rng = np.random.default_rng(5)
     inside = 0

@@ -20,7 +20,8 @@ import numpy as np
 from numba import njit
 
 from .epa import DEGENERATE, epa
-from .gjk import OVERLAP, gjk
+from .gjk import _FLOOR, OVERLAP, gjk
+from .support import POINTS
 
 _EPS = float(np.finfo(np.float64).eps)
 
@@ -33,6 +34,94 @@ OUT_SIZE = 16
 # Rounding allowance, in units of eps times the largest world coordinate: the supports (a
 # rotation and a translation), their difference and a dot product each round by a few ulps.
 ROUNDING = 64.0
+
+
+@njit(cache=True, inline="always")
+def _endpoints(shape, e):
+    # World end points of a core of 1 or 2 points, into e[0], e[1] (the same point twice for one).
+    pts, rot, pos = shape[2], shape[5], shape[6]
+    for j in range(2):
+        i = min(j, pts.shape[0] - 1)
+        for k in range(3):
+            e[j, k] = rot[k, 0] * pts[i, 0] + rot[k, 1] * pts[i, 1] + rot[k, 2] * pts[i, 2] + pos[k]
+
+
+@njit(cache=True)
+def segment_distance(sa, sb, tol, out):
+    """`pair_distance` of two cores of at most two points each (spheres and capsules), closed form.
+
+    The closest points of two segments (Ericson 2005, "Real-Time Collision Detection", §5.1.9,
+    ``ClosestPtSegmentSegment``), then the same certificate GJK gives: with ``n`` the unit
+    direction between them, ``min n.B - max n.A`` (support values) is a lower bound of the cores'
+    distance and ``|pb - pa|`` an upper bound. Returns False, writing nothing, when the two are
+    not within ``tol`` (rounding near parallel segments) or the cores nearly touch (the normal
+    of ``pb - pa`` would be poorly known there): the caller runs GJK/EPA instead.
+    """
+    e = np.empty((4, 3))
+    _endpoints(sa, e[0:2])
+    _endpoints(sb, e[2:4])
+    d10, d11, d12 = e[1, 0] - e[0, 0], e[1, 1] - e[0, 1], e[1, 2] - e[0, 2]
+    d20, d21, d22 = e[3, 0] - e[2, 0], e[3, 1] - e[2, 1], e[3, 2] - e[2, 2]
+    r0, r1, r2 = e[0, 0] - e[2, 0], e[0, 1] - e[2, 1], e[0, 2] - e[2, 2]
+    a = d10 * d10 + d11 * d11 + d12 * d12
+    c2 = d20 * d20 + d21 * d21 + d22 * d22
+    f = d20 * r0 + d21 * r1 + d22 * r2
+    s = t = 0.0
+    if a == 0.0:
+        if c2 > 0.0:
+            t = min(max(f / c2, 0.0), 1.0)
+    else:
+        c = d10 * r0 + d11 * r1 + d12 * r2
+        if c2 == 0.0:
+            s = min(max(-c / a, 0.0), 1.0)
+        else:
+            b = d10 * d20 + d11 * d21 + d12 * d22
+            den = a * c2 - b * b
+            if den > 0.0:
+                s = min(max((b * f - c * c2) / den, 0.0), 1.0)
+            t = (b * s + f) / c2
+            if t < 0.0:
+                t = 0.0
+                s = min(max(-c / a, 0.0), 1.0)
+            elif t > 1.0:
+                t = 1.0
+                s = min(max((b - c) / a, 0.0), 1.0)
+    scale = 0.0
+    for j in range(4):
+        for k in range(3):
+            scale = max(scale, abs(e[j, k]))
+    pa0, pa1, pa2 = e[0, 0] + s * d10, e[0, 1] + s * d11, e[0, 2] + s * d12
+    pb0, pb1, pb2 = e[2, 0] + t * d20, e[2, 1] + t * d21, e[2, 2] + t * d22
+    w = (pb0 - pa0, pb1 - pa1, pb2 - pa2)
+    gap = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+    if not gap > 1e-6 * scale:
+        return False
+    n0, n1, n2 = w[0] / gap, w[1] / gap, w[2] / gap
+    ha = max(n0 * e[0, 0] + n1 * e[0, 1] + n2 * e[0, 2], n0 * e[1, 0] + n1 * e[1, 1] + n2 * e[1, 2])
+    hb = min(n0 * e[2, 0] + n1 * e[2, 1] + n2 * e[2, 2], n0 * e[3, 0] + n1 * e[3, 1] + n2 * e[3, 2])
+    lower = hb - ha
+    if gap - lower > max(tol, _FLOOR * scale):
+        return False
+    ra = sa[1][3]
+    rb = sb[1][3]
+    slack = ROUNDING * _EPS * (scale + ra + rb)
+    out[OUT_DISTANCE] = gap - ra - rb
+    out[OUT_LOWER] = min(lower, gap) - ra - rb - slack
+    out[OUT_UPPER] = gap - ra - rb + slack
+    out[OUT_NORMAL] = n0
+    out[OUT_NORMAL + 1] = n1
+    out[OUT_NORMAL + 2] = n2
+    out[OUT_POINT_A] = pa0 + ra * n0
+    out[OUT_POINT_A + 1] = pa1 + ra * n1
+    out[OUT_POINT_A + 2] = pa2 + ra * n2
+    out[OUT_POINT_B] = pb0 - rb * n0
+    out[OUT_POINT_B + 1] = pb1 - rb * n1
+    out[OUT_POINT_B + 2] = pb2 - rb * n2
+    out[OUT_PENETRATING] = 0.0
+    out[OUT_ITERATIONS] = 1
+    out[OUT_HINT_A] = -1
+    out[OUT_HINT_B] = -1
+    return True
 
 
 @njit(cache=True)
@@ -58,6 +147,9 @@ def pair_distance(sa, sb, tol, d0, hint_a, hint_b, max_iter, out):
         point_b (3), normal (3, unit, from A to B), penetrating (1.0 when the cores overlap and
         EPA ran), iterations (GJK's plus EPA's), hint_a, hint_b.
     """
+    if sa[0] == POINTS and sb[0] == POINTS and sa[2].shape[0] <= 2 and sb[2].shape[0] <= 2:
+        if segment_distance(sa, sb, tol, out):  # spheres and capsules: no iteration
+            return
     W = np.zeros((4, 3))
     WA = np.zeros((4, 3))
     WB = np.zeros((4, 3))
