@@ -13,7 +13,9 @@ The entities (timeline ``step``; ``sim_time`` too, in seconds):
 ``world/geoms/<kind>``              the collidable geoms, MuJoCo's primitives by kind
                                     (Boxes3D, Ellipsoids3D, Capsules3D, Cylinders3D, planes
                                     as flat boxes), instances by geom id
-``world/geoms/mesh/<name>``         a mesh geom: its Mesh3D (static) and pose (Transform3D)
+``world/geoms/meshes``              the mesh geoms, when small (`RerunLog`'s ``merge_meshes``):
+                                    one Mesh3D, vertices in world coordinates every step
+``world/geoms/mesh/<id>_<name>``    else each mesh geom: its Mesh3D (static) and pose (Transform3D)
 ``world/visual/...``                the same for geoms that never collide (``contype`` and
                                     ``conaffinity`` 0, no explicit pair): a robot's visual meshes
 ``world/bounds/geom_obbs``          our world OBB of each collidable geom (the broad phase's,
@@ -170,6 +172,11 @@ class RerunLog:
         Log the geoms that never collide (a robot's visual meshes) under ``world/visual``.
     application_id : str, default "collide"
         The recording's application id (the viewer groups recordings by it).
+    merge_meshes : int, default 5000
+        When the mesh geoms (of ``world/geoms``, and of ``world/visual``) have this many vertices
+        or fewer in all, they are one entity (``.../meshes``) whose vertices are logged in world
+        coordinates every step; else each is an entity of its own, static, moved by a transform
+        (``.../mesh/<id>_<name>``). 0: never merged.
     series_every : int, default 32
         The ``stats/...`` series are sent every this many steps (and by `flush` and `close`),
         as columns: one call instead of one a step and series.
@@ -187,7 +194,8 @@ class RerunLog:
     """
 
     def __init__(self, model, path=None, *, spawn: bool = False, recording=None, bodies: bool = True,
-                 visual: bool = True, application_id: str = "collide", series_every: int = 32):
+                 visual: bool = True, application_id: str = "collide", series_every: int = 32,
+                 merge_meshes: int = 5000):
         rr = _rerun()
         if path is None and not spawn and recording is None:
             raise ValueError("RerunLog: give a path, spawn=True or a recording (else nothing is recorded)")
@@ -205,6 +213,7 @@ class RerunLog:
         self._poses: dict = {}  # mesh entity -> (steps, translations, matrices) of replayed states
         self._deferred = None  # the step being replayed (`flush_snapshots`), else None
         self.series_every = int(series_every)
+        self.merge_meshes = int(merge_meshes)
         self._own = recording is None
         self.rec = rec = recording if recording is not None else rr.RecordingStream(application_id)
         blueprint = self._blueprint()
@@ -248,8 +257,10 @@ class RerunLog:
         size = np.asarray(m.geom_size, dtype=np.float64)
         extent = float(m.stat.extent) if float(m.stat.extent) > 0 else 1.0
         self.normal_length = 0.05 * extent
+        self._size, self._extent = size, extent
         self._groups = []  # (entity, kind, geom ids, static half sizes or (lengths, radii))
-        self._meshes = []  # (entity, geom id)
+        self._meshes = []  # (entity, geom id): a mesh geom of its own, moved by a Transform3D
+        self._merged = []  # (entity, vertex geom ids, local vertices, local normals): meshes merged
         for prefix, mask in (("world/geoms", collides), ("world/visual", ~collides if self.visual else None)):
             if mask is None:
                 continue
@@ -257,19 +268,33 @@ class RerunLog:
                 ids = np.flatnonzero(mask & (gtype == t))
                 if len(ids):
                     self._groups.append((f"{prefix}/{kind}", t, ids))
-            for g in np.flatnonzero(mask & (gtype == _T["mesh"])):
-                entity = f"{prefix}/mesh/{rr.escape_entity_path_part(self._name(g))}"
+                    self._static_group(f"{prefix}/{kind}", t, ids)
+            mesh_geoms = np.flatnonzero(mask & (gtype == _T["mesh"]))
+            parts = []  # (geom, vertices in the geom frame, faces, vertex normals)
+            for g in mesh_geoms:
                 mesh = int(m.geom_dataid[g])
                 v0, nv = int(m.mesh_vertadr[mesh]), int(m.mesh_vertnum[mesh])
                 f0, nf = int(m.mesh_faceadr[mesh]), int(m.mesh_facenum[mesh])
                 vert = np.asarray(m.mesh_vert[v0:v0 + nv], dtype=np.float64)  # in the geom frame
                 face = np.asarray(m.mesh_face[f0:f0 + nf], dtype=np.int64)
-                rec.log(entity, rr.Mesh3D(vertex_positions=vert, triangle_indices=face,
-                                          vertex_normals=_vertex_normals(vert, face),
+                parts.append((int(g), vert, face, _vertex_normals(vert, face)))
+            if parts and sum(len(v) for _, v, _, _ in parts) <= self.merge_meshes:
+                # Small meshes: one entity, its vertices moved here every step (one Rerun call a
+                # step instead of a transform per mesh; a few KiB a step more in the file).
+                entity = f"{prefix}/meshes"
+                vg = np.concatenate([np.full(len(v), g) for g, v, _, _ in parts])
+                offsets = np.cumsum([0] + [len(v) for _, v, _, _ in parts[:-1]])
+                faces = np.concatenate([f + o for (_, _, f, _), o in zip(parts, offsets)])
+                rec.log(entity, rr.Mesh3D.from_fields(triangle_indices=faces, vertex_colors=self._rgba[vg]),
+                        static=True)
+                self._merged.append((entity, vg, np.concatenate([v for _, v, _, _ in parts]),
+                                     np.concatenate([n for _, _, _, n in parts])))
+                continue
+            for g, vert, face, normals in parts:  # large ones: static meshes, moved by a transform
+                entity = f"{prefix}/mesh/{rr.escape_entity_path_part(self._name(g))}"
+                rec.log(entity, rr.Mesh3D(vertex_positions=vert, triangle_indices=face, vertex_normals=normals,
                                           albedo_factor=self._rgba[g]), static=True)
-                self._meshes.append((entity, int(g)))
-        self._size = size
-        self._extent = extent
+                self._meshes.append((entity, g))
         # Series styles, static: names and colours of the lines in the plots.
         for entity, colour, name in (
                 ("stats/pairs/candidates", _CANDIDATE, "our candidates"),
@@ -283,6 +308,17 @@ class RerunLog:
                 ("stats/time_us/collide_contacts", _OURS, "our broad + narrow phase"),
                 ("stats/time_us/mujoco_broad", _MUJOCO, "MuJoCo broad phase")):
             rec.log(entity, rr.SeriesLines(colors=[colour], names=[name]), static=True)
+        # Styles of the per-step entities, static: a step logs positions only.
+        for prefix in ("world/bounds/geom", "world/bounds/body"):
+            rec.log(f"{prefix}_obbs", rr.Boxes3D.from_fields(radii=0.001, fill_mode="majorwireframe"), static=True)
+            rec.log(f"{prefix}_spheres", rr.Ellipsoids3D.from_fields(colors=_SPHERE, line_radii=0.0006,
+                                                                     fill_mode="majorwireframe"), static=True)
+        rec.log("world/pairs/candidates", rr.LineStrips3D.from_fields(radii=0.0015, colors=_CANDIDATE), static=True)
+        rec.log("world/pairs/missed", rr.LineStrips3D.from_fields(radii=0.006, colors=_MISSED), static=True)
+        for entity, colour, r in (("world/contacts/mujoco", _MUJOCO, 0.006), ("world/contacts/collide", _OURS, 0.0045)):
+            rec.log(entity, rr.Points3D.from_fields(radii=r, colors=colour),
+                    rr.Arrows3D.from_fields(radii=r / 3, colors=colour), static=True)
+        rec.log("world/contacts/missed", rr.Points3D.from_fields(radii=0.012, colors=_MISSED), static=True)
 
     def _name(self, g: int) -> str:
         adr = int(self.model.name_geomadr[g])
@@ -355,8 +391,7 @@ class RerunLog:
             n_body = self._log_bounds("world/bounds/body", bb, keep_b, np.array(_BODY, np.uint8))
 
         # Candidate pairs and MuJoCo's contact pairs we missed.
-        rec.log("world/pairs/candidates", rr.LineStrips3D(self._segments(cand, gpos, gmat), radii=0.0015,
-                                                          colors=_CANDIDATE))
+        rec.log("world/pairs/candidates", rr.LineStrips3D.from_fields(strips=self._segments(cand, gpos, gmat)))
         geom, cpos, cnormal = theirs
         solid = np.all(geom >= 0, axis=1)  # flex contacts are not geom pairs
         geom, cpos, cnormal = np.sort(geom[solid], axis=1), cpos[solid], cnormal[solid]
@@ -364,18 +399,17 @@ class RerunLog:
         mj_keys = np.unique(keys)
         missed = mj_keys[~np.isin(mj_keys, _pairs_key(cand, ng))]
         missed_pairs = np.stack(np.divmod(missed, ng), axis=1)
-        rec.log("world/pairs/missed", rr.LineStrips3D(self._segments(missed_pairs, gpos, gmat), radii=0.006,
-                                                      colors=_MISSED))
+        rec.log("world/pairs/missed", rr.LineStrips3D.from_fields(strips=self._segments(missed_pairs, gpos, gmat)))
 
         # Contacts: MuJoCo's, ours, and MuJoCo's of pairs we made no contact for.
         L = self.normal_length
         # Points and normals on one entity, in one call (each call costs ~0.1 ms in Rerun's Python).
-        rec.log("world/contacts/mujoco", rr.Points3D(cpos, radii=0.006, colors=_MUJOCO),
-                rr.Arrows3D(origins=cpos, vectors=cnormal * L, radii=0.002, colors=_MUJOCO))
-        rec.log("world/contacts/collide", rr.Points3D(ours.pos, radii=0.0045, colors=_OURS),
-                rr.Arrows3D(origins=ours.pos, vectors=ours.normal * L, radii=0.0015, colors=_OURS))
+        rec.log("world/contacts/mujoco", rr.Points3D.from_fields(positions=cpos),
+                rr.Arrows3D.from_fields(origins=cpos, vectors=cnormal * L))
+        rec.log("world/contacts/collide", rr.Points3D.from_fields(positions=ours.pos),
+                rr.Arrows3D.from_fields(origins=ours.pos, vectors=ours.normal * L))
         no_ours = ~np.isin(keys, _pairs_key(ours.geom, ng))
-        rec.log("world/contacts/missed", rr.Points3D(cpos[no_ours], radii=0.012, colors=_MISSED))
+        rec.log("world/contacts/missed", rr.Points3D.from_fields(positions=cpos[no_ours]))
 
         counts = StepRecord(step=step, candidates=len(cand), mujoco_pairs=len(mj_keys),
                             mujoco_contacts=len(cpos), our_contacts=len(ours), missed_pairs=len(missed),
@@ -411,32 +445,46 @@ class RerunLog:
                                       columns=self.rr.Transform3D.columns(translation=translation, mat3x3=mat))
         self._poses = {}
 
+    def _static_group(self, entity: str, t: int, ids: np.ndarray) -> None:
+        # What never changes (sizes, colours) is logged once, static; a step logs the poses only.
+        rr, s, colours = self.rr, self._size[ids], self._rgba[ids]
+        if t == _T["box"]:
+            arch = rr.Boxes3D.from_fields(half_sizes=s, colors=colours, fill_mode="solid")
+        elif t == _T["plane"]:
+            # A plane's size is visual only (0: infinite); drawn as a flat box of that size.
+            half = np.where(s[:, :2] > 0, s[:, :2], 2.0 * self._extent)
+            arch = rr.Boxes3D.from_fields(half_sizes=np.column_stack([half, np.zeros(len(ids))]), colors=colours,
+                                          fill_mode="solid")
+        elif t == _T["sphere"]:
+            arch = rr.Ellipsoids3D.from_fields(half_sizes=np.repeat(s[:, :1], 3, axis=1), colors=colours,
+                                               fill_mode="solid")
+        elif t == _T["ellipsoid"]:
+            arch = rr.Ellipsoids3D.from_fields(half_sizes=s, colors=colours, fill_mode="solid")
+        elif t == _T["cylinder"]:
+            arch = rr.Cylinders3D.from_fields(lengths=2.0 * s[:, 1], radii=s[:, 0], colors=colours, fill_mode="solid")
+        else:
+            arch = rr.Capsules3D.from_fields(lengths=2.0 * s[:, 1], radii=s[:, 0], colors=colours, fill_mode="solid")
+        self.rec.log(entity, arch, static=True)
+
     def _log_geoms(self, gpos: np.ndarray, gmat: np.ndarray) -> None:
         rr, rec, size = self.rr, self.rec, self._size
+        quat = _quat_xyzw(gmat) if self._groups else None  # one call for every geom (numpy's per-call cost)
         for entity, t, ids in self._groups:
-            pos, rot, s = gpos[ids], gmat[ids], size[ids]
-            q = _quat_xyzw(rot)
-            colours = self._rgba[ids]
-            if t == _T["box"]:
-                arch = rr.Boxes3D(half_sizes=s, centers=pos, quaternions=q, colors=colours, fill_mode="solid")
-            elif t == _T["plane"]:
-                # A plane's size is visual only (0: infinite); drawn as a flat box of that size.
-                half = np.where(s[:, :2] > 0, s[:, :2], 2.0 * self._extent)
-                half = np.column_stack([half, np.zeros(len(ids))])
-                arch = rr.Boxes3D(half_sizes=half, centers=pos, quaternions=q, colors=colours, fill_mode="solid")
-            elif t == _T["sphere"]:
-                arch = rr.Ellipsoids3D(half_sizes=np.repeat(s[:, :1], 3, axis=1), centers=pos, quaternions=q,
-                                       colors=colours, fill_mode="solid")
-            elif t == _T["ellipsoid"]:
-                arch = rr.Ellipsoids3D(half_sizes=s, centers=pos, quaternions=q, colors=colours, fill_mode="solid")
+            pos, rot = gpos[ids], gmat[ids]
+            q = quat[ids]
+            if t in (_T["box"], _T["plane"]):
+                arch = rr.Boxes3D.from_fields(centers=pos, quaternions=q)
+            elif t in (_T["sphere"], _T["ellipsoid"]):
+                arch = rr.Ellipsoids3D.from_fields(centers=pos, quaternions=q)
             elif t == _T["cylinder"]:
-                arch = rr.Cylinders3D(lengths=2.0 * s[:, 1], radii=s[:, 0], centers=pos, quaternions=q,
-                                      colors=colours, fill_mode="solid")
+                arch = rr.Cylinders3D.from_fields(centers=pos, quaternions=q)
             else:  # capsule: Rerun's runs from its origin along +z; MuJoCo's is centred
-                base = pos - rot[:, :, 2] * s[:, 1:2]
-                arch = rr.Capsules3D(lengths=2.0 * s[:, 1], radii=s[:, 0], translations=base, quaternions=q,
-                                     colors=colours, fill_mode="solid")
+                arch = rr.Capsules3D.from_fields(translations=pos - rot[:, :, 2] * size[ids, 1:2], quaternions=q)
             rec.log(entity, arch)
+        for entity, vg, vert, normals in self._merged:
+            rot = gmat[vg]
+            rec.log(entity, rr.Mesh3D.from_fields(vertex_positions=np.einsum("vij,vj->vi", rot, vert) + gpos[vg],
+                                                  vertex_normals=np.einsum("vij,vj->vi", rot, normals)))
         for entity, g in self._meshes:
             if self._deferred is None:
                 rec.log(entity, rr.Transform3D(translation=gpos[g], mat3x3=gmat[g]))
@@ -448,13 +496,11 @@ class RerunLog:
 
     def _log_bounds(self, prefix: str, wb, keep: np.ndarray, colours) -> int:
         rr, rec = self.rr, self.rec
-        rec.log(f"{prefix}_obbs", rr.Boxes3D(half_sizes=wb.obb_half[keep], centers=wb.obb_center[keep],
-                                             quaternions=_quat_xyzw(wb.obb_rot[keep]), colors=colours,
-                                             radii=0.001, fill_mode="majorwireframe"))
+        rec.log(f"{prefix}_obbs", rr.Boxes3D.from_fields(half_sizes=wb.obb_half[keep], centers=wb.obb_center[keep],
+                                                         quaternions=_quat_xyzw(wb.obb_rot[keep]), colors=colours))
         r = wb.sphere_radius[keep]
-        rec.log(f"{prefix}_spheres", rr.Ellipsoids3D(half_sizes=np.repeat(r[:, None], 3, axis=1),
-                                                     centers=wb.sphere_center[keep], colors=_SPHERE,
-                                                     line_radii=0.0006, fill_mode="majorwireframe"))
+        rec.log(f"{prefix}_spheres", rr.Ellipsoids3D.from_fields(half_sizes=np.repeat(r[:, None], 3, axis=1),
+                                                                 centers=wb.sphere_center[keep]))
         return int(np.count_nonzero(keep))
 
     def _segments(self, pairs: np.ndarray, gpos: np.ndarray, gmat: np.ndarray) -> np.ndarray:

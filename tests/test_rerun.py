@@ -113,14 +113,13 @@ def test_recording_holds_what_compare_computed(recorded):
     assert set(_lengths(_col(table, "world/bounds/geom_spheres", "Ellipsoids3D:half_sizes"))) == {solid}
     moving = len(set(np.asarray(model.geom_bodyid)[gtype != GEOM_TYPES["plane"]]))
     assert set(_lengths(_col(table, "world/bounds/body_obbs", "Boxes3D:half_sizes"))) == {moving}
-    # The geoms: a static mesh per mesh geom, moved every step; primitives by kind.
+    # The geoms: the (small) meshes merged, their vertices every step; primitives by kind.
     meshes = np.flatnonzero(gtype == GEOM_TYPES["mesh"])
     assert len(meshes) > 0
-    mesh_cols = [k for k in static if k.endswith("Mesh3D:vertex_positions")]
-    assert len(mesh_cols) == len(meshes)
-    for k in mesh_cols:
-        pose = table[k.replace("Mesh3D:vertex_positions", "Transform3D:translation")]
-        assert _lengths(pose).min() == 1
+    nvert = int(sum(model.mesh_vertnum[model.geom_dataid[g]] for g in meshes))
+    assert set(_lengths(_col(table, "world/geoms/meshes", "Mesh3D:vertex_positions"))) == {nvert}
+    assert len(static["/world/geoms/meshes:Mesh3D:triangle_indices"][0]) == \
+        int(sum(model.mesh_facenum[model.geom_dataid[g]] for g in meshes))
     boxes = _lengths(_col(table, "world/geoms/boxes", "Boxes3D:half_sizes"))
     assert set(boxes) == {int(np.count_nonzero(gtype == GEOM_TYPES["box"]))}
 
@@ -130,15 +129,25 @@ def test_recorded_poses_are_mujocos(recorded):
     model, path, result, _ = recorded
     table, steps, _ = _table(path)
     centres = _col(table, "world/geoms/boxes", "Boxes3D:centers")[-1]
+    verts = np.array(_col(table, "world/geoms/meshes", "Mesh3D:vertex_positions")[-1])
     bounds = _col(table, "world/bounds/geom_obbs", "Boxes3D:centers")[-1]
     data = mujoco.MjData(model)
     bp = cm.BroadPhase(model)
     states = []
     cm.compare(model, steps=result["steps"], seed=0, name="scene", hold=20, broadphase=bp, contacts=False,
-               on_step=lambda s, d, c: states.append((np.array(d.geom_xpos), np.array(d.xpos), np.array(d.xmat))))
-    gpos, xpos, xmat = states[-1]
+               on_step=lambda s, d, c: states.append((np.array(d.geom_xpos), np.array(d.xpos), np.array(d.xmat),
+                                                      np.array(d.geom_xmat))))
+    gpos, xpos, xmat, _ = states[-1]
     boxes = np.flatnonzero(np.asarray(model.geom_type) == GEOM_TYPES["box"])
     np.testing.assert_allclose(np.array(centres), gpos[boxes], atol=1e-5)  # Rerun stores float32
+    # The merged meshes' vertices: MuJoCo's mesh_vert moved by the geom poses MuJoCo computed.
+    gmat = states[-1][3].reshape(-1, 3, 3)
+    expected = []
+    for g in np.flatnonzero(np.asarray(model.geom_type) == GEOM_TYPES["mesh"]):
+        mesh = model.geom_dataid[g]
+        v = model.mesh_vert[model.mesh_vertadr[mesh]:model.mesh_vertadr[mesh] + model.mesh_vertnum[mesh]]
+        expected.append(v @ gmat[g].T + gpos[g])
+    np.testing.assert_allclose(verts, np.concatenate(expected), atol=1e-5)
     wb = bp.broadphase.world_bounds(xpos, xmat.reshape(-1, 3, 3))
     solid = np.flatnonzero(np.asarray(model.geom_type) != GEOM_TYPES["plane"])
     np.testing.assert_allclose(np.array(bounds), wb.obb_center[solid], atol=1e-5)
@@ -187,6 +196,29 @@ def test_own_loop_and_a_missed_pair(tmp_path):
     assert "/world/visual/spheres:Ellipsoids3D:half_sizes" in static or \
         "/world/visual/spheres:Ellipsoids3D:half_sizes" in table
     assert set(_lengths(_col(table, "world/bounds/geom_obbs", "Boxes3D:half_sizes"))) == {3}
+
+
+def test_large_meshes_get_an_entity_each(tmp_path):
+    # merge_meshes=0: every mesh geom static in its own frame, moved by a transform each step.
+    model = cm.default_scene(seed=1, objects=7)
+    data = mujoco.MjData(model)
+    path = tmp_path / "meshes.rrd"
+    with log_rerun(model, path, merge_meshes=0) as log:
+        for _ in range(3):
+            mujoco.mj_step(model, data)
+            log.log(data)
+    table, steps, static = _table(path)
+    meshes = np.flatnonzero(np.asarray(model.geom_type) == GEOM_TYPES["mesh"])
+    cols = sorted(k for k in static if k.endswith(":Mesh3D:vertex_positions"))
+    assert len(meshes) == len(cols) > 0
+    assert sorted(int(k.split("/mesh/")[1].split("_")[0]) for k in cols) == sorted(meshes)  # <id>_<name>
+    for k in cols:
+        g = int(k.split("/mesh/")[1].split("_")[0])
+        pose = table[k.replace("Mesh3D:vertex_positions", "Transform3D:translation")]
+        assert _lengths(pose).tolist() == [1, 1, 1]
+        np.testing.assert_allclose(pose[-1][0] if np.ndim(pose[-1]) == 2 else pose[-1], data.geom_xpos[g],
+                                   atol=1e-5)
+    assert not any(k.startswith("/world/geoms/meshes:") for k in list(static) + list(table))
 
 
 def test_bad_input(tmp_path):
