@@ -237,7 +237,6 @@ class RerunLog:
                 ),
                 column_shares=[3, 2],
             ),
-            collapse_panels=True,
         )
 
     def _static(self) -> None:

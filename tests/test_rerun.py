@@ -247,6 +247,14 @@ def test_command_line(tmp_path, capsys):
     table, steps, _ = _table(out)
     assert list(steps) == list(range(5))
     assert _lengths(_col(table, "world/pairs/candidates", "LineStrips3D:strips")).sum() > 0
+    # The layout the viewer opens with: the 3D scene and the three plots.
+    from rerun.chunk import RrdReader
+
+    reader = RrdReader(str(out))
+    (blueprint,) = reader.blueprints()
+    views = {line.split()[0] for line in reader.stream(store=blueprint).collect().summary().splitlines()
+             if line.startswith("/view/") and "/ViewContents" not in line.split()[0]}
+    assert len(views) == 4
 
 
 def test_without_rerun(monkeypatch, capsys):
