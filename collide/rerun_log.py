@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -164,8 +165,8 @@ class RerunLog:
     spawn : bool, default False
         Also start a Rerun viewer and stream to it.
     recording : rerun.RecordingStream, optional
-        Log to this stream instead (its sinks are the caller's); ``path`` and ``spawn`` then
-        add sinks to it.
+        Log to this stream instead, to the sinks it has; ``path`` or ``spawn`` replace them
+        (as ``RecordingStream.save`` and ``.spawn`` do).
     bodies : bool, default True
         Log the bodies' bounds too.
     visual : bool, default True
@@ -199,6 +200,8 @@ class RerunLog:
         rr = _rerun()
         if path is None and not spawn and recording is None:
             raise ValueError("RerunLog: give a path, spawn=True or a recording (else nothing is recorded)")
+        if path is not None and Path(path).is_dir():
+            raise ValueError(f"path: {path} is a folder; give an .rrd file name")
         self.rr = rr
         self.model = model
         self.collider = Collider(model)
@@ -212,14 +215,17 @@ class RerunLog:
         self._series: dict = {}  # entity -> (steps, values), sent every `series_every` steps and at the end
         self._poses: dict = {}  # mesh entity -> (steps, translations, matrices) of replayed states
         self._deferred = None  # the step being replayed (`flush_snapshots`), else None
-        self.series_every = int(series_every)
-        self.merge_meshes = int(merge_meshes)
+        self.series_every = as_count(series_every, "series_every", 1)
+        self.merge_meshes = as_count(merge_meshes, "merge_meshes", 0)
         self._own = recording is None
         self.rec = rec = recording if recording is not None else rr.RecordingStream(application_id)
         blueprint = self._blueprint()
-        if path is not None:
+        if path is not None and spawn:  # both: one stream, two sinks (save and spawn each replace them)
+            rr.spawn(connect=False)
+            rec.set_sinks(rr.FileSink(str(path)), rr.GrpcSink(), default_blueprint=blueprint)
+        elif path is not None:
             rec.save(str(path), default_blueprint=blueprint)
-        if spawn:
+        elif spawn:
             rec.spawn(default_blueprint=blueprint)
         self._static()
 

@@ -131,7 +131,6 @@ def test_recorded_poses_are_mujocos(recorded):
     centres = _col(table, "world/geoms/boxes", "Boxes3D:centers")[-1]
     verts = np.array(_col(table, "world/geoms/meshes", "Mesh3D:vertex_positions")[-1])
     bounds = _col(table, "world/bounds/geom_obbs", "Boxes3D:centers")[-1]
-    data = mujoco.MjData(model)
     bp = cm.BroadPhase(model)
     states = []
     cm.compare(model, steps=result["steps"], seed=0, name="scene", hold=20, broadphase=bp, contacts=False,
@@ -151,7 +150,6 @@ def test_recorded_poses_are_mujocos(recorded):
     wb = bp.broadphase.world_bounds(xpos, xmat.reshape(-1, 3, 3))
     solid = np.flatnonzero(np.asarray(model.geom_type) != GEOM_TYPES["plane"])
     np.testing.assert_allclose(np.array(bounds), wb.obb_center[solid], atol=1e-5)
-    del data
 
 
 def test_own_loop_and_a_missed_pair(tmp_path):
@@ -225,6 +223,12 @@ def test_bad_input(tmp_path):
     model = mujoco.MjModel.from_xml_string(BALLS)
     with pytest.raises(ValueError, match="path, spawn=True or a recording"):
         RerunLog(model)
+    with pytest.raises(ValueError, match="folder"):
+        RerunLog(model, tmp_path)
+    with pytest.raises(ValueError, match="series_every"):
+        RerunLog(model, tmp_path / "x.rrd", series_every=0)
+    with pytest.raises(ValueError, match="merge_meshes"):
+        RerunLog(model, tmp_path / "x.rrd", merge_meshes=-1)
     other = cm.default_scene(objects=2)
     with RerunLog(model, tmp_path / "bad.rrd") as log:
         data = mujoco.MjData(model)
