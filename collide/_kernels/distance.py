@@ -150,17 +150,19 @@ def pair_distance(sa, sb, tol, d0, hint_a, hint_b, max_iter, out):
     if sa[0] == POINTS and sb[0] == POINTS and sa[2].shape[0] <= 2 and sb[2].shape[0] <= 2:
         if segment_distance(sa, sb, tol, out):  # spheres and capsules: no iteration
             return
-    W = np.zeros((4, 3))
-    WA = np.zeros((4, 3))
-    WB = np.zeros((4, 3))
-    lam = np.zeros(4)
-    v = np.zeros(3)
+    simplex = np.zeros((3, 4, 3))  # W, WA, WB: GJK weighs all four rows (zero weights included)
+    W = simplex[0]
+    WA = simplex[1]
+    WB = simplex[2]
+    vec = np.zeros((5, 4))
+    lam = vec[0]
+    dirn = vec[1]
+    v = vec[2, :3]
+    pa = vec[3, :3]
+    pb = vec[4, :3]
     hints = np.empty(2, np.int64)
     hints[0] = hint_a
     hints[1] = hint_b
-    dirn = np.zeros(4)
-    pa = np.zeros(3)
-    pb = np.zeros(3)
     status, n, lower, scale, iters = gjk(sa, sb, d0, hints, tol, max_iter, W, WA, WB, lam, v, dirn, pa, pb)
     pa[:] = 0.0
     pb[:] = 0.0
