@@ -266,7 +266,8 @@ def run(size: int = 512, save: bool = True, level: int = 4) -> dict:
         cpu = next((ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo")
                     if ln.startswith("model name")), cpu)
     print("Recursive CSG plant (Stürzlinger 1996, §4), ray traced at "
-          f"{size} x {size}; machine: {os.cpu_count()} cores, Python {sys.version.split()[0]}, {cpu}")
+          f"{size} x {size}; machine: {os.cpu_count()} cores, Python {sys.version.split()[0]}, {cpu}, "
+          f"load average {os.getloadavg()[0]:.1f} (times grow with it; the test counts do not)")
     print(f"unrolled primitives: {n_leaves} (petal spheres, hearts, stem segments, leaves); "
           f"hierarchy nodes: {pc['bvh'].n_nodes}")
     print()
