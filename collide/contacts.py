@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import faces as _faces
 from . import shapes as _shapes
 from ._kernels import manifold as _km
 from .convex import Cylinder, Ellipsoid
@@ -102,6 +103,17 @@ def _geom_shape(gtype: int, size: np.ndarray, vert: np.ndarray | None):
     if gtype == ELLIPSOID:
         return Ellipsoid(np.asarray(size[:3], dtype=np.float64)), _km.RULE_SUPPORT, False
     raise ValueError(f"unsupported geom type {gtype}")
+
+
+def _polytope(model, g: int, gtype: int, size: np.ndarray):
+    # The hull faces of a box or mesh geom (geom frame), else None.
+    if gtype == BOX:
+        return _faces.polytope_faces(_shapes.box(np.asarray(size[:3], dtype=np.float64)).points)
+    if gtype == MESH:
+        mid = int(model.geom_dataid[g])
+        adr, num = int(model.mesh_vertadr[mid]), int(model.mesh_vertnum[mid])
+        return _faces.polytope_faces(np.asarray(model.mesh_vert[adr:adr + num], dtype=np.float64))
+    return None
 
 
 class GeomTable:
@@ -205,6 +217,10 @@ class GeomTable:
         self.pair_gap = np.ascontiguousarray(np.asarray(model.pair_gap, dtype=np.float64)[order])
         self.override = bool(int(model.opt.enableflags) & ENBL_OVERRIDE)
         self.o_margin = float(model.opt.o_margin)
+        # Face contacts (collide._kernels.faces): MuJoCo's types, box half sizes, hull faces.
+        self.gtype = np.ascontiguousarray(types, dtype=np.int8)
+        self.half = np.ascontiguousarray(np.where((types == BOX)[:, None], sizes, 0.0))
+        self.faces = _faces.FaceTable([_polytope(model, g, int(types[g]), sizes[g]) for g in range(G)])
         # Per step, `narrow_phase` reuses these (building the tuple costs a Python call).
         self._kargs = self.kernel_args()
         self._any_skipped = bool(np.any(self.cls == _km.SKIPPED))
@@ -216,7 +232,7 @@ class GeomTable:
         return (self.cls, self.rule, self.below, self.kind, self.prm, self.pts, self.pts_adr, self.pts_num,
                 self.nbr_start, self.nbr_start_adr, self.nbr_start_num, self.nbr, self.nbr_adr, self.nbr_num,
                 self.rbound, self.size, self.geom_margin, self.geom_gap, self.pair_key, self.pair_margin,
-                self.pair_gap, self.override, self.o_margin)
+                self.pair_gap, self.override, self.o_margin, self.gtype, self.half) + self.faces.kernel_args()
 
     def shape_args(self) -> tuple:
         """The per-geom arguments of `collide._kernels.manifold.pair_signed_distance`, in its order."""

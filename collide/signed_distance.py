@@ -71,21 +71,22 @@ _ZERO = np.zeros(3)
 _ZERO.setflags(write=False)
 
 
-def _pose(pose, name: str, size: float) -> tuple[np.ndarray, np.ndarray]:
-    # (rotation, translation) as C-contiguous float64 arrays, checked.
+def _pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
+    # (rotation, translation) as C-contiguous float64 arrays; checked by the kernel (`_raise`).
     if pose is None:
         return _EYE, _ZERO
-    rot = pos = None
-    if isinstance(pose, tuple) and len(pose) == 2:
+    if type(pose) is tuple and len(pose) == 2:
         r, t = pose
-        if (isinstance(r, np.ndarray) and isinstance(t, np.ndarray) and r.dtype == np.float64
+        if (type(r) is np.ndarray and type(t) is np.ndarray and r.dtype == np.float64
                 and t.dtype == np.float64 and r.shape == (3, 3) and t.shape == (3,)
                 and r.flags.c_contiguous and t.flags.c_contiguous):
-            rot, pos = r, t  # the common case, checked by the kernel below without copies
-    if rot is None:
-        rot, pos = as_affine(pose, name=name)
-        rot, pos = np.ascontiguousarray(rot), np.ascontiguousarray(pos)
-    err = _kd.pose_error(rot, pos, ORTHONORMAL_TOL, size, _hull.MAX_COORDINATE)
+            return r, t  # the common case, without copies
+    rot, pos = as_affine(pose, name=name)
+    return np.ascontiguousarray(rot), np.ascontiguousarray(pos)
+
+
+def _raise(err: int, name: str, rot: np.ndarray, pos: np.ndarray, size: float) -> None:
+    # The ValueError of `collide._kernels.distance.pose_error`'s code ``err`` for a pose.
     if err == 1:
         raise ValueError(f"{name}: non-finite value (NaN or inf) in the rotation or translation")
     if err == 2:
@@ -93,11 +94,13 @@ def _pose(pose, name: str, size: float) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError(f"{name}: the rotation is not orthonormal with determinant +1 "
                          f"(|R^T R - I| = {dev:.3g}, det = {float(np.linalg.det(rot)):.3g}; "
                          f"allowed {ORTHONORMAL_TOL:g})")
-    if err == 3:
-        reach = float(np.abs(pos).max()) + size
-        raise ValueError(f"{name}: the translation puts the shape at {reach:.3g}, beyond "
-                         f"{_hull.MAX_COORDINATE:g} (squared distances would overflow float64)")
-    return rot, pos
+    reach = float(np.abs(pos).max()) + size
+    raise ValueError(f"{name}: the translation puts the shape at {reach:.3g}, beyond "
+                     f"{_hull.MAX_COORDINATE:g} (squared distances would overflow float64)")
+
+
+_new = object.__new__
+_OUT_A, _OUT_N = _kd.OUT_POINT_A, _kd.OUT_NORMAL + 3
 
 
 def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = 1e-12,
@@ -138,8 +141,8 @@ def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = 1e
     """
     da = support_data(a)
     db = support_data(b)
-    ra, ta = _pose(pose_a, "pose_a", da.size)
-    rb, tb = _pose(pose_b, "pose_b", db.size)
+    ra, ta = _pose(pose_a, "pose_a")
+    rb, tb = _pose(pose_b, "pose_b")
     hint_a = hint_b = -1  # cold: the hill-climbs start from the best extreme vertex
     if warm is None:
         d0 = _ZERO
@@ -148,14 +151,22 @@ def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = 1e
         hint_a, hint_b = warm.hints
     else:
         d0 = as_array(warm, "warm", (3,))
-    if not (isinstance(tolerance, float) and 0.0 < tolerance < 1.0):
+    if not (type(tolerance) is float and 0.0 < tolerance < 1.0):
         tolerance = as_positive(tolerance, "tolerance")
     if not (type(max_iterations) is int and 4 <= max_iterations <= 100_000):
         max_iterations = as_count(max_iterations, "max_iterations", 4, 100_000)
-    tol = tolerance * (da.size + db.size)
     out = np.empty(_kd.OUT_SIZE)
-    _kd.pair_distance(da.posed(ra, ta), db.posed(rb, tb), tol, d0, hint_a, hint_b, max_iterations, out)
-    vec = out[_kd.OUT_POINT_A:_kd.OUT_NORMAL + 3].copy()  # one copy; the fields are its views
-    return Distance(float(out[_kd.OUT_DISTANCE]), vec[0:3], vec[3:6], vec[6:9],
-                    float(out[_kd.OUT_LOWER]), float(out[_kd.OUT_UPPER]), int(out[_kd.OUT_ITERATIONS]),
-                    (int(out[_kd.OUT_HINT_A]), int(out[_kd.OUT_HINT_B])))
+    err = _kd.checked_distance(da.posed(ra, ta), db.posed(rb, tb), da.size, db.size, ORTHONORMAL_TOL,
+                               _hull.MAX_COORDINATE, tolerance * (da.size + db.size), d0, hint_a, hint_b,
+                               max_iterations, out)
+    if err:
+        if err < 10:
+            _raise(err, "pose_a", ra, ta, da.size)
+        _raise(err - 10, "pose_b", rb, tb, db.size)
+    vec = out[_OUT_A:_OUT_N].copy()  # one copy; the fields are its views
+    dist, lower, upper, _, _, _, _, _, _, _, _, _, _, iters, ha, hb = out.tolist()
+    # Built without the frozen dataclass's __init__ (a setattr per field): the same fields.
+    r = _new(Distance)
+    r.__dict__.update(distance=dist, point_a=vec[0:3], point_b=vec[3:6], normal=vec[6:9], lower=lower,
+                      upper=upper, iterations=int(iters), hints=(int(ha), int(hb)))
+    return r

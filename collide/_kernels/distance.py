@@ -248,3 +248,23 @@ def pose_error(rot, pos, tol, size, limit):
     if not max(abs(pos[0]), abs(pos[1]), abs(pos[2])) + size <= limit:
         return 3
     return 0
+
+
+@njit(cache=True)
+def checked_distance(sa, sb, size_a, size_b, ortho_tol, limit, tol, d0, hint_a, hint_b, max_iter, out):
+    """`pose_error` on both poses, then `pair_distance`: the public call's one kernel call.
+
+    Returns
+    -------
+    int
+        0 (``out`` filled), or ``pose_error``'s code of the first bad pose: ``1..3`` for A,
+        ``11..13`` for B (``out`` untouched).
+    """
+    err = pose_error(sa[5], sa[6], ortho_tol, size_a, limit)
+    if err:
+        return err
+    err = pose_error(sb[5], sb[6], ortho_tol, size_b, limit)
+    if err:
+        return 10 + err
+    pair_distance(sa, sb, tol, d0, hint_a, hint_b, max_iter, out)
+    return 0
