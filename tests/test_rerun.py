@@ -147,6 +147,18 @@ def test_recorded_poses_are_mujocos(recorded):
         v = model.mesh_vert[model.mesh_vertadr[mesh]:model.mesh_vertadr[mesh] + model.mesh_vertnum[mesh]]
         expected.append(v @ gmat[g].T + gpos[g])
     np.testing.assert_allclose(verts, np.concatenate(expected), atol=1e-5)
+    # Orientations: each box's quaternion (x, y, z, w) is its geom's rotation; a capsule starts at
+    # one end (Rerun's capsules run along +z from their origin), MuJoCo's is centred.
+    from scipy.spatial.transform import Rotation
+
+    quats = np.array(_col(table, "world/geoms/boxes", "Boxes3D:quaternions")[-1])
+    np.testing.assert_allclose(Rotation.from_quat(quats).as_matrix(), gmat[boxes], atol=1e-5)
+    caps = np.flatnonzero(np.asarray(model.geom_type) == GEOM_TYPES["capsule"])
+    base = np.array(_col(table, "world/geoms/capsules", "Capsules3D:translations")[-1])
+    half = np.asarray(model.geom_size)[caps, 1]
+    np.testing.assert_allclose(base, gpos[caps] - gmat[caps][:, :, 2] * half[:, None], atol=1e-5)
+    lengths = np.array(_col(table, "world/geoms/capsules", "Capsules3D:lengths")[-1])
+    np.testing.assert_allclose(lengths, 2 * half, rtol=1e-6)
     wb = bp.broadphase.world_bounds(xpos, xmat.reshape(-1, 3, 3))
     solid = np.flatnonzero(np.asarray(model.geom_type) != GEOM_TYPES["plane"])
     np.testing.assert_allclose(np.array(bounds), wb.obb_center[solid], atol=1e-5)
