@@ -1687,7 +1687,7 @@ def _lane_bounds_both(A, B, ma, mb, out):
 def test_lane_bounds_as_vectors_are_the_scalar_test_bit_for_bit():
     # `lanes.bounds8` replays `_bounds_ok`'s source on LLVM vectors: lane by lane the scalar test's
     # outcome, on boxes near each other (hits and misses by every axis), margins, and non-finite
-    # coordinates (NaN separates nothing, as in `obb_hit`).
+    # coordinates (NaN separates nothing).
     rng = np.random.default_rng(3)
     n, R, L = 4000, _kern.ROW, _lanes.LANES
 

@@ -9,6 +9,7 @@ import pytest
 import collide
 from collide import _checked, shapes
 from collide._kernels import broadphase as _k
+from collide._kernels import layout
 from collide._kernels._ptr import check_span
 
 checked_only = pytest.mark.skipif(not _checked.CHECKED, reason="run with COLLIDE_CHECKED=1 (CI runs this file so)")
@@ -18,7 +19,11 @@ checked_only = pytest.mark.skipif(not _checked.CHECKED, reason="run with COLLIDE
 # both modes, so a kernel compiled in the normal mode would be loaded unchecked in the checked one.
 @numba.njit
 def _views_of(I, F, W):
-    return _k._views(I, F, W)[0]
+    # the last field of each buffer, through the field table (`_kernels.layout`)
+    layout.view_i1(I, I, layout.I_SMASK)
+    layout.view_f2(I, F, layout.F_GCAP)
+    layout.view_f1(I, W, layout.W_COH)
+    return I[_k.H_L]
 
 
 @numba.njit

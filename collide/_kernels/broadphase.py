@@ -15,7 +15,7 @@ in `layout` (`INT`, `FLT`, `WORK`); one step is a call with three arguments (the
 arrays and a *context* of buffer addresses, see `_ptr` and `context`), or with the context's own
 address alone when it holds the pose arrays' addresses too (`step_bound`: arrays that stay put, as
 MuJoCo's): a numba call pays for every array argument, and views built from pointers carry no
-reference count. `_views` cuts the buffers back into named arrays (no copy) through the table.
+reference count. Each stage takes the views it needs by slot (`layout.view_i1` ...: no copy).
 
 One step, for one world (`_world`):
 1. validate each body's pose (finite, proper orthonormal rotation: one combined test) and move
@@ -189,32 +189,6 @@ def key_shift(G: int) -> int:
 def workspace_size(I: np.ndarray) -> int:
     """Length of the float64 workspace ``W`` of one world of the model ``I``."""
     return WORK.size(model_dims(I))
-
-
-@nb.njit(cache=True, inline="always")
-def _views(I, F, W):
-    # Every field of the static model and the workspace, read through I's field table
-    # (`layout`: no offset is written here).
-    return (I[H_L], I[H_G], view_i1(I, I, I_ORDER), view_i1(I, I, I_POS_OF), view_i1(I, I, I_END),
-            view_i1(I, I, I_PARENT_POS), view_i1(I, I, I_WELD), view_i1(I, I, I_NCHILD),
-            view_i1(I, I, I_CHILD_START), view_i1(I, I, I_SINGLE), view_i1(I, I, I_HASB), view_i1(I, I, I_PAIRFLAG),
-            view_i1(I, I, I_CONTYPE), view_i1(I, I, I_CONAFFINITY), view_i1(I, I, I_CHILDREN),
-            view_i1(I, I, I_GSTART), view_i1(I, I, I_PGEOMS), view_i1(I, I, I_EX_START), view_i1(I, I, I_EX_OTHER),
-            view_i1(I, I, I_PLANES), view_i2(I, I, I_PLANE_OK), view_i1(I, I, I_GEOM_BID),
-            view_i1(I, I, I_GEOM_CONTYPE), view_i1(I, I, I_GEOM_CONAFFINITY), view_i2(I, I, I_PAIR_G),
-            view_i1(I, I, I_PAIR_KEYS),
-            view_f2(I, F, F_BLOCAL), view_f2(I, F, F_GLOCAL), view_f2(I, F, F_GPLANE), view_f1(I, F, F_GMARGIN),
-            view_f1(I, F, F_PAIR_M), view_f2(I, W, W_BW), view_f2(I, W, W_GW), view_f2(I, W, W_BAABB),
-            view_f2(I, W, W_SAABB), view_f2(I, W, W_PLW), view_f2(I, W, W_TMP), view_f2(I, W, W_GAABB),
-            view_f1(I, W, W_GSTAMP), view_f2(I, W, W_BAABB_T),
-            view_i1(I, I, I_FLAT_ROOT), view_i1(I, I, I_FLAT_N), view_i1(I, I, I_FLAT_MASK), view_i1(I, I, I_SMASK))
-
-
-@nb.njit(cache=True, inline="always")
-def _cap_views(I, F):
-    # The capsules (half segment (3), radius) in the body frame, centred on the row's OBB centre:
-    # by position (L, 4) and by geom (G, 4).
-    return view_f2(I, F, F_BCAP), view_f2(I, F, F_GCAP)
 
 
 @nb.njit(cache=True, inline="always")
@@ -415,88 +389,17 @@ def _sphere_hit(A, a, ma, B, b, mb, o=15):
 
 
 @nb.njit(cache=True, inline="always")
-def obb_hit(A, a, ma, B, b, mb):
-    """Separating-axis test of OBB rows ``A[a]`` and ``B[b]`` inflated by ``ma``, ``mb`` (15 axes).
-
-    Ericson (2005) §4.4.1 in box A's frame: ``R[i, j] = A_i . B_j``, ``t`` = centre offset in A's
-    frame; ``|R| + EPS_PAR`` so that near-parallel edge pairs never separate by rounding.
-    """
-    ea0 = A[a, 12] + ma
-    ea1 = A[a, 13] + ma
-    ea2 = A[a, 14] + ma
-    eb0 = B[b, 12] + mb
-    eb1 = B[b, 13] + mb
-    eb2 = B[b, 14] + mb
-    r00 = dot3(A[a, 3], A[a, 6], A[a, 9], B[b, 3], B[b, 6], B[b, 9])
-    r01 = dot3(A[a, 3], A[a, 6], A[a, 9], B[b, 4], B[b, 7], B[b, 10])
-    r02 = dot3(A[a, 3], A[a, 6], A[a, 9], B[b, 5], B[b, 8], B[b, 11])
-    r10 = dot3(A[a, 4], A[a, 7], A[a, 10], B[b, 3], B[b, 6], B[b, 9])
-    r11 = dot3(A[a, 4], A[a, 7], A[a, 10], B[b, 4], B[b, 7], B[b, 10])
-    r12 = dot3(A[a, 4], A[a, 7], A[a, 10], B[b, 5], B[b, 8], B[b, 11])
-    r20 = dot3(A[a, 5], A[a, 8], A[a, 11], B[b, 3], B[b, 6], B[b, 9])
-    r21 = dot3(A[a, 5], A[a, 8], A[a, 11], B[b, 4], B[b, 7], B[b, 10])
-    r22 = dot3(A[a, 5], A[a, 8], A[a, 11], B[b, 5], B[b, 8], B[b, 11])
-    a00 = abs(r00) + EPS_PAR
-    a01 = abs(r01) + EPS_PAR
-    a02 = abs(r02) + EPS_PAR
-    a10 = abs(r10) + EPS_PAR
-    a11 = abs(r11) + EPS_PAR
-    a12 = abs(r12) + EPS_PAR
-    a20 = abs(r20) + EPS_PAR
-    a21 = abs(r21) + EPS_PAR
-    a22 = abs(r22) + EPS_PAR
-    d0 = B[b, 0] - A[a, 0]
-    d1 = B[b, 1] - A[a, 1]
-    d2 = B[b, 2] - A[a, 2]
-    t0 = dot3(d0, d1, d2, A[a, 3], A[a, 6], A[a, 9])
-    t1 = dot3(d0, d1, d2, A[a, 4], A[a, 7], A[a, 10])
-    t2 = dot3(d0, d1, d2, A[a, 5], A[a, 8], A[a, 11])
-    pos = abs(A[a, 0]) + abs(A[a, 1]) + abs(A[a, 2]) + abs(B[b, 0]) + abs(B[b, 1]) + abs(B[b, 2])
-    tol = SLACK_REL * (ea0 + ea1 + ea2 + eb0 + eb1 + eb2) + SLACK_POS * pos
-    # A's face axes
-    if abs(t0) > dot3_add(ea0, eb0, eb1, eb2, a00, a01, a02) + tol:
-        return False
-    if abs(t1) > dot3_add(ea1, eb0, eb1, eb2, a10, a11, a12) + tol:
-        return False
-    if abs(t2) > dot3_add(ea2, eb0, eb1, eb2, a20, a21, a22) + tol:
-        return False
-    # B's face axes
-    if abs(dot3(t0, t1, t2, r00, r10, r20)) > dot3(ea0, ea1, ea2, a00, a10, a20) + eb0 + tol:
-        return False
-    if abs(dot3(t0, t1, t2, r01, r11, r21)) > dot3(ea0, ea1, ea2, a01, a11, a21) + eb1 + tol:
-        return False
-    if abs(dot3(t0, t1, t2, r02, r12, r22)) > dot3(ea0, ea1, ea2, a02, a12, a22) + eb2 + tol:
-        return False
-    # the nine edge-edge axes A_i x B_j
-    if abs(fmuladd(-t1, r20, t2 * r10)) > fmuladd(eb2, a01, dot3(ea1, ea2, eb1, a20, a10, a02)) + tol:
-        return False
-    if abs(fmuladd(-t1, r21, t2 * r11)) > fmuladd(eb2, a00, dot3(ea1, ea2, eb0, a21, a11, a02)) + tol:
-        return False
-    if abs(fmuladd(-t1, r22, t2 * r12)) > fmuladd(eb1, a00, dot3(ea1, ea2, eb0, a22, a12, a01)) + tol:
-        return False
-    if abs(fmuladd(-t2, r00, t0 * r20)) > fmuladd(eb2, a11, dot3(ea0, ea2, eb1, a20, a00, a12)) + tol:
-        return False
-    if abs(fmuladd(-t2, r01, t0 * r21)) > fmuladd(eb2, a10, dot3(ea0, ea2, eb0, a21, a01, a12)) + tol:
-        return False
-    if abs(fmuladd(-t2, r02, t0 * r22)) > fmuladd(eb1, a10, dot3(ea0, ea2, eb0, a22, a02, a11)) + tol:
-        return False
-    if abs(fmuladd(-t0, r10, t1 * r00)) > fmuladd(eb2, a21, dot3(ea0, ea1, eb1, a10, a00, a22)) + tol:
-        return False
-    if abs(fmuladd(-t0, r11, t1 * r01)) > fmuladd(eb2, a20, dot3(ea0, ea1, eb0, a11, a01, a22)) + tol:
-        return False
-    if abs(fmuladd(-t0, r12, t1 * r02)) > fmuladd(eb1, a20, dot3(ea0, ea1, eb0, a12, a02, a21)) + tol:
-        return False
-    return True
-
-
-@nb.njit(cache=True, inline="always")
 def _bounds_ok(ra, ma, rb, mb):
-    """`_sphere_hit` and `obb_hit` of the bounds rows ``ra``, ``rb`` (19-tuples: a `ROW` each),
-    inflated by ``ma``, ``mb``, in the same operations (the same bits), with every axis evaluated
-    and the outcomes combined without a branch, so that a loop over pairs vectorises. An axis
-    separates only when ``|t| > r`` holds, as in `obb_hit`: a NaN projection (inf - inf at
-    coordinates near the float range) separates nothing in either. Written with ``&`` and ``^ True``
-    (not ``not``), so that `lanes.bounds8` replays this source on vectors."""
+    """The one bounds test: spheres, then the OBBs' separating axes (15, Ericson 2005, *Real-Time
+    Collision Detection* §4.4.1, in box A's frame: ``R[i, j] = A_i . B_j``, ``t`` = centre offset in
+    A's frame; ``|R| + EPS_PAR`` so that near-parallel edge pairs never separate by rounding) of the
+    bounds rows ``ra``, ``rb`` (19-tuples: a `ROW` each) inflated by ``ma``, ``mb``.
+
+    Every axis is evaluated and the outcomes combined without a branch, so that a loop over pairs
+    vectorises, and the vector forms are this source replayed (`pair_bits` here, `lanes.bounds8`):
+    written with ``&`` and ``^ True`` (not ``not``) for that. An axis separates only when
+    ``|t| > r`` holds: a NaN projection (inf - inf at coordinates near the float range) separates
+    nothing. `_sphere_hit` is its first test alone, the cheap cull before it."""
     (A0, A1, A2, A3, A4, A5, A6, A7, A8, A9, A10, A11, A12, A13, A14, A15, A16, A17, A18) = ra
     (B0, B1, B2, B3, B4, B5, B6, B7, B8, B9, B10, B11, B12, B13, B14, B15, B16, B17, B18) = rb
     dx = A15 - B15
@@ -1274,29 +1177,35 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
     ``FAT_GROW``): a caller that replaces ``cl`` clears ``W``'s ``COH_VALID``
     (`layout.W_COH`). A batch's worlds are unrelated: no coherence there.
     """
-    (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
-     caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
-            pair_keys,
-     blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp, baabb_t,
-     flat_root, flat_n, flat_mask, smask) = _views(I, F, W)
-    filter_parent = I[H_FP] != 0
-    S = I[H_KS]
-    bcap, gcap = _cap_views(I, F)
-    # Geom rows of multi-geom bodies are computed on first use in this call (`_geom_rows`):
-    # most bodies never reach the geom level (kuka: 47 geoms, no body pair).
-    gstamp[L] += 1.0
-    stamp = gstamp[L]
+    # Geom rows of multi-geom bodies are computed on first use in this call (`_geom_rows`): most
+    # bodies never reach the geom level.
+    gstamp = view_f1(I, W, W_GSTAMP)
+    gstamp[I[H_L]] += 1.0
+    stamp = gstamp[I[H_L]]
     for s in range(N_STATS):
         stats[s] = 0
     info[3] = 0
-    Q = planes.shape[0]
-    check_pairs = pair_keys.shape[0] > 0
-    k = 0
-    # 1. poses -> world bounds of bodies. Every pose is checked first, in one loop without a branch
-    # over flat views of the (C-contiguous) pose arrays, which the compiler vectorises (gathers):
-    # inside the placing loop the test cost 6.8 ns a body, alone 4.3 (65 bodies: 0.44 -> 0.28 us).
-    # Only a failing call looks at the bodies one by one, by id, so the first offender is named.
-    NB = I[H_NB]
+    if not _poses_ok(body_pos, body_rot, I[H_NB], info):  # 1. poses
+        return -1
+    _place_bodies(body_pos, body_rot, I, F, W)  # 1. world bounds of the positions
+    m = _body_pairs(I, W, sap, bp, stats, info, cl, coherent)  # 2-4a. body pairs, filtered
+    if m < 0:
+        return 0  # bp too short: info[3] says how long it must be
+    k = _geom_pairs(body_pos, body_rot, I, F, W, bp, m, keys, stats, stamp)  # 4b. body -> geom pairs
+    k4 = min(k, keys.shape[0])  # the body-level keys end here (see _sort_keys)
+    k = _plane_pairs(body_pos, body_rot, I, F, W, sap, keys, k, stats, stamp)  # 5a. planes
+    k = _explicit_pairs(body_pos, body_rot, I, F, W, keys, k, stats)  # 5b. explicit pairs
+    stats[ST_OUT] = k
+    if k <= keys.shape[0]:
+        _sort_keys(keys, k, k4, I[H_KS], I[H_G], scr)
+    return k
+
+
+@nb.njit(cache=True, inline="always")
+def _poses_ok(body_pos, body_rot, NB, info):
+    # Stage 1a: every pose checked first, in one loop without a branch over flat views of the
+    # (C-contiguous) pose arrays, which the compiler vectorises (gathers). Only a failing call looks
+    # at the bodies one by one, by id, so that the first offender is named (info[0], info[1]).
     rf = view_of(f64_ptr(np.int64(body_rot.ctypes.data)), 9 * NB)
     pf = view_of(f64_ptr(np.int64(body_pos.ctypes.data)), 3 * NB)
     bad = False
@@ -1306,7 +1215,6 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
         bad |= not _pose_ok(rf[o], rf[o + 1], rf[o + 2], rf[o + 3], rf[o + 4], rf[o + 5], rf[o + 6], rf[o + 7],
                             rf[o + 8], pf[q], pf[q + 1], pf[q + 2])
     for b in range(NB if bad else 0):
-        # only a failing pose is told apart (the error names what is wrong)
         ok = _pose_ok(body_rot[b, 0, 0], body_rot[b, 0, 1], body_rot[b, 0, 2], body_rot[b, 1, 0], body_rot[b, 1, 1],
                       body_rot[b, 1, 2], body_rot[b, 2, 0], body_rot[b, 2, 1], body_rot[b, 2, 2], body_pos[b, 0],
                       body_pos[b, 1], body_pos[b, 2])
@@ -1322,13 +1230,26 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
                     if not np.isfinite(body_rot[b, i, j]):
                         info[0] = BAD_NONFINITE
             info[1] = b
-            return -1
-    has_flat = I[H_FLAT] != 0
-    # The kept body pairs as bit masks, their AABBs tested a row at a time over baabb's columns
-    # (`_scan_masks`), where every position fits a mask's 64 bits.
+            return False
+    return True
+
+
+@nb.njit(cache=True, inline="always")
+def _place_bodies(body_pos, body_rot, I, F, W):
+    # Stage 1b: the world row and AABB of every position (a position without bounds gets an empty
+    # box); the columns of baabb where flat roots or the static masks read them.
+    L = I[H_L]
+    pos_of = view_i1(I, I, I_POS_OF)
+    hasb = view_i1(I, I, I_HASB)
+    blocal = view_f2(I, F, F_BLOCAL)
+    bcap = view_f2(I, F, F_BCAP)
+    bw = view_f2(I, W, W_BW)
+    baabb = view_f2(I, W, W_BAABB)
+    saabb = view_f2(I, W, W_SAABB)
+    baabb_t = view_f2(I, W, W_BAABB_T)
     by_masks = L <= MASK_MAX
-    cols = has_flat or by_masks  # baabb_t written (saabb only where the tree is walked)
-    for b in range(NB):
+    cols = I[H_FLAT] != 0 or by_masks  # baabb_t written (saabb only where the tree is walked)
+    for b in range(I[H_NB]):
         x = pos_of[b]
         if hasb[x]:
             _place(body_rot, body_pos, b, blocal, bcap, x, bw, baabb, saabb, baabb_t, cols, not by_masks)
@@ -1342,10 +1263,35 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
                 saabb[x, 3 + i] = -BIG
     for x in range(1, I[H_V] + 1):  # the world's geoms as leaves of their own
         _place(body_rot, body_pos, 0, blocal, bcap, x, bw, baabb, saabb, baabb_t, cols, not by_masks)
-    # 2-4a. the body pairs whose AABBs overlap and that pass the static filter, into bp[:m] (lower
-    # position first; a loose pair, see _filter, as ~y): from the list kept by earlier calls while
-    # every body stays inside its fat box (see FAT_GROW), else down the tree.
-    m = -1
+
+
+@nb.njit(cache=True, inline="always")
+def _walk(I, W, sap, bp, stats, boxes, sboxes, cols, exact):
+    # The tree walk over the given boxes (the exact AABBs, or the fat ones; ``cols``: their columns),
+    # then the static filter: the body pairs into bp, their count; when bp is too short, minus the
+    # count needed.
+    L = I[H_L]
+    nbp = _traverse(L, view_i1(I, I, I_END), view_i1(I, I, I_NCHILD), view_i1(I, I, I_CHILD_START),
+                    view_i1(I, I, I_CHILDREN), view_i1(I, I, I_HASB), boxes, sboxes, view_f2(I, W, W_BW), sap, bp,
+                    stats, I[H_FP] != 0, cols, view_i1(I, I, I_FLAT_ROOT), view_i1(I, I, I_FLAT_N),
+                    view_i1(I, I, I_FLAT_MASK), exact)
+    if nbp > bp.shape[0]:
+        return -nbp
+    return _filter(bp, nbp, view_i1(I, I, I_CONTYPE), view_i1(I, I, I_CONAFFINITY), view_i1(I, I, I_WELD),
+                   view_i1(I, I, I_PARENT_POS), I[H_FP] != 0, view_i1(I, I, I_EX_START), view_i1(I, I, I_EX_OTHER),
+                   view_i1(I, I, I_SINGLE))
+
+
+@nb.njit(cache=True, inline="always")
+def _body_pairs(I, W, sap, bp, stats, info, cl, coherent):
+    # Stages 2-4a: the body pairs whose AABBs overlap and that pass the static filter, into bp[:m]
+    # (lower position first; a loose pair, see _filter, as ~y); returns m, or -1 when bp is too
+    # short (info[3]: the count needed). From the list kept by earlier calls while every body stays
+    # inside its fat box (see FAT_GROW), from the static masks up to MASK_MAX positions, else down
+    # the tree.
+    L = I[H_L]
+    baabb = view_f2(I, W, W_BAABB)
+    by_masks = L <= MASK_MAX
     if coherent and not by_masks:  # (up to MASK_MAX positions the masks' scan costs less than the list's upkeep)
         fat_b, fat_s, fat_t, cs = _fat_views(I, W)
         if cs[COH_SKIP] > 0.0:
@@ -1361,67 +1307,87 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
                 cs[COH_BACKOFF] *= 0.5
                 n = np.int64(cs[COH_N])
                 stats[ST_BODY_AABB] += n
-                m = _scan(cl, n, baabb, bp)
+                return _scan(cl, n, baabb, bp)
+            score = cs[COH_SCORE] * COH_DECAY + 1.0
+            cs[COH_VALID] = 0.0  # until rebuilt (an overflow below returns first)
+            if score > COH_SCORE_MAX:
+                back = min(max(2.0 * cs[COH_BACKOFF], COH_BACKOFF_MIN), COH_BACKOFF_MAX)
+                cs[COH_SKIP] = back - 1.0  # this call is the spell's first
+                cs[COH_BACKOFF] = back
+                cs[COH_SCORE] = 0.0
             else:
-                score = cs[COH_SCORE] * COH_DECAY + 1.0
-                cs[COH_VALID] = 0.0  # until rebuilt (an overflow below returns first)
-                if score > COH_SCORE_MAX:
-                    back = min(max(2.0 * cs[COH_BACKOFF], COH_BACKOFF_MIN), COH_BACKOFF_MAX)
-                    cs[COH_SKIP] = back - 1.0  # this call is the spell's first
-                    cs[COH_BACKOFF] = back
-                    cs[COH_SCORE] = 0.0
-                else:
-                    cs[COH_SCORE] = score
-                    # Rebuild: fat boxes (a body without bounds keeps its empty box), their subtree
-                    # boxes, the walk over them, the filter; the list kept, then tested as above.
-                    for x in range(L):
-                        g = max(FAT_GROW * max(baabb[x, 3] - baabb[x, 0], baabb[x, 4] - baabb[x, 1],
-                                               baabb[x, 5] - baabb[x, 2]), 0.0)
-                        for i in range(3):
-                            fat_b[x, i] = baabb[x, i] - g
-                            fat_b[x, 3 + i] = baabb[x, 3 + i] + g
-                        for i in range(6):
-                            fat_s[x, i] = fat_b[x, i]
-                    if has_flat:
-                        for i in range(6):
-                            for x in range(L):
-                                fat_t[i, x] = fat_b[x, i]
-                    _sweep(fat_s, parent_pos, L)
-                    nbp = _traverse(L, end, nchild, child_start, children, hasb, fat_b, fat_s, bw, sap, bp, stats,
-                                    filter_parent, fat_t, flat_root, flat_n, flat_mask, False)
-                    if nbp > bp.shape[0]:
-                        info[3] = nbp
-                        cs[COH_SCORE] = score - 1.0  # the caller grows bp and reruns: one rebuild
-                        return 0
-                    n = _filter(bp, nbp, ctor, caor, weld, parent_pos, filter_parent, ex_start, ex_other, single)
-                    for t in range(n):
-                        cl[t, 0] = bp[t, 0]
-                        cl[t, 1] = bp[t, 1]
-                    cs[COH_N] = n
-                    cs[COH_VALID] = 1.0
-                    stats[ST_BODY_AABB] += n
-                    m = _scan(cl, n, baabb, bp)
-    if m < 0 and by_masks:
-        # 2-4a. at most MASK_MAX positions: every pair passing the static filter, a row at a time
-        # over baabb's columns (`_scan_masks`); no tree.
+                cs[COH_SCORE] = score
+                # Rebuild: fat boxes (a body without bounds keeps its empty box), their subtree
+                # boxes, the walk over them, the filter; the list kept, then tested as above.
+                for x in range(L):
+                    g = max(FAT_GROW * max(baabb[x, 3] - baabb[x, 0], baabb[x, 4] - baabb[x, 1],
+                                           baabb[x, 5] - baabb[x, 2]), 0.0)
+                    for i in range(3):
+                        fat_b[x, i] = baabb[x, i] - g
+                        fat_b[x, 3 + i] = baabb[x, 3 + i] + g
+                    for i in range(6):
+                        fat_s[x, i] = fat_b[x, i]
+                if I[H_FLAT] != 0:
+                    for i in range(6):
+                        for x in range(L):
+                            fat_t[i, x] = fat_b[x, i]
+                _sweep(fat_s, view_i1(I, I, I_PARENT_POS), L)
+                n = _walk(I, W, sap, bp, stats, fat_b, fat_s, fat_t, False)
+                if n < 0:
+                    info[3] = -n
+                    cs[COH_SCORE] = score - 1.0  # the caller grows bp and reruns: one rebuild
+                    return -1
+                for t in range(n):
+                    cl[t, 0] = bp[t, 0]
+                    cl[t, 1] = bp[t, 1]
+                cs[COH_N] = n
+                cs[COH_VALID] = 1.0
+                stats[ST_BODY_AABB] += n
+                return _scan(cl, n, baabb, bp)
+    if by_masks:
+        # at most MASK_MAX positions: every pair passing the static filter, a row at a time over
+        # baabb's columns (`_scan_masks`); no tree.
+        smask = view_i1(I, I, I_SMASK)
         stats[ST_BODY_AABB] += smask[L]
-        m = _scan_masks(smask, L, baabb_t, single, bp)
+        m = _scan_masks(smask, L, view_f2(I, W, W_BAABB_T), view_i1(I, I, I_SINGLE), bp)
         if m > bp.shape[0]:
             info[3] = m
-            return 0
+            return -1
+        return m
+    saabb = view_f2(I, W, W_SAABB)
+    _sweep(saabb, view_i1(I, I, I_PARENT_POS), L)  # 2. subtree AABBs
+    m = _walk(I, W, sap, bp, stats, baabb, saabb, view_f2(I, W, W_BAABB_T), True)  # 3. down the tree, 4a. filter
     if m < 0:
-        _sweep(saabb, parent_pos, L)  # 2. subtree AABBs
-        # 3. candidate body pairs down the tree.
-        nbp = _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap, bp, stats, filter_parent,
-                        baabb_t, flat_root, flat_n, flat_mask, True)
-        if nbp > bp.shape[0]:
-            info[3] = nbp
-            return 0
-        # 4a. the static filter
-        m = _filter(bp, nbp, ctor, caor, weld, parent_pos, filter_parent, ex_start, ex_other, single)
-    # 4. body pairs -> sphere and OBB (64 pairs at a time, vectorised) -> geom pairs.
-    # 4b. sphere and OBB tests of the body bounds, 64 pairs at a time, four a vector (`pair_bits`),
-    # into a bit mask; a loose pair (~y) passes.
+        info[3] = -m
+        return -1
+    return m
+
+
+@nb.njit(cache=True, inline="always")
+def _geom_pairs(body_pos, body_rot, I, F, W, bp, m, keys, stats, stamp):
+    # Stage 4b: the body pairs bp[:m] -> sphere and OBB tests of the body bounds, 64 pairs at a
+    # time, four a vector (`pair_bits`), into a bit mask (a loose pair, ~y, passes) -> the geom
+    # pairs of each pair that hit, tested on the geoms' own bounds (AABB, sphere, then `_bounds_ok`)
+    # unless both bodies hold one geom. Keys into keys[:k] (counted beyond); returns k.
+    S = I[H_KS]
+    single = view_i1(I, I, I_SINGLE)
+    pairflag = view_i1(I, I, I_PAIRFLAG)
+    gstart = view_i1(I, I, I_GSTART)
+    pgeoms = view_i1(I, I, I_PGEOMS)
+    gct = view_i1(I, I, I_GEOM_CONTYPE)
+    gca = view_i1(I, I, I_GEOM_CONAFFINITY)
+    pair_keys = view_i1(I, I, I_PAIR_KEYS)
+    order = view_i1(I, I, I_ORDER)
+    glocal = view_f2(I, F, F_GLOCAL)
+    gcap = view_f2(I, F, F_GCAP)
+    gmargin = view_f1(I, F, F_GMARGIN)
+    bw = view_f2(I, W, W_BW)
+    gw = view_f2(I, W, W_GW)
+    baabb = view_f2(I, W, W_BAABB)
+    gaabb = view_f2(I, W, W_GAABB)
+    gstamp = view_f1(I, W, W_GSTAMP)
+    check_pairs = pair_keys.shape[0] > 0
+    k = 0
     bw_at = np.int64(bw.ctypes.data)
     bp_at = np.int64(bp.ctypes.data)
     for c0 in range(0, m, 64):
@@ -1486,13 +1452,43 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
                         if not _sphere_hit(A, a, ma, B, b, mb):
                             continue
                         stats[ST_GEOM_OBB] += 1
-                        if not obb_hit(A, a, ma, B, b, mb):
+                        if not _bounds_ok(_row_of(A, a), ma, _row_of(B, b), mb):
                             continue
                     k = _emit(keys, k, g1, g2, S)
-    k4 = min(k, keys.shape[0])  # the body-level keys end here (see _sort_keys)
+    return k
+
+
+@nb.njit(cache=True, inline="always")
+def _plane_pairs(body_pos, body_rot, I, F, W, sap, keys, k, stats, stamp):
+    # Stage 5a: each plane against each position's AABB (flat and branch-free over the positions:
+    # the AABB's corner deepest along -n, and the static filter's flag), then the candidates' own
+    # bounds, and a multi-geom body's geoms in its frame. Keys from keys[k]; returns the new k.
+    L = I[H_L]
+    S = I[H_KS]
+    planes = view_i1(I, I, I_PLANES)
+    plane_ok = view_i2(I, I, I_PLANE_OK)
+    geom_bid = view_i1(I, I, I_GEOM_BID)
+    single = view_i1(I, I, I_SINGLE)
+    pairflag = view_i1(I, I, I_PAIRFLAG)
+    gstart = view_i1(I, I, I_GSTART)
+    pgeoms = view_i1(I, I, I_PGEOMS)
+    gct = view_i1(I, I, I_GEOM_CONTYPE)
+    gca = view_i1(I, I, I_GEOM_CONAFFINITY)
+    pair_keys = view_i1(I, I, I_PAIR_KEYS)
+    order = view_i1(I, I, I_ORDER)
+    glocal = view_f2(I, F, F_GLOCAL)
+    gcap = view_f2(I, F, F_GCAP)
+    gplane = view_f2(I, F, F_GPLANE)
+    gmargin = view_f1(I, F, F_GMARGIN)
+    bw = view_f2(I, W, W_BW)
+    gw = view_f2(I, W, W_GW)
+    baabb = view_f2(I, W, W_BAABB)
+    gaabb = view_f2(I, W, W_GAABB)
+    gstamp = view_f1(I, W, W_GSTAMP)
+    plw = view_f2(I, W, W_PLW)
+    check_pairs = pair_keys.shape[0] > 0
     lst = sap[L - 1:]  # scratch (sap_state)
-    # 5a. planes: each body's AABB against the halfspace, then its bounds and its geoms'.
-    for i in range(Q):
+    for i in range(planes.shape[0]):
         _plane_world(planes[i], body_pos, body_rot, geom_bid, gplane, plw, i)
         qg = planes[i]
         mq = gmargin[qg]
@@ -1505,9 +1501,8 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
         k0 = 0 if n0 > 0 else 3
         k1 = 1 if n1 > 0 else 4
         k2 = 2 if n2 > 0 else 5
-        # Flat and branch-free over the bodies (the body AABB's deepest corner, and the static
-        # filter): a walk down the tree branching on each outcome costs a misprediction per test
-        # in a simulation loop (see _subtree_pair). Then the candidates' own tests.
+        # Flat and branch-free over the bodies: a walk down the tree branching on each outcome
+        # costs a misprediction per test in a simulation loop (see _subtree_pair).
         m = 0
         for x in range(L):
             lst[m] = x
@@ -1546,8 +1541,7 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
                         stats[ST_PLANE] += 1
                         # the geom's sphere and OBB in the body's frame, then its world AABB's
                         # corner, as the body's above: the geoms' world rows are made (`_geom_rows`)
-                        # only when one of them passes (anybotics_anymal_c in a simulation loop:
-                        # 0.89-0.93 of the step's time; most of its legs' geoms do not)
+                        # only when one of them passes
                         if not _plane_hit_local(ln0, ln1, ln2, llim, lscale + abs(glocal[g, 0])
                                                 + abs(glocal[g, 1]) + abs(glocal[g, 2]), glocal, g, gmargin[g]):
                             continue
@@ -1557,13 +1551,23 @@ def _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coh
                         if not (v <= lim + SLACK_POS * (abs(v) + abs(pd))):
                             continue
                     k = _emit(keys, k, g, qg, S)
-    # 5b. explicit pairs: only the bounds test, with the pair's own inflation if given.
+    return k
+
+
+@nb.njit(cache=True, inline="always")
+def _explicit_pairs(body_pos, body_rot, I, F, W, keys, k, stats):
+    # Stage 5b: explicit pairs, only the bounds test, with the pair's own inflation if given.
+    pair_g = view_i2(I, I, I_PAIR_G)
+    pair_m = view_f1(I, F, F_PAIR_M)
+    gmargin = view_f1(I, F, F_GMARGIN)
+    gplane = view_f2(I, F, F_GPLANE)
+    geom_bid = view_i1(I, I, I_GEOM_BID)
+    glocal = view_f2(I, F, F_GLOCAL)
+    tmp = view_f2(I, W, W_TMP)
+    S = I[H_KS]
     for i in range(pair_g.shape[0]):
         if _explicit_hit(i, pair_g, pair_m, gmargin, gplane, geom_bid, glocal, body_pos, body_rot, tmp, stats):
             k = _emit(keys, k, pair_g[i, 0], pair_g[i, 1], S)
-    stats[ST_OUT] = k
-    if k <= keys.shape[0]:
-        _sort_keys(keys, k, k4, S, G, scr)
     return k
 
 
@@ -1791,7 +1795,7 @@ def _explicit_hit(i, pair_g, pair_m, gmargin, gplane, geom_bid, glocal, body_pos
     if not _sphere_hit(tmp, 0, m1, tmp, 1, m2):
         return False
     stats[ST_GEOM_OBB] += 1
-    return obb_hit(tmp, 0, m1, tmp, 1, m2)
+    return _bounds_ok(_row_of(tmp, 0), m1, _row_of(tmp, 1), m2)
 
 
 # ------------------------------------------------------------------------------- entry points

@@ -36,13 +36,15 @@ import numpy as np
 from ._ptr import check_span, f64_ptr, i64_ptr
 from ._simd import _Rows, _get, _put, _py, _scalars, _splat, _Vec, _vmax, _vmin, aabb_mask8, aabb_merge8
 from ._threads import set_chunksize
-from .layout import (J_BODY_PAIRS, J_EXPLICIT_RANK, J_PAIR_GEOMS, J_PAIR_GSTART, J_PLANE_GEOMS, J_PLANE_GSTART,
-                     J_PLANE_POS, J_PLANE_START, J_RANK_KEYS, J_ROW_START, LB_BITS, LB_STAMP, LTAB, LW_GA, LW_GW,
-                     LW_PLN, LW_POSES, LW_SA, LW_WA, LW_WB, address, view_f3, view_i1, view_i2)
-from .broadphase import (BIG, C_KEYS, C_NKEYS, CI_KEYS, H_NB, N_STATS, ROW, SLACK_POS, ST_BODY_OBB,
+from .layout import (F_BCAP, F_BLOCAL, F_GCAP, F_GLOCAL, F_GMARGIN, F_GPLANE, F_PAIR_M, I_END, I_GEOM_BID, I_GSTART,
+                     I_HASB, I_ORDER, I_PAIR_G, I_PARENT_POS, I_PGEOMS, I_PLANES, I_SINGLE, J_BODY_PAIRS,
+                     J_EXPLICIT_RANK, J_PAIR_GEOMS, J_PAIR_GSTART, J_PLANE_GEOMS, J_PLANE_GSTART, J_PLANE_POS,
+                     J_PLANE_START, J_RANK_KEYS, J_ROW_START, LB_BITS, LB_STAMP, LTAB, LW_GA, LW_GW, LW_PLN,
+                     LW_POSES, LW_SA, LW_WA, LW_WB, W_TMP, address, view_f1, view_f2, view_f3, view_i1, view_i2)
+from .broadphase import (BIG, C_KEYS, C_NKEYS, CI_KEYS, H_L, H_NB, N_STATS, ROW, SLACK_POS, ST_BODY_OBB,
                          ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT, ST_PLANE, ST_SUBTREE,
-                         _batch_world, _bounds_ok, _cap_views, _explicit_hit, _plane_hit_local, _pose_ok,
-                         _pose_row, _views, aabb_slack, capsule_half, chunk_buffers, dot3, gather_batch, next_chunk,
+                         _batch_world, _bounds_ok, _explicit_hit, _plane_hit_local, _pose_ok,
+                         _pose_row, aabb_slack, capsule_half, chunk_buffers, dot3, gather_batch, next_chunk,
                          plane_world, start_chunks)
 
 LANES = 8
@@ -289,13 +291,26 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
     """Worlds ``w0 .. w0 + nl - 1`` (nl <= LANES) into the bitsets ``LB[:LANES * NWd]``; returns
     False (nothing written) when a pose is bad. ``posed``: the poses are in the lanes already (the
     workspace's `layout.LW_POSES`; ``pos_all`` and ``rot_all`` are not read)."""
-    (L, G, order, pos_of, end, parent_pos, weld, nchild, child_start, single, hasb, pairflag, ctor,
-     caor, children, gstart, pgeoms, ex_start, ex_other, planes, plane_ok, geom_bid, gct, gca, pair_g,
-     pair_keys,
-     blocal, glocal, gplane, gmargin, pair_m, bw, gw, baabb, saabb, plw, tmp, gaabb, gstamp, baabb_t,
-     flat_root, flat_n, flat_mask, smask) = _views(I, F, W)
+    L = I[H_L]
+    order = view_i1(I, I, I_ORDER)
+    end = view_i1(I, I, I_END)
+    parent_pos = view_i1(I, I, I_PARENT_POS)
+    single = view_i1(I, I, I_SINGLE)
+    hasb = view_i1(I, I, I_HASB)
+    gstart = view_i1(I, I, I_GSTART)
+    pgeoms = view_i1(I, I, I_PGEOMS)
+    planes = view_i1(I, I, I_PLANES)
+    geom_bid = view_i1(I, I, I_GEOM_BID)
+    pair_g = view_i2(I, I, I_PAIR_G)
+    blocal = view_f2(I, F, F_BLOCAL)
+    glocal = view_f2(I, F, F_GLOCAL)
+    gplane = view_f2(I, F, F_GPLANE)
+    gmargin = view_f1(I, F, F_GMARGIN)
+    pair_m = view_f1(I, F, F_PAIR_M)
+    bcap = view_f2(I, F, F_BCAP)
+    gcap = view_f2(I, F, F_GCAP)
+    tmp = view_f2(I, W, W_TMP)
     Q = planes.shape[0]
-    bcap, gcap = _cap_views(I, F)
     body_pairs = view_i2(J, J, J_BODY_PAIRS)
     row_start = view_i1(J, J, J_ROW_START)
     pair_gstart = view_i1(J, J, J_PAIR_GSTART)
