@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import sys
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -180,6 +181,7 @@ class Tally:
     unsettled: list = field(default_factory=list)  # the oracle's bracket holds both answers (curved geoms)
     unchecked: list = field(default_factory=list)  # disagreements past `oracle_budget` (not settled)
     oracle_budget: int = 20  # oracle calls per scene (Qhull on thousands of points: ~0.1-1 s each)
+    seconds: float = 0.0  # wall time of the scene's run
 
     def failures(self) -> list:
         return self.mujoco_right
@@ -284,17 +286,24 @@ def compare_step(model, data, collider: cm.Collider, tally: Tally, step: int) ->
             settle(key, "extra", None, float(ours.dist[i]))
 
 
-def run_scene(model, steps: int, seed: int = 0, data=None) -> Tally:
-    """Simulate ``model`` with random controls (as `collide.mujoco.compare`) and compare every step."""
+def load_scene(name: str):
+    """A model by folder name in ../shared/models, or ``"default"``: `collide.mujoco.default_scene`."""
+    if name == "default":
+        return cm.default_scene()
+    return mujoco.MjModel.from_xml_path(str(MODELS / name / "scene.xml"))
+
+
+def run_scene(model, steps: int, seed: int = 0, data=None, hold: int = 100) -> Tally:
+    """Simulate ``model`` with `collide.mujoco.compare`'s random controls (each actuator at one
+    end of its range, redrawn every ``hold`` steps) and compare every step."""
     data = mujoco.MjData(model) if data is None else data
     collider = cm.Collider(model)
-    rng = np.random.default_rng(seed)
-    lo, hi = cm._control_range(model)
+    ctrls = cm._random_controls(model, steps, seed, hold)
     tally = Tally()
     mujoco.mj_forward(model, data)
     for step in range(steps):
-        if model.nu:
-            data.ctrl[:] = lo + (hi - lo) * rng.random(model.nu)
+        if step % hold == 0 and len(ctrls):
+            data.ctrl[:] = ctrls[step // hold]
         mujoco.mj_step(model, data)
         mujoco.mj_forward(model, data)  # data.contact for the poses after the step
         compare_step(model, data, collider, tally, step)
@@ -308,15 +317,17 @@ def main(argv=None) -> int:
     ap.add_argument("--steps", type=int, default=300)
     ap.add_argument("scenes", nargs="*")
     a = ap.parse_args(argv)
-    scenes = a.scenes or sorted(p.name for p in MODELS.iterdir() if (p / "scene.xml").is_file())
+    scenes = a.scenes or ["default"] + sorted(p.name for p in MODELS.iterdir() if (p / "scene.xml").is_file())
     bad = 0
     for s in scenes:
-        model = mujoco.MjModel.from_xml_path(str(MODELS / s / "scene.xml"))
+        model = load_scene(s)
+        t0 = time.perf_counter()
         t = run_scene(model, a.steps)
+        t.seconds = time.perf_counter() - t0
         print(f"{s:24s} mj pairs {t.mj_pairs:6d} both {t.both:6d} worst dist/tol {t.worst_dist:.3g} "
               f"worst normal {t.worst_normal:.2e} degenerate {t.degenerate} boundary {t.boundary} "
               f"skipped {t.skipped} ours-right {len(t.ours_right)} mujoco-right {len(t.mujoco_right)} "
-              f"unsettled {len(t.unsettled)} unchecked {len(t.unchecked)}", flush=True)
+              f"unsettled {len(t.unsettled)} unchecked {len(t.unchecked)} {t.seconds:.0f} s", flush=True)
         for row in (t.mujoco_right + t.unsettled)[:5] + t.ours_right[:3]:
             print("   ", row)
         bad += len(t.failures())

@@ -20,8 +20,8 @@ from contact_check import MODELS, Tally, contact_distance, run_scene, undecided_
 
 SCENES = sorted(p.name for p in MODELS.iterdir() if (p / "scene.xml").is_file()) if MODELS.is_dir() else []
 STEPS = int(os.environ.get("COLLIDE_CONTACT_STEPS", "150"))
-# Scenes where MuJoCo makes no contact in the first 150 steps of random controls.
-NO_CONTACT = {"kuka_iiwa_14", "trs_so_arm100", "ufactory_xarm7"}
+# Scenes where MuJoCo makes no contact in the first 150 steps of `compare`'s random controls.
+NO_CONTACT = {"trs_so_arm100"}
 
 
 def _model(body: str, extra: str = "", option: str = "") -> mujoco.MjModel:
@@ -122,8 +122,9 @@ def test_plane_contacts_are_mujocos(geom):
 
 
 def test_mesh_plane_contacts():
-    # A mesh on a plane: the deepest vertex is MuJoCo's support point; up to 4 contacts (ours
-    # spread over the face, MuJoCo's its support vertex's neighbours), all within the margin.
+    # A mesh on a plane: the deepest contact is MuJoCo's support vertex, exactly; where a hull
+    # face through it faces the plane, its vertices below the plane are the contacts, as many as
+    # MuJoCo 4 makes (at the same distances); else one contact (MuJoCo may make more).
     rng = np.random.default_rng(3)
     verts = np.concatenate([rng.normal(size=(40, 3)) * [0.2, 0.15, 0.1], [[x, y, -0.12] for x in (-.2, .2)
                                                                              for y in (-.15, .15)]])
@@ -136,8 +137,8 @@ def test_mesh_plane_contacts():
     model = spec.compile()
     data = mujoco.MjData(model)
     col = cm.Collider(model)
-    fours = 0
-    for trial in range(100):
+    faces = 0
+    for trial in range(200):
         data.qpos[2] = rng.uniform(0.0, 0.2)
         q = np.array([1.0, 0, 0, 0]) + (0.003 if trial % 2 else 0.3) * rng.normal(size=4)
         data.qpos[3:7] = q / np.linalg.norm(q)
@@ -147,8 +148,11 @@ def test_mesh_plane_contacts():
         if data.ncon:
             assert ours.dist.min() == pytest.approx(data.contact.dist.min(), abs=1e-12)
             assert np.all(ours.dist <= 1e-15) and len(ours) <= 4
-            fours += len(ours) == 4
-    assert fours > 10  # the nearly flat poses: a face's 4 corners
+            if len(ours) > 1:
+                faces += 1
+                assert len(ours) == data.ncon, trial
+                np.testing.assert_allclose(np.sort(ours.dist), np.sort(data.contact.dist[:data.ncon]), atol=1e-12)
+    assert faces > 20  # poses with a face down: its vertices below the plane
 
 
 # ------------------------------------------------------------------------------------------------
@@ -191,9 +195,9 @@ def test_shared_models_agree(scene):
     model = mujoco.MjModel.from_xml_path(str(MODELS / scene / "scene.xml"))
     t = run_scene(model, STEPS, seed=0)
     _assert_agrees(t, scene)
-    if scene in NO_CONTACT:
-        # arms alone on a table touch nothing in these steps: then nothing of ours either
-        assert t.mj_pairs == 0 and t.boundary == 0
+    if t.mj_pairs == 0:
+        # an arm alone on a table may touch nothing in these steps: then nothing of ours either
+        assert scene in NO_CONTACT and t.boundary == 0
         pytest.skip(f"{scene}: MuJoCo made no contact in {STEPS} steps (ours made none either)")
     assert t.mj_pairs > 0 and t.both > 0  # the scene really had contacts
 

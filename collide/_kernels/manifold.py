@@ -8,12 +8,17 @@ Per pair, with ``thr`` the pair's contact distance (MuJoCo's ``margin + gap``):
 * plane (the half-space ``z <= 0`` of its frame, normal ``n``) against a convex geom: the signed
   distance is exact from the support point along ``-n`` (``h_K(-n)``); the contacts follow the
   rule of the convex geom's type (`RULE_*`): each core point of a sphere or capsule (a capsule's
-  two end spheres), the vertices of a box or mesh that lie within ``thr`` (a box's only on its
-  side of the centre facing the plane) reduced to at most 4 spanning the largest area, the
-  four points MuJoCo's plane-cylinder test places (the rim points nearest the plane on both caps
-  and two more on the nearer cap's rim, at 120 degrees), or the single support point;
-* two convex geoms: one contact from `collide._kernels.distance.pair_distance` (GJK/EPA on the
-  cores, radii added), after a bounding-sphere test;
+  two end spheres), the corners of a box that lie within ``thr`` on its side of the centre
+  facing the plane (at most 4, as MuJoCo's plane-box), the lowest vertex of a mesh's hull and
+  the other vertices of a hull face through it that faces the plane (`plane_mesh`), the four
+  points MuJoCo's plane-cylinder test places (the rim points nearest the plane on both caps and
+  two more on the nearer cap's rim, at 120 degrees), or the single support point;
+* two boxes: MuJoCo 4's box-box manifold (`collide._kernels.faces.box_box`: separating axes, a
+  face clipped to a face, up to 8 contacts, or one edge-edge contact);
+* two other convex geoms: one contact from `collide._kernels.distance.pair_distance` (GJK/EPA on
+  the cores, radii added), after a bounding-sphere test; two polytopes (boxes, meshes) in
+  penetration with no contact distance get the face contacts of their touching faces instead
+  (`polytope_contacts`, MuJoCo 4's multi-contact), the deepest at the exact distance;
 * a height field or SDF geom: no contact, the pair flagged as skipped (reported, never dropped
   silently); two planes: none (MuJoCo has no function for them either).
 
@@ -29,6 +34,7 @@ import numpy as np
 from numba import njit
 
 from .distance import OUT_DISTANCE, OUT_NORMAL, OUT_POINT_A, OUT_POINT_B, OUT_SIZE, pair_distance
+from .faces import BOX_MAX, box_box, clip_faces
 from .support import support
 
 # Geom classes (`collide.contacts.GeomTable.cls`).
@@ -37,8 +43,21 @@ PLANE, CONVEX, SKIPPED = 0, 1, 2
 # Plane rules of a convex geom (`collide.contacts.GeomTable.rule`).
 RULE_SUPPORT, RULE_POINTS, RULE_VERTICES, RULE_CYLINDER = 0, 1, 2, 3
 
-# Most contacts per pair.
-MAX_PER_PAIR = 4
+# Most contacts per pair: a box-box face manifold's (MuJoCo 4 keeps every clipped corner).
+MAX_PER_PAIR = BOX_MAX
+
+# MuJoCo's geom types (mjtGeom), as `collide.contacts` passes them in ``gtype``.
+T_PLANE, T_HFIELD, T_SPHERE, T_CAPSULE, T_ELLIPSOID, T_CYLINDER, T_BOX, T_MESH = range(8)
+
+# Plane-mesh: the face through the lowest vertex gives contacts when its normal's dot with the
+# plane's is at most -PLANE_FACE_TOL (fitted to MuJoCo 4.0.0's counts: see `plane_mesh`).
+PLANE_FACE_TOL = 0.98
+
+# Polytope face contacts (MuJoCo 4's multi-contact of box and mesh pairs, engine_collision_gjk.h):
+# two faces are aligned when their normals' dot is below -FACE_TOL; an edge lies in a face when
+# |edge . normal| < EDGE_TOL.
+FACE_TOL = 0.996
+EDGE_TOL = 0.0888
 
 # Errors of `collide_pairs` (negative returns: -(code + 8 * geom) - 1 for a non-finite pose).
 ERR_POSE = 1
@@ -313,10 +332,267 @@ def _plane_cylinder(radius, half, rot, pos, n, c, thr, res):
 
 
 @njit(cache=True)
+def plane_mesh(hv, f0, nf, f_normal, f_vadr, f_vnum, f_vidx, rot, pos, n, p0, thr, cand, dep, sel, res):
+    """Contacts of a plane (normal ``n`` through ``p0``) and a convex mesh's hull.
+
+    The lowest hull vertex (the exact signed distance); when a hull face through it faces the
+    plane (its normal's dot with ``n`` at most ``-PLANE_FACE_TOL``), also that face's other
+    vertices within the contact distance, at most 4 contacts in all (`reduce_four`, the lowest
+    kept). This is fitted to what MuJoCo 4.0.0 does (its counts per pair on the shared models'
+    mesh-plane contacts; the source of its ``mjc_PlaneConvex`` read here, a development version,
+    takes graph neighbours instead, which the installed binary does not match).
+
+    Parameters
+    ----------
+    hv : (H, 3) float64
+        The mesh's hull vertices, geom frame.
+    f0, nf : int
+        The mesh's rows in the face arrays.
+    f_normal, f_vadr, f_vnum, f_vidx
+        Face tables (`collide.faces.FaceTable`; vertex ids local to ``hv``).
+    rot : (3, 3) float64
+    pos, n, p0 : (3,) float64
+    thr : float
+    cand : (m, 3) float64, dep : (m,) float64, sel : (4,) int64
+        Scratch, ``m`` at least the largest face's vertex count.
+    res : (4+, 4) float64
+        Receives ``(dist, pos x, y, z)``, the lowest first.
+
+    Returns
+    -------
+    int
+        Contacts written, 0 to 4.
+    """
+    H = hv.shape[0]
+    if H == 0:
+        return 0
+    c = n[0] * (pos[0] - p0[0]) + n[1] * (pos[1] - p0[1]) + n[2] * (pos[2] - p0[2])
+    best = np.inf
+    ib = 0
+    for i in range(H):
+        ld = 0.0
+        for q in range(3):
+            ld += n[q] * (rot[q, 0] * hv[i, 0] + rot[q, 1] * hv[i, 1] + rot[q, 2] * hv[i, 2])
+        if ld < best:
+            best = ld
+            ib = i
+    d = c + best
+    if d > thr:
+        return 0
+    # the face through the lowest vertex most opposed to n
+    fb = -1
+    al_best = -PLANE_FACE_TOL
+    for f in range(f0, f0 + nf):
+        has = False
+        for r in range(f_vnum[f]):
+            if f_vidx[f_vadr[f] + r] == ib:
+                has = True
+                break
+        if not has:
+            continue
+        al = 0.0
+        for q in range(3):
+            al += n[q] * (rot[q, 0] * f_normal[f, 0] + rot[q, 1] * f_normal[f, 1] + rot[q, 2] * f_normal[f, 2])
+        if al <= al_best:
+            al_best = al
+            fb = f
+    m = 0
+    if fb >= 0:
+        for r in range(f_vnum[fb]):
+            j = f_vidx[f_vadr[fb] + r]
+            dj = c
+            for q in range(3):
+                cand[m, q] = pos[q] + rot[q, 0] * hv[j, 0] + rot[q, 1] * hv[j, 1] + rot[q, 2] * hv[j, 2]
+                dj += n[q] * (cand[m, q] - pos[q])
+            if j == ib:
+                dj = d  # the lowest: exactly as found
+            elif not dj <= thr:
+                continue
+            dep[m] = dj
+            m += 1
+    if m == 0:
+        for q in range(3):
+            cand[0, q] = pos[q] + rot[q, 0] * hv[ib, 0] + rot[q, 1] * hv[ib, 1] + rot[q, 2] * hv[ib, 2]
+        dep[0] = d
+        m = 1
+    k = reduce_four(cand, dep, m, sel)
+    for r in range(k):
+        i = sel[r]
+        res[r, 0] = dep[i]
+        for q in range(3):
+            res[r, 1 + q] = cand[i, q] - 0.5 * dep[i] * n[q]
+    return k
+
+
+@njit(cache=True)
+def _world_face(hv, a, vidx, vadr, vnum, f, rot, pos, out):
+    # Face f's polygon in the world (rows of out), its vertex count returned.
+    for r in range(vnum[f]):
+        i = a + vidx[vadr[f] + r]
+        for q in range(3):
+            out[r, q] = pos[q] + rot[q, 0] * hv[i, 0] + rot[q, 1] * hv[i, 1] + rot[q, 2] * hv[i, 2]
+    return vnum[f]
+
+
+@njit(cache=True)
+def _touching_faces(g, x, u, xpos, xmat, hv_adr, f_adr, f_num, f_normal, f_offset, tol, cand, cnrm):
+    # Faces of geom g whose plane holds the witness x (within tol), their world normals in cnrm;
+    # returns their count (cand: face ids) and puts the one best aligned with u first.
+    rot = xmat[g]
+    k = 0
+    best = -2.0
+    for f in range(f_adr[g], f_adr[g] + f_num[g]):
+        nw0 = rot[0, 0] * f_normal[f, 0] + rot[0, 1] * f_normal[f, 1] + rot[0, 2] * f_normal[f, 2]
+        nw1 = rot[1, 0] * f_normal[f, 0] + rot[1, 1] * f_normal[f, 1] + rot[1, 2] * f_normal[f, 2]
+        nw2 = rot[2, 0] * f_normal[f, 0] + rot[2, 1] * f_normal[f, 1] + rot[2, 2] * f_normal[f, 2]
+        off = nw0 * xpos[g, 0] + nw1 * xpos[g, 1] + nw2 * xpos[g, 2] + f_offset[f]
+        if abs(nw0 * x[0] + nw1 * x[1] + nw2 * x[2] - off) > tol or k >= cand.shape[0]:
+            continue
+        cand[k] = f
+        cnrm[k, 0], cnrm[k, 1], cnrm[k, 2] = nw0, nw1, nw2
+        al = nw0 * u[0] + nw1 * u[1] + nw2 * u[2]
+        if al > best:
+            best = al
+            if k > 0:  # swap to the front
+                cand[0], cand[k] = cand[k], cand[0]
+                for q in range(3):
+                    cnrm[0, q], cnrm[k, q] = cnrm[k, q], cnrm[0, q]
+        k += 1
+    return k
+
+
+@njit(cache=True)
+def polytope_contacts(g1, g2, xpos, xmat, d, nrm, pa, pb, tol, hv_adr, hv, f_adr, f_num, f_normal, f_offset,
+                      f_vadr, f_vnum, f_vidx, face1, face2, poly, tmp, cand1, cnrm1, cand2, cnrm2, res):
+    """Face contacts of two penetrating polytopes (boxes, convex meshes) from their exact contact.
+
+    The behaviour of MuJoCo 4's multi-contact (``multicontact`` in engine_collision_gjk.c): the
+    faces of each geom holding its witness point; two of them nearly opposed (`FACE_TOL`): the
+    second's face clipped to the first's (at most 4 points, the largest quadrilateral); else an
+    edge through one witness lying in a face of the other (`EDGE_TOL`): the edge clipped to that
+    face (2 points). The points below the reference face are the contacts, at their depth along
+    its normal, placed midway; the deepest is given the exact ``d`` (and no contact is deeper).
+
+    Parameters
+    ----------
+    g1, g2 : int
+    xpos, xmat : world poses of the geoms
+    d : float
+        The exact signed distance (negative).
+    nrm, pa, pb : (3,) float64
+        Unit normal from g1 to g2 and the witness points on g1 and g2.
+    tol : float
+        Distance of a witness from a face's plane still on it.
+    hv_adr, hv, f_adr, f_num, f_normal, f_offset, f_vadr, f_vnum, f_vidx
+        The face tables (`collide.faces.FaceTable`).
+    face1, face2, poly, tmp : (M, 3) float64
+        Scratch, ``M`` at least twice the largest face's vertex count plus 8.
+    cand1, cand2 : (C,) int64, cnrm1, cnrm2 : (C, 3) float64
+        Scratch.
+    res : (4, 4) float64
+        Receives ``(dist, pos x, y, z)``.
+
+    Returns
+    -------
+    int
+        Contacts written (0: none found; the caller keeps its single contact).
+    """
+    mn = np.empty(3)
+    for q in range(3):
+        mn[q] = -nrm[q]
+    c1 = _touching_faces(g1, pa, nrm, xpos, xmat, hv_adr, f_adr, f_num, f_normal, f_offset, tol, cand1, cnrm1)
+    c2 = _touching_faces(g2, pb, mn, xpos, xmat, hv_adr, f_adr, f_num, f_normal, f_offset, tol, cand2, cnrm2)
+    if c1 == 0 or c2 == 0:
+        return 0
+    # the most opposed pair of touching faces
+    bi, bj, bd = 0, 0, 2.0
+    for i in range(c1):
+        for j in range(c2):
+            dd = cnrm1[i, 0] * cnrm2[j, 0] + cnrm1[i, 1] * cnrm2[j, 1] + cnrm1[i, 2] * cnrm2[j, 2]
+            if dd < bd:
+                bi, bj, bd = i, j, dd
+    k = 0
+    side = 0  # 1: points on g2 below g1's face; 2: points on g1's edge below g2's face; 3: g2's edge
+    if bd < -FACE_TOL:
+        n1 = _world_face(hv, hv_adr[g1], f_vidx, f_vadr, f_vnum, cand1[bi], xmat[g1], xpos[g1], face1)
+        n2 = _world_face(hv, hv_adr[g2], f_vidx, f_vadr, f_vnum, cand2[bj], xmat[g2], xpos[g2], face2)
+        k = clip_faces(face1, n1, cnrm1[bi], face2, n2, poly, tmp, res)
+        side = 1
+        ref = bi
+    else:
+        dim1 = 3 if c1 == 1 else (2 if c1 == 2 else 1)
+        dim2 = 3 if c2 == 1 else (2 if c2 == 2 else 1)
+        if dim1 < 3 and dim1 <= dim2:
+            k, ref = _edge_in_face(g1, g2, pa, tol, c1, cand1, c2, cand2, cnrm2, xpos, xmat, hv_adr, hv, f_vadr,
+                                   f_vnum, f_vidx, face1, face2, poly, tmp, res)
+            side = 2
+        elif dim2 < 3:
+            k, ref = _edge_in_face(g2, g1, pb, tol, c2, cand2, c1, cand1, cnrm1, xpos, xmat, hv_adr, hv, f_vadr,
+                                   f_vnum, f_vidx, face2, face1, poly, tmp, res)
+            side = 3
+    if k == 0:
+        return 0
+    # place each point midway: the clipped point lies on the incident feature, the other surface
+    # |h| away along the reference face's normal
+    ideep = 0
+    for r in range(k):
+        h = res[r, 0]
+        for q in range(3):
+            res[r, 1 + q] -= 0.5 * h * (cnrm2[ref, q] if side == 2 else cnrm1[ref, q])
+        if h < res[ideep, 0]:
+            ideep = r
+    for r in range(k):
+        if res[r, 0] < d:
+            res[r, 0] = d
+    res[ideep, 0] = d
+    return k
+
+
+@njit(cache=True)
+def _edge_in_face(ge, gf, x, tol, ce, cande, cf, candf, cnrmf, xpos, xmat, hv_adr, hv, f_vadr, f_vnum, f_vidx,
+                  bufe, buff, poly, tmp, res):
+    # An edge of geom ge through its witness x (an edge of one of its touching faces) lying in a
+    # touching face of geom gf: the edge clipped to that face. Returns (points, the face's row).
+    for i in range(ce):
+        ne = _world_face(hv, hv_adr[ge], f_vidx, f_vadr, f_vnum, cande[i], xmat[ge], xpos[ge], bufe)
+        for e in range(ne):
+            e1 = e + 1 if e + 1 < ne else 0
+            u0 = bufe[e1, 0] - bufe[e, 0]
+            u1 = bufe[e1, 1] - bufe[e, 1]
+            u2 = bufe[e1, 2] - bufe[e, 2]
+            ll = u0 * u0 + u1 * u1 + u2 * u2
+            if ll == 0.0:
+                continue
+            t = ((x[0] - bufe[e, 0]) * u0 + (x[1] - bufe[e, 1]) * u1 + (x[2] - bufe[e, 2]) * u2) / ll
+            t = min(max(t, 0.0), 1.0)
+            dx = bufe[e, 0] + t * u0 - x[0]
+            dy = bufe[e, 1] + t * u1 - x[1]
+            dz = bufe[e, 2] + t * u2 - x[2]
+            if dx * dx + dy * dy + dz * dz > tol * tol:
+                continue  # the witness is not on this edge
+            il = 1.0 / math.sqrt(ll)
+            for j in range(cf):
+                if abs((u0 * cnrmf[j, 0] + u1 * cnrmf[j, 1] + u2 * cnrmf[j, 2]) * il) < EDGE_TOL:
+                    nf = _world_face(hv, hv_adr[gf], f_vidx, f_vadr, f_vnum, candf[j], xmat[gf], xpos[gf], buff)
+                    seg = np.empty((2, 3))
+                    for q in range(3):
+                        seg[0, q] = bufe[e, q]
+                        seg[1, q] = bufe[e1, q]
+                    return clip_faces(buff, nf, cnrmf[j], seg, 2, poly, tmp, res), j
+    return 0, 0
+
+
+
+@njit(cache=True)
+def _polytope(t):
+    return t == T_BOX or t == T_MESH
+
+
+@njit(cache=True)
 def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, pts_num, nbr_start,
                   nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, rbound, size, geom_margin, geom_gap,
-                  pair_key, pair_margin, pair_gap, override, o_margin, out_geom, out_dist, out_pos, out_normal,
-                  out_margin, skipped):
+                  pair_key, pair_margin, pair_gap, override, o_margin, gtype, half, hv_adr, hv_num, hv, f_adr, f_num, f_normal, f_offset, f_vadr, f_vnum, f_vidx, out_geom, out_dist,
+                  out_pos, out_normal, out_margin, skipped):
     """Contacts of the geom pairs ``pairs`` at the world poses ``xpos``, ``xmat``.
 
     Parameters
@@ -351,10 +627,18 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
     override : bool
         Every margin is ``o_margin`` (MuJoCo's ``mjENBL_OVERRIDE``); gaps stay.
     o_margin : float
-    out_geom : (4 K, 2) int32
-    out_dist : (4 K,) float64
-    out_pos, out_normal : (4 K, 3) float64
-    out_margin : (4 K,) float64
+    gtype : (G,) int8
+        MuJoCo's geom types (``T_*``): boxes pair by `collide._kernels.faces.box_box`, meshes
+        meet planes by `plane_mesh`, boxes and meshes in penetration get `polytope_contacts`.
+    half : (G, 3) float64
+        Half sizes of the boxes.
+    hv_adr, hv_num, hv, f_adr, f_num, f_normal, f_offset, f_vadr, f_vnum, f_vidx
+        The hull faces of boxes and meshes (`collide.faces.FaceTable`).
+    out_geom : (M K, 2) int32
+    out_dist : (M K,) float64
+    out_pos, out_normal : (M K, 3) float64
+    out_margin : (M K,) float64
+        ``M`` is `MAX_PER_PAIR`.
         Receive the contacts; ``out_margin`` is the pair's margin (a contact at or beyond it
         lies in the gap: MuJoCo flags it ``exclude``).
     skipped : (K,) bool
@@ -375,7 +659,25 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
     cand = np.empty((cap, 3))
     dep = np.empty(cap)
     sel = np.zeros(4, np.int64)
-    res = np.empty((4, 4))
+    res = np.empty((MAX_PER_PAIR, 4))
+    bnrm = np.empty(3)
+    fmax = 4
+    for f in range(f_vnum.shape[0]):
+        if f_vnum[f] > fmax:
+            fmax = f_vnum[f]
+    pcand = np.empty((fmax, 3))
+    pdep = np.empty(fmax)
+    face1 = np.empty((fmax, 3))
+    face2 = np.empty((fmax, 3))
+    poly = np.empty((2 * fmax + 8, 3))
+    tmp = np.empty((2 * fmax + 8, 3))
+    cand1 = np.empty(32, np.int64)
+    cand2 = np.empty(32, np.int64)
+    cnrm1 = np.empty((32, 3))
+    cnrm2 = np.empty((32, 3))
+    pa = np.empty(3)
+    pb = np.empty(3)
+    nv = np.empty(3)
     out = np.empty(OUT_SIZE)
     d0 = np.zeros(3)
     for p in range(pairs.shape[0]):
@@ -416,9 +718,14 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
             cd = n[0] * (xpos[gc, 0] - p0[0]) + n[1] * (xpos[gc, 1] - p0[1]) + n[2] * (xpos[gc, 2] - p0[2])
             if cd - rbound[gc] > thr:
                 continue
-            sc = _shape(gc, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
-                        nbr_adr, nbr_num, xpos, xmat)
-            m = plane_convex(rule[gc], below[gc], sc, n, p0, thr, cand, dep, sel, res)
+            if gtype[gc] == T_MESH and hv_num[gc] > 0:
+                a = hv_adr[gc]
+                m = plane_mesh(hv[a:a + hv_num[gc]], f_adr[gc], f_num[gc], f_normal, f_vadr, f_vnum, f_vidx, xmat[gc],
+                               xpos[gc], n, p0, thr, pcand, pdep, sel, res)
+            else:
+                sc = _shape(gc, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
+                            nbr_adr, nbr_num, xpos, xmat)
+                m = plane_convex(rule[gc], below[gc], sc, n, p0, thr, cand, dep, sel, res)
             for i in range(m):
                 _emit(k, g1, g2, res[i, 0], res[i, 1], res[i, 2], res[i, 3], sg * n[0], sg * n[1], sg * n[2],
                       margin, out_geom, out_dist, out_pos, out_normal, out_margin)
@@ -429,6 +736,16 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
                        + (xpos[g2, 2] - xpos[g1, 2]) ** 2)
         if cc - rbound[g1] - rbound[g2] > thr:
             continue
+        t1 = gtype[g1]
+        t2 = gtype[g2]
+        if t1 == T_BOX and t2 == T_BOX:
+            # MuJoCo's box-box: separating axes and a clipped face (up to 8 contacts)
+            m = box_box(xpos[g1], xmat[g1], half[g1], xpos[g2], xmat[g2], half[g2], thr, res, bnrm)
+            for i in range(m):
+                _emit(k, g1, g2, res[i, 0], res[i, 1], res[i, 2], res[i, 3], bnrm[0], bnrm[1], bnrm[2], margin,
+                      out_geom, out_dist, out_pos, out_normal, out_margin)
+                k += 1
+            continue
         s1 = _shape(g1, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
                     nbr_adr, nbr_num, xpos, xmat)
         s2 = _shape(g2, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
@@ -437,6 +754,21 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
         d = out[OUT_DISTANCE]
         if d > thr:
             continue
+        if d < 0.0 and not thr > 0.0 and _polytope(t1) and _polytope(t2) and f_num[g1] > 0 and f_num[g2] > 0:
+            # two polytopes in penetration without a margin: MuJoCo's multi-contact of faces
+            for q in range(3):
+                pa[q] = out[OUT_POINT_A + q]
+                pb[q] = out[OUT_POINT_B + q]
+                nv[q] = out[OUT_NORMAL + q]
+            m = polytope_contacts(g1, g2, xpos, xmat, d, nv, pa, pb, 1e-7 * (size[g1] + size[g2]), hv_adr, hv, f_adr,
+                                  f_num, f_normal, f_offset, f_vadr, f_vnum, f_vidx, face1, face2, poly, tmp, cand1,
+                                  cnrm1, cand2, cnrm2, res)
+            if m > 0:
+                for i in range(m):
+                    _emit(k, g1, g2, res[i, 0], res[i, 1], res[i, 2], res[i, 3], nv[0], nv[1], nv[2], margin,
+                          out_geom, out_dist, out_pos, out_normal, out_margin)
+                    k += 1
+                continue
         _emit(k, g1, g2, d,
               0.5 * (out[OUT_POINT_A] + out[OUT_POINT_B]),
               0.5 * (out[OUT_POINT_A + 1] + out[OUT_POINT_B + 1]),
