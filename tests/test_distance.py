@@ -236,6 +236,47 @@ def test_large_hulls_climb_and_agree_with_the_oracle():
     assert min(seen.values()) > 10
 
 
+def _hull_clouds(rng):
+    # Hull-vertex clouds with a climbing support: smooth (ellipsoid), with coplanar faces and ties
+    # (a prism over a regular polygon: Qhull triangulates its caps, the axis directions are ties
+    # among all their vertices), thin.
+    d = rng.normal(size=(int(rng.integers(40, 1500)), 3))
+    yield d / np.linalg.norm(d, axis=1, keepdims=True) * rng.uniform(0.2, 2.0, 3)
+    ang = np.linspace(0.0, 2.0 * np.pi, int(rng.integers(20, 200)), endpoint=False)
+    ring = np.c_[np.cos(ang), np.sin(ang)]
+    yield np.r_[np.c_[ring, np.ones(len(ang))], np.c_[ring, -np.ones(len(ang))]] * rng.uniform(0.2, 2.0, 3)
+    d = rng.normal(size=(200, 3))
+    yield d / np.linalg.norm(d, axis=1, keepdims=True) * [1.0, 1.0, 1e-3]
+
+
+def test_hill_climb_support_matches_the_scan():
+    # collide._kernels.support.support climbs the hull's vertex graph (from a hint or the best
+    # extreme vertex); its twin scans every point (collide.testing.narrow.support_scan): the same
+    # support value for random, axis-aligned (tied) directions and random or bad hints.
+    from collide._kernels.support import support
+    from collide.testing.narrow import support_scan
+    rng = np.random.default_rng(21)
+    out = np.empty(3)
+    climbs = ties = 0
+    for _ in range(12):
+        for pts in _hull_clouds(rng):
+            sd = support_data(PointCloud(pts))
+            assert len(sd.nbr_start) == len(sd.points) + 1  # a climbing cloud
+            R, t = random_rotation(rng), rng.normal(size=3) * 10.0
+            shape = sd.posed(np.ascontiguousarray(R), t)
+            for k in range(60):
+                d = rng.normal(size=3) if k % 3 else R @ np.eye(3)[2 - k % 2] * (1 if k % 4 < 2 else -1)
+                hint = int(rng.integers(-2, len(sd.points) + 2))
+                i = support(shape, d[0], d[1], d[2], hint, out)
+                j, best = support_scan(sd.points, R, t, d)
+                got = float(out @ d)
+                assert abs(got - best) <= 1e-12 * (1.0 + abs(best)) * np.linalg.norm(d) * 10, (got, best)
+                assert np.allclose(out, sd.points[i] @ R.T + t, rtol=0, atol=1e-12 * 20)
+                climbs += 1
+                ties += i != j
+    assert climbs > 2000 and ties > 0  # ties: another vertex of the same (coplanar) maximum
+
+
 def test_warm_start_gives_the_same_answer_in_fewer_iterations():
     rng = np.random.default_rng(3)
     d = rng.normal(size=(400, 3))

@@ -430,22 +430,34 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res):
     # and the distance from the origin to the nearest triangle. A face's plane offset minus its
     # rounding bound is a cheap lower bound of that triangle's distance; the triangle itself is
     # measured only where that bound does not already clear the running minimum.
+    # When every face's plane provably has the origin behind it (offset minus its rounding bound
+    # positive), every face's solid angle is positive, so the winding number is at least 1 and the
+    # solid angles need not be summed (the ball argument above needs it nonzero only).
     vertex_err = 8.0 * _EPS * scale
-    omega = 0.0
     inner = math.inf
+    front = True
     for g in range(nf):
         if not alive[g]:
             continue
         a, b, c = fv[g, 0], fv[g, 1], fv[g, 2]
-        omega += _solid_angle(V, a, b, c)
         bound = fo[g] - _offset_error(V, a, b, c, fl[g], vertex_err) if fl[g] > 0.0 else -math.inf
+        if not bound > 0.0:
+            front = False
         if bound < inner:
             _, _, _, d2 = s2d(V, a, b, c)
             bound = max(bound, math.sqrt(d2) - vertex_err)
             inner = min(inner, bound)
     upper = math.inf
-    if inner > 0.0 and abs(omega - 4.0 * math.pi) < math.pi:
-        upper = -inner
+    if inner > 0.0:
+        winding = front
+        if not front:
+            omega = 0.0
+            for g in range(nf):
+                if alive[g]:
+                    omega += _solid_angle(V, fv[g, 0], fv[g, 1], fv[g, 2])
+            winding = abs(omega - 4.0 * math.pi) < math.pi
+        if winding:
+            upper = -inner
     # Witness: the surface point closest to the origin, carried to A and B. The nearest plane's
     # face need not hold the origin's foot point (a face of C split into coplanar triangles):
     # among the faces within the tolerance of the nearest plane, the nearest triangle.

@@ -9,6 +9,8 @@
 - `point_signed_distance`: exact signed distance of a point to a cylinder, cone or ellipsoid
   (closed forms in the axial half-plane; the ellipsoid by the monotone root of Eberly's
   "Distance from a point to an ellipse, an ellipsoid, or a hyperellipsoid", 2013).
+- `support_scan`: the support point of a posed cloud by a scan of every point, the twin of
+  `collide._kernels.support.support`'s hill-climb over a hull's vertex graph.
 - `inner_cloud`: points on a curved primitive's surface whose hull lies within a stated
   distance ``delta`` of the primitive (a dense-sampled reference with known error: the true
   signed distance lies in ``[sd(samples) - delta_a - delta_b, sd(samples)]``).
@@ -23,12 +25,35 @@ from scipy.spatial import ConvexHull, QhullError
 
 from ..convex import Cone, Cylinder, Ellipsoid
 
-__all__ = ["inner_cloud", "minkowski_difference", "origin_signed_distance", "point_signed_distance",
+__all__ = ["inner_cloud", "minkowski_difference", "origin_signed_distance", "point_signed_distance", "support_scan",
            "polytope_signed_distance"]
 
 # Relative thickness below which a Minkowski difference is treated as flat (or a line, or a
 # point): the error is at most that thickness.
 FLAT_TOL = 1e-11
+
+
+def support_scan(points, rotation, translation, direction) -> tuple[int, float]:
+    """Support of ``rotation @ points + translation`` along ``direction``, by scanning every point.
+
+    Parameters
+    ----------
+    points : (n, 3) array_like of float
+    rotation : (3, 3) array_like of float
+    translation : (3,) array_like of float
+    direction : (3,) array_like of float
+
+    Returns
+    -------
+    index : int
+        The first point of largest ``direction . x`` (world frame).
+    value : float
+        That largest value.
+    """
+    w = np.asarray(points, float) @ np.asarray(rotation, float).T + np.asarray(translation, float)
+    h = w @ np.asarray(direction, float)
+    i = int(np.argmax(h))
+    return i, float(h[i])
 
 
 def minkowski_difference(P: np.ndarray, Q: np.ndarray) -> np.ndarray:
