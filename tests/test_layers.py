@@ -83,3 +83,28 @@ def test_every_public_module_declares_all():
         undefined += [f"{module}.{n}" for n in names if not hasattr(mod, n)]
     assert missing == []
     assert undefined == []
+
+
+# The modules of each split package in import order (as each package's docstring lists them).
+_PACKAGE_ORDER = {
+    "volumes": ["_axes", "_records", "_obb_families", "_obb_search", "_obb_exact", "_fit_box", "_fit_sphere",
+                "_kdop", "_transform", "_overlap"],
+    "csg": ["_graph", "_unrolling", "_bvh", "_rays"],
+    "shapes": ["_polygons", "_exact", "_tangent", "_plane"],
+}
+
+
+def test_package_modules_import_downward():
+    # At module level a module imports only the siblings before it (a method may import one above
+    # it when called: AABB.overlaps, Node.point_cloud); every module of the package is listed.
+    for package, order in _PACKAGE_ORDER.items():
+        folder = PACKAGE / package
+        assert sorted(order) == sorted(p.stem for p in folder.glob("_*.py") if p.stem != "__init__"), package
+        for i, name in enumerate(order):
+            tree = ast.parse((folder / f"{name}.py").read_text())
+            siblings = set()
+            for node in tree.body:
+                if isinstance(node, ast.ImportFrom) and node.level == 1:
+                    siblings.update([node.module] if node.module else [a.name for a in node.names])
+            above = siblings - set(order[:i])
+            assert not above, f"{package}.{name} imports {sorted(above)} at module level"
