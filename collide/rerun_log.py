@@ -203,6 +203,8 @@ class RerunLog:
             raise ValueError("RerunLog: give a path, spawn=True or a recording (else nothing is recorded)")
         if path is not None and Path(path).is_dir():
             raise ValueError(f"path: {path} is a folder; give an .rrd file name")
+        if path is not None:
+            Path(path).parent.mkdir(parents=True, exist_ok=True)
         self.rr = rr
         self.model = model
         self.collider = Collider(model)
