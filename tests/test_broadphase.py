@@ -1020,8 +1020,8 @@ def test_loose_multi_geom_bodies_skip_body_tests_and_lose_nothing():
     I = bp._I
     Lp, V = I[_kern.H_L], I[_kern.H_V]
     assert V == n_walls and Lp == art.body_count + V == bp.position_count
-    single, hasb = _field(bp, "single"), _field(bp, "hasb")
-    assert hasb[0] == 0 and np.all(single[1:V + 1] == 1)
+    single, has_bounds = _field(bp, "single"), _field(bp, "has_bounds")
+    assert has_bounds[0] == 0 and np.all(single[1:V + 1] == 1)
     assert np.sum(single < 0) == n_free // 3
     hits = touching = explicit = 0
     for _ in range(40):
@@ -1525,11 +1525,12 @@ def _check_static_masks(bp, a):
     # (their geom loop would emit nothing); returns how many were dropped so.
     L = bp.position_count
     smask = _field(bp, "smask")
-    single, hasb, weld, parent_pos, ctor, caor, ex_start, ex_other = (
-        _field(bp, n) for n in ("single", "hasb", "weld", "parent_pos", "contype", "conaffinity", "ex_start",
+    single, has_bounds, weld, parent_pos, contype, conaffinity, ex_start, ex_other = (
+        _field(bp, n) for n in ("single", "has_bounds", "weld", "parent_pos", "contype", "conaffinity", "ex_start",
                                 "ex_other"))
-    allp = np.array([(x, y) for x in range(L) for y in range(x + 1, L) if hasb[x] and hasb[y]], np.int64)
-    n = _kern._filter(allp, len(allp), ctor, caor, weld, parent_pos, a.filter_parent, ex_start, ex_other, single)
+    allp = np.array([(x, y) for x in range(L) for y in range(x + 1, L) if has_bounds[x] and has_bounds[y]], np.int64)
+    n = _kern._filter(allp, len(allp), contype, conaffinity, weld, parent_pos, a.filter_parent, ex_start, ex_other,
+                      single)
     gstart, pgeoms, gct, gca = (_field(bp, n) for n in ("gstart", "pgeoms", "geom_contype", "geom_conaffinity"))
     explicit = set(_field(bp, "pair_keys").tolist())
     S = int(bp._I[_kern.H_KS])
@@ -1558,9 +1559,10 @@ def test_kernel_filter_is_the_static_filter(make):
     a = make().articulation
     bp = BroadPhase(a)
     _, fields, filt = tables.model_tables(a)
-    hasb = fields["hasb"]
+    has_bounds = fields["has_bounds"]
     L = bp.position_count
-    allp = np.array([(x, y) for x in range(L) for y in range(L) if x != y and hasb[x] and hasb[y]], np.int64)
+    allp = np.array([(x, y) for x in range(L) for y in range(L) if x != y and has_bounds[x] and has_bounds[y]],
+                    np.int64)
     want = filt.bodies(allp[:, 0], allp[:, 1])
     got = np.zeros(len(allp), bool)
     for i, (x, y) in enumerate(allp):  # one pair a call: the kernel compacts its buffer

@@ -1,10 +1,16 @@
-"""A monotonic clock in microseconds, callable from numba code without a Python call.
+"""A monotonic clock in microseconds, callable from numba code without a Python call: the timer
+`collide.mujoco` gives MuJoCo (``mjcb_time``) to time its broad phase against ours.
 
 MuJoCo's timers tick only when ``mjcb_time`` is set; a Python callable there adds its own call
-(~0.1 us, 32 calls a step) to every interval it measures. `now_us` is an intrinsic calling the C
+(32 calls a step) to every interval it measures. `now_us` is an intrinsic calling the C
 library's ``clock_gettime(CLOCK_MONOTONIC)`` on a stack buffer: no allocation, no Python object,
 so a ``numba.cfunc`` wrapping it caches like any kernel (a closure over a ctypes function cannot:
 numba cannot pickle it, found 2026-11-22).
+
+What breaks when misused: only differences of its values mean anything (the origin is arbitrary).
+Where `AVAILABLE` is false (not Linux, or 32-bit) the clock id or the ``timespec`` layout written
+here is wrong and the values are garbage: callers check it first (`collide.mujoco._native_clock`).
+The call's return code is not read (``CLOCK_MONOTONIC`` does not fail on Linux).
 """
 
 from __future__ import annotations

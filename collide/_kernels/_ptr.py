@@ -1,12 +1,22 @@
-"""Typed pointers from integer addresses, for numba kernels that view preallocated buffers.
+"""Typed pointers from integer addresses, and array views on them, for numba kernels that view
+preallocated buffers.
 
-A numba call pays for every array argument (type check, unboxing, ~0.1 us each) and, inside,
-every view it takes of an array with a reference-counted allocation costs an atomic increment and
-decrement (threads sharing an array contend on that counter). The per-step kernels therefore take
-one small int64 *context* array of addresses and build their views from these pointers
-(``numba.carray``, or `view_of` in functions compiled without reference counting): such views carry
-no reference count. The owner (`collide.broadphase.BroadPhase`) keeps every buffer alive for as long
-as a context points into it.
+A numba call pays for every array argument (a type check, unboxing) and, inside, every view it
+takes of an array with a reference-counted allocation costs an atomic increment and decrement
+(threads sharing an array contend on that counter). The per-step kernels therefore take one small
+int64 *context* array of addresses and build their views from these pointers (``numba.carray``, or
+`view_of` in functions compiled without reference counting): such views carry no reference count.
+
+Nothing here is checked (but for `check_span` in the checked mode), and misuse corrupts silently:
+
+- a view, or a context holding an address, that outlives its buffer reads and writes freed
+  memory: no reference keeps the buffer alive, so its owner (`collide.broadphase.BroadPhase`)
+  holds every buffer for as long as a context points into it and rebuilds the context when it
+  replaces one;
+- the address must be that of a C-contiguous buffer of the pointer's dtype: `view_of` gives C
+  strides, and `f64_ptr` on int64 data reinterprets its bits;
+- a shape or an offset past the buffer's end reads or overwrites whatever follows it (numba
+  checks no index by default).
 """
 
 from __future__ import annotations
@@ -58,7 +68,7 @@ def view_of(typingctx, ptr, shape):
 
     Unlike ``carray`` (a compiled function returning an array) it is allowed in functions compiled
     without numba's reference counting (``_nrt=False``), where no array value costs an increment
-    and a decrement: the per-step kernel's ~45 views and their passing around made ~50 calls a
+    and a decrement: the per-step kernel's views and their passing around made dozens of calls a
     step to numba's reference-count functions, all on null records (see `broadphase.NO_NRT`).
     """
     if not isinstance(ptr, types.CPointer):

@@ -1,16 +1,22 @@
-"""Quaternion steps of MuJoCo's kinematics (engine_util_spatial.c), on scalars.
+"""Quaternion steps of MuJoCo's kinematics (engine_util_spatial.c) and the sine and cosine they
+need, on scalars: the one source of the world-by-world and the lanes' kinematics.
 
 Written once: `kinematics._kinematics_world` compiles them, and `_simd` replays their Python
-source on LLVM vectors (``.py_func``), the same operations in the same order lane by lane. Their
-multiply-adds are written as `fmuladd` (one rounding on any processor with a fused multiply-add):
-a fast-math flag would let the compiler choose which product of ``a*b + c*d`` to fuse, and it
-chose differently in scalar and vector code (contraction on every kernel, 2026-11-28: lanes and
-worlds 1e-16 apart), while an explicit call is fused the same way in both. Humanoid, 1024 worlds,
-one thread, AMD EPYC, both versions interleaved in one process (200 rounds): `kinematics_batch`
-0.89x the time, `pairs_batch` 0.96x (its kinematics is about a third of a world), the same pairs. Two
+source on LLVM vectors (``.py_func``), the same operations in the same order lane by lane, so that
+a batch's poses, and so its pairs, are one world's bit for bit. Their multiply-adds are written as
+`fmuladd` (one rounding on any processor with a fused multiply-add): a fast-math flag would let
+the compiler choose which product of ``a*b + c*d`` to fuse, and it chose differently in scalar and
+vector code (contraction on every kernel, 2026-11-28: lanes and worlds 1e-16 apart), while an
+explicit call is fused the same way in both (and took less time in `kinematics_batch`). Two
 shortcuts that MuJoCo does not take, decided per joint and per body from the model (`_zero3`,
 `_unit_quat`, evaluated by both kinematics alike), skip products whose outcome is known
 (`_turn`).
+
+What breaks when misused: compiled with fast-math flags, or changed without their hand-written
+vector forms (`_simd._qnorm_vec`, `_simd._sincos` replay `_qnorm` and `_sincos`), the lanes and
+the worlds differ in the last bits, and a batch's pairs may then differ from one world's at a
+touching contact; a branch on a value cannot be replayed (see `_simd`). `_qrot` and `_qmat`
+assume a unit quaternion: another gives a scaled matrix, not a rotation.
 """
 
 from __future__ import annotations
@@ -65,8 +71,8 @@ def _qrot(v0, v1, v2, q0, q1, q2, q3):
 @nb.njit(cache=True, inline="always")
 def _qnorm(q0, q1, q2, q3):
     # mju_normalize4 (mjMINVAL = 1e-15): one division, then four products by the reciprocal, as
-    # MuJoCo's (four divisions cost the lanes' kinematics a vector division each, ~16 cycles apiece
-    # on the processors here). Whether |n - 1| exceeds 1e-15 comes out either way on rounding
+    # MuJoCo's (four divisions would cost the lanes' kinematics four vector divisions, among the
+    # slowest instructions). Whether |n - 1| exceeds 1e-15 comes out either way on rounding
     # alone, so a branch there mispredicts in about every other body: a select instead, and a
     # product by exactly 1.0, which changes no bit. `_simd._qnorm_vec` computes the same.
     n = np.sqrt(fmuladd(q3, q3, fmuladd(q2, q2, fmuladd(q1, q1, q0 * q0))))

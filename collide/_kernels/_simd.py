@@ -1,4 +1,4 @@
-"""Lane-parallel tests written as LLVM vector IR, for the kernels' hottest loops.
+"""Lane-parallel tests and kinematics steps written as LLVM vector IR, for the kernels' hottest loops.
 
 numba leaves vectorisation to LLVM, which turns a loop over eight lanes into vector code only
 when it sees the whole pattern: a bit mask built from eight comparisons, ``m |= c << l``, comes out
@@ -7,6 +7,20 @@ one ``<8 x i1>`` comparison bitcast to ``i8``, it is the canonical form every LL
 well (AVX-512: compares into a mask register and one ``kmov``; AVX2 and NEON: compares and a
 movemask or its equivalent). The comparisons are ordered (``fcmp ole``, ``ogt``, ``olt``): the same as
 numba's ``<=``, ``>``, ``<`` on floats (false on NaN), so the results are bit for bit the scalar code's.
+
+`_py` replays a scalar helper's Python source on `_Vec` values: one source, its scalar and its
+vector form, the same operations in the same order (the same bits). What breaks when misused:
+
+- a replayed source may use arithmetic, ``abs``, `_quat.fmuladd`, ``np.sqrt``, the comparisons
+  ``<=`` and ``>``, ``&`` and ``^ True`` only. A `_Mask` has no truth value of its own (every one
+  is true) and a `_Vec` no ``==``: ``and``, ``or``, ``not``, ``min``, ``max``, ``==`` or an ``if``
+  on a comparison give a wrong result without an error (most other operations raise when the
+  kernel compiles);
+- the intrinsics take raw addresses of ``(k, LANES)`` float64 blocks and check nothing: a wrong
+  address or row count reads or writes the neighbouring block, or freed memory; loads and stores
+  assume 8-byte alignment. `box_row8` reads ``LANES - 1`` float64 past a column, which must exist
+  (a `layout` field's ``slack``);
+- ``LANES`` is the width of every block: `layout` takes it from here, `lanes.LANES` must equal it.
 """
 
 from __future__ import annotations
@@ -71,8 +85,7 @@ def aabb_merge8(typingctx, pq, px):
     ``pq`` and ``px``: addresses (int64) of two ``(6, 8)`` float64 blocks as in `aabb_mask8`. Each
     lo becomes ``x if x < q else q`` and each hi ``x if x > q else q``: numba's ``min(q, x)`` and
     ``max(q, x)`` on floats, the same bits (signed zeros included). The loop it replaces (six rows
-    of eight) ran scalar in numba, the compiler unable to tell the two blocks apart (64-link chain,
-    batch on one thread: 1.75 -> 1.65 us a world).
+    of eight) ran scalar in numba, the compiler unable to tell the two blocks apart.
     """
     if not (isinstance(pq, types.Integer) and isinstance(px, types.Integer)):
         return None
@@ -85,9 +98,8 @@ def aabb_merge8(typingctx, pq, px):
         # The stores go through the same address made opaque (an empty inline asm: no instruction).
         # Seeing store(select(c, x, load p), p), LLVM's back ends emit masked stores (AVX2's
         # vmaskmovpd, slow on AMD Zen; AVX-512 and SVE have their own); opaque, the select stays
-        # vminpd / vmaxpd and the store a plain one, the same bits (humanoid, 1024 worlds, one
-        # thread, AMD EPYC: the twelve masked stores of each merge held ~8 % of `lanes._group`'s
-        # samples, `tests/bench/jitprof.py`).
+        # vminpd / vmaxpd and the store a plain one, the same bits (the twelve masked stores of
+        # each merge stood out in `lanes._group`'s profile, `tests/bench/jitprof.py`).
         i64 = ir.IntType(64)
         (aw,) = _row_pointers(builder, [builder.asm(ir.FunctionType(i64, [i64]), "", "=r,0", [args[0]], False)])
         for i, (q, x) in enumerate(rows):
@@ -103,9 +115,8 @@ def aabb_merge8(typingctx, pq, px):
 # Python source of the scalar steps (`_quat`) replayed on LLVM vectors, so that each lane gets the
 # same operations in the same order (numba compiles float arithmetic as written: no reassociation,
 # no contraction into FMA; the fused multiply-adds are explicit, `_quat.fmuladd`, replayed here as
-# their vector form), hence the same bits. A loop over the lanes in numba ran scalar: the
-# compiler could not tell the blocks, all pointer-built, apart (humanoid, 1024 worlds, one thread,
-# AMD EPYC: world by world 1.28 us a world, loops over the lanes 1.24, these 0.64).
+# their vector form), hence the same bits. A loop over the lanes in numba ran scalar, hardly
+# faster than world by world: the compiler could not tell the blocks, all pointer-built, apart.
 
 _V = ir.VectorType(ir.DoubleType(), LANES)
 
@@ -484,12 +495,10 @@ def gather_rows(builder, base, idx, width, n):
     gets scalar loads). Nothing past a row's field n - 1 is read.
 
     Four lanes in the per-world kernel, not `LANES`: a simulation loop calls it once a step, after
-    the engine's own code, and there eight lanes lost to four, though hot (one pose again and
-    again) eight were the fastest (11.4 ns a pair against 15.4; the loop they replaced 21). Loop
-    times against that loop, the emit the same (copies interleaved in one loop, Intel Xeon,
-    2026-11-28; cube_3x3x3 ~100 body pairs a step, stonehenge ~96): four lanes 0.86 and 0.96, eight
-    lanes (512-bit registers) 1.00 and 1.09, eight lanes kept to 256-bit registers (function
-    attributes) 1.05 and 1.18; eight rows loaded whole and transposed in registers lost too."""
+    the engine's own code, and there eight lanes lost to four (and did not beat the loop they
+    replaced), though hot (one pose again and again) eight were the fastest. Eight lanes kept to
+    256-bit registers, and eight rows loaded whole and transposed in registers, lost too (copies
+    interleaved in one loop, Intel Xeon, cube_3x3x3 and stonehenge)."""
     lanes = len(idx)
     i64 = ir.IntType(64)
     vi = ir.VectorType(i64, lanes)

@@ -1,4 +1,5 @@
-"""numba's parallel chunk size, set from inside a parallel kernel, and an atomic counter.
+"""numba's parallel chunk size, set from inside a parallel kernel, and an atomic counter: how the
+batch kernels share their chunks of worlds among the threads.
 
 The batch kernels `broadphase.step_batch`, `lanes.step_lanes` and `kinematics.step_lanes_kin` cut
 their worlds into more chunks than threads; a ``prange`` over one worker a thread (chunk size 1:
@@ -6,11 +7,23 @@ one iteration each) takes them from a shared counter (`fetch_add`, see
 `broadphase.start_chunks`), so that a thread that starts late or that the OS pauses takes fewer
 (see `collide.BroadPhase._run_batch`). `kinematics.kinematics_worlds` runs its chunks as a plain
 ``prange`` (chunk size 1), which numba's OpenMP layer splits into one fixed block a thread.
-Setting the chunk size around the call from Python, ``with
-numba.parallel_chunksize(1)``, costs four locked Python calls, 12-26 us a call (AMD EPYC, 2 threads);
-numba's own ``numba.set_parallel_chunksize`` overload, called in a kernel, reaches the threading
-layer through ctypes pointers, and a function holding one is never cached ("Cannot cache compiled
-function"). `set_chunksize` calls the threading layer's symbols directly instead.
+Setting the chunk size around the call from Python, ``with numba.parallel_chunksize(1)``, costs
+four locked Python calls a call; numba's own ``numba.set_parallel_chunksize`` overload, called in a
+kernel, reaches the threading layer through ctypes pointers, and a function holding one is never
+cached ("Cannot cache compiled function"). `set_chunksize` calls the threading layer's symbols
+directly instead.
+
+What breaks when misused:
+
+- `set_chunksize` outside a ``parallel=True`` kernel: cached code calling it may be linked before
+  the threading layer has registered its symbols, and then fails to load. The size is the calling
+  thread's: a kernel that does not put the previous size back leaves its own to that thread's
+  later parallel loops.
+- `fetch_add` on anything but a live int64 that the threads touch only through it while they
+  run: a freed or foreign address is overwritten; LLVM assumes an atomic's natural alignment (8
+  bytes), so a misaligned address is undefined (on x86 a split lock: slow, or trapped where
+  split-lock detection is on). Its ordering is ``monotonic``: the counter alone is atomic, no other memory is
+  ordered by it, so it hands out indices but cannot publish data one thread writes for another.
 """
 
 from __future__ import annotations

@@ -28,20 +28,21 @@ One step, for one world (`_world`):
    culls but the child is not paired), and each pair of ``n``'s child
    subtrees: all pairs for a few children, sweep-and-prune on one axis from ``SAP_MIN``, a hash
    grid from ``GRID_MIN`` children when their widths along the sweep axis sum to more than
-   ``GRID_SWEEP`` times its extent (a filled volume: 3.6x fewer tests than the sweep at 1024 free
-   bodies; bodies spread over a floor sweep faster); a subtree whose AABB misses is skipped whole
+   ``GRID_SWEEP`` times its extent (a filled volume, as free bodies in a box: far fewer tests than
+   the sweep; bodies spread over a floor sweep faster); a subtree whose AABB misses is skipped whole
    (``q = end[q]``). A small branching subtree (a robot, a hand: ``flat_root``) instead tests
    its statically passing body pairs, bit masks made at set-up, a vectorised row at a time.
    Up to ``MASK_MAX`` (64) positions (a robot, a hand, a small scene) there is no tree at all:
    every body pair that passes the static filter is a bit of a mask made at set-up, and each
    body's row of AABB tests runs over the boxes' columns, a vector compare per 8 partners
-   (`_scan_masks`; in a simulation loop 0.76-0.92 of the walk's step time on eight MuJoCo models,
-   1.03 on wonik_allegro).
+   (`_scan_masks`; in a simulation loop it took less time than the walk on the small MuJoCo
+   models, about the same on wonik_allegro).
    Tests whose outcome is data keep no branch on it where they can (the pair is written, the
    count advanced by the outcome): in a simulation loop the engine retrains the branch predictor
-   between steps, and every misprediction costs ~7 ns. Surviving body pairs go to a buffer: no
-   deep call chain on the hot path (in the walk, compiled with numba's reference counting, each
-   call with array arguments pays it, even inlined: the hottest tests are written out);
+   between steps, and every misprediction flushes the pipeline. Surviving body pairs go to a
+   buffer: no deep call chain on the hot path (in the walk, compiled with numba's reference
+   counting, each call with array arguments pays it, even inlined: the hottest tests are written
+   out);
 4. body pair -> static filter -> sphere and OBB separating-axis tests (15 axes, Ericson 2005,
    *Real-Time Collision Detection* §4.4.1), 64 body pairs at a time with every axis evaluated
    (`pair_bits`: four pairs a vector, the rows gathered where they lie) ->
@@ -73,18 +74,18 @@ from ._simd import LANES as LANES8, _py, box_row8, gather_rows
 from ._threads import fetch_add, set_chunksize
 from .layout import (F_BCAP, F_BLOCAL, F_GCAP, F_GLOCAL, F_GMARGIN, F_GPLANE, F_PAIR_M, FLT, I_CHILD_START, I_CHILDREN,
                      I_CONAFFINITY, I_CONTYPE, I_END, I_EX_OTHER, I_EX_START, I_FLAT_MASK, I_FLAT_N, I_FLAT_ROOT,
-                     I_GEOM_BID, I_GEOM_CONAFFINITY, I_GEOM_CONTYPE, I_GSTART, I_HASB, I_NCHILD, I_ORDER, I_PAIR_G,
-                     I_PAIR_KEYS, I_PAIRFLAG, I_PARENT_POS, I_PGEOMS, I_PLANE_OK, I_PLANES, I_POS_OF, I_SINGLE,
-                     I_SMASK, I_WELD, INT, N_COH, ROW, W_BAABB, W_BAABB_T, W_BW, W_COH, W_FAT_B, W_FAT_S, W_FAT_T,
-                     W_GAABB, W_GSTAMP, W_GW, W_PLW, W_SAABB, W_TMP, WORK, view_f1, view_f2, view_i1, view_i2)
+                     I_GEOM_BID, I_GEOM_CONAFFINITY, I_GEOM_CONTYPE, I_GSTART, I_HAS_BOUNDS, I_NCHILD, I_ORDER,
+                     I_PAIR_G, I_PAIR_KEYS, I_PAIRFLAG, I_PARENT_POS, I_PGEOMS, I_PLANE_OK, I_PLANES, I_POS_OF,
+                     I_SINGLE, I_SMASK, I_WELD, INT, N_COH, ROW, W_BAABB, W_BAABB_T, W_BW, W_COH, W_FAT_B, W_FAT_S,
+                     W_FAT_T, W_GAABB, W_GSTAMP, W_GW, W_PLW, W_SAABB, W_TMP, WORK, view_f1, view_f2, view_i1, view_i2)
 
 # The per-step functions are compiled without numba's reference counting: in them an array value
 # costs nothing when copied or dropped, where numba emits a call to its runtime for each (~50 a step
 # in `_world` and its callees, every one on the null record of a view made from a pointer, which
 # LLVM cannot see through: `_ptr.view_of`). They allocate nothing; the walk's `_traverse` and
 # `_grid_pairs` do, and keep the counting (stated: a function called from one compiled without it
-# is compiled without it too, unless its own decorator says otherwise). Loop after mj_step, copies
-# interleaved (Intel Xeon, a noisy machine): humanoid 0.89-0.95, the robots 0.97-0.99.
+# is compiled without it too, unless its own decorator says otherwise). The gain, in a loop after
+# mj_step, was largest on the humanoid, small on the robots.
 NO_NRT = dict(cache=True, _nrt=False)
 
 BIG = 1e300  # empty AABB: lo = BIG, hi = -BIG (finite, so n . lo never meets inf - inf)
@@ -125,8 +126,8 @@ N_STATS = 10
 # kept between calls; while every body's AABB stays inside its fat box, a call tests that list's
 # exact AABBs instead of walking the tree: two AABBs inside two fat boxes can only meet if the fat
 # boxes do (the broad phase of Bullet's and Box2D's dynamic trees: fat AABBs; Catto, "Dynamic
-# AABB Trees", GDC 2019). The answer is the walk's, bit for bit. State, float64, in the workspace
-# in the workspace's ``coh`` field (`layout.W_COH`): the list is valid, its length, a decayed count of
+# AABB Trees", GDC 2019). The answer is the walk's, bit for bit. State, float64, in the
+# workspace's ``coh`` field (`layout.W_COH`): the list is valid, its length, a decayed count of
 # recent rebuilds (x COH_DECAY a call, +1 a rebuild), calls left on the exact walk, and the length
 # of the next such spell.
 FAT_GROW = 0.2
@@ -137,9 +138,9 @@ COH_DECAY = 0.875
 # steady state: bodies leave their fat boxes all the time, as 22 falling humanoids do), rebuilding
 # costs more than the list saves: the exact walk runs for COH_BACKOFF calls (8, doubled each time
 # up to COH_BACKOFF_MAX, halved by each call that reuses the list) before the list is tried again.
-# At 4.0 (half the calls), the humanoid under the benchmark's extreme controls took 7 % longer than
-# the walk alone; at 2.5, 2 % (/tmp/s18/ab.py, three alternating passes of 2000 steps), while
-# wonik_allegro and shadow_hand kept 18 % and 10 % less.
+# The threshold weighs the two kinds of model, measured in alternating passes: set higher, the
+# humanoid under the benchmark's extreme controls paid for rebuilds that did not pay off; at 2.5
+# it stayed near the walk alone, while wonik_allegro and shadow_hand kept most of their gain.
 COH_SCORE_MAX = 2.5
 COH_BACKOFF_MIN = 8.0
 COH_BACKOFF_MAX = 1024.0
@@ -221,8 +222,8 @@ def _pose_row(r00, r01, r02, r10, r11, r12, r20, r21, r22, p0, p1, p2, src):
     ``x = R y + p``: centre ``R c + p``, axes block ``R A`` (row i: sum_k R[i, k] A[k]), the same
     half extents, sphere centre ``R s + p`` and radius. ``lanes.place8`` replays this source on
     vectors over the lanes (the same operations in the same order: the same bits; a loop over the
-    lanes calling this had run the 64-link chain's batch 1.7 times slower than loops per entry,
-    which compiled to 4-wide vectors)."""
+    lanes calling this ran the 64-link chain's batch slower than loops per entry, which compiled
+    to 4-wide vectors)."""
     (c0, c1, c2, a00, a01, a02, a10, a11, a12, a20, a21, a22, e0, e1, e2, s0, s1, s2, rad) = src
     return (dot3_add(p0, r00, r01, r02, c0, c1, c2),
             dot3_add(p1, r10, r11, r12, c0, c1, c2),
@@ -249,9 +250,8 @@ def _world_row(rot, pos, b, src, s, dst, d):
     ``pos[b]`` (3,)), `_pose_row`; returns the row (a 19-tuple) for the caller's AABB.
 
     Every input is read into a local before the first store: the rows are raw pointers the
-    compiler cannot prove apart, and each store would otherwise force the later loads again
-    (22 humanoids: 5 % of a step). Indexing the pose arrays directly (no per-body views) spares
-    numba's reference counting.
+    compiler cannot prove apart, and each store would otherwise force the later loads again.
+    Indexing the pose arrays directly (no per-body views) spares numba's reference counting.
     """
     w = _pose_row(rot[b, 0, 0], rot[b, 0, 1], rot[b, 0, 2], rot[b, 1, 0], rot[b, 1, 1], rot[b, 1, 2],
                  rot[b, 2, 0], rot[b, 2, 1], rot[b, 2, 2], pos[b, 0], pos[b, 1], pos[b, 2], _row_of(src, s))
@@ -358,8 +358,8 @@ def _place(body_rot, body_pos, b, blocal, bcap, x, bw, baabb, saabb, baabb_t, ha
     # capsule's (`_cap_aabb`), also the start of its subtree AABB (stage 2 merges the descendants
     # in; with ``subtree``: the tree is walked), and its column of baabb_t with ``has_flat`` (flat
     # subtrees, or at most MASK_MAX positions: `_traverse` and `_scan_masks` read it there only).
-    # Six stores into six rows of baabb_t cost the 64-link chain, which has none, 7 % of its step
-    # (hot 3.22 -> 2.98 us, after mj_step 4.25-4.47 -> 4.07-4.10).
+    # baabb_t only with has_flat: its six stores into six rows were a visible part of the step of
+    # a model that never reads it (the 64-link chain).
     # The slack of the OBB test (SLACK_REL of the size, SLACK_POS of the centre's magnitude): the
     # tree's AABB tests compare lo <= hi bare, and a tiny body far from the origin (1e-6 at 1e6)
     # would otherwise lose a pair the OBB test keeps (rounding of the centre > its guard).
@@ -493,9 +493,8 @@ def _pairs_mask(bw, bp, c0, n):
     the rows carry it), n <= 64; a marked second body (``~y``) is read as ``y``. The kernel runs
     its vector form, `pair_bits`, four pairs a call; this loop is its twin in the tests.
 
-    Its rows read where they are, into vectors (on AMD Zen 3 scalar loads and inserts, ~20 ns a
-    pair hot; on the Intel Xeon four-lane gathers, 21): copying them into columns first made the
-    stage slower (22 humanoids, Zen 3, 96 random pairs: 34 against 20 ns a pair)."""
+    Its rows are read where they are, into vectors (scalar loads and inserts on AMD Zen 3,
+    four-lane gathers on the Intel Xeon): copying them into columns first made the stage slower."""
     m = np.uint64(0)
     for l in range(n):
         x = bp[c0 + l, 0]
@@ -519,9 +518,8 @@ def pair_bits(typingctx, pw, pp, c, n):
     again and its bit is dropped: no row past the pairs is read.
 
     The loop over the pairs it replaces (`_pairs_mask`, now the tests' twin) built its mask with a
-    shift and an or a pair; the same four-lane gathers (cube_3x3x3 in a simulation loop: 0.86 of
-    the step's time, stonehenge 0.96; humanoid and the robots, with 5-40 body pairs, even; Intel
-    Xeon)."""
+    shift and an or a pair: slower in a simulation loop on scenes of many body pairs (cube_3x3x3,
+    stonehenge), even on the robots with a few (Intel Xeon)."""
     if not all(a == types.int64 for a in (pw, pp, c, n)):
         return None
     sig = types.uint64(pw, pp, c, n)
@@ -577,8 +575,7 @@ def _plane_hit(pl, q, mq, B, b, mb):
 def _aabb_hit(X, x, Y, y):
     # The hot loops of the traversal write this test out instead of calling it: even inlined,
     # a call with array arguments keeps an incref/decref pair per array where numba counts
-    # references, as in the walk (`_traverse`; measured: the chain's traversal 2.4 -> 1.7 us for
-    # its 128 tests).
+    # references, as in the walk (`_traverse`).
     return ((X[x, 0] <= Y[y, 3]) & (Y[y, 0] <= X[x, 3]) & (X[x, 1] <= Y[y, 4]) & (Y[y, 1] <= X[x, 4])
             & (X[x, 2] <= Y[y, 5]) & (Y[y, 2] <= X[x, 5]))
 
@@ -608,8 +605,8 @@ def _emit(keys, k, g1, g2, S):
 def _row_hits(bt_at, stride, base, a, keep):
     # The bits i of keep (the pair of column a and column base + i) whose boxes meet, the boxes the
     # columns of the (6, stride) array at address bt_at (lo x, y, z, hi x, y, z). Only the span of
-    # keep's bits is tested (pairs are stored once, a < q: a row tests its later partners only; 22
-    # humanoids, hot: 31.0 -> 30.0 us a step), LANES8 at a time in one vector compare
+    # keep's bits is tested (pairs are stored once, a < q: a row tests its later partners only),
+    # LANES8 at a time in one vector compare
     # (`_simd.box_row8`; as a loop over the columns the compiler built the mask with a shift and an
     # or per column). Its reads past the span (at most LANES8 - 1 columns past the last, into what
     # follows the array in W: plw and tmp after baabb_t, the coherence state after fat_t) give bits
@@ -639,7 +636,7 @@ def _push(bp, nb_, x, y):
 
 
 @nb.njit(cache=True, inline="always")
-def _body_walk(a, q, stop, skip_child, end, baabb, saabb, hasb, bp, nb_, stats):
+def _body_walk(a, q, stop, skip_child, end, baabb, saabb, has_bounds, bp, nb_, stats):
     # Body a against every body of the positions [q, stop) (whole subtrees), skipping a subtree
     # whose AABB misses a's whole (q = end[q]); with skip_child, the bodies at the top of those
     # subtrees (a's direct children under the parent rule) cull but are not paired. The AABB
@@ -652,7 +649,7 @@ def _body_walk(a, q, stop, skip_child, end, baabb, saabb, hasb, bp, nb_, stats):
         stats[ST_SUBTREE] += 1
         if ((baabb[a, 0] <= saabb[q, 3]) & (saabb[q, 0] <= baabb[a, 3]) & (baabb[a, 1] <= saabb[q, 4])
                 & (saabb[q, 1] <= baabb[a, 4]) & (baabb[a, 2] <= saabb[q, 5]) & (saabb[q, 2] <= baabb[a, 5])):
-            if hasb[q] and not (top and skip_child):
+            if has_bounds[q] and not (top and skip_child):
                 hit = end[q] == q + 1  # a leaf's subtree AABB is its body AABB: just tested
                 if not hit:
                     stats[ST_BODY_AABB] += 1
@@ -676,22 +673,22 @@ FLAT_MAX = 4096  # _subtree_pair: at most this many body x body tests flat, else
 
 
 @nb.njit(**NO_NRT)
-def _subtree_pair(A, B, end, baabb, saabb, hasb, bp, nb_, stats, lst):
+def _subtree_pair(A, B, end, baabb, saabb, has_bounds, bp, nb_, stats, lst):
     """Every body of subtree A against every body of subtree B (disjoint subtrees whose AABBs meet).
 
     Flat and branch-free: the bodies of A whose AABB meets B's subtree AABB, those of B meeting
     A's (``lst``: int64 scratch of at least ``end[A] - A + end[B] - B``), then all pairs of the
     two lists. In a simulation loop the outcome of each test is data that the branch predictor,
     retrained by the engine between steps, cannot foresee: a walk that branches on it costs a
-    misprediction per test (~7 ns each; measured after `mj_step` on 22 humanoids: the child
-    pairs of the traversal 14.6 us walked, 12.6 listed). Past ``FLAT_MAX`` pair tests (two big subtrees deep
-    in each other) the walk, whose culling then pays, runs instead.
+    misprediction per test (after `mj_step` on 22 humanoids the listed child pairs took less time
+    than the walk). Past ``FLAT_MAX`` pair tests (two big subtrees deep in each other) the walk,
+    whose culling then pays, runs instead.
     """
     ea = end[A]
     eb = end[B]
     if ea == A + 1 and eb == B + 1:  # two leaves: their subtree AABBs were just tested
         stats[ST_BODY_AABB] += 1
-        return _push(bp, nb_, A, B) if hasb[A] and hasb[B] else nb_
+        return _push(bp, nb_, A, B) if has_bounds[A] and has_bounds[B] else nb_
     na = 0
     for a in range(A, ea):
         lst[na] = a
@@ -709,8 +706,8 @@ def _subtree_pair(A, B, end, baabb, saabb, hasb, bp, nb_, stats, lst):
             stats[ST_SUBTREE] += 1
             if ((saabb[a, 0] <= saabb[B, 3]) & (saabb[B, 0] <= saabb[a, 3]) & (saabb[a, 1] <= saabb[B, 4])
                     & (saabb[B, 1] <= saabb[a, 4]) & (saabb[a, 2] <= saabb[B, 5]) & (saabb[B, 2] <= saabb[a, 5])):
-                if hasb[a]:
-                    nb_ = _body_walk(a, B, eb, False, end, baabb, saabb, hasb, bp, nb_, stats)
+                if has_bounds[a]:
+                    nb_ = _body_walk(a, B, eb, False, end, baabb, saabb, has_bounds, bp, nb_, stats)
                 a += 1
             else:
                 a = end[a]
@@ -732,15 +729,15 @@ def _subtree_pair(A, B, end, baabb, saabb, hasb, bp, nb_, stats, lst):
 
 
 @nb.njit(cache=True, _nrt=True)  # allocates: counted (see NO_NRT; a callee takes its caller's flag)
-def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stats, lst, use_sph):
+def _grid_pairs(n, off, kc, children, saabb, end, baabb, has_bounds, bw, bp, nb_, stats, lst, use_sph):
     """Pairs of overlapping child subtrees of a wide node through a uniform hash grid.
 
     A sweep on one axis tests O(k^(5/3)) pairs when k children fill a volume (a scene of free
     bodies); a grid whose cell is at least every child's extent finds overlaps in O(k): each child
     sits in the cell of its AABB's min corner, and two overlapping AABBs have min corners at most
     one cell apart per axis, so a child's own cell and its 13 forward neighbours cover every pair
-    exactly once. Children much larger than the mean (4x) would inflate the cell; they are tested
-    against every child instead. Without ``use_sph`` (a walk over fat boxes, see ``FAT_GROW``), two
+    exactly once. Children much larger than the mean (over four times) would inflate the cell;
+    they are tested against every child instead. Without ``use_sph`` (a walk over fat boxes, see ``FAT_GROW``), two
     leaf bodies are paired on their boxes alone: the spheres in ``bw`` are the exact ones.
     """
     ext = np.empty(kc)
@@ -857,16 +854,15 @@ def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stat
                 if leaf_i and end[cj] == cj + 1:
                     # Two bodies (a leaf in the grid has bounds): their sphere test too, on the
                     # contiguous copies (the same arithmetic as _sphere_hit; ~x marks the pair as
-                    # tested), both written without a branch on the outcome (see _subtree_pair;
-                    # measured after mj_collision: 1024 free hulls 535 -> 415 us a step, 256:
-                    # 89 -> 75).
+                    # tested), both written without a branch on the outcome (see _subtree_pair:
+                    # fewer mispredictions on a scene of many free hulls).
                     nsph += 1
                     if nb_ < cap:
                         bp[nb_, 0] = ~ci
                         bp[nb_, 1] = cj
                     nb_ += np.int64((sph | (not use_sph)) & hit)
                 elif hit:
-                    nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats, lst)
+                    nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
     stats[ST_SUBTREE] += ntest
     stats[ST_BODY_SPHERE] += nsph
     # the oversized children against every child
@@ -881,12 +877,12 @@ def _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stat
             stats[ST_SUBTREE] += 1
             if ((saabb[ci, 0] <= saabb[cj, 3]) & (saabb[cj, 0] <= saabb[ci, 3]) & (saabb[ci, 1] <= saabb[cj, 4])
                     & (saabb[cj, 1] <= saabb[ci, 4]) & (saabb[ci, 2] <= saabb[cj, 5]) & (saabb[cj, 2] <= saabb[ci, 5])):
-                nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats, lst)
+                nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
     return nb_
 
 
 @nb.njit(cache=True, _nrt=True)  # allocates: counted (see NO_NRT; a callee takes its caller's flag)
-def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap, bp, stats, filter_parent,
+def _traverse(L, end, nchild, child_start, children, has_bounds, baabb, saabb, bw, sap, bp, stats, filter_parent,
               baabb_t, flat_root, flat_n, flat_mask, use_sph):
     """Candidate body pairs (world AABBs overlap) into ``bp``; returns their count (may exceed cap).
 
@@ -908,8 +904,7 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
             # bit mask per body made at set-up (bit i of flat_mask[a]: the pair (a, n + i)). Each
             # row of AABB tests, a against every body of the subtree, runs over baabb's columns
             # (baabb_t) in vector compares, into a bit mask; the static one keeps the pairs to
-            # push. No walk, no sibling pairs, no call (17-body humanoid, hot: 98 pair tests one
-            # by one 380 ns, by rows 140 ns).
+            # push. No walk, no sibling pairs, no call (faster than the pair tests one by one).
             for a in range(n, end[n]):
                 keep = np.uint64(flat_mask[a])
                 if keep == 0:
@@ -926,19 +921,18 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
             continue
         # body n against its descendants; n + 1 is its first child, each sibling follows the
         # previous one's range
-        if hasb[n] and end[n] > n + 1:
+        if has_bounds[n] and end[n] > n + 1:
             # One walk over the descendants [n + 1, end[n]) (every child's subtree in turn),
             # skipping a missed subtree whole. Under the parent rule a direct child is a parent
             # pair, never reported: its subtree AABB still culls, its body is not paired.
             skip = filter_parent and n != 0
             if end[n] - n - 1 > FLAT_DESC or nchild[n] < 2:
-                nb_ = _body_walk(n, n + 1, end[n], skip, end, baabb, saabb, hasb, bp, nb_, stats)
+                nb_ = _body_walk(n, n + 1, end[n], skip, end, baabb, saabb, has_bounds, bp, nb_, stats)
             else:
                 # A small branching subtree: every descendant's body AABB against n's, flat,
                 # independent tests (no subtree AABB steering a walk: fewer tests than the walk's
-                # two per inner body, and no branch on their outcomes; measured after mj_step on
-                # 22 humanoids: 7.0 -> 5.1 us). Below a single child (a chain) the walk stops
-                # after a few links, the flat loop would test them all. A body without bounds has
+                # two per inner body, and no branch on their outcomes). Below a single child (a
+                # chain) the walk stops after a few links, the flat loop would test them all. A body without bounds has
                 # an empty AABB: never a hit.
                 nxt = n + 1  # the next direct child
                 cap = bp.shape[0]
@@ -966,10 +960,10 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
                             & (saabb[cj, 1] <= saabb[ci, 4]) & (saabb[ci, 2] <= saabb[cj, 5])
                             & (saabb[cj, 2] <= saabb[ci, 5])):
                         if end[ci] == ci + 1 and end[cj] == cj + 1:  # two bodies: no call
-                            if hasb[ci] and hasb[cj]:
+                            if has_bounds[ci] and has_bounds[cj]:
                                 nb_ = _push(bp, nb_, ci, cj)
                         else:
-                            nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats, lst)
+                            nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
             continue
         # Sweep and prune on the axis of the node's largest extent. The order persists between
         # calls (sap holds it), so insertion sort is ~linear under small motion; a big reshuffle
@@ -986,10 +980,9 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
             # ~k^2 w / E interval tests, the grid ~k cell probes of a few tests each. A scene
             # filling a volume (free bodies in a box) goes to the grid; bodies spread over a floor
             # (objects, robots, stones) overlap little along the sweep axis and the sweep, with
-            # its persistent order and no set-up, wins (measured: humanoid100 traversal 12.4 ->
-            # 8.4 us, stonehenge 5.3 -> 1.8). Up to 64 children the sweep wins even in a filled
-            # volume (a step after mj_collision: 64 free hulls 13.8 us on the grid, 12.4 swept;
-            # cube_3x3x3's 26 cubelets 10.4, 8.5); at 256, 74 on the grid, 81 swept.
+            # its persistent order and no set-up, wins (humanoid100, stonehenge). Up to GRID_MIN
+            # children the sweep wins even in a filled volume (64 free hulls, cube_3x3x3's 26
+            # cubelets); with a few hundred the grid does.
             sumw = 0.0
             for i in range(kc):
                 c = children[off + i]
@@ -997,7 +990,7 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
                 if w > 0.0:
                     sumw += w
             if sumw > GRID_SWEEP * best:
-                nb_ = _grid_pairs(n, off, kc, children, saabb, end, baabb, hasb, bw, bp, nb_, stats, lst, use_sph)
+                nb_ = _grid_pairs(n, off, kc, children, saabb, end, baabb, has_bounds, bw, bp, nb_, stats, lst, use_sph)
                 continue
         swaps = 0
         limit = 16 * kc + 64
@@ -1047,7 +1040,7 @@ def _traverse(L, end, nchild, child_start, children, hasb, baabb, saabb, bw, sap
                         bp[nb_, 1] = cj
                     nb_ += np.int64(hit)
                 elif hit:
-                    nb_ = _subtree_pair(ci, cj, end, baabb, saabb, hasb, bp, nb_, stats, lst)
+                    nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
             stats[ST_SUBTREE] += ntest
     return nb_
 
@@ -1060,10 +1053,9 @@ def _sweep(saabb, parent_pos, L):
     ``saabb`` started as its body's AABB.
 
     The box merged last is carried in registers when the next position is its parent (always,
-    down a chain): through memory, each merge waits for the previous one's store. 64-link chain
-    after mj_step, alternating A/B: 4.42-6.68 -> 4.13-6.31 us a step in three runs, then on a
-    disturbed machine 4.15-6.43 against 4.46-6.41 (even); hot even. Same min and max, same
-    order: the same bits.
+    down a chain): through memory, each merge waits for the previous one's store. On the 64-link
+    chain the gain was within this machine's run-to-run noise. Same min and max, same order: the
+    same bits.
     """
     for x in range(L - 1, 0, -1):
         if x == L - 1 or parent_pos[x + 1] != x:  # else saabb[x] was merged last: a0..a5 hold it
@@ -1084,7 +1076,7 @@ def _sweep(saabb, parent_pos, L):
 
 
 @nb.njit(**NO_NRT)
-def _filter(bp, nbp, ctor, caor, weld, parent_pos, filter_parent, ex_start, ex_other, single):
+def _filter(bp, nbp, contype, conaffinity, weld, parent_pos, filter_parent, ex_start, ex_other, single):
     """The static filter over the traversal's ``bp[:nbp]``, compacting ``bp`` in place; returns
     the count kept. Each kept pair is written lower position first, its second as ``~y`` when
     loose (a multi-geom body whose bounds are mostly empty space, ``single < 0``)."""
@@ -1097,7 +1089,7 @@ def _filter(bp, nbp, ctor, caor, weld, parent_pos, filter_parent, ex_start, ex_o
         if y < 0:
             y = ~y  # a flat root's pair: the static filter passed at set-up
         else:
-            if (ctor[x] & caor[y]) == 0 and (ctor[y] & caor[x]) == 0:
+            if (contype[x] & conaffinity[y]) == 0 and (contype[y] & conaffinity[x]) == 0:
                 continue
             if weld[x] == weld[y]:
                 continue
@@ -1240,7 +1232,7 @@ def _place_bodies(body_pos, body_rot, I, F, W):
     # box); the columns of baabb where flat roots or the static masks read them.
     L = I[H_L]
     pos_of = view_i1(I, I, I_POS_OF)
-    hasb = view_i1(I, I, I_HASB)
+    has_bounds = view_i1(I, I, I_HAS_BOUNDS)
     blocal = view_f2(I, F, F_BLOCAL)
     bcap = view_f2(I, F, F_BCAP)
     bw = view_f2(I, W, W_BW)
@@ -1251,7 +1243,7 @@ def _place_bodies(body_pos, body_rot, I, F, W):
     cols = I[H_FLAT] != 0 or by_masks  # baabb_t written (saabb only where the tree is walked)
     for b in range(I[H_NB]):
         x = pos_of[b]
-        if hasb[x]:
+        if has_bounds[x]:
             _place(body_rot, body_pos, b, blocal, bcap, x, bw, baabb, saabb, baabb_t, cols, not by_masks)
         else:
             for i in range(3):
@@ -1272,7 +1264,7 @@ def _walk(I, W, sap, bp, stats, boxes, sboxes, cols, exact):
     # count needed.
     L = I[H_L]
     nbp = _traverse(L, view_i1(I, I, I_END), view_i1(I, I, I_NCHILD), view_i1(I, I, I_CHILD_START),
-                    view_i1(I, I, I_CHILDREN), view_i1(I, I, I_HASB), boxes, sboxes, view_f2(I, W, W_BW), sap, bp,
+                    view_i1(I, I, I_CHILDREN), view_i1(I, I, I_HAS_BOUNDS), boxes, sboxes, view_f2(I, W, W_BW), sap, bp,
                     stats, I[H_FP] != 0, cols, view_i1(I, I, I_FLAT_ROOT), view_i1(I, I, I_FLAT_N),
                     view_i1(I, I, I_FLAT_MASK), exact)
     if nbp > bp.shape[0]:
@@ -1887,7 +1879,7 @@ def _step_bound(addr):
     given by its own address ``addr``: one integer argument, the cheapest call. An array argument
     costs more in a simulation loop: numba's unboxing allocates a reference-counting record for it
     and frees it on return (a ``malloc`` and a ``free`` a call, on allocator memory the engine's step
-    left cold; 3-6 % of a small scene's call in two of three alternating runs, session 16). The owner
+    left cold: a visible part of a small scene's call). The owner
     keeps the context array alive and never replaces it, and checked the pose arrays' shapes and
     dtypes when it bound them."""
     ctx = view_of(i64_ptr(addr), NCTX)
@@ -1916,12 +1908,11 @@ def _step_impl(body_pos, body_rot, ctx):
     mask = (np.int64(1) << S) - 1
     last = ctx[C_LAST]
     if k == ctx[C_NLAST] and last >= 0:
-        # The same pairs as the last non-empty result (most steps of a robot in a simulation loop:
-        # 67-100 % of the MuJoCo models' steps under compare's random controls, humanoid 46 %, the
-        # crowds 0-30 %): the caller hands out that array again. A new view of new rows cost
-        # 0.5-6.8 us after mj_step, 9-22 % of those models' steps (tests/bench/reuse.py, AMD EPYC,
-        # 2026-11-28). Compared with the rows themselves, so a caller that wrote into its result
-        # (having made it writable) gets new rows.
+        # The same pairs as the last non-empty result (most steps of a robot in a simulation loop,
+        # few of a crowd's): the caller hands out that array again, where a new view of new rows
+        # costs more than this pass (tests/bench/reuse.py, its output reuse.amd-epyc.txt). Compared
+        # with the rows themselves, so a caller that wrote into its result (having made it
+        # writable) gets new rows.
         prev = view_of(i32_ptr(ctx[C_OUT] + 8 * last), (k, 2))
         same = True
         for i in range(k):  # no early exit: a pass over K rows, cheaper than a branch per row
@@ -1932,7 +1923,7 @@ def _step_impl(body_pos, body_rot, ctx):
     off = ctx[C_OFF]
     if off + k <= ctx[C_NOUT]:
         # Rows handed out as views of the arena are never written again (the owner starts a new
-        # arena when this one is full): the caller needs no copy (~0.3 us a call).
+        # arena when this one is full): the caller needs no copy.
         out = view_of(i32_ptr(ctx[C_OUT] + 8 * off), (k, 2))
         ctx[C_OFF] = off + k
         ctx[C_LAST] = off
@@ -1966,7 +1957,7 @@ def step_function():
 def step_bound():
     """A callable ``f(addr) -> K`` running `_step_bound`: the compiled function's own entry point.
 
-    The dispatcher checks every argument's type on each call (~0.1 us); its single argument here is
+    The dispatcher checks every argument's type on each call; its single argument here is
     always the address of the owner's int64 context array (``ctx.ctypes.data``), so the entry point
     behind the check is called directly (falling back to the dispatcher if this numba does not
     expose it).
@@ -2015,9 +2006,8 @@ def start_chunks(chunk_info, C):
 
     Each worker then takes chunks by `next_chunk` until none is left: a thread that starts late
     (woken from sleep) or runs slower (a busier core) takes fewer of them, where a fixed share
-    held up the whole call (humanoid, 1024 worlds, 2 threads, 8 chunks, AMD EPYC: the second
-    thread took 150-216 us a chunk to the first's 122-151, every call ending ~150 us after the
-    first thread was done; see `_threads.fetch_add`). The count comes from the caller: numba's
+    held up the whole call (timed per chunk: every call ended long after the faster thread was
+    done; see `_threads.fetch_add`). The count comes from the caller: numba's
     ``get_num_threads`` in a kernel keeps it from being cached."""
     if chunk_info.shape[0] <= C or chunk_info.shape[1] < 2:
         # without the row, the counter would be written past the array's end
@@ -2101,9 +2091,8 @@ def gather_batch(ctxs, world_count, chunk_info, S, stats):
     of room (the caller reads ``chunk_info`` then).
 
     In the parallel kernels' own call rather than the caller's: the first numpy operation after a
-    batch took 13 us, the Python and numpy code having left the caches (64-link chain, 1024 worlds,
-    2 threads). One thread: a parallel region of its own costs more than it saves, its waiting
-    thread having gone to sleep (63 -> 100 ns a world)."""
+    batch is slow, the Python and numpy code having left the caches. One thread: a parallel region
+    of its own costs more than it saves, its waiting thread having gone to sleep."""
     B = world_count.shape[0]
     C = ctxs.shape[0]
     for c in range(C):

@@ -50,9 +50,7 @@ def _kinematics_world(q, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
                       jnt_pos, jnt_axis, out_pos, out_rot, xquat, sc):
     # Body poses out_pos (L, 3), out_rot (L, 3, 3) of one configuration q (nq,). Scratch: xquat
     # (L, 4), sc (nj, 2). The running pose is held in locals, not in a scratch array: through
-    # memory each step of the chain waited for the previous one's store (humanoid, 1024 worlds,
-    # one thread, AMD EPYC: 1.47 -> 1.28 us a world, with the sin and cos ahead of the walk and the
-    # select in _qnorm, then still libm's, and the same bits as the code before).
+    # memory each step of the chain waited for the previous one's store (the same bits either way).
     L = out_pos.shape[0]
     _half_angles(q, qpos0, jnt_type, jnt_qposadr, sc)
     xquat[0, 0], xquat[0, 1], xquat[0, 2], xquat[0, 3] = 1.0, 0.0, 0.0, 0.0
@@ -139,8 +137,8 @@ def _kinematics_lanes(qp, g0, nl, qpos0, body_parent, body_pos, body_quat, body_
     tmp = nb.carray(f64_ptr(tma), (4, LANES))
     # The hinges' half angles, every one written (into its sine's row) before the first is read
     # back as a vector: a vector load of scalar stores still in flight waits for all of them to
-    # retire (no store-to-load forwarding; humanoid, AMD EPYC: that load held ~6 % of this
-    # function's samples, `tests/bench/jitprof.py`). Then sin and cos in place.
+    # retire (no store-to-load forwarding: that load stood out in this function's profile,
+    # `tests/bench/jitprof.py`). Then sin and cos in place.
     far = False
     for j in range(nj):
         if jnt_type[j] == JNT_HINGE:
@@ -209,7 +207,7 @@ def _model_views(qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntn
                  jnt_axis):
     # Pointer-built views of the model arrays: views of a reference-counted array shared by the
     # threads would bump its counter atomically on every world from both cores (measured before:
-    # 7.5 us per humanoid world with 2 threads, 0.9 with one). The index arrays are MuJoCo's own
+    # two threads many times slower than one). The index arrays are MuJoCo's own
     # int32 (`collide.mujoco._kinematics_arrays`): no conversion per call.
     L = body_parent.shape[0]
     nq = qpos0.shape[0]

@@ -37,7 +37,7 @@ from ._ptr import check_span, f64_ptr, i64_ptr
 from ._simd import _Rows, _get, _put, _py, _scalars, _splat, _Vec, _vmax, _vmin, aabb_mask8, aabb_merge8
 from ._threads import set_chunksize
 from .layout import (F_BCAP, F_BLOCAL, F_GCAP, F_GLOCAL, F_GMARGIN, F_GPLANE, F_PAIR_M, I_END, I_GEOM_BID, I_GSTART,
-                     I_HASB, I_ORDER, I_PAIR_G, I_PARENT_POS, I_PGEOMS, I_PLANES, I_SINGLE, J_BODY_PAIRS,
+                     I_HAS_BOUNDS, I_ORDER, I_PAIR_G, I_PARENT_POS, I_PGEOMS, I_PLANES, I_SINGLE, J_BODY_PAIRS,
                      J_EXPLICIT_RANK, J_PAIR_GEOMS, J_PAIR_GSTART, J_PLANE_GEOMS, J_PLANE_GSTART, J_PLANE_POS,
                      J_PLANE_START, J_RANK_KEYS, J_ROW_START, LB_BITS, LB_STAMP, LTAB, LW_GA, LW_GW, LW_PLN,
                      LW_POSES, LW_SA, LW_WA, LW_WB, W_TMP, address, view_f1, view_f2, view_f3, view_i1, view_i2)
@@ -48,9 +48,11 @@ from .broadphase import (BIG, C_KEYS, C_NKEYS, CI_KEYS, H_L, H_NB, N_STATS, ROW,
                          plane_world, start_chunks)
 
 LANES = 8
-# Bytes of the blocks the intrinsics take by address: a pose (12, LANES), a bounds row (ROW, LANES)
+# Bytes of the blocks the intrinsics take by address: a pose (12, LANES), a bounds row (ROW, LANES),
+# an AABB (6, LANES: lo x, y, z, hi x, y, z)
 POSE_BYTES = 8 * 12 * LANES
 ROW_BYTES = 8 * ROW * LANES
+AABB_BYTES = 8 * 6 * LANES
 MAX_BODY_PAIRS = 4096  # above this many static body pairs, the tree of the per-world kernel culls better
 
 # Header of J: counts (then the field table of `layout.LANE_TABLES`).
@@ -94,8 +96,8 @@ def bounds8(typingctx, pa, ma, pb, mb):
     ``pb``, inflated by ``ma``, ``mb``, overlap: `broadphase._bounds_ok`'s source replayed on
     ``<LANES x double>`` vectors (`_simd._py`: the same operations in the same order, the same bits),
     its outcome one vector compare's mask. The loop over the lanes it replaced (`bounds_mask`)
-    compiled to 4-wide vectors and built its mask with a shift and an or per lane (humanoid, 1024
-    worlds, Intel Xeon: those mask reductions about a tenth of `_group`'s samples)."""
+    compiled to 4-wide vectors and built its mask with a shift and an or per lane (those mask
+    reductions stood out in `_group`'s profile)."""
     if not (isinstance(pa, types.Integer) and isinstance(pb, types.Integer) and ma == types.float64
             and mb == types.float64):
         return None
@@ -278,7 +280,8 @@ def _lane_pair(p, m, x, y, single, wb, wa_at, stamp, order, gstart, pgeoms, gloc
             stats[ST_GEOM_AABB] += n
             stats[ST_GEOM_SPHERE] += n
             stats[ST_GEOM_OBB] += n
-            mm &= aabb_mask8(wa_at + 384 * x if sx else gal_at + 384 * g1, wa_at + 384 * y if sy else gal_at + 384 * g2)
+            mm &= aabb_mask8(wa_at + AABB_BYTES * x if sx else gal_at + AABB_BYTES * g1,
+                             wa_at + AABB_BYTES * y if sy else gal_at + AABB_BYTES * g2)
             mm &= bounds8(wb_at + ROW_BYTES * x if sx else gw_at + ROW_BYTES * g1, 0.0 if sx else gmargin[g1],
                           wb_at + ROW_BYTES * y if sy else gw_at + ROW_BYTES * g2, 0.0 if sy else gmargin[g2])
         _set_bits(bits, pair_geoms[e, 2], mm, nv)
@@ -296,7 +299,7 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
     end = view_i1(I, I, I_END)
     parent_pos = view_i1(I, I, I_PARENT_POS)
     single = view_i1(I, I, I_SINGLE)
-    hasb = view_i1(I, I, I_HASB)
+    has_bounds = view_i1(I, I, I_HAS_BOUNDS)
     gstart = view_i1(I, I, I_GSTART)
     pgeoms = view_i1(I, I, I_PGEOMS)
     planes = view_i1(I, I, I_PLANES)
@@ -325,7 +328,7 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
     ps_at = address(I, LW, LW_POSES)
     wb = view_f3(I, LW, LW_WB)
     wa = view_f3(I, LW, LW_WA)
-    wa_at = address(I, LW, LW_WA)  # (6, LANES) blocks of 384 bytes, for aabb_mask8
+    wa_at = address(I, LW, LW_WA)  # (6, LANES) blocks of AABB_BYTES, for aabb_mask8
     gwl = view_f3(I, LW, LW_GW)
     gal = view_f3(I, LW, LW_GA)
     gal_at = address(I, LW, LW_GA)
@@ -359,10 +362,10 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
     bc_at = np.int64(bcap.ctypes.data)
     for x in range(L):
         stamp[x] = 0
-        if hasb[x]:
+        if has_bounds[x]:
             # world rows and AABBs (the OBB's cut to the capsule's), as broadphase._place
             place8(ps_at + POSE_BYTES * order[x], bl_at + 8 * ROW * x, bc_at + 32 * x, 0.0, wb_at + ROW_BYTES * x,
-                   wa_at + 384 * x, sa_at + 384 * x)
+                   wa_at + AABB_BYTES * x, sa_at + AABB_BYTES * x)
         else:
             for i in range(3):
                 for l in range(nv):
@@ -372,7 +375,7 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
                     sa[x, 3 + i, l] = -BIG
     # subtree AABBs in every lane (`_world`, stage 2)
     for x in range(L - 1, 0, -1):
-        aabb_merge8(sa_at + 384 * parent_pos[x], sa_at + 384 * x)
+        aabb_merge8(sa_at + AABB_BYTES * parent_pos[x], sa_at + AABB_BYTES * x)
     for wi in range(bits.shape[0]):
         for l in range(nv):
             bits[wi, l] = 0
@@ -390,11 +393,11 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
         if ptr == pend:
             continue
         last = body_pairs[pend - 1, 1]
-        pa = wa_at + 384 * a
+        pa = wa_at + AABB_BYTES * a
         q = a + 1
         while q <= last:
             ntest += 1
-            m = aabb_mask8(pa, sa_at + 384 * q) & valid
+            m = aabb_mask8(pa, sa_at + AABB_BYTES * q) & valid
             if m == 0:
                 q = end[q]
                 continue
@@ -403,7 +406,7 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
             if body_pairs[ptr, 1] == q:
                 if end[q] != q + 1:  # a leaf's subtree AABB is its body's
                     ntest += 1
-                    m &= aabb_mask8(pa, wa_at + 384 * q)
+                    m &= aabb_mask8(pa, wa_at + AABB_BYTES * q)
                 if m != 0:
                     _lane_pair(ptr, m, a, q, single, wb, wa_at, stamp, order, gstart, pgeoms, glocal, gcap, gmargin,
                                ps, gwl, gal, gal_at, pair_gstart, pair_geoms, bits, stats, nv)
@@ -421,7 +424,7 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
         for e in range(plane_start[i], plane_start[i + 1]):
             x = plane_pos[e]
             # the AABB corner deepest along -n, then the bounds (`_world`, stage 5a)
-            m = corner8(pa, mq, wa_at + 384 * x) & valid
+            m = corner8(pa, mq, wa_at + AABB_BYTES * x) & valid
             if m == 0:
                 continue
             stats[ST_PLANE] += _popcount(m)
@@ -504,8 +507,8 @@ def _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gcap, gmargin, ps, gwl,
     for ii in range(gstart[x], gstart[x + 1]):
         g = pgeoms[ii]
         # the geom's rows and margin-inflated AABBs, as broadphase._geom_rows
-        place8(pb, gl_at + 8 * ROW * g, gc_at + 32 * g, gmargin[g], gw_at + ROW_BYTES * g, ga_at + 384 * g,
-               ga_at + 384 * g)
+        place8(pb, gl_at + 8 * ROW * g, gc_at + 32 * g, gmargin[g], gw_at + ROW_BYTES * g, ga_at + AABB_BYTES * g,
+               ga_at + AABB_BYTES * g)
 
 
 # ------------------------------------------------------------------------------- entry point

@@ -78,8 +78,7 @@ def _lane_rows_zeros(rows: int, n: int) -> np.ndarray:
     """Zeroed float64 ``(rows, >= n)`` whose rows start on 64-byte boundaries.
 
     The lane kernels read and write (LANES,) float64 rows, 64 bytes each, as vectors; numpy aligns
-    its buffers to 16 bytes only, and a row straddling two cache lines costs two accesses (64-link
-    chain, 1024 worlds on one thread: 1.52 -> 1.41 us a world).
+    its buffers to 16 bytes only, and a row straddling two cache lines costs two accesses.
     """
     n = -(-n // 8) * 8
     buf = np.zeros(rows * n + 8)
@@ -160,7 +159,7 @@ class BroadPhase:
         pairs' AABBs instead of culling down the tree. The answer is the same whatever the poses
         (any sequence of calls, unrelated poses included); only the time differs: a simulation
         step usually moves every body less than that (the MuJoCo models under moderate random
-        controls: 3-17 % of the steps rebuild the list), and a scene where bodies leave their
+        controls rebuild the list on few of their steps), and a scene where bodies leave their
         boxes in more than about a third of the calls (22 falling humanoids) is detected and
         culled down the tree again. False: every call culls down the tree. `pairs_batch` never
         keeps a list (its worlds are unrelated). A model of at most 64 positions (bodies, and the
@@ -292,7 +291,7 @@ class BroadPhase:
             ``base`` is a larger arena, freed with the last view that holds it. When the pairs are
             those of the last call that found any, that call's array is returned again (``is``
             tells): most steps of most robots in a simulation loop, where a new view costs more
-            than the test (0.5-6.8 us after ``mujoco.mj_step``: ``tests/bench/reuse.py``).
+            than the test (``tests/bench/reuse.py``).
             Copy it (``np.array(pairs)``) to modify it.
 
         Raises
@@ -329,7 +328,7 @@ class BroadPhase:
             if k >= _k.RET_SAME:  # the pairs of the last non-empty result: its array again
                 return self._last
             if k > 0:
-                o = self._arena_used  # `_take`, written out: a Python call costs ~0.1 us
+                o = self._arena_used  # `_take`, written out: a Python call costs more than these lines
                 e = o + k
                 if e <= self._arena_rows:
                     self._arena_used = e
@@ -345,8 +344,8 @@ class BroadPhase:
 
         For an engine that keeps its body poses in arrays that stay put and are updated in place
         (a ``mujoco.MjData``'s ``xpos`` and ``xmat``, a simulator's preallocated state): the
-        kernel keeps their addresses, and each step is one call with one argument (~0.2 us less
-        than passing the arrays). They are held here, so they stay alive while bound.
+        kernel keeps their addresses, and each step is one call with one argument (cheaper than
+        passing the arrays). They are held here, so they stay alive while bound.
 
         Parameters
         ----------
@@ -541,19 +540,17 @@ class BroadPhase:
         -----
         A model of at most ``collide._kernels.lanes.MAX_BODY_PAIRS`` statically passing body pairs
         (a robot, a creature, a chain) runs eight worlds at a time in SIMD lanes, every test a
-        vector operation over the eight (`collide._kernels.lanes`; humanoid: 1.8 -> 0.6 us a
-        world on one thread); a bigger one world by world through the single-world kernel. Both
-        give exactly the single-world answers.
+        vector operation over the eight (`collide._kernels.lanes`: far less time a world); a
+        bigger one world by world through the single-world kernel. Both give exactly the
+        single-world answers.
         Worlds are cut into chunks, which numba's threads take one at a time. On a machine shared
         with other work, set ``OMP_WAIT_POLICY=PASSIVE`` before numba starts its OpenMP runtime:
-        spinning waiters can stall each call by a scheduler time slice (measured: 30x slower).
-        The second thread's worth depends on what the cores did just before (64-link chain, 2
-        shared cores of a virtual machine, per world): 0.96 us back to back, 1.61 on one thread;
-        before a change that saved 0.04 us, 1.0-1.15 back to back, 1.45 with a 300 x 300 matrix
-        product before each call, 1.69 when numpy's OpenBLAS runs its own threads, which spin on
-        the cores for a while after each product (set ``OPENBLAS_NUM_THREADS=1`` before numpy
-        loads where both share a loop), 2.8 with a 0.1 s pause before each call (the idle core is
-        slow to wake).
+        spinning waiters can stall each call by a scheduler time slice. The second thread's worth
+        (``tests/bench/threads.py``) depends on what the cores did just before: most back to back;
+        a big numpy product before each call takes most of it; numpy's OpenBLAS threads, which
+        spin on the cores for a while after each product (set ``OPENBLAS_NUM_THREADS=1`` before
+        numpy loads where both share a loop), and a pause before each call (an idle core is slow
+        to wake) leave the call slower than on one thread.
         """
         if not isinstance(body_pos, np.ndarray) or body_pos.ndim != 3:
             raise ValueError(f"body_pos: expected shape (B, {self.body_count}, 3), got "

@@ -37,14 +37,14 @@ class StaticFilter:
     on their own, filter bypassed).
     """
 
-    def __init__(self, hasb, weld, contype, conaffinity, parent_pos, filter_parent, ex_start, ex_other,
+    def __init__(self, has_bounds, weld, contype, conaffinity, parent_pos, filter_parent, ex_start, ex_other,
                  geom_contype, geom_conaffinity, pair_keys, key_shift):
-        self.hasb, self.weld, self.contype, self.conaffinity = hasb, weld, contype, conaffinity
+        self.has_bounds, self.weld, self.contype, self.conaffinity = has_bounds, weld, contype, conaffinity
         self.parent_pos, self.filter_parent = parent_pos, bool(filter_parent)
         self.ex_start, self.ex_other = ex_start, ex_other
         self.geom_contype, self.geom_conaffinity = geom_contype, geom_conaffinity
         self.pair_keys, self.key_shift = np.asarray(pair_keys, np.int64), key_shift
-        L = len(hasb)
+        L = len(has_bounds)
         x = np.repeat(np.arange(L), np.diff(ex_start))
         self._excluded = np.sort(x * L + ex_other)  # both directions are listed
 
@@ -56,14 +56,14 @@ class StaticFilter:
         y = np.asarray(y, np.int64)
         ct = self.contype[x] if contype_x is None else contype_x
         ca = self.conaffinity[x] if conaffinity_x is None else conaffinity_x
-        ok = (x != y) & (self.hasb[y] != 0) & (self.weld[x] != self.weld[y])
+        ok = (x != y) & (self.has_bounds[y] != 0) & (self.weld[x] != self.weld[y])
         if bounds_x:
-            ok &= self.hasb[x] != 0
+            ok &= self.has_bounds[x] != 0
         ok &= ((ct & self.conaffinity[y]) != 0) | ((self.contype[y] & ca) != 0)
         if self.filter_parent:
             p = self.parent_pos
             ok &= ~(((p[y] == x) & (x != 0)) | ((p[x] == y) & (y != 0)))
-        ok &= ~np.isin(x * len(self.hasb) + y, self._excluded)
+        ok &= ~np.isin(x * len(self.has_bounds) + y, self._excluded)
         return ok
 
     def geoms(self, g1, g2) -> np.ndarray:
@@ -128,7 +128,7 @@ def model_tables(a: Articulation) -> tuple[dict, dict, StaticFilter]:
         own = cs[gstart[multi + 1]] - cs[gstart[multi]]
         bvol = np.prod(2 * a.body_obb_half[order[multi]], axis=1)
         single[multi[bvol > LOOSE * own]] = -1
-    hasb = (gcount > 0).astype(i64)
+    has_bounds = (gcount > 0).astype(i64)
     weld = a.body_weld[order].astype(i64)
     contype = np.zeros(Lp, i64)
     conaffinity = np.zeros(Lp, i64)
@@ -148,7 +148,7 @@ def model_tables(a: Articulation) -> tuple[dict, dict, StaticFilter]:
     ex_start = np.searchsorted(ex[:, 0], np.arange(Lp + 1)).astype(i64)
     S = _k.key_shift(G)
     pair_keys = (a.pairs[:, 0].astype(i64) << S) | a.pairs[:, 1]
-    filt = StaticFilter(hasb, weld, contype, conaffinity, parent_pos, a.filter_parent, ex_start, ex[:, 1],
+    filt = StaticFilter(has_bounds, weld, contype, conaffinity, parent_pos, a.filter_parent, ex_start, ex[:, 1],
                         a.geom_contype, a.geom_conaffinity, pair_keys, S)
     planes = np.flatnonzero(a.geom_is_plane).astype(i64)
     blocal = _local_rows(a.body_obb_center, a.body_obb_rot, a.body_obb_half, a.body_sphere_center,
@@ -170,7 +170,7 @@ def model_tables(a: Articulation) -> tuple[dict, dict, StaticFilter]:
     fields = dict(
         n_virtual=V, filter_parent=a.filter_parent,
         order=order, pos_of=pos_of, end=end, parent_pos=parent_pos, weld=weld, nchild=nchild,
-        child_start=child_start, single=single, hasb=hasb, pairflag=pairflag, contype=contype,
+        child_start=child_start, single=single, has_bounds=has_bounds, pairflag=pairflag, contype=contype,
         conaffinity=conaffinity, children=children, gstart=gstart, pgeoms=pgeoms, ex_start=ex_start,
         ex_other=ex[:, 1], planes=planes, plane_ok=plane_filter(filt, planes, geom_pos[planes]),
         geom_bid=a.geom_body, geom_contype=a.geom_contype, geom_conaffinity=a.geom_conaffinity, pair_g=a.pairs,
@@ -192,7 +192,7 @@ def static_masks(f: StaticFilter, gstart, pgeoms) -> np.ndarray:
     """(L + 1,) int64 for `_kernels.broadphase._scan_masks`: where L <= MASK_MAX, bit y of [x] the
     position pair (x, y), x < y, when it passes the filter and has a geom pair that does; [L]
     their count. Zeros beyond MASK_MAX positions."""
-    L = len(f.hasb)
+    L = len(f.has_bounds)
     out = np.zeros(L + 1, np.uint64)
     if L > _k.MASK_MAX:
         return out.view(np.int64)
@@ -242,7 +242,7 @@ def flat_lists(f: StaticFilter, end, parent_pos, nchild) -> tuple[np.ndarray, np
 def plane_filter(f: StaticFilter, planes, plane_pos) -> np.ndarray:
     """(Q, L) 0/1: may the position x pair with plane i at all (the filter with the plane geom's
     own masks; the kernel's plane walk reads one flag per body)."""
-    L = len(f.hasb)
+    L = len(f.has_bounds)
     x = np.arange(L)
     ok = np.zeros((len(planes), L), np.int64)
     for i, (qg, qx) in enumerate(zip(planes, plane_pos)):
@@ -255,7 +255,7 @@ def lane_tables(f: StaticFilter, gstart, pgeoms, planes, plane_ok, pairs, is_pla
     pairs that pass the filter with their geom pairs, (plane, position) pairs with their geoms, the
     explicit pairs, each geom pair with its rank among all keys. None when the model has more than
     ``lanes.MAX_BODY_PAIRS`` position pairs (the per-world kernel's tree culls better)."""
-    L = len(f.hasb)
+    L = len(f.has_bounds)
     S = f.key_shift
     if L * (L - 1) // 2 > 16 * _lanes.MAX_BODY_PAIRS:
         return None
