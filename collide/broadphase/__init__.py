@@ -279,7 +279,8 @@ class BroadPhase:
         ----------
         body_pos : (L, 3) float64
             Body positions in the world (float32 is accepted and converted). With neither
-            argument, the current values of the arrays given to `bind` are read.
+            argument, or with the very arrays given to `bind`, the bound arrays' current values
+            are read where they are.
         body_rot : (L, 3, 3) float64
             Body rotations in the world (body frame to world), proper orthonormal.
 
@@ -306,13 +307,15 @@ class BroadPhase:
         lock = self._lock
         lock.acquire()
         try:
-            if body_pos is None and body_rot is None:
-                # the bound arrays' current values (see bind)
-                if self._bound is None:
+            bound = self._bound
+            if (body_pos is None and body_rot is None) or (
+                    bound is not None and body_pos is bound[0] and body_rot is bound[1]):
+                # the bound arrays' current values (see bind): the kernel's context holds them
+                if bound is None:
                     raise ValueError("pairs: no pose arrays given and none bound (see BroadPhase.bind)")
                 k = self._step_bound(self._ctx_addr)
                 if k < 0:
-                    k = self._rerun(*self._bound, k)
+                    k = self._rerun(*bound, k)
             else:
                 # One call. The kernel checks the shapes; its dispatcher takes only C-contiguous
                 # float64 arrays and raises TypeError for anything else (no new compilation, ever).
