@@ -318,8 +318,14 @@ def contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.
     if n < 0:
         g = (-n - 1) // 8
         raise ValueError(f"geom_xpos/geom_xmat: non-finite pose (NaN or inf) of geom {g}")
-    return Contacts(geom[:n], dist[:n], pos[:n], normal[:n], margin[:n],
-                    pairs[skipped] if table._any_skipped else table._no_skipped)
+    # Built without the frozen dataclass's __init__ (a setattr per field): the same fields.
+    c = _new(Contacts)
+    c.__dict__.update(geom=geom[:n], dist=dist[:n], pos=pos[:n], normal=normal[:n], margin=margin[:n],
+                      skipped=pairs[skipped] if table._any_skipped else table._no_skipped)
+    return c
+
+
+_new = object.__new__
 
 
 def geom_distance(table: GeomTable, g1: int, g2: int, geom_xpos, geom_xmat, distmax: float) -> tuple[float, np.ndarray]:

@@ -99,6 +99,7 @@ def main(argv=None) -> int:
     print(f"# machine: {os.cpu_count()} cores, Python {platform.python_version()}, {_cpu()}; "
           f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; load average at start "
           f"{os.getloadavg()[0]:.1f} (machine shared with other processes)")
+    print(f"# command: python tests/bench/contacts.py {' '.join(sys.argv[1:])}".rstrip())
     print(f"# ours: Collider.contacts(data), Python call included; MuJoCo: mjTIMER_COL_BROAD + "
           f"mjTIMER_COL_NARROW ({cm.timer_clock()} clock); medians over the steps; contacts: mean per step")
     print()

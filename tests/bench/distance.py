@@ -222,7 +222,8 @@ def main(argv=None):
              f"CPU: {_cpu()} ({platform.machine()}), Python {platform.python_version()}",
              "Median over pairs of the mean time per call, microseconds; load average before the run "
              f"{os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs (a shared machine: compare columns "
-             "within a row, measured in one run).", ""]
+             "within a row, measured in one run).",
+             f"Command: python tests/bench/distance.py {' '.join(sys.argv[1:])}".rstrip(), ""]
     bench_sizes(rng, lines)
     bench_policy(rng, lines)
     text = "\n".join(lines)
