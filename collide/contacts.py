@@ -211,12 +211,14 @@ class GeomTable:
         p1 = np.asarray(model.pair_geom1, dtype=np.int64)
         p2 = np.asarray(model.pair_geom2, dtype=np.int64)
         key = np.minimum(p1, p2) * G + np.maximum(p1, p2)
-        order = np.argsort(key, kind="stable")  # the first of duplicate <pair>s wins
+        order = np.argsort(key, kind="stable")  # duplicate <pair>s: each collided, in model order
         self.pair_key = np.ascontiguousarray(key[order])
         self.pair_margin = np.ascontiguousarray(np.asarray(model.pair_margin, dtype=np.float64)[order])
         self.pair_gap = np.ascontiguousarray(np.asarray(model.pair_gap, dtype=np.float64)[order])
         self.override = bool(int(model.opt.enableflags) & ENBL_OVERRIDE)
         self.o_margin = float(model.opt.o_margin)
+        # The most <pair>s naming one geom pair (MuJoCo collides each: contacts per pair multiply).
+        self.pair_mult = int(np.max(np.unique(key, return_counts=True)[1])) if len(key) else 1
         # Face contacts (collide._kernels.faces): MuJoCo's types, box half sizes, hull faces.
         self.gtype = np.ascontiguousarray(types, dtype=np.int8)
         self.half = np.ascontiguousarray(np.where((types == BOX)[:, None], sizes, 0.0))
@@ -307,7 +309,7 @@ def contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.
         A non-finite pose of a geom in a pair (naming it): the kernel checks those.
     """
     K = len(pairs)
-    cap = _km.MAX_PER_PAIR * K
+    cap = _km.MAX_PER_PAIR * table.pair_mult * K
     geom = np.empty((cap, 2), np.int32)
     dist = np.empty(cap)
     pos = np.empty((cap, 3))

@@ -159,4 +159,5 @@ class FaceTable:
 
     def kernel_args(self) -> tuple:
         """The arrays in `collide._kernels.manifold.collide_pairs`' order."""
-        return (self.hv_adr, self.hv_num, self.hv, self.f_adr, self.f_num, self.f_normal, self.f_offset, self.f_vadr, self.f_vnum, self.f_vidx)
+        return (self.hv_adr, self.hv_num, self.hv, self.f_adr, self.f_num, self.f_normal, self.f_offset, self.f_vadr,
+                self.f_vnum, self.f_vidx)

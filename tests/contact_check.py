@@ -180,8 +180,12 @@ class Tally:
     mujoco_right: list = field(default_factory=list)  # ... for MuJoCo's (failures)
     unsettled: list = field(default_factory=list)  # the oracle's bracket holds both answers (curved geoms)
     unchecked: list = field(default_factory=list)  # disagreements past `oracle_budget` (not settled)
-    oracle_budget: int = 20  # oracle calls per scene (Qhull on thousands of points: ~0.1-1 s each)
+    oracle_budget: int = 20  # oracle calls per group (pair kind, what differed) and scene: Qhull on
+    # thousands of points, ~0.01-1 s each; the rest of a group is counted as not checked
+    spent: dict = field(default_factory=dict)
     seconds: float = 0.0  # wall time of the scene's run
+    mj_contacts: int = 0  # MuJoCo's geom-geom contacts, summed over steps
+    our_contacts: int = 0  # ours, summed over steps
 
     def failures(self) -> list:
         return self.mujoco_right
@@ -195,23 +199,26 @@ def compare_step(model, data, collider: cm.Collider, tally: Tally, step: int) ->
     mine = {k: i for k, i in ours.deepest().items()}
     skipped = {tuple(p) for p in ours.skipped.tolist()}
     mj = mujoco_deepest(model, data)
+    tally.mj_contacts += int(np.count_nonzero(np.all(data.contact.geom[:data.ncon] >= 0, axis=1)))
+    tally.our_contacts += len(ours)
     tally.steps += 1
     tally.mj_pairs += len(mj)
 
     brackets: dict = {}
 
-    def bracket(g1, g2, normals):
+    def bracket(g1, g2, normals, what):
         if (g1, g2) not in brackets:
-            if tally.oracle_budget <= 0:
+            group = (_kind(model, g1, g2), what)
+            if tally.spent.get(group, 0) >= tally.oracle_budget:
                 return None
-            tally.oracle_budget -= 1
+            tally.spent[group] = tally.spent.get(group, 0) + 1
             brackets[(g1, g2)] = oracle(table, data, g1, g2, normals)
         return brackets[(g1, g2)]
 
     def settle(key, what, mj_d, our_d, normals=()):
         # who is right: the value inside the oracle's bracket (within the pair's tolerance)
         g1, g2 = key
-        b = bracket(g1, g2, normals)
+        b = bracket(g1, g2, normals, what)
         if b is None:
             tally.unchecked.append((step, g1, g2, what, mj_d, our_d))
             return
@@ -262,7 +269,7 @@ def compare_step(model, data, collider: cm.Collider, tally: Tally, step: int) ->
             else:
                 # MuJoCo's normal is no witness (it separates the pair less than the distance):
                 # ours is right if it is one, at the true distance
-                b = bracket(g1, g2, (ours.normal[i], n_mj))
+                b = bracket(g1, g2, (ours.normal[i], n_mj), "normal")
                 if b is None:
                     tally.unchecked.append((step, g1, g2, f"normal {ang:.3g} rad", d_mj, d))
                     continue
@@ -293,13 +300,13 @@ def load_scene(name: str):
     return mujoco.MjModel.from_xml_path(str(MODELS / name / "scene.xml"))
 
 
-def run_scene(model, steps: int, seed: int = 0, data=None, hold: int = 100) -> Tally:
+def run_scene(model, steps: int, seed: int = 0, data=None, hold: int = 100, oracle_budget: int = 20) -> Tally:
     """Simulate ``model`` with `collide.mujoco.compare`'s random controls (each actuator at one
     end of its range, redrawn every ``hold`` steps) and compare every step."""
     data = mujoco.MjData(model) if data is None else data
     collider = cm.Collider(model)
     ctrls = cm._random_controls(model, steps, seed, hold)
-    tally = Tally()
+    tally = Tally(oracle_budget=oracle_budget)
     mujoco.mj_forward(model, data)
     for step in range(steps):
         if step % hold == 0 and len(ctrls):
@@ -310,27 +317,83 @@ def run_scene(model, steps: int, seed: int = 0, data=None, hold: int = 100) -> T
     return tally
 
 
+_TYPES = ["plane", "hfield", "sphere", "capsule", "ellipsoid", "cylinder", "box", "mesh", "sdf"]
+
+
+def _kind(model, g1: int, g2: int) -> str:
+    a, b = sorted((int(model.geom_type[g1]), int(model.geom_type[g2])))
+    return f"{_TYPES[a]}-{_TYPES[b]}"
+
+
+def _what(row) -> str:
+    return row[3].split()[0]  # dist, normal, missed, extra
+
+
+def report(name: str, model, t: Tally, examples: int = 3) -> list:
+    """Lines of the report for one scene: the figures, then the disagreements by verdict, pair
+    kind and what differed, with up to ``examples`` rows each (step, geoms, MuJoCo's dist,
+    ours, the oracle's bracket)."""
+    out = [f"{name:20s} {t.steps:5d} {t.mj_pairs:8d} {t.both:8d} {t.boundary:5d} {t.skipped:4d} "
+           f"{t.worst_dist:9.3g} {t.worst_normal:9.2e} {t.degenerate:6d} {len(t.ours_right):6d} "
+           f"{len(t.mujoco_right):6d} {len(t.unsettled):6d} {len(t.unchecked):6d} {t.mj_contacts:8d} "
+           f"{t.our_contacts:8d} {t.seconds:6.0f}"]
+    detail = []
+    for verdict, rows in (("MuJoCo right (our failure)", t.mujoco_right), ("ours right", t.ours_right),
+                          ("unsettled (the bracket holds both)", t.unsettled), ("not checked", t.unchecked)):
+        groups: dict = {}
+        for row in rows:
+            groups.setdefault((_kind(model, row[1], row[2]), _what(row)), []).append(row)
+        for (kind, what), rs in sorted(groups.items(), key=lambda kv: -len(kv[1])):
+            detail.append(f"    {verdict}: {len(rs)} x {kind} {what}")
+            for row in rs[:examples]:
+                step, g1, g2, w, d_mj, d_us = row[:6]
+                br = f" oracle [{row[6][0]:.10g}, {row[6][1]:.10g}]" if len(row) > 6 else ""
+                fm = "none" if d_mj is None else f"{d_mj:.10g}"
+                fo = "none" if d_us is None else f"{d_us:.10g}"
+                detail.append(f"        step {step} geoms {g1},{g2} {w}: MuJoCo {fm} ours {fo}{br}")
+    return out + detail
+
+
+HEADER = ("scene                steps  mj-pairs     both bound skip  dist/tol    normal  degen  ours+ "
+          "   mj+ unsett unchkd   mj-con  our-con      s")
+
+
 def main(argv=None) -> int:
     import argparse
+    import os
+    import platform
 
     ap = argparse.ArgumentParser()
     ap.add_argument("--steps", type=int, default=300)
+    ap.add_argument("--oracle", type=int, default=20, help="oracle calls per scene (the rest: not checked)")
     ap.add_argument("scenes", nargs="*")
     a = ap.parse_args(argv)
     scenes = a.scenes or ["default"] + sorted(p.name for p in MODELS.iterdir() if (p / "scene.xml").is_file())
+    cpu = next((ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo") if ln.startswith("model name")),
+               platform.processor()) if os.path.exists("/proc/cpuinfo") else platform.processor()
+    print(f"# contact agreement, collide vs MuJoCo {mujoco.__version__}: python tests/contact_check.py "
+          f"{' '.join(argv if argv is not None else sys.argv[1:])}")
+    print(f"# {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; {cpu}, {os.cpu_count()} cores; load "
+          f"average {os.getloadavg()[0]:.1f} at start; controls as collide.mujoco.compare (seed 0, hold 100)")
+    print("# per scene: MuJoCo's contact pairs over the steps, those ours made too, boundary (within the "
+          "tolerance of the contact distance: either answer right), skipped (height field / SDF), worst "
+          "|dist| difference / tolerance and worst normal angle (rad) over agreeing pairs, degenerate "
+          "normals (both witnesses), disagreements the oracle settled for ours / for MuJoCo, unsettled, not "
+          "checked; contact counts (multi-contact) MuJoCo's and ours; seconds")
+    print(HEADER)
     bad = 0
+    details = []
     for s in scenes:
         model = load_scene(s)
         t0 = time.perf_counter()
-        t = run_scene(model, a.steps)
+        t = run_scene(model, a.steps, oracle_budget=a.oracle)
         t.seconds = time.perf_counter() - t0
-        print(f"{s:24s} mj pairs {t.mj_pairs:6d} both {t.both:6d} worst dist/tol {t.worst_dist:.3g} "
-              f"worst normal {t.worst_normal:.2e} degenerate {t.degenerate} boundary {t.boundary} "
-              f"skipped {t.skipped} ours-right {len(t.ours_right)} mujoco-right {len(t.mujoco_right)} "
-              f"unsettled {len(t.unsettled)} unchecked {len(t.unchecked)} {t.seconds:.0f} s", flush=True)
-        for row in (t.mujoco_right + t.unsettled)[:5] + t.ours_right[:3]:
-            print("   ", row)
+        lines = report(s, model, t)
+        print(lines[0], flush=True)
+        details += [s] + lines[1:]
         bad += len(t.failures())
+    print("\n# disagreements (beyond the pair's tolerance), by verdict of the oracle, pair kind and what differed")
+    print("\n".join(details))
     return 1 if bad else 0
 
 

@@ -155,6 +155,27 @@ def test_mesh_plane_contacts():
     assert faces > 20  # poses with a face down: its vertices below the plane
 
 
+@pytest.mark.parametrize("pairs", [
+    ('<pair geom1="a" geom2="b" margin="0.2"/><pair geom1="b" geom2="a" margin="0.3"/>', 8),
+    ('<pair geom1="a" geom2="b" margin="0.01"/><pair geom1="b" geom2="a" margin="0.3"/>', 4),
+    ('<pair geom1="a" geom2="b" margin="0.3"/><pair geom1="b" geom2="a" margin="0.01"/>', 4),
+    ('<pair geom1="a" geom2="b"/><pair geom1="a" geom2="b"/>', 0),
+])
+def test_duplicate_pairs_are_mujocos(pairs):
+    # A geom pair named by two <pair>s: MuJoCo collides it once per <pair>, each with its own
+    # margin (two boxes 0.1 apart: a face manifold of 4 from each <pair> whose margin reaches).
+    xml, expected = pairs
+    model = _model('<body><freejoint/><geom name="a" type="box" size=".5 .5 .5"/></body>'
+                   '<body pos="0 0 1.1"><freejoint/><geom name="b" type="box" size=".5 .5 .5"/></body>',
+                   f"<contact>{xml}</contact>")
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    ours = cm.Collider(model).contacts(data)
+    assert data.ncon == expected and len(ours) == expected
+    np.testing.assert_allclose(np.sort(ours.margin), np.sort(data.contact.includemargin[:data.ncon]))
+    np.testing.assert_allclose(np.sort(ours.dist), np.sort(data.contact.dist[:data.ncon]), atol=1e-12)
+
+
 # ------------------------------------------------------------------------------------------------
 # Agreement over simulations
 # ------------------------------------------------------------------------------------------------

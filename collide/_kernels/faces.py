@@ -285,7 +285,8 @@ def _face(code, c, t1, t2, p1, r1, h1, p2, r2, h2, thr, res, normal):
         sv = 1.0 if k < 2 else -1.0
         for r in range(3):
             cr = ax_ if r == 0 else (ay_ if r == 1 else a)
-            v = to[cr] + tinc * hinc[binc] * rinc[cr, binc] + su * hinc[bu] * rinc[cr, bu] + sv * hinc[bv] * rinc[cr, bv]
+            v = (to[cr] + tinc * hinc[binc] * rinc[cr, binc] + su * hinc[bu] * rinc[cr, bu]
+                 + sv * hinc[bv] * rinc[cr, bv])
             if r == 2:
                 v = sgn * v - href[a]
             poly[k, r] = v

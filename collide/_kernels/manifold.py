@@ -591,7 +591,8 @@ def _polytope(t):
 @njit(cache=True)
 def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, pts_num, nbr_start,
                   nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, rbound, size, geom_margin, geom_gap,
-                  pair_key, pair_margin, pair_gap, override, o_margin, gtype, half, hv_adr, hv_num, hv, f_adr, f_num, f_normal, f_offset, f_vadr, f_vnum, f_vidx, out_geom, out_dist,
+                  pair_key, pair_margin, pair_gap, override, o_margin, gtype, half, hv_adr, hv_num, hv, f_adr, f_num,
+                  f_normal, f_offset, f_vadr, f_vnum, f_vidx, out_geom, out_dist,
                   out_pos, out_normal, out_margin, skipped):
     """Contacts of the geom pairs ``pairs`` at the world poses ``xpos``, ``xmat``.
 
@@ -695,87 +696,94 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
             return -(8 * g1 + ERR_POSE) - 1
         if not _finite_pose(xpos, xmat, g2):
             return -(8 * g2 + ERR_POSE) - 1
-        # the pair's margin and gap: an explicit pair's own, else the geoms' sums
+        # the pair's margin and gap: an explicit pair's own, else the geoms' sums; a geom pair
+        # listed in several <pair>s is collided once for each, with its own (as MuJoCo does)
         lo = min(g1, g2)
         hi = max(g1, g2)
         key = lo * G + hi
         j = np.searchsorted(pair_key, key) if P > 0 else 0
-        if j < P and pair_key[j] == key:
-            margin = pair_margin[j]
-            gap = pair_gap[j]
-        else:
-            margin = geom_margin[g1] + geom_margin[g2]
-            gap = geom_gap[g1] + geom_gap[g2]
-        if override:
-            margin = o_margin
-        thr = margin + gap
-        if c1 == PLANE or c2 == PLANE:
-            gp = g1 if c1 == PLANE else g2
-            gc = g2 if c1 == PLANE else g1
-            sg = 1.0 if c1 == PLANE else -1.0  # the normal from the first geom to the second
-            n = xmat[gp, :, 2].copy()
-            p0 = xpos[gp]
-            cd = n[0] * (xpos[gc, 0] - p0[0]) + n[1] * (xpos[gc, 1] - p0[1]) + n[2] * (xpos[gc, 2] - p0[2])
-            if cd - rbound[gc] > thr:
-                continue
-            if gtype[gc] == T_MESH and hv_num[gc] > 0:
-                a = hv_adr[gc]
-                m = plane_mesh(hv[a:a + hv_num[gc]], f_adr[gc], f_num[gc], f_normal, f_vadr, f_vnum, f_vidx, xmat[gc],
-                               xpos[gc], n, p0, thr, pcand, pdep, sel, res)
+        nent = 1
+        explicit = j < P and pair_key[j] == key
+        if explicit:
+            while j + nent < P and pair_key[j + nent] == key:
+                nent += 1
+        for e in range(nent):
+            if explicit:
+                margin = pair_margin[j + e]
+                gap = pair_gap[j + e]
             else:
-                sc = _shape(gc, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
-                            nbr_adr, nbr_num, xpos, xmat)
-                m = plane_convex(rule[gc], below[gc], sc, n, p0, thr, cand, dep, sel, res)
-            for i in range(m):
-                _emit(k, g1, g2, res[i, 0], res[i, 1], res[i, 2], res[i, 3], sg * n[0], sg * n[1], sg * n[2],
-                      margin, out_geom, out_dist, out_pos, out_normal, out_margin)
-                k += 1
-            continue
-        # two convex geoms: a bounding-sphere test, then the signed distance
-        cc = math.sqrt((xpos[g2, 0] - xpos[g1, 0]) ** 2 + (xpos[g2, 1] - xpos[g1, 1]) ** 2
-                       + (xpos[g2, 2] - xpos[g1, 2]) ** 2)
-        if cc - rbound[g1] - rbound[g2] > thr:
-            continue
-        t1 = gtype[g1]
-        t2 = gtype[g2]
-        if t1 == T_BOX and t2 == T_BOX:
-            # MuJoCo's box-box: separating axes and a clipped face (up to 8 contacts)
-            m = box_box(xpos[g1], xmat[g1], half[g1], xpos[g2], xmat[g2], half[g2], thr, res, bnrm)
-            for i in range(m):
-                _emit(k, g1, g2, res[i, 0], res[i, 1], res[i, 2], res[i, 3], bnrm[0], bnrm[1], bnrm[2], margin,
-                      out_geom, out_dist, out_pos, out_normal, out_margin)
-                k += 1
-            continue
-        s1 = _shape(g1, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
-                    nbr_adr, nbr_num, xpos, xmat)
-        s2 = _shape(g2, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
-                    nbr_adr, nbr_num, xpos, xmat)
-        pair_distance(s1, s2, 1e-12 * (size[g1] + size[g2]), d0, -1, -1, 128, out)
-        d = out[OUT_DISTANCE]
-        if d > thr:
-            continue
-        if d < 0.0 and not thr > 0.0 and _polytope(t1) and _polytope(t2) and f_num[g1] > 0 and f_num[g2] > 0:
-            # two polytopes in penetration without a margin: MuJoCo's multi-contact of faces
-            for q in range(3):
-                pa[q] = out[OUT_POINT_A + q]
-                pb[q] = out[OUT_POINT_B + q]
-                nv[q] = out[OUT_NORMAL + q]
-            m = polytope_contacts(g1, g2, xpos, xmat, d, nv, pa, pb, 1e-7 * (size[g1] + size[g2]), hv_adr, hv, f_adr,
-                                  f_num, f_normal, f_offset, f_vadr, f_vnum, f_vidx, face1, face2, poly, tmp, cand1,
-                                  cnrm1, cand2, cnrm2, res)
-            if m > 0:
+                margin = geom_margin[g1] + geom_margin[g2]
+                gap = geom_gap[g1] + geom_gap[g2]
+            if override:
+                margin = o_margin
+            thr = margin + gap
+            if c1 == PLANE or c2 == PLANE:
+                gp = g1 if c1 == PLANE else g2
+                gc = g2 if c1 == PLANE else g1
+                sg = 1.0 if c1 == PLANE else -1.0  # the normal from the first geom to the second
+                n = xmat[gp, :, 2].copy()
+                p0 = xpos[gp]
+                cd = n[0] * (xpos[gc, 0] - p0[0]) + n[1] * (xpos[gc, 1] - p0[1]) + n[2] * (xpos[gc, 2] - p0[2])
+                if cd - rbound[gc] > thr:
+                    continue
+                if gtype[gc] == T_MESH and hv_num[gc] > 0:
+                    a = hv_adr[gc]
+                    m = plane_mesh(hv[a:a + hv_num[gc]], f_adr[gc], f_num[gc], f_normal, f_vadr, f_vnum, f_vidx,
+                                   xmat[gc], xpos[gc], n, p0, thr, pcand, pdep, sel, res)
+                else:
+                    sc = _shape(gc, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
+                                nbr_adr, nbr_num, xpos, xmat)
+                    m = plane_convex(rule[gc], below[gc], sc, n, p0, thr, cand, dep, sel, res)
                 for i in range(m):
-                    _emit(k, g1, g2, res[i, 0], res[i, 1], res[i, 2], res[i, 3], nv[0], nv[1], nv[2], margin,
+                    _emit(k, g1, g2, res[i, 0], res[i, 1], res[i, 2], res[i, 3], sg * n[0], sg * n[1], sg * n[2],
+                          margin, out_geom, out_dist, out_pos, out_normal, out_margin)
+                    k += 1
+                continue
+            # two convex geoms: a bounding-sphere test, then the signed distance
+            cc = math.sqrt((xpos[g2, 0] - xpos[g1, 0]) ** 2 + (xpos[g2, 1] - xpos[g1, 1]) ** 2
+                           + (xpos[g2, 2] - xpos[g1, 2]) ** 2)
+            if cc - rbound[g1] - rbound[g2] > thr:
+                continue
+            t1 = gtype[g1]
+            t2 = gtype[g2]
+            if t1 == T_BOX and t2 == T_BOX:
+                # MuJoCo's box-box: separating axes and a clipped face (up to 8 contacts)
+                m = box_box(xpos[g1], xmat[g1], half[g1], xpos[g2], xmat[g2], half[g2], thr, res, bnrm)
+                for i in range(m):
+                    _emit(k, g1, g2, res[i, 0], res[i, 1], res[i, 2], res[i, 3], bnrm[0], bnrm[1], bnrm[2], margin,
                           out_geom, out_dist, out_pos, out_normal, out_margin)
                     k += 1
                 continue
-        _emit(k, g1, g2, d,
-              0.5 * (out[OUT_POINT_A] + out[OUT_POINT_B]),
-              0.5 * (out[OUT_POINT_A + 1] + out[OUT_POINT_B + 1]),
-              0.5 * (out[OUT_POINT_A + 2] + out[OUT_POINT_B + 2]),
-              out[OUT_NORMAL], out[OUT_NORMAL + 1], out[OUT_NORMAL + 2],
-              margin, out_geom, out_dist, out_pos, out_normal, out_margin)
-        k += 1
+            s1 = _shape(g1, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
+                        nbr_adr, nbr_num, xpos, xmat)
+            s2 = _shape(g2, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
+                        nbr_adr, nbr_num, xpos, xmat)
+            pair_distance(s1, s2, 1e-12 * (size[g1] + size[g2]), d0, -1, -1, 128, out)
+            d = out[OUT_DISTANCE]
+            if d > thr:
+                continue
+            if d < 0.0 and not thr > 0.0 and _polytope(t1) and _polytope(t2) and f_num[g1] > 0 and f_num[g2] > 0:
+                # two polytopes in penetration without a margin: MuJoCo's multi-contact of faces
+                for q in range(3):
+                    pa[q] = out[OUT_POINT_A + q]
+                    pb[q] = out[OUT_POINT_B + q]
+                    nv[q] = out[OUT_NORMAL + q]
+                m = polytope_contacts(g1, g2, xpos, xmat, d, nv, pa, pb, 1e-7 * (size[g1] + size[g2]), hv_adr, hv,
+                                      f_adr, f_num, f_normal, f_offset, f_vadr, f_vnum, f_vidx, face1, face2, poly,
+                                      tmp, cand1, cnrm1, cand2, cnrm2, res)
+                if m > 0:
+                    for i in range(m):
+                        _emit(k, g1, g2, res[i, 0], res[i, 1], res[i, 2], res[i, 3], nv[0], nv[1], nv[2], margin,
+                              out_geom, out_dist, out_pos, out_normal, out_margin)
+                        k += 1
+                    continue
+            _emit(k, g1, g2, d,
+                  0.5 * (out[OUT_POINT_A] + out[OUT_POINT_B]),
+                  0.5 * (out[OUT_POINT_A + 1] + out[OUT_POINT_B + 1]),
+                  0.5 * (out[OUT_POINT_A + 2] + out[OUT_POINT_B + 2]),
+                  out[OUT_NORMAL], out[OUT_NORMAL + 1], out[OUT_NORMAL + 2],
+                  margin, out_geom, out_dist, out_pos, out_normal, out_margin)
+            k += 1
     return k
 
 
