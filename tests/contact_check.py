@@ -252,7 +252,10 @@ def compare_step(model, data, collider: cm.Collider, tally: Tally, step: int) ->
             if d_mj > contact_distance(table, g1, g2)[1] - tol:
                 tally.boundary += 1
             else:
-                settle(key, "missed", d_mj, None)
+                # our witness direction certifies a lower bound (the support values along it)
+                _, ft = collider.geom_distance(data, g1, g2, math.inf)
+                u = ft[3:] - ft[:3]
+                settle(key, "missed", d_mj, None, (u,) if np.linalg.norm(u) > 0 else ())
             continue
         tally.both += 1
         d = float(ours.dist[i])
