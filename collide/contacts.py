@@ -146,8 +146,16 @@ class GeomTable:
     geom_margin, geom_gap : (G,) float64
     pair_key : (P,) int64
         ``g1 * G + g2``, lower id first, sorted; ``pair_margin``, ``pair_gap`` : (P,) float64 in its order.
+    pair_mult : int
+        The most ``<pair>`` s naming one geom pair (each is collided, as MuJoCo does).
     override : bool
     o_margin : float
+    gtype : (G,) int8
+        MuJoCo's geom types (`GEOM_TYPES`).
+    half : (G, 3) float64
+        Half sizes of the boxes (zeros for other geoms).
+    faces : collide.faces.FaceTable
+        Hull faces of the boxes and meshes (face contacts, `collide._kernels.faces`).
     """
 
     def __init__(self, model):

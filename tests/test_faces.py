@@ -60,11 +60,11 @@ def _same_points(a: np.ndarray, b: np.ndarray, tol: float) -> bool:
 
 def test_box_box_is_its_twin():
     rng = np.random.default_rng(46)
-    res, nrm = np.zeros((kf.BOX_MAX, 4)), np.zeros(3)
+    res, nrm, ws = np.zeros((kf.BOX_MAX, 4)), np.zeros(3), np.zeros(kf.BOX_WS)
     hits = faces = edges = 0
     for trial in range(600):
         p1, r1, h1, p2, r2, h2, thr = _box_case(rng, trial)
-        k = kf.box_box(p1, r1, h1, p2, r2, h2, thr, res, nrm)
+        k = kf.box_box(p1, r1, h1, p2, r2, h2, thr, res, nrm, ws)
         twin = tm.box_box_contacts(p1, r1, h1, p2, r2, h2, thr)
         if twin is None:
             assert k == 0, trial
@@ -82,7 +82,7 @@ def test_box_box_is_its_twin():
 def test_box_box_is_mujocos():
     # MuJoCo 4's box-box (mjc_BoxBox): the same contacts, one for one, margins included.
     rng = np.random.default_rng(7)
-    res, nrm = np.zeros((kf.BOX_MAX, 4)), np.zeros(3)
+    res, nrm, ws = np.zeros((kf.BOX_MAX, 4)), np.zeros(3), np.zeros(kf.BOX_WS)
     hits = eights = 0
     for trial in range(300):
         p1, r1, h1, p2, r2, h2, thr = _box_case(rng, trial)
@@ -99,7 +99,7 @@ def test_box_box_is_mujocos():
         d = mujoco.MjData(m)
         mujoco.mj_forward(m, d)
         xm = d.geom_xmat.reshape(-1, 3, 3)
-        k = kf.box_box(d.geom_xpos[0], xm[0], h1, d.geom_xpos[1], xm[1], h2, thr, res, nrm)
+        k = kf.box_box(d.geom_xpos[0], xm[0], h1, d.geom_xpos[1], xm[1], h2, thr, res, nrm, ws)
         assert k == d.ncon, trial
         if k:
             hits += 1
@@ -134,7 +134,7 @@ def test_clip_faces_is_its_twin():
         tilt = rng.normal(size=2) * 0.02
         ref = np.c_[ref2, np.zeros(len(ref2))]
         inc = np.c_[inc2, -0.05 + inc2 @ tilt]
-        k = kf.clip_faces(ref, len(ref), n, inc[::-1].copy(), len(inc), poly, tmp, res)
+        k = kf.clip_faces(ref, len(ref), n, inc[::-1].copy(), len(inc), poly, tmp, res, np.zeros(4, np.int64))
         verts = tm.convex_polygon_intersection(inc2, ref2)
         h = -0.05 + verts @ tilt if len(verts) else np.zeros(0)
         keep = h <= 0

@@ -29,6 +29,8 @@ from numba import njit
 
 # Most contacts of one box-box manifold: a quadrilateral clipped by 4 half-planes.
 BOX_MAX = 8
+# Length of `box_box`'s workspace.
+BOX_WS = 48 + 12 + 6 * (BOX_MAX + 4)
 # Relative slack of the separation tests (rounding of sums of products of the half sizes).
 _SEP_EPS = 1e-13
 # An edge-cross axis of two edges closer to parallel than this (sin^2) is rounding noise.
@@ -76,7 +78,7 @@ def _clip_half(poly, n, tmp, coord, sign, limit):
 
 
 @njit(cache=True)
-def box_box(p1, r1, h1, p2, r2, h2, thr, res, normal):
+def box_box(p1, r1, h1, p2, r2, h2, thr, res, normal, ws):
     """Contacts of two boxes.
 
     Parameters
@@ -93,6 +95,8 @@ def box_box(p1, r1, h1, p2, r2, h2, thr, res, normal):
         Receives ``(dist, pos x, y, z)`` per contact.
     normal : (3,) float64
         Receives the contacts' common normal, unit, from box 1 to box 2.
+    ws : (BOX_WS,) float64
+        Workspace (allocated once by the caller).
 
     Returns
     -------
@@ -100,9 +104,9 @@ def box_box(p1, r1, h1, p2, r2, h2, thr, res, normal):
         Contacts written, 0 to `BOX_MAX`.
     """
     # c[i, j] = a_i . b_j; t1: centre 2 in box 1's frame; t2: centre 1 in box 2's frame
-    c = np.empty((3, 3))
-    t1 = np.empty(3)
-    t2 = np.empty(3)
+    c = ws[0:9].reshape((3, 3))
+    t1 = ws[9:12]
+    t2 = ws[12:15]
     d0 = p2[0] - p1[0]
     d1 = p2[1] - p1[1]
     d2 = p2[2] - p1[2]
@@ -128,7 +132,7 @@ def box_box(p1, r1, h1, p2, r2, h2, thr, res, normal):
             best, code = s, 3 + j
     face_best = best
     face_code = code
-    ax = np.empty(3)
+    ax = ws[15:18]
     for i in range(3):  # edges: a_i x b_j, in box 1's frame (e_i x c[:, j])
         i1 = (i + 1) % 3
         i2 = (i + 2) % 3
@@ -164,8 +168,8 @@ def box_box(p1, r1, h1, p2, r2, h2, thr, res, normal):
             code = face_code
             best = face_best
     if code >= 6:
-        return _edge_edge(code, c, t1, p1, r1, h1, h2, tol, ax, res, normal)
-    return _face(code, c, t1, t2, p1, r1, h1, p2, r2, h2, thr, res, normal)
+        return _edge_edge(code, c, t1, p1, r1, h1, h2, tol, ax, res, normal, ws[18:48])
+    return _face(code, c, t1, t2, p1, r1, h1, p2, r2, h2, thr, res, normal, ws[48:])
 
 
 @njit(cache=True)
@@ -182,7 +186,7 @@ def _edge_axis(c, i, j, ax):
 
 
 @njit(cache=True)
-def _edge_edge(code, c, t1, p1, r1, h1, h2, tol, ax, res, normal):
+def _edge_edge(code, c, t1, p1, r1, h1, h2, tol, ax, res, normal, ws):
     # One contact: the closest points of the supporting edges (box 1's along e_i, box 2's along
     # b_j), in box 1's frame; an ambiguous corner (an axis component near zero) tried both ways.
     i = (code - 6) // 3
@@ -195,21 +199,21 @@ def _edge_edge(code, c, t1, p1, r1, h1, h2, tol, ax, res, normal):
     if ax[0] * t1[0] + ax[1] * t1[1] + ax[2] * t1[2] < 0.0:
         for q in range(3):
             ax[q] = -ax[q]
-    a2 = np.empty(3)  # the axis in box 2's frame
+    a2 = ws[0:3]  # the axis in box 2's frame
     for q in range(3):
         a2[q] = ax[0] * c[0, q] + ax[1] * c[1, q] + ax[2] * c[2, q]
     amb1 = i1 if abs(ax[i1]) < _SGN_EPS else (i2 if abs(ax[i2]) < _SGN_EPS else -1)
     amb2 = j1 if abs(a2[j1]) < _SGN_EPS else (j2 if abs(a2[j2]) < _SGN_EPS else -1)
-    e2 = np.empty(3)  # b_j in box 1's frame
+    e2 = ws[3:6]  # b_j in box 1's frame
     for q in range(3):
         e2[q] = c[q, j]
     b = e2[i]
     den = 1.0 - b * b
-    c1 = np.empty(3)
-    cc = np.empty(3)
-    c2 = np.empty(3)
-    w1 = np.empty(3)
-    w2 = np.empty(3)
+    c1 = ws[6:9]
+    cc = ws[9:12]
+    c2 = ws[12:15]
+    w1 = ws[15:18]
+    w2 = ws[18:21]
     bestd = np.inf
     for v1 in range(2 if amb1 >= 0 else 1):
         for v2 in range(2 if amb2 >= 0 else 1):
@@ -253,7 +257,7 @@ def _edge_edge(code, c, t1, p1, r1, h1, h2, tol, ax, res, normal):
 
 
 @njit(cache=True)
-def _face(code, c, t1, t2, p1, r1, h1, p2, r2, h2, thr, res, normal):
+def _face(code, c, t1, t2, p1, r1, h1, p2, r2, h2, thr, res, normal, ws):
     # Reference box: the owner of the winning face (axis a); the other box's face most opposed
     # to it is clipped to the reference face, in the reference frame: (x, y) along the face's two
     # axes, z the height above the face (negative inside the reference box).
@@ -264,7 +268,7 @@ def _face(code, c, t1, t2, p1, r1, h1, p2, r2, h2, thr, res, normal):
     else:
         href, hinc, pref, rref, to = h2, h1, p2, r2, t2
     # rinc[r, k]: component r (reference frame) of the incident box's axis k
-    rinc = np.empty((3, 3))
+    rinc = ws[0:9].reshape((3, 3))
     for r in range(3):
         for k in range(3):
             rinc[r, k] = c[r, k] if ref1 else c[k, r]
@@ -278,8 +282,9 @@ def _face(code, c, t1, t2, p1, r1, h1, p2, r2, h2, thr, res, normal):
     ay_ = (a + 2) % 3
     bu = (binc + 1) % 3
     bv = (binc + 2) % 3
-    poly = np.empty((BOX_MAX + 4, 3))
-    tmp = np.empty((BOX_MAX + 4, 3))
+    nv = BOX_MAX + 4
+    poly = ws[9:9 + 3 * nv].reshape((nv, 3))
+    tmp = ws[9 + 3 * nv:9 + 6 * nv].reshape((nv, 3))
     for k in range(4):
         su = 1.0 if k == 0 or k == 3 else -1.0
         sv = 1.0 if k < 2 else -1.0
@@ -300,7 +305,7 @@ def _face(code, c, t1, t2, p1, r1, h1, p2, r2, h2, thr, res, normal):
     for q in range(3):
         normal[q] = ns * rref[q, a]
     m = 0
-    loc = np.empty(3)
+    loc = ws[9 + 6 * nv:12 + 6 * nv]
     for k in range(n):
         if poly[k, 2] > thr:
             continue
@@ -361,7 +366,7 @@ def quad_max_area(poly, n, sel):
 
 
 @njit(cache=True)
-def clip_faces(ref, nref, nrm, inc, ninc, poly, tmp, res):
+def clip_faces(ref, nref, nrm, inc, ninc, poly, tmp, res, sel):
     """Clip polygon ``inc`` to the prism over the face ``ref``; the points below ``ref``'s plane.
 
     Parameters
@@ -380,6 +385,8 @@ def clip_faces(ref, nref, nrm, inc, ninc, poly, tmp, res):
     res : (4, 4) float64
         Receives ``(depth, x, y, z)``: the depth (signed height above ``ref``'s plane, at most
         0) and the clipped point (on the incident polygon).
+    sel : (4,) int64
+        Scratch.
 
     Returns
     -------
@@ -455,7 +462,6 @@ def clip_faces(ref, nref, nrm, inc, ninc, poly, tmp, res):
             res[1, 1 + q] = tmp[bj, q]
         return 2
     if m > 4:
-        sel = np.empty(4, np.int64)
         quad_max_area(tmp, m, sel)
         for r in range(4):
             res[r, 0] = poly[sel[r], 0]

@@ -34,7 +34,7 @@ import numpy as np
 from numba import njit
 
 from .distance import OUT_DISTANCE, OUT_NORMAL, OUT_POINT_A, OUT_POINT_B, OUT_SIZE, pair_distance
-from .faces import BOX_MAX, box_box, clip_faces
+from .faces import BOX_MAX, BOX_WS, box_box, clip_faces
 from .support import support
 
 # Geom classes (`collide.contacts.GeomTable.cls`).
@@ -463,7 +463,7 @@ def _touching_faces(g, x, u, xpos, xmat, hv_adr, f_adr, f_num, f_normal, f_offse
 
 @njit(cache=True)
 def polytope_contacts(g1, g2, xpos, xmat, d, nrm, pa, pb, tol, hv_adr, hv, f_adr, f_num, f_normal, f_offset,
-                      f_vadr, f_vnum, f_vidx, face1, face2, poly, tmp, cand1, cnrm1, cand2, cnrm2, res):
+                      f_vadr, f_vnum, f_vidx, face1, face2, poly, tmp, cand1, cnrm1, cand2, cnrm2, seg, sel, res):
     """Face contacts of two penetrating polytopes (boxes, convex meshes) from their exact contact.
 
     The behaviour of MuJoCo 4's multi-contact (``multicontact`` in engine_collision_gjk.c): the
@@ -487,7 +487,7 @@ def polytope_contacts(g1, g2, xpos, xmat, d, nrm, pa, pb, tol, hv_adr, hv, f_adr
         The face tables (`collide.faces.FaceTable`).
     face1, face2, poly, tmp : (M, 3) float64
         Scratch, ``M`` at least twice the largest face's vertex count plus 8.
-    cand1, cand2 : (C,) int64, cnrm1, cnrm2 : (C, 3) float64
+    cand1, cand2 : (C,) int64, cnrm1, cnrm2 : (C, 3) float64, seg : (2, 3) float64, sel : (4,) int64
         Scratch.
     res : (4, 4) float64
         Receives ``(dist, pos x, y, z)``.
@@ -516,7 +516,7 @@ def polytope_contacts(g1, g2, xpos, xmat, d, nrm, pa, pb, tol, hv_adr, hv, f_adr
     if bd < -FACE_TOL:
         n1 = _world_face(hv, hv_adr[g1], f_vidx, f_vadr, f_vnum, cand1[bi], xmat[g1], xpos[g1], face1)
         n2 = _world_face(hv, hv_adr[g2], f_vidx, f_vadr, f_vnum, cand2[bj], xmat[g2], xpos[g2], face2)
-        k = clip_faces(face1, n1, cnrm1[bi], face2, n2, poly, tmp, res)
+        k = clip_faces(face1, n1, cnrm1[bi], face2, n2, poly, tmp, res, sel)
         side = 1
         ref = bi
     else:
@@ -524,11 +524,11 @@ def polytope_contacts(g1, g2, xpos, xmat, d, nrm, pa, pb, tol, hv_adr, hv, f_adr
         dim2 = 3 if c2 == 1 else (2 if c2 == 2 else 1)
         if dim1 < 3 and dim1 <= dim2:
             k, ref = _edge_in_face(g1, g2, pa, tol, c1, cand1, c2, cand2, cnrm2, xpos, xmat, hv_adr, hv, f_vadr,
-                                   f_vnum, f_vidx, face1, face2, poly, tmp, res)
+                                   f_vnum, f_vidx, face1, face2, poly, tmp, seg, sel, res)
             side = 2
         elif dim2 < 3:
             k, ref = _edge_in_face(g2, g1, pb, tol, c2, cand2, c1, cand1, cnrm1, xpos, xmat, hv_adr, hv, f_vadr,
-                                   f_vnum, f_vidx, face2, face1, poly, tmp, res)
+                                   f_vnum, f_vidx, face2, face1, poly, tmp, seg, sel, res)
             side = 3
     if k == 0:
         return 0
@@ -550,7 +550,7 @@ def polytope_contacts(g1, g2, xpos, xmat, d, nrm, pa, pb, tol, hv_adr, hv, f_adr
 
 @njit(cache=True)
 def _edge_in_face(ge, gf, x, tol, ce, cande, cf, candf, cnrmf, xpos, xmat, hv_adr, hv, f_vadr, f_vnum, f_vidx,
-                  bufe, buff, poly, tmp, res):
+                  bufe, buff, poly, tmp, seg, sel, res):
     # An edge of geom ge through its witness x (an edge of one of its touching faces) lying in a
     # touching face of geom gf: the edge clipped to that face. Returns (points, the face's row).
     for i in range(ce):
@@ -574,11 +574,10 @@ def _edge_in_face(ge, gf, x, tol, ce, cande, cf, candf, cnrmf, xpos, xmat, hv_ad
             for j in range(cf):
                 if abs((u0 * cnrmf[j, 0] + u1 * cnrmf[j, 1] + u2 * cnrmf[j, 2]) * il) < EDGE_TOL:
                     nf = _world_face(hv, hv_adr[gf], f_vidx, f_vadr, f_vnum, candf[j], xmat[gf], xpos[gf], buff)
-                    seg = np.empty((2, 3))
                     for q in range(3):
                         seg[0, q] = bufe[e, q]
                         seg[1, q] = bufe[e1, q]
-                    return clip_faces(buff, nf, cnrmf[j], seg, 2, poly, tmp, res), j
+                    return clip_faces(buff, nf, cnrmf[j], seg, 2, poly, tmp, res, sel), j
     return 0, 0
 
 
@@ -662,6 +661,8 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
     sel = np.zeros(4, np.int64)
     res = np.empty((MAX_PER_PAIR, 4))
     bnrm = np.empty(3)
+    bws = np.empty(BOX_WS)
+    seg = np.empty((2, 3))
     fmax = 4
     for f in range(f_vnum.shape[0]):
         if f_vnum[f] > fmax:
@@ -748,7 +749,7 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
             t2 = gtype[g2]
             if t1 == T_BOX and t2 == T_BOX:
                 # MuJoCo's box-box: separating axes and a clipped face (up to 8 contacts)
-                m = box_box(xpos[g1], xmat[g1], half[g1], xpos[g2], xmat[g2], half[g2], thr, res, bnrm)
+                m = box_box(xpos[g1], xmat[g1], half[g1], xpos[g2], xmat[g2], half[g2], thr, res, bnrm, bws)
                 for i in range(m):
                     _emit(k, g1, g2, res[i, 0], res[i, 1], res[i, 2], res[i, 3], bnrm[0], bnrm[1], bnrm[2], margin,
                           out_geom, out_dist, out_pos, out_normal, out_margin)
@@ -770,7 +771,7 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
                     nv[q] = out[OUT_NORMAL + q]
                 m = polytope_contacts(g1, g2, xpos, xmat, d, nv, pa, pb, 1e-7 * (size[g1] + size[g2]), hv_adr, hv,
                                       f_adr, f_num, f_normal, f_offset, f_vadr, f_vnum, f_vidx, face1, face2, poly,
-                                      tmp, cand1, cnrm1, cand2, cnrm2, res)
+                                      tmp, cand1, cnrm1, cand2, cnrm2, seg, sel, res)
                 if m > 0:
                     for i in range(m):
                         _emit(k, g1, g2, res[i, 0], res[i, 1], res[i, 2], res[i, 3], nv[0], nv[1], nv[2], margin,
