@@ -487,7 +487,7 @@ class BroadPhase:
         # is NULL there): such pairs never make contacts and are removed after the kernel.
         types = np.asarray(model.geom_type)
         self._no_function = None
-        self._null_in = self._null_out = None  # _drop_null's last input and output (pairs())
+        self._null = (None, None)  # _drop_null's last input and output (pairs()), one tuple: one store
         if np.any(types == _GEOM.mjGEOM_HFIELD):
             self._no_function = (types == _GEOM.mjGEOM_HFIELD) | (types == _GEOM.mjGEOM_PLANE)
 
@@ -503,13 +503,14 @@ class BroadPhase:
     def _drop_null(self, pairs: np.ndarray, first: int) -> np.ndarray:
         if self._no_function is None or len(pairs) == 0:
             return pairs
-        if first == 0 and pairs is self._null_in:  # pairs() handed out its last result again
-            return self._null_out
+        held, out = self._null
+        if first == 0 and pairs is held:  # pairs() handed out its last result again
+            return out
         nf = self._no_function
         out = pairs[~(nf[pairs[:, first]] & nf[pairs[:, first + 1]])]
         if first == 0:  # pairs(): read-only, and the same array again while its input is
             out.flags.writeable = False
-            self._null_in, self._null_out = pairs, out
+            self._null = (pairs, out)  # another thread sees both or neither
         return out
 
     @property
