@@ -253,7 +253,7 @@ def compare_step(model, data, collider: cm.Collider, tally: Tally, step: int) ->
                 tally.boundary += 1
             else:
                 # our witness direction certifies a lower bound (the support values along it)
-                _, ft = collider.geom_distance(data, g1, g2, math.inf)
+                _, ft = collider.geom_distance(data, g1, g2, 1e300)
                 u = ft[3:] - ft[:3]
                 settle(key, "missed", d_mj, None, (u,) if np.linalg.norm(u) > 0 else ())
             continue
