@@ -37,7 +37,8 @@ def _parser() -> argparse.ArgumentParser:
                       "pip install 'collide[viz]'): geoms, our bounds, candidate pairs, MuJoCo's contacts and "
                       "ours, missed pairs; open it with `rerun FILE.rrd` (see docs/visualising.md)")
     cmp_.add_argument("--no-contacts", action="store_true", help="compare candidate pairs only, not "
-                      "contacts (our narrow phase against MuJoCo's contacts, each pair's deepest)")
+                      "contacts (our narrow phase against MuJoCo's contacts, each pair's deepest); "
+                      "with --rerun, our contacts are left out of the recording too")
     return parser
 
 
@@ -79,7 +80,21 @@ def compare_main(args: argparse.Namespace) -> int:
             print("error: --rerun needs rerun-sdk: pip install 'collide[viz]' (or pip install rerun-sdk)",
                   file=sys.stderr)
             return 2
-    for flag, out in (("--json", args.json), ("--plot", args.plot), ("--rerun", args.rerun)):
+    outputs = [(flag, out) for flag, out in (("--json", args.json), ("--plot", args.plot), ("--rerun", args.rerun))
+               if out is not None]
+    for flag, out in outputs:
+        if not out:
+            print(f"error: {flag}: empty file name", file=sys.stderr)
+            return 2
+    seen = {}
+    for flag, out in outputs:
+        # Two outputs to one file: the later would overwrite the former, silently.
+        key = Path(out).resolve()
+        if key in seen:
+            print(f"error: {seen[key]} and {flag} name the same file ({out})", file=sys.stderr)
+            return 2
+        seen[key] = flag
+    for flag, out in outputs:
         # The outputs are checked now, not after the whole run (and exit status 1 means a miss).
         if out:
             if Path(out).is_dir():
@@ -90,6 +105,15 @@ def compare_main(args: argparse.Namespace) -> int:
             except OSError as exc:
                 print(f"error: cannot create the folder of {out}: {exc}", file=sys.stderr)
                 return 2
+            existed = Path(out).exists()
+            try:  # can it be written? (opened to append: an existing file is left as it is)
+                with open(out, "ab"):
+                    pass
+            except OSError as exc:
+                print(f"error: {flag}: cannot write {out}: {exc}", file=sys.stderr)
+                return 2
+            if not existed:
+                Path(out).unlink()
     if args.model:
         try:
             model, name = cm.load_model(args.model)
@@ -104,8 +128,16 @@ def compare_main(args: argparse.Namespace) -> int:
     if args.rerun:
         from .rerun_log import record_compare
 
-        result, _ = record_compare(model, args.rerun, steps=args.steps, seed=args.seed, name=name,
-                                   hold=args.hold, contacts=not args.no_contacts)
+        try:
+            result, _ = record_compare(model, args.rerun, steps=args.steps, seed=args.seed, name=name,
+                                       hold=args.hold, contacts=not args.no_contacts)
+        except ValueError as exc:
+            # The file is opened before the run: one that cannot be written after all (its
+            # check above passed) is bad usage, not a miss.
+            if not str(exc).startswith("path:"):
+                raise
+            print(f"error: --rerun: {exc}", file=sys.stderr)
+            return 2
     else:
         result = cm.compare(model, steps=args.steps, seed=args.seed, name=name, hold=args.hold,
                             contacts=not args.no_contacts)

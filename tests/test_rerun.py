@@ -305,3 +305,142 @@ def test_quaternions_match_scipy():
         sign = np.sign(np.sum(q * ref, axis=1))[:, None]  # q and -q are the same rotation
         np.testing.assert_allclose(q, sign * ref, atol=1e-12)
         np.testing.assert_allclose(Rotation.from_quat(q).as_matrix(), m, atol=1e-12)
+
+
+# ---------------------------------------------------------------- adversarial review (issue 47)
+
+LONE = BALLS.replace('<geom name="ghost"', '<body name="high" pos="0 0 3"><freejoint/>'
+                     '<geom name="high" type="box" size="0.1 0.1 0.1"/></body>\n    <geom name="ghost"')
+
+
+def _stepped(xml=BALLS, steps=2):
+    model = mujoco.MjModel.from_xml_string(xml)
+    data = mujoco.MjData(model)
+    for _ in range(steps):
+        mujoco.mj_step(model, data)
+    return model, data
+
+
+def test_a_closed_log_refuses_to_log(tmp_path):
+    # Before: log() after close() (or in a second with-block) returned a StepRecord and wrote nothing.
+    model, data = _stepped()
+    log = log_rerun(model, tmp_path / "closed.rrd")
+    with log:
+        log.log(data)
+    for call in (lambda: log.log(data), lambda: log.log_series("stats/x", [1.0]), log.flush,
+                 lambda: log.snapshot(0, data, np.zeros((0, 2), int)), log.flush_snapshots):
+        with pytest.raises(ValueError, match="closed"):
+            call()
+    with pytest.raises(ValueError, match="closed"):
+        with log:
+            pass
+    log.close()  # a second close does nothing
+    _, steps, _ = _table(tmp_path / "closed.rrd")
+    assert list(steps) == [0]
+
+
+def test_bad_arguments_leave_an_existing_file(tmp_path):
+    # Before: the file was truncated (opened) and only then were steps/hold/seed refused.
+    model = mujoco.MjModel.from_xml_string(BALLS)
+    path = tmp_path / "run.rrd"
+    record_compare(model, path, steps=3, hold=2, contacts=False)
+    before = path.read_bytes()
+    assert len(_table(path)[1]) == 3
+    for bad in ({"steps": 0}, {"hold": 0}, {"seed": -1}, {"steps": 2.5}, {"contacts": "no"},
+                {"bodies": "no"}, {"visual": 1}, {"series_every": 0}, {"recording": "rec"}):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            record_compare(model, path, **{"steps": 3, **bad})
+    assert path.read_bytes() == before
+    assert list(_table(path)[1]) == [0, 1, 2]
+
+
+def test_unwritable_path(tmp_path, capsys):
+    # Before: rerun's RuntimeError from inside its bindings; the CLI printed a traceback, exit 1.
+    from collide.__main__ import main
+
+    model = mujoco.MjModel.from_xml_string(BALLS)
+    blocker = tmp_path / "file.txt"
+    blocker.write_text("a file, not a folder")
+    with pytest.raises(ValueError, match="file.txt"):
+        RerunLog(model, blocker / "x.rrd")
+    with pytest.raises(ValueError, match="path: empty"):
+        RerunLog(model, "")
+    if sys.platform.startswith("linux"):  # sysfs refuses new files, even to root
+        with pytest.raises(ValueError, match="path: cannot write /sys/x.rrd"):
+            RerunLog(model, "/sys/x.rrd")
+        assert main(["compare", "--steps", "1", "--rerun", "/sys/x.rrd"]) == 2
+        assert "/sys/x.rrd" in capsys.readouterr().err
+
+
+def test_cli_output_names(tmp_path, capsys):
+    # Before: --rerun '' recorded nothing without a word; --rerun X --json X overwrote the recording.
+    from collide.__main__ import main
+
+    same = tmp_path / "same"
+    assert main(["compare", "--steps", "1", "--rerun", str(same), "--json", str(same)]) == 2
+    assert "same file" in capsys.readouterr().err
+    assert main(["compare", "--steps", "1", "--rerun", ""]) == 2
+    assert "empty" in capsys.readouterr().err
+    assert not same.exists()
+
+
+def test_candidates_are_checked(tmp_path):
+    # Before: IndexError, negative ids wrapped, floats truncated, numpy's messages, self-pairs taken.
+    model, data = _stepped()
+    floor, ball = (mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, n) for n in ("floor", "ball"))
+    assert [floor, ball] in cm.contact_pairs(model, data).tolist()  # the scene has a contact
+    with RerunLog(model, tmp_path / "cand.rrd") as log:
+        for bad, what in (([[0, 99]], "out of"), ([[-1, 0]], "out of"), ([[0.4, 1.6]], "integer"),
+                          ([1, 2, 3], "shape"), ([[np.nan, 1]], "non-finite"), ([[1, 1]], "itself"),
+                          ([["a", "b"]], "integer")):
+            with pytest.raises(ValueError, match=f"candidates: .*{what}"):
+                log.log(data, candidates=bad)
+        # A pair given higher id first is the same pair: not a miss.
+        touching = cm.contact_pairs(model, data)
+        assert log.log(data, candidates=touching[:, ::-1]).missed_pairs == 0
+        assert log.log(data, candidates=touching.astype(float)).missed_pairs == 0
+        assert log.log(data, candidates=[]).missed_pairs == len(touching)
+
+
+def test_non_finite_pose_of_a_geom_in_no_pair(tmp_path):
+    # Before: logged (an inf centre, a NaN quaternion): the narrow phase checks only paired geoms.
+    model, data = _stepped(LONE)
+    high = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "high")
+    assert high not in cm.Collider(model).pairs(data)
+    with RerunLog(model, tmp_path / "nan.rrd") as log:
+        for arr, index in ((data.geom_xpos, (high, 0)), (data.geom_xmat, (high, 4))):
+            keep = arr[index]
+            arr[index] = np.inf if arr is data.geom_xpos else np.nan
+            with pytest.raises(ValueError, match=f"non-finite pose .* geom {high}_high"):
+                log.log(data)
+            arr[index] = keep
+        with pytest.raises(ValueError, match="step"):
+            log.log(data, step=2**63)
+        assert log.log(data).step == 0  # still works
+
+
+def test_series_reach_the_file_without_close(tmp_path):
+    # Before: the series (sent every series_every steps) of a log never closed were lost.
+    import subprocess
+
+    path = tmp_path / "open.rrd"
+    script = (f"import mujoco, collide.mujoco as cm\nm = mujoco.MjModel.from_xml_string({BALLS!r})\n"
+              f"d = mujoco.MjData(m)\nlog = cm.log_rerun(m, {str(path)!r})\n"
+              "for _ in range(10):\n    mujoco.mj_step(m, d); log.log(d)\n")
+    subprocess.run([sys.executable, "-c", script], check=True, timeout=600)
+    table, steps, _ = _table(path)
+    assert list(steps) == list(range(10))
+    assert len(_scalars(_col(table, "stats/pairs/candidates", "Scalars:scalars"))) == 10
+
+
+def test_no_contacts_leaves_ours_out(tmp_path):
+    # Before: record_compare(contacts=False) (the CLI's --no-contacts) still computed and drew ours.
+    model = mujoco.MjModel.from_xml_string(BALLS)
+    path = tmp_path / "nc.rrd"
+    result, records = record_compare(model, path, steps=3, contacts=False)
+    assert sum(result["contact_pairs_per_step"]) > 0  # MuJoCo made contacts
+    assert all(r.our_contacts == 0 and r.missed_contacts == 0 for r in records)
+    table, _, _ = _table(path)
+    assert not any(k.startswith(("/world/contacts/collide", "/world/contacts/missed", "/stats/contacts/collide"))
+                   for k in table)
+    assert sum(_lengths(_col(table, "world/contacts/mujoco", "Points3D:positions"))) > 0
