@@ -37,7 +37,9 @@ The entities (timeline ``step``; ``sim_time`` too, in seconds):
 ==================================  ========================================================
 
 Geoms whose bounds are unbounded (planes) or empty (bodies without a collidable geom) have no
-bound drawn; height fields and SDF geoms are not drawn (their bounds are).
+bound drawn; height fields and SDF geoms are not drawn (their bounds are), and as we make no
+contacts for their pairs, MuJoCo's contacts there show in ``world/contacts/missed``. Flex objects
+are not drawn and MuJoCo's flex contacts are left out (they are not geom pairs).
 """
 
 from __future__ import annotations

@@ -444,3 +444,17 @@ def test_no_contacts_leaves_ours_out(tmp_path):
     assert not any(k.startswith(("/world/contacts/collide", "/world/contacts/missed", "/stats/contacts/collide"))
                    for k in table)
     assert sum(_lengths(_col(table, "world/contacts/mujoco", "Points3D:positions"))) > 0
+
+
+def test_height_field_contacts_show_as_missed_contacts(tmp_path):
+    # What docs/visualising.md says: no narrow phase for height fields, so MuJoCo's contacts there
+    # are "missed contacts", while the pair itself is among our candidates (no missed pair).
+    xml = ('<mujoco><asset><hfield name="h" nrow="3" ncol="3" size="1 1 0.1 0.1" elevation="0 0 0 0 1 0 0 0 0"/>'
+           '</asset><worldbody><geom type="hfield" hfield="h"/><body pos="0.3 0.3 0.12"><freejoint/>'
+           '<geom type="sphere" size="0.1"/></body></worldbody></mujoco>')
+    model, data = _stepped(xml, steps=1)
+    assert data.ncon > 0
+    with log_rerun(model, tmp_path / "hf.rrd") as log:
+        r = log.log(data)
+    assert r.candidates == 1 and r.missed_pairs == 0
+    assert r.our_contacts == 0 and r.missed_contacts == r.mujoco_contacts == data.ncon
