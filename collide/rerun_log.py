@@ -302,12 +302,21 @@ class RerunLog:
         self._poses: dict = {}  # mesh entity -> (steps, translations, matrices) of replayed states
         self._deferred = None  # the step being replayed (`flush_snapshots`), else None
         self._closed = False
+        self._checked = None  # the last MjData checked to be of this model
         self._own = recording is None
         if path is not None:
             try:
                 Path(path).parent.mkdir(parents=True, exist_ok=True)
             except OSError as exc:
                 raise ValueError(f"path: cannot create the folder of {path} ({exc})") from None
+            existed = Path(path).exists()
+            try:  # tried before a stream exists (appending: the file is left as it is)
+                with open(path, "ab"):
+                    pass
+            except OSError as exc:
+                raise ValueError(f"path: cannot write {path} ({exc})") from None
+            if not existed:
+                Path(path).unlink()
         self.rec = rec = recording if recording is not None else rr.RecordingStream(application_id)
         blueprint = self._blueprint()
         try:
@@ -461,7 +470,9 @@ class RerunLog:
         """
         self._check_open()
         step = self._next_step if step is None else as_count(step, "step", 0, _STEP_MAX)
-        self.broadphase._check_data(data)
+        if data is not self._checked:  # an MjData never changes model: checked once (a model compare)
+            self.broadphase._check_data(data)
+            self._checked = data
         self._check_poses(np.asarray(data.geom_xpos), np.asarray(data.geom_xmat))
         if candidates is not None:
             candidates = self._check_candidates(candidates)
@@ -510,9 +521,11 @@ class RerunLog:
             if c.dtype.kind != "f":
                 raise ValueError(f"{name}: expected integer geom ids, got dtype {c.dtype}")
             if not np.all(np.isfinite(c)):
-                raise ValueError(f"{name}: non-finite value (NaN or inf) at row {int(np.argwhere(~np.isfinite(c))[0, 0])}")
-            if np.any(c != np.round(c)):
-                raise ValueError(f"{name}: expected integer geom ids, got {c[np.any(c != np.round(c), axis=1)][0].tolist()}")
+                row = int(np.argwhere(~np.isfinite(c))[0, 0])
+                raise ValueError(f"{name}: non-finite value (NaN or inf) at row {row}")
+            if np.any(c != np.round(c)):  # not truncated: 0.4 is no geom id
+                row = int(np.flatnonzero(np.any(c != np.round(c), axis=1))[0])
+                raise ValueError(f"{name}: expected integer geom ids, got {c[row].tolist()} at row {row}")
         if np.any((c < 0) | (c >= self.ngeom)):
             row = int(np.flatnonzero(np.any((c < 0) | (c >= self.ngeom), axis=1))[0])
             raise ValueError(f"{name}: geom id out of [0, {self.ngeom}) at row {row}: {c[row].tolist()}")
