@@ -62,6 +62,7 @@ import numpy as np
 from . import shapes
 from ._kernels import _clock
 from ._kernels import kinematics as _kin
+from ._kernels.broadphase import RET_SAME as _RET_SAME
 from ._validate import as_array, as_count
 from .articulation import Articulation
 from .broadphase import BroadPhase as _BroadPhase
@@ -480,7 +481,8 @@ class BroadPhase:
         self._empty2.flags.writeable = False
         self._empty3 = np.zeros((0, 3), dtype=np.int32)
         self._disabled = _contacts_disabled(model)
-        self._bound_data = (_NOT_BOUND, None)  # the MjData whose arrays are bound, and their views
+        self._views_of = _NOT_BOUND  # the MjData whose arrays are bound (none yet; None is not an MjData)
+        self._views = None
         self._kin_scratch = None  # pairs_batch's kinematics scratch (see there)
         self._kin_views = (None, None)  # (MjModel, its arrays' views): pairs_batch's, see there
         # MuJoCo has no collision function for plane-hfield and hfield-hfield (mjCOLLISIONFUNC
@@ -534,25 +536,48 @@ class BroadPhase:
             `collide.BroadPhase.pairs`.
         """
         bp = self.broadphase
-        held, views = self._bound_data
-        if data is not held:
-            self._check_data(data)  # once per MjData (here, where its arrays are bound), not per step
-            if self._disabled:
-                return self._empty2
-            # The bindings build new numpy views at every attribute access, and an MjData's arrays
-            # never move: the last MjData's views are bound to the broad phase, and `pairs` given
-            # those very arrays reads them where the kernel's context holds them.
-            views = (data.xpos, data.xmat.reshape(-1, 3, 3))
-            bp.bind(*views)
-            self._bound_data = (data, views)  # one store: another thread sees both or neither
+        lock = bp._lock  # one call at a time per instance (collide.BroadPhase.pairs)
+        lock.acquire()
         try:
-            out = bp.pairs(*views)
-        except ValueError as exc:
-            if not np.any(views[1]):
-                raise ValueError("data: body poses are all zero; run mujoco.mj_kinematics, mj_forward or mj_step "
-                                 "on it first") from exc
-            raise
-        return out if self._no_function is None else self._drop_null(out, 0)
+            if data is not self._views_of or bp._bound is not self._views:
+                self._check_data(data)  # once per MjData (here, where its arrays are bound), not per step
+                if self._disabled:
+                    return self._empty2
+                # The bindings build new numpy views at every attribute access (~0.3 us a call), and
+                # an MjData's arrays never move: bind the last MjData's views to the kernel's context
+                # (held there, so they stay valid), and each step is a call with one argument. Bound
+                # again if someone bound other arrays to self.broadphase in between.
+                bp._bind(data.xpos, data.xmat.reshape(-1, 3, 3))
+                self._views_of = data
+                self._views = bp._bound
+            # BroadPhase.pairs() on the bound arrays, written out: one Python call less on the fast path.
+            # Through bind + pairs (public) instead, the small models' calls were measurably slower
+            # (tests/bench/ab.py; issue 42's note has the figures): this stays, and its bookkeeping
+            # must follow BroadPhase.pairs'.
+            k = bp._step_bound(bp._ctx_addr)
+            if k < 0:  # a bad pose raises; full buffers are grown and the step rerun
+                try:
+                    k = bp._rerun(*bp._bound, k)
+                except ValueError as exc:
+                    if not np.any(bp._bound[1]):
+                        raise ValueError("data: body poses are all zero; run mujoco.mj_kinematics, "
+                                         "mj_forward or mj_step on it first") from exc
+                    raise
+            if k >= _RET_SAME:  # the pairs of the last non-empty result: its array again
+                out = bp._last
+            elif k == 0:
+                return self._empty2
+            else:
+                o = bp._arena_used  # BroadPhase._take, written out
+                e = o + k
+                if e <= bp._arena_rows:
+                    bp._arena_used = e
+                    out = bp._last = bp._arena[o:e]
+                else:
+                    out = bp._take(k)
+            return out if self._no_function is None else self._drop_null(out, 0)
+        finally:
+            lock.release()
 
     def world_bounds(self, data: mujoco.MjData, of: str = "geoms", inflate: bool = True):
         """World bounds of every geom (or body) at the poses of ``data``.
