@@ -1,6 +1,10 @@
 """Contact agreement with MuJoCo, step by step (used by tests/test_contacts.py and by hand).
 
-    python tests/contact_check.py [--steps N] [scene ...]
+    python tests/contact_check.py [--steps N] [--oracle K] [scene ...]
+
+(``default`` names `collide.mujoco.default_scene`; no scene: it and every model in
+../shared/models. The issue's run, 2,000 steps each, is committed as
+tests/bench/contact_agreement.txt with its command and machine.)
 
 For every geom pair MuJoCo made a contact for, ours must have made one; the deepest ``dist``
 must agree within the tolerance of MuJoCo's function for the pair (`pair_tolerance`); the
