@@ -14,9 +14,8 @@ from scipy.spatial import ConvexHull, QhullError
 
 __all__ = ["FaceTable", "PolytopeFaces", "polytope_faces"]
 
-# Two hull facets are one face when their unit normals differ by less than this and their
-# offsets by less than this times the hull's size (Qhull's facets of one planar face agree to
-# rounding).
+# Two hull facets are one face when their unit normals and their offsets (relative to the hull's
+# size) agree on a grid of this step.
 _COPLANAR = 1e-9
 
 
@@ -72,19 +71,14 @@ def polytope_faces(points) -> PolytopeFaces:
     tri = remap[hull.simplices]
     eq = hull.equations  # (T, 4): n . x + c <= 0 inside
     size = float(np.max(np.ptp(verts, axis=0))) or 1.0
-    # group the triangles by plane
-    group = np.full(len(tri), -1, np.int64)
-    planes: list = []
-    for t in range(len(tri)):
-        n, c = eq[t, :3], eq[t, 3]
-        for g, (gn, gc) in enumerate(planes):
-            if np.max(np.abs(gn - n)) < _COPLANAR and abs(gc - c) < _COPLANAR * size:
-                group[t] = g
-                break
-        else:
-            group[t] = len(planes)
-            planes.append((n, c))
-    normal = np.array([p[0] for p in planes], dtype=np.float64)
+    # group the triangles by plane: equations on a grid of _COPLANAR (Qhull's facets of one planar
+    # face agree to rounding; a value straddling a grid line splits a face in two, which only
+    # shrinks a face manifold, never makes a wrong contact)
+    q = np.c_[np.round(eq[:, :3] / _COPLANAR), np.round(eq[:, 3] / (_COPLANAR * size))].astype(np.int64)
+    _, first, group = np.unique(q, axis=0, return_index=True, return_inverse=True)
+    group = group.ravel()
+    normal = eq[first, :3].astype(np.float64)
+    planes = range(len(first))
     normal /= np.linalg.norm(normal, axis=1)[:, None]
     vlists = []
     for g in range(len(planes)):
