@@ -86,7 +86,8 @@ class Collider:
         Returns
         -------
         collide.Contacts
-            Up to 4 contacts a pair (plane against a box, mesh, capsule or cylinder), one
+            Several contacts a pair for face contacts, as MuJoCo 4 makes them (box-box up to 8,
+            box and mesh faces and a plane against a box, mesh, capsule or cylinder up to 4), one
             otherwise; pairs with a height field or SDF geom in ``skipped``.
 
         Raises
