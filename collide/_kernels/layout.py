@@ -255,6 +255,11 @@ def address(T, buf, slot):
     return np.int64(buf.ctypes.data) + 8 * T[TABLE + SLOT * slot]
 
 
+# The stats buffer (N_STATS int64, `BroadPhase.stats`): its slots.
+(ST_SUBTREE, ST_BODY_AABB, ST_BODY_SPHERE, ST_BODY_OBB, ST_GEOM_SPHERE, ST_GEOM_OBB, ST_PLANE, ST_OUT,
+ ST_GEOM_AABB, ST_REUSED) = range(10)
+N_STATS = 10
+
 # =============================================================================== the declarations
 # Counts (``dims``): L positions (bodies in depth-first order, then the world's geoms as leaves, see
 # `collide.broadphase.BroadPhase`), NB bodies, G geoms, Gs solid geoms, Q planes, E excluded

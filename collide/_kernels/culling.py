@@ -1,0 +1,589 @@
+"""Culling of the per-step broad phase: which body pairs' AABBs may overlap.
+
+The walk (`_traverse`) finds every body pair once at its lowest common ancestor: a body against its own
+subtree (`_body_walk`), pairs of child subtrees (`_subtree_pair`), sweep-and-prune or a hash grid
+(`_grid_pairs`) among many children, and small branching subtrees from static bit masks (flat roots). A
+subtree whose AABB misses is skipped whole. `_sweep` makes the subtree AABBs in one reverse pass;
+`_filter` is the static filter of the pairs found (the kernel form of `collide.broadphase.tables
+.StaticFilter.bodies`); `_scan` and `_scan_masks` test a kept list or the static masks of a small model.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
+import numpy as np
+
+from ._ptr import NO_NRT, f64_ptr, view_of
+from ._simd import LANES as LANES8, box_row8
+from .bounds import _sphere_hit
+from .layout import ST_BODY_AABB, ST_BODY_SPHERE, ST_SUBTREE
+
+SAP_MIN = 8  # a node with more children than this sorts them (sweep-and-prune) ...
+GRID_MIN = 64  # ... or, with more than this, hashes them into a uniform grid
+GRID_SWEEP = 8.0  # ... when the children's widths along the sweep axis sum to more than this x its extent
+# Forward neighbour cells (lexicographically after (0, 0, 0)): each pair of adjacent cells once.
+_FWD = np.array([(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
+                 if (dx, dy, dz) > (0, 0, 0)], np.int64)
+
+
+@nb.njit(cache=True, inline="always")
+def _row_hits(bt_at, stride, base, a, keep):
+    # The bits i of keep (the pair of column a and column base + i) whose boxes meet, the boxes the
+    # columns of the (6, stride) array at address bt_at (lo x, y, z, hi x, y, z). Only the span of
+    # keep's bits is tested (pairs are stored once, a < q: a row tests its later partners only),
+    # LANES8 at a time in one vector compare
+    # (`_simd.box_row8`; as a loop over the columns the compiler built the mask with a shift and an
+    # or per column). Its reads past the span (at most LANES8 - 1 columns past the last, into what
+    # follows the array in W: plw and tmp after baabb_t, the coherence state after fat_t) give bits
+    # that keep drops. Scalars in (a pointer view inside): no reference counting in `_traverse`.
+    bt = view_of(f64_ptr(bt_at), (6, stride))
+    l0 = bt[0, a]
+    l1 = bt[1, a]
+    l2 = bt[2, a]
+    h0 = bt[3, a]
+    h1 = bt[4, a]
+    h2 = bt[5, a]
+    hits = np.uint64(0)
+    i = np.int64(trailing_zeros(keep))
+    stop = 64 - np.int64(leading_zeros(keep))
+    while i < stop:
+        hits |= box_row8(bt_at, stride, base + i, l0, l1, l2, h0, h1, h2) << np.uint64(i)
+        i += LANES8
+    return hits & keep
+
+
+@nb.njit(cache=True, inline="always")
+def _push(bp, nb_, x, y):
+    if nb_ < bp.shape[0]:
+        bp[nb_, 0] = x
+        bp[nb_, 1] = y
+    return nb_ + 1
+
+
+@nb.njit(cache=True, inline="always")
+def _body_walk(a, q, stop, skip_child, end, baabb, saabb, has_bounds, bp, nb_, stats):
+    # Body a against every body of the positions [q, stop) (whole subtrees), skipping a subtree
+    # whose AABB misses a's whole (q = end[q]); with skip_child, the bodies at the top of those
+    # subtrees (a's direct children under the parent rule) cull but are not paired. The AABB
+    # tests are written out (see _aabb_hit).
+    nxt = q  # the next top-level subtree
+    while q < stop:
+        top = q == nxt
+        if top:
+            nxt = end[q]
+        stats[ST_SUBTREE] += 1
+        if ((baabb[a, 0] <= saabb[q, 3]) & (saabb[q, 0] <= baabb[a, 3]) & (baabb[a, 1] <= saabb[q, 4])
+                & (saabb[q, 1] <= baabb[a, 4]) & (baabb[a, 2] <= saabb[q, 5]) & (saabb[q, 2] <= baabb[a, 5])):
+            if has_bounds[q] and not (top and skip_child):
+                hit = end[q] == q + 1  # a leaf's subtree AABB is its body AABB: just tested
+                if not hit:
+                    stats[ST_BODY_AABB] += 1
+                    hit = (baabb[a, 0] <= baabb[q, 3] and baabb[q, 0] <= baabb[a, 3]
+                           and baabb[a, 1] <= baabb[q, 4] and baabb[q, 1] <= baabb[a, 4]
+                           and baabb[a, 2] <= baabb[q, 5] and baabb[q, 2] <= baabb[a, 5])
+                if hit:
+                    if nb_ < bp.shape[0]:
+                        bp[nb_, 0] = a
+                        bp[nb_, 1] = q
+                    nb_ += 1
+            q += 1
+        else:
+            q = end[q]
+    return nb_
+
+
+MASK_MAX = 64  # up to this many positions, the body pairs come from static bit masks (`_scan_masks`), no tree
+FLAT_DESC = 16  # a body with at most this many descendants tests them all flat, else walks
+FLAT_MAX = 4096  # _subtree_pair: at most this many body x body tests flat, else the walk
+
+
+@nb.njit(**NO_NRT)
+def _subtree_pair(A, B, end, baabb, saabb, has_bounds, bp, nb_, stats, lst):
+    """Every body of subtree A against every body of subtree B (disjoint subtrees whose AABBs meet).
+
+    Flat and branch-free: the bodies of A whose AABB meets B's subtree AABB, those of B meeting
+    A's (``lst``: int64 scratch of at least ``end[A] - A + end[B] - B``), then all pairs of the
+    two lists. In a simulation loop the outcome of each test is data that the branch predictor,
+    retrained by the engine between steps, cannot foresee: a walk that branches on it costs a
+    misprediction per test (after `mj_step` on 22 humanoids the listed child pairs took less time
+    than the walk). Past ``FLAT_MAX`` pair tests (two big subtrees deep in each other) the walk,
+    whose culling then pays, runs instead.
+    """
+    ea = end[A]
+    eb = end[B]
+    if ea == A + 1 and eb == B + 1:  # two leaves: their subtree AABBs were just tested
+        stats[ST_BODY_AABB] += 1
+        return _push(bp, nb_, A, B) if has_bounds[A] and has_bounds[B] else nb_
+    na = 0
+    for a in range(A, ea):
+        lst[na] = a
+        na += np.int64((baabb[a, 0] <= saabb[B, 3]) & (saabb[B, 0] <= baabb[a, 3]) & (baabb[a, 1] <= saabb[B, 4])
+                       & (saabb[B, 1] <= baabb[a, 4]) & (baabb[a, 2] <= saabb[B, 5]) & (saabb[B, 2] <= baabb[a, 5]))
+    nbl = 0
+    for b in range(B, eb):
+        lst[na + nbl] = b
+        nbl += np.int64((baabb[b, 0] <= saabb[A, 3]) & (saabb[A, 0] <= baabb[b, 3]) & (baabb[b, 1] <= saabb[A, 4])
+                        & (saabb[A, 1] <= baabb[b, 4]) & (baabb[b, 2] <= saabb[A, 5]) & (saabb[A, 2] <= baabb[b, 5]))
+    stats[ST_SUBTREE] += ea - A + eb - B
+    if na * nbl > FLAT_MAX:
+        a = A
+        while a < ea:
+            stats[ST_SUBTREE] += 1
+            if ((saabb[a, 0] <= saabb[B, 3]) & (saabb[B, 0] <= saabb[a, 3]) & (saabb[a, 1] <= saabb[B, 4])
+                    & (saabb[B, 1] <= saabb[a, 4]) & (saabb[a, 2] <= saabb[B, 5]) & (saabb[B, 2] <= saabb[a, 5])):
+                if has_bounds[a]:
+                    nb_ = _body_walk(a, B, eb, False, end, baabb, saabb, has_bounds, bp, nb_, stats)
+                a += 1
+            else:
+                a = end[a]
+        return nb_
+    # Bodies without bounds have an empty AABB (lo > hi): never in a list.
+    cap = bp.shape[0]
+    for i in range(na):
+        a = lst[i]
+        for j in range(na, na + nbl):
+            b = lst[j]
+            if nb_ < cap:
+                bp[nb_, 0] = a
+                bp[nb_, 1] = b
+            nb_ += np.int64((baabb[a, 0] <= baabb[b, 3]) & (baabb[b, 0] <= baabb[a, 3]) & (baabb[a, 1] <= baabb[b, 4])
+                            & (baabb[b, 1] <= baabb[a, 4]) & (baabb[a, 2] <= baabb[b, 5])
+                            & (baabb[b, 2] <= baabb[a, 5]))
+    stats[ST_BODY_AABB] += na * nbl
+    return nb_
+
+
+@nb.njit(cache=True, _nrt=True)  # allocates: counted (see NO_NRT; a callee takes its caller's flag)
+def _grid_pairs(n, off, kc, children, saabb, end, baabb, has_bounds, bw, bp, nb_, stats, lst, use_sph):
+    """Pairs of overlapping child subtrees of a wide node through a uniform hash grid.
+
+    A sweep on one axis tests O(k^(5/3)) pairs when k children fill a volume (a scene of free
+    bodies); a grid whose cell is at least every child's extent finds overlaps in O(k): each child
+    sits in the cell of its AABB's min corner, and two overlapping AABBs have min corners at most
+    one cell apart per axis, so a child's own cell and its 13 forward neighbours cover every pair
+    exactly once. Children much larger than the mean (over four times) would inflate the cell;
+    they are tested against every child instead. Without ``use_sph`` (a walk over fat boxes, see ``FAT_GROW``), two
+    leaf bodies are paired on their boxes alone: the spheres in ``bw`` are the exact ones.
+    """
+    ext = np.empty(kc)
+    total = 0.0
+    nvalid = 0
+    for i in range(kc):
+        c = children[off + i]
+        if saabb[c, 0] > saabb[c, 3]:
+            ext[i] = -1.0  # no bounds in this subtree
+            continue
+        e = max(saabb[c, 3] - saabb[c, 0], saabb[c, 4] - saabb[c, 1], saabb[c, 5] - saabb[c, 2])
+        ext[i] = e
+        total += e
+        nvalid += 1
+    if nvalid < 2:
+        return nb_
+    lim = 4.0 * total / nvalid
+    h = 0.0
+    for i in range(kc):
+        if ext[i] <= lim and ext[i] > h:
+            h = ext[i]
+    scale = 0.0
+    for d in range(6):
+        scale += abs(saabb[n, d])
+    span = max(saabb[n, 3] - saabb[n, 0], saabb[n, 4] - saabb[n, 1], saabb[n, 5] - saabb[n, 2])
+    # The slack (1e-9 of a cell) must dwarf the rounding of (lo - origin) / h, ~1e-16 of the cell
+    # index: at most 1e6 cells per axis keeps it so (a coarser grid is still correct).
+    h = max(h * (1.0 + 1e-9), 1e-6 * span, 1e-12 * scale, 1e-300)
+    ox = saabb[n, 0]
+    oy = saabb[n, 1]
+    oz = saabb[n, 2]
+    T = 16
+    while T < 2 * nvalid:
+        T *= 2
+    # Cells as one int64 key (21 bits per axis: at most 1e6 cells per axis, see h above), counting
+    # sort by hash slot, then everything a query reads copied contiguously in slot order.
+    key = np.empty(kc, np.int64)
+    slot = np.empty(kc, np.int64)
+    cnt = np.zeros(T + 1, np.int64)
+    for i in range(kc):
+        if ext[i] < 0.0 or ext[i] > lim:
+            slot[i] = -1
+            continue
+        c = children[off + i]
+        cx = np.int64((saabb[c, 0] - ox) / h)
+        cy = np.int64((saabb[c, 1] - oy) / h)
+        cz = np.int64((saabb[c, 2] - oz) / h)
+        key[i] = (cx << 42) | (cy << 21) | cz
+        sl = ((cx * 73856093) ^ (cy * 19349663) ^ (cz * 83492791)) & (T - 1)
+        slot[i] = sl
+        cnt[sl + 1] += 1
+    for t in range(T):
+        cnt[t + 1] += cnt[t]
+    m = cnt[T]
+    skey = np.empty(m, np.int64)
+    sbox = np.empty((m, 10))  # AABB, then a leaf body's sphere (centre, radius)
+    schild = np.empty(m, np.int64)
+    fill = cnt[:T].copy()
+    for i in range(kc):
+        sl = slot[i]
+        if sl >= 0:
+            u = fill[sl]
+            fill[sl] += 1
+            c = children[off + i]
+            skey[u] = key[i]
+            schild[u] = c
+            for d in range(6):
+                sbox[u, d] = saabb[c, d]
+            for d in range(4):
+                sbox[u, 6 + d] = bw[c, 15 + d]
+    ntest = 0
+    nsph = 0
+    cap = bp.shape[0]
+    for u in range(m):
+        ci = schild[u]
+        k0 = skey[u]
+        cx = k0 >> 42
+        cy = (k0 >> 21) & 0x1FFFFF
+        cz = k0 & 0x1FFFFF
+        lo0 = sbox[u, 0]
+        lo1 = sbox[u, 1]
+        lo2 = sbox[u, 2]
+        hi0 = sbox[u, 3]
+        hi1 = sbox[u, 4]
+        hi2 = sbox[u, 5]
+        leaf_i = end[ci] == ci + 1
+        # Cells of the max corner: a box in the next cell along +x can only overlap this one if
+        # this box reaches that cell (the cell index is monotone in the coordinate, so this is
+        # exact under rounding); most boxes do not, and then 9 of the 13 neighbours are skipped.
+        hx = np.int64((hi0 - ox) / h)
+        hy = np.int64((hi1 - oy) / h)
+        hz = np.int64((hi2 - oz) / h)
+        for f in range(-1, 13):
+            if f < 0:
+                nx, ny, nz = cx, cy, cz
+            else:
+                nx = cx + _FWD[f, 0]
+                ny = cy + _FWD[f, 1]
+                nz = cz + _FWD[f, 2]
+                if nx < 0 or ny < 0 or nz < 0:
+                    continue
+                if (nx > hx) or (ny > cy and ny > hy) or (nz > cz and nz > hz):
+                    continue
+            nkey = (nx << 42) | (ny << 21) | nz
+            sl = ((nx * 73856093) ^ (ny * 19349663) ^ (nz * 83492791)) & (T - 1)
+            # Own cell: the entries after u (each pair once). Another cell hashed to the same slot
+            # fails the key test, folded into the hit like the boxes' (no branch on it).
+            for v in range(u + 1 if f < 0 else cnt[sl], cnt[sl + 1]):
+                ntest += 1
+                sph = _sphere_hit(sbox, u, 0.0, sbox, v, 0.0, 6)  # before the AABB: no branch around it
+                hit = ((skey[v] == nkey) & (sbox[v, 0] <= hi0) & (lo0 <= sbox[v, 3]) & (sbox[v, 1] <= hi1)
+                       & (lo1 <= sbox[v, 4]) & (sbox[v, 2] <= hi2) & (lo2 <= sbox[v, 5]))
+                cj = schild[v]
+                if leaf_i and end[cj] == cj + 1:
+                    # Two bodies (a leaf in the grid has bounds): their sphere test too, on the
+                    # contiguous copies (the same arithmetic as _sphere_hit; ~x marks the pair as
+                    # tested), both written without a branch on the outcome (see _subtree_pair:
+                    # fewer mispredictions on a scene of many free hulls).
+                    nsph += 1
+                    if nb_ < cap:
+                        bp[nb_, 0] = ~ci
+                        bp[nb_, 1] = cj
+                    nb_ += np.int64((sph | (not use_sph)) & hit)
+                elif hit:
+                    nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
+    stats[ST_SUBTREE] += ntest
+    stats[ST_BODY_SPHERE] += nsph
+    # the oversized children against every child
+    for i in range(kc):
+        if ext[i] <= lim:
+            continue
+        ci = children[off + i]
+        for j in range(kc):
+            if j == i or ext[j] < 0.0 or (ext[j] > lim and j < i):
+                continue
+            cj = children[off + j]
+            stats[ST_SUBTREE] += 1
+            if ((saabb[ci, 0] <= saabb[cj, 3]) & (saabb[cj, 0] <= saabb[ci, 3]) & (saabb[ci, 1] <= saabb[cj, 4])
+                    & (saabb[cj, 1] <= saabb[ci, 4]) & (saabb[ci, 2] <= saabb[cj, 5]) & (saabb[cj, 2] <= saabb[ci, 5])):
+                nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
+    return nb_
+
+
+@nb.njit(cache=True, _nrt=True)  # allocates: counted (see NO_NRT; a callee takes its caller's flag)
+def _traverse(L, end, nchild, child_start, children, has_bounds, baabb, saabb, bw, sap, bp, stats, filter_parent,
+              baabb_t, flat_root, flat_n, flat_mask, use_sph):
+    """Candidate body pairs (world AABBs overlap) into ``bp``; returns their count (may exceed cap).
+
+    ``sap`` (`sap_state`): the sweep orders of the children lists, then scratch for `_subtree_pair`.
+    ``baabb``, ``saabb``, ``baabb_t``: the exact boxes, or the fat ones with ``use_sph`` false (see
+    `_grid_pairs`).
+    """
+    nb_ = 0
+    lst = sap[L - 1:]
+    cap = bp.shape[0]
+    skip_to = 0  # the end of the last flat subtree
+    bt_at = np.int64(baabb_t.ctypes.data)
+    bt_n = baabb_t.shape[1]
+    for n in range(L):
+        if n < skip_to:
+            continue
+        if flat_root[n]:
+            # A small subtree (a robot, a hand): its body pairs that pass the static filter, as a
+            # bit mask per body made at set-up (bit i of flat_mask[a]: the pair (a, n + i)). Each
+            # row of AABB tests, a against every body of the subtree, runs over baabb's columns
+            # (baabb_t) in vector compares, into a bit mask; the static one keeps the pairs to
+            # push. No walk, no sibling pairs, no call (faster than the pair tests one by one).
+            for a in range(n, end[n]):
+                keep = np.uint64(flat_mask[a])
+                if keep == 0:
+                    continue
+                hits = _row_hits(bt_at, bt_n, n, a, keep)
+                while hits != 0:
+                    if nb_ < cap:
+                        bp[nb_, 0] = a
+                        bp[nb_, 1] = ~(n + np.int64(trailing_zeros(hits)))  # ~q: the static filter passed
+                    nb_ += 1
+                    hits &= hits - np.uint64(1)
+            stats[ST_BODY_AABB] += flat_n[n]
+            skip_to = end[n]
+            continue
+        # body n against its descendants; n + 1 is its first child, each sibling follows the
+        # previous one's range
+        if has_bounds[n] and end[n] > n + 1:
+            # One walk over the descendants [n + 1, end[n]) (every child's subtree in turn),
+            # skipping a missed subtree whole. Under the parent rule a direct child is a parent
+            # pair, never reported: its subtree AABB still culls, its body is not paired.
+            skip = filter_parent and n != 0
+            if end[n] - n - 1 > FLAT_DESC or nchild[n] < 2:
+                nb_ = _body_walk(n, n + 1, end[n], skip, end, baabb, saabb, has_bounds, bp, nb_, stats)
+            else:
+                # A small branching subtree: every descendant's body AABB against n's, flat,
+                # independent tests (no subtree AABB steering a walk: fewer tests than the walk's
+                # two per inner body, and no branch on their outcomes). Below a single child (a
+                # chain) the walk stops after a few links, the flat loop would test them all. A body without bounds has
+                # an empty AABB: never a hit.
+                nxt = n + 1  # the next direct child
+                cap = bp.shape[0]
+                for q in range(n + 1, end[n]):
+                    top = q == nxt
+                    nxt = end[q] if top else nxt
+                    if nb_ < cap:
+                        bp[nb_, 0] = n
+                        bp[nb_, 1] = q
+                    nb_ += np.int64((baabb[n, 0] <= baabb[q, 3]) & (baabb[q, 0] <= baabb[n, 3])
+                                    & (baabb[n, 1] <= baabb[q, 4]) & (baabb[q, 1] <= baabb[n, 4])
+                                    & (baabb[n, 2] <= baabb[q, 5]) & (baabb[q, 2] <= baabb[n, 5]) & ~(top & skip))
+                stats[ST_BODY_AABB] += end[n] - n - 1
+        kc = nchild[n]
+        if kc < 2:
+            continue
+        off = child_start[n]
+        if kc <= SAP_MIN:
+            for i in range(kc):
+                ci = children[off + i]
+                for j in range(i + 1, kc):
+                    cj = children[off + j]
+                    stats[ST_SUBTREE] += 1
+                    if ((saabb[ci, 0] <= saabb[cj, 3]) & (saabb[cj, 0] <= saabb[ci, 3]) & (saabb[ci, 1] <= saabb[cj, 4])
+                            & (saabb[cj, 1] <= saabb[ci, 4]) & (saabb[ci, 2] <= saabb[cj, 5])
+                            & (saabb[cj, 2] <= saabb[ci, 5])):
+                        if end[ci] == ci + 1 and end[cj] == cj + 1:  # two bodies: no call
+                            if has_bounds[ci] and has_bounds[cj]:
+                                nb_ = _push(bp, nb_, ci, cj)
+                        else:
+                            nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
+            continue
+        # Sweep and prune on the axis of the node's largest extent. The order persists between
+        # calls (sap holds it), so insertion sort is ~linear under small motion; a big reshuffle
+        # (a new world in a batch, an axis change) falls back to a full sort.
+        ax = 0
+        best = -1.0
+        for d in range(3):
+            e = saabb[n, 3 + d] - saabb[n, d]
+            if e > best:
+                best = e
+                ax = d
+        if kc > GRID_MIN:
+            # Grid or sweep: k children of mean width w on an axis of extent E give the sweep
+            # ~k^2 w / E interval tests, the grid ~k cell probes of a few tests each. A scene
+            # filling a volume (free bodies in a box) goes to the grid; bodies spread over a floor
+            # (objects, robots, stones) overlap little along the sweep axis and the sweep, with
+            # its persistent order and no set-up, wins (humanoid100, stonehenge). Up to GRID_MIN
+            # children the sweep wins even in a filled volume (64 free hulls, cube_3x3x3's 26
+            # cubelets); with a few hundred the grid does.
+            sumw = 0.0
+            for i in range(kc):
+                c = children[off + i]
+                w = saabb[c, 3 + ax] - saabb[c, ax]
+                if w > 0.0:
+                    sumw += w
+            if sumw > GRID_SWEEP * best:
+                nb_ = _grid_pairs(n, off, kc, children, saabb, end, baabb, has_bounds, bw, bp, nb_, stats, lst, use_sph)
+                continue
+        swaps = 0
+        limit = 16 * kc + 64
+        for i in range(1, kc):
+            c = sap[off + i]
+            v = saabb[c, ax]
+            j = i - 1
+            while j >= 0 and saabb[sap[off + j], ax] > v:
+                sap[off + j + 1] = sap[off + j]
+                j -= 1
+                swaps += 1
+            sap[off + j + 1] = c
+            if swaps > limit:
+                break
+        if swaps > limit:
+            lo = np.empty(kc)
+            for i in range(kc):
+                lo[i] = saabb[children[off + i], ax]
+            idx = np.argsort(lo)
+            for i in range(kc):
+                sap[off + i] = children[off + idx[i]]
+        cap = bp.shape[0]
+        for i in range(kc):
+            ci = sap[off + i]
+            hi = saabb[ci, 3 + ax]
+            leaf_i = end[ci] == ci + 1
+            # ci's box in locals: the stores into bp below would otherwise reload it every time
+            lo0 = saabb[ci, 0]
+            lo1 = saabb[ci, 1]
+            lo2 = saabb[ci, 2]
+            hi0 = saabb[ci, 3]
+            hi1 = saabb[ci, 4]
+            hi2 = saabb[ci, 5]
+            ntest = 0
+            for j in range(i + 1, kc):
+                cj = sap[off + j]
+                if saabb[cj, ax] > hi:
+                    break
+                ntest += 1
+                hit = ((lo0 <= saabb[cj, 3]) & (saabb[cj, 0] <= hi0) & (lo1 <= saabb[cj, 4])
+                       & (saabb[cj, 1] <= hi1) & (lo2 <= saabb[cj, 5]) & (saabb[cj, 2] <= hi2))
+                if leaf_i and end[cj] == cj + 1:
+                    # Two bodies, the common case of a wide node: no branch on the outcome (see
+                    # _subtree_pair); a body without bounds has an empty AABB, never a hit.
+                    if nb_ < cap:
+                        bp[nb_, 0] = ci
+                        bp[nb_, 1] = cj
+                    nb_ += np.int64(hit)
+                elif hit:
+                    nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
+            stats[ST_SUBTREE] += ntest
+    return nb_
+
+
+# ------------------------------------------------------------------------------- one world
+
+@nb.njit(**NO_NRT)
+def _sweep(saabb, parent_pos, L):
+    """Subtree AABBs: one reverse sweep over the positions, children before parents, each row of
+    ``saabb`` started as its body's AABB.
+
+    The box merged last is carried in registers when the next position is its parent (always,
+    down a chain): through memory, each merge waits for the previous one's store. On the 64-link
+    chain the gain was within this machine's run-to-run noise. Same min and max, same order: the
+    same bits.
+    """
+    for x in range(L - 1, 0, -1):
+        if x == L - 1 or parent_pos[x + 1] != x:  # else saabb[x] was merged last: a0..a5 hold it
+            a0, a1, a2, a3, a4, a5 = saabb[x, 0], saabb[x, 1], saabb[x, 2], saabb[x, 3], saabb[x, 4], saabb[x, 5]
+        q = parent_pos[x]
+        a0 = min(saabb[q, 0], a0)
+        a1 = min(saabb[q, 1], a1)
+        a2 = min(saabb[q, 2], a2)
+        a3 = max(saabb[q, 3], a3)
+        a4 = max(saabb[q, 4], a4)
+        a5 = max(saabb[q, 5], a5)
+        saabb[q, 0] = a0
+        saabb[q, 1] = a1
+        saabb[q, 2] = a2
+        saabb[q, 3] = a3
+        saabb[q, 4] = a4
+        saabb[q, 5] = a5
+
+
+@nb.njit(**NO_NRT)
+def _filter(bp, nbp, contype, conaffinity, weld, parent_pos, filter_parent, ex_start, ex_other, single):
+    """The static filter over the traversal's ``bp[:nbp]``, compacting ``bp`` in place; returns
+    the count kept. Each kept pair is written lower position first, its second as ``~y`` when
+    loose (a multi-geom body whose bounds are mostly empty space, ``single < 0``)."""
+    m = 0
+    for t in range(nbp):
+        x = bp[t, 0]
+        y = bp[t, 1]
+        if x < 0:
+            x = ~x  # the grid's sphere test mark: redone below with the OBB test, at no cost
+        if y < 0:
+            y = ~y  # a flat root's pair: the static filter passed at set-up
+        else:
+            if (contype[x] & conaffinity[y]) == 0 and (contype[y] & conaffinity[x]) == 0:
+                continue
+            if weld[x] == weld[y]:
+                continue
+            if filter_parent and ((parent_pos[x] == y and y != 0) or (parent_pos[y] == x and x != 0)):
+                continue
+            excluded = False
+            for e in range(ex_start[x], ex_start[x + 1]):
+                if ex_other[e] == y:
+                    excluded = True
+            if excluded:
+                continue
+        # A multi-geom body whose bounds are mostly empty space (walls around an arena, the world's
+        # scattered static geoms: single < 0, see BroadPhase) passes every body-level test; its
+        # pairs go straight to its geoms' AABBs.
+        # Lower position first: the OBB test is not bitwise symmetric in its two boxes, and the
+        # batch's lanes test each pair in this order (a sweep or the grid may hand it reversed).
+        x, y = min(x, y), max(x, y)
+        bp[m, 0] = x
+        bp[m, 1] = ~y if (single[x] < 0 or single[y] < 0) else y
+        m += 1
+    return m
+
+
+@nb.njit(cache=True, inline="always")
+def _scan(cl, n, baabb, bp):
+    # The pairs of the kept list cl[:n] whose exact AABBs overlap, into bp (written, counted by the
+    # outcome: no branch on it).
+    m = 0
+    for t in range(n):
+        x = cl[t, 0]
+        yy = cl[t, 1]
+        y = yy ^ (yy >> 63)  # ~y -> y
+        bp[m, 0] = x
+        bp[m, 1] = yy
+        m += np.int64((baabb[x, 0] <= baabb[y, 3]) & (baabb[y, 0] <= baabb[x, 3]) & (baabb[x, 1] <= baabb[y, 4])
+                      & (baabb[y, 1] <= baabb[x, 4]) & (baabb[x, 2] <= baabb[y, 5]) & (baabb[y, 2] <= baabb[x, 5]))
+    return m
+
+
+@nb.njit(cache=True, inline="always")
+def _scan_masks(smask, L, baabb_t, single, bp):
+    # Up to MASK_MAX positions, the body pairs passing the static filter whose AABBs meet (the tree
+    # walk and the filter of a small model, `_world`): bit y of smask[x] (`pack`) is the pair (x, y),
+    # x < y; each row's box is tested against its partners' columns of the (6, L) boxes baabb_t,
+    # LANES8 a vector compare (`_simd.box_row8`, as the flat roots' rows in `_traverse`), the pairs
+    # that meet go into bp in (x, y) order (counted past its end, not written), y marked ~y when
+    # loose (a multi-geom body's, ``single < 0``, as `_filter` writes it). Reads past column L - 1
+    # (at most LANES8 - 1 float64, into plw and tmp after baabb_t in W) give bits the mask drops.
+    bt_at = np.int64(baabb_t.ctypes.data)
+    cap = bp.shape[0]
+    m = 0
+    for x in range(L):
+        keep = np.uint64(smask[x])
+        if keep == 0:
+            continue
+        hits = _row_hits(bt_at, L, 0, x, keep)
+        lx = -np.int64(single[x] < 0)
+        while hits != 0:
+            y = np.int64(trailing_zeros(hits))
+            hits &= hits - np.uint64(1)
+            if m < cap:
+                bp[m, 0] = x
+                bp[m, 1] = y ^ (lx | -np.int64(single[y] < 0))  # ~y when loose
+            m += 1
+    return m
+
+
+def sap_state(children: np.ndarray) -> np.ndarray:
+    """The traversal's int64 state for ``L`` positions (``children``: ``L - 1`` ids): the children
+    lists in their initial sweep order, then ``L`` of scratch (`_subtree_pair`)."""
+    return np.concatenate([children, np.zeros(len(children) + 1, np.int64)]).astype(np.int64)
