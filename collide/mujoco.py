@@ -406,7 +406,7 @@ def _kinematics_arrays(model: mujoco.MjModel) -> tuple:
     # The model arrays `_kernels.kinematics` reads, contiguous: views of the model's own buffers
     # (a body's model pose changed in place between calls reaches the next one, as it reaches
     # mj_kinematics; `BroadPhase.pairs_batch` keeps them per MjModel); the index arrays as MuJoCo
-    # keeps them, int32 (no copy: converting them to int64 cost ~10 us a call).
+    # keeps them, int32 (no copy: converting them to int64 cost more than the kernel's work).
     def c(x, dt=np.float64):
         return np.ascontiguousarray(x, dtype=dt)
 
@@ -456,7 +456,7 @@ class BroadPhase:
     model : mujoco.MjModel
         Read once, here: geometry, filter rules and flags (``mjDSBL_CONTACT``,
         ``mjDSBL_CONSTRAINT``, ``mjDSBL_FILTERPARENT``, ``mjENBL_OVERRIDE``). Build a new
-        BroadPhase after changing them (reading ``model.opt`` costs ~3 us a call in the bindings).
+        BroadPhase after changing them (reading ``model.opt`` through the bindings is slow per call).
     coherent : bool, default True
         Keep the body pairs of fat boxes between steps (`collide.BroadPhase`'s ``coherent``):
         the same pairs, less time in a simulation loop; no effect on a model of at most 64
@@ -543,7 +543,7 @@ class BroadPhase:
                 self._check_data(data)  # once per MjData (here, where its arrays are bound), not per step
                 if self._disabled:
                     return self._empty2
-                # The bindings build new numpy views at every attribute access (~0.3 us a call), and
+                # The bindings build new numpy views at every attribute access (a cost per call), and
                 # an MjData's arrays never move: bind the last MjData's views to the kernel's context
                 # (held there, so they stay valid), and each step is a call with one argument. Bound
                 # again if someone bound other arrays to self.broadphase in between.
@@ -629,9 +629,8 @@ class BroadPhase:
             ``(world, geom1, geom2)`` rows, sorted: those of `kinematics_batch` followed by
             `collide.BroadPhase.pairs_batch`. On a model the lanes run (`collide._kernels.lanes`)
             each thread computes a group's poses in its own workspace just before testing
-            them, none of the batch's poses written out (humanoid, 1024 worlds, 2 threads, called
-            back to back: 0.96-0.99 -> 0.82-0.83 us a world; on 1 thread 1.54-1.60 -> 1.46-1.56;
-            with other batch calls in between, about even). A subclass that overrides the
+            them, none of the batch's poses written out (faster back to back, about even with
+            other batch calls in between; tests/bench/broadphase.py). A subclass that overrides the
             `kinematics_batch` method gets the two calls.
         """
         if not isinstance(model, mujoco.MjModel):
@@ -645,8 +644,8 @@ class BroadPhase:
                  and not self._disabled)
         # The float64 C-contiguous (B, nq) array a simulation loop passes goes to the lane kernel
         # unchecked: a NaN or inf in it makes a non-finite body pose, which the kernel refuses, and
-        # only then is qpos checked, to name the entry. The full check (`as_array`) costs 20-50 us
-        # a call at 1024 humanoid worlds (0.02-0.05 us a world; the call is 0.8 us a world).
+        # only then is qpos checked, to name the entry. The full check (`as_array`) costs a few per
+        # cent of a big batch's call.
         unchecked = (lanes and type(q) is np.ndarray and q.dtype == np.float64 and q.ndim == 2
                      and q.shape[1] == model.nq and q.flags.c_contiguous)
         if not unchecked:
@@ -664,7 +663,7 @@ class BroadPhase:
             # The model's arrays as views (`_kinematics_arrays`), made once per MjModel (held with
             # them: an id could be reused): its buffer never moves, so the views see every change
             # made to it in place, as mj_kinematics would. Made afresh at every call (ten binding
-            # accesses) they cost ~10 us of it (humanoid, 8 worlds: 46.2 -> 35.6 us a call, AMD EPYC).
+            # accesses) they cost a fifth of a small batch's call.
             held, arrays = self._kin_views
             if model is not held:
                 arrays = _kinematics_arrays(model)
@@ -700,7 +699,7 @@ class BroadPhase:
 
 def _native_clock():
     # MuJoCo's timers tick only when mjcb_time is set. A Python callable would add its own call
-    # overhead to every interval (measured: 0.2-0.4 us a broad phase), so on Linux we hand it a
+    # overhead to every interval (a sizeable part of a small model's broad phase), so on Linux we hand it a
     # numba C callback reading clock_gettime(CLOCK_MONOTONIC) (`_kernels._clock`); elsewhere, or if
     # that fails, the portable clock, with a warning: the benchmarks' MuJoCo figures then carry it.
     if _clock.AVAILABLE:
@@ -712,7 +711,7 @@ def _native_clock():
             return ctypes.cast(now_us.address, ctypes.CFUNCTYPE(ctypes.c_double)), now_us
         except Exception as exc:  # pragma: no cover - any failure: the portable clock
             warnings.warn(f"collide.mujoco: no native clock for MuJoCo's timers ({type(exc).__name__}: {exc}); "
-                          "timing with a Python callback, which adds ~0.1 us to each interval")
+                          "timing with a Python callback, which adds its call's overhead to each interval")
     return lambda: time.perf_counter() * 1e6
 
 
@@ -911,7 +910,7 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
     rec = Comparison(name, seed)
     perf = time.perf_counter_ns
     # Inside the loop only raw copies are kept: numpy's set routines (np.unique with an axis,
-    # np.isin) between two calls made our next call ~5 us slower (humanoid, 7.6 -> 13.8 us),
+    # np.isin) between two calls made our next call much slower (evicting its code and data),
     # so the recall bookkeeping runs after the loop.
     raw_contacts, raw_candidates = [], []
     ctrls = _random_controls(model, steps, seed, hold)
@@ -947,7 +946,7 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
     # Run 2, the same controls again: MuJoCo's candidates, counted by a contact-filter callback.
     # Not in run 1: the callback runs Python for every candidate inside mj_step, between MuJoCo's
     # timed broad phase and our call, and evicts our kernel's code and data from the caches
-    # (22_humanoids: 583 calls a step, our call 52 -> 80 us). The callback returns MuJoCo's own
+    # (hundreds of calls a step on 22_humanoids, our call markedly slower). The callback returns MuJoCo's own
     # verdict, so both runs simulate the same states; `replayed` says whether every step's
     # contacts came out the same.
     replayed = True
