@@ -59,15 +59,15 @@ import mujoco
 import numba
 import numpy as np
 
-from . import shapes
-from ._kernels import _clock
-from ._kernels import kinematics as _kin
-from ._kernels.broadphase import RET_SAME as _RET_SAME
-from ._validate import as_array, as_count
-from .articulation import Articulation
-from .broadphase import BroadPhase as _BroadPhase
-from .pointcloud import PointCloud
-from .volumes import aabb_corners
+from .. import shapes
+from .._kernels import _clock
+from .._kernels import kinematics as _kin
+from .._kernels.broadphase import RET_SAME as _RET_SAME
+from .._validate import as_array, as_count
+from ..articulation import Articulation
+from ..broadphase import BroadPhase as _BroadPhase
+from ..pointcloud import PointCloud
+from ..volumes import aabb_corners
 
 _GEOM = mujoco.mjtGeom
 _DSBL = mujoco.mjtDisableBit
@@ -1304,5 +1304,5 @@ def default_scene(seed: int = 0, objects: int = 40) -> mujoco.MjModel:
     return spec.compile()
 
 
-from .collider import Collider  # noqa: E402  (contacts: collide.collider, which does not import mujoco)
-from .rerun_log import log_rerun  # noqa: E402  (a Rerun recording; rerun itself imported when one is made)
+from ..collider import Collider  # noqa: E402  (contacts: collide.collider, which does not import mujoco)
+from ..rerun_log import log_rerun  # noqa: E402  (a Rerun recording; rerun itself imported when one is made)
