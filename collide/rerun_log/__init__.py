@@ -52,9 +52,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ._validate import as_count
-from .collider import Collider
-from .contacts import GEOM_TYPES
+from .._validate import as_count
+from ..collider import Collider
+from ..contacts import GEOM_TYPES
 
 __all__ = ["RerunLog", "StepRecord", "log_rerun", "record_compare"]
 
@@ -830,7 +830,7 @@ def record_compare(model, path=None, *, spawn: bool = False, recording=None, ste
     plus 8 bytes a candidate pair and 64 a MuJoCo contact; for a model of 500 bodies and 1000
     geoms, 144 kB a step, 144 MB for 1000 steps.
     """
-    from . import mujoco as cm
+    from .. import mujoco as cm
 
     # compare's arguments, checked before RerunLog opens (and truncates) the file.
     steps = as_count(steps, "steps", 1)
