@@ -156,7 +156,7 @@ def test_many_bodies_take_the_per_world_kernel_and_agree():
     # 100 free spheres: more static body pairs than the lanes take (`lanes.MAX_BODY_PAIRS`), so
     # pairs_batch runs world by world; with a <pair> to the floor and an excluded pair.
     model = random_model(7, bodies=100)
-    assert cm.BroadPhase(model).broadphase._J is None
+    assert cm.BroadPhase(model).broadphase.batch_path == "worlds"
     rng = np.random.default_rng(5)
     qpos = random_qpos(model, 5, rng)
     want = single_worlds(cm.BroadPhase(model), model, qpos)

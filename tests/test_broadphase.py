@@ -157,7 +157,7 @@ def test_lanes_equal_single_worlds(make):
     count that leaves a partial group of lanes too."""
     art, poses = make()
     bp = BroadPhase(art)
-    assert bp._J is not None  # the lane kernel runs these
+    assert bp.batch_path == "lanes"  # the lane kernel runs these
     pos, rot = poses(np.random.default_rng(44), 21)
     got = bp.pairs_batch(pos, rot)
     assert bp.stats["pairs"] == len(got)
@@ -176,14 +176,10 @@ def test_lanes_keep_every_pair_of_each_world_and_name_a_bad_one():
     bp = BroadPhase(art)
     pos, rot = poses(np.random.default_rng(45), 19)
     want = bp.pairs_batch(pos, rot)
-    bp._set_batch_buffers(1, 3)  # tiny buffers: grown, rerun
+    bp._batch.set_buffers(1, 3)  # tiny buffers: grown, rerun
     assert np.array_equal(bp.pairs_batch(pos, rot), want)
-    J = bp._J
-    bp._J = None  # the per-world kernel on the same worlds
-    bp._batch = None
-    assert np.array_equal(bp.pairs_batch(pos, rot), want)
-    bp._J = J
-    bp._batch = None
+    per_world = BroadPhase(art, batch_path="worlds")  # the per-world kernel on the same worlds
+    assert np.array_equal(per_world.pairs_batch(pos, rot), want)
     pos[17, 5, 1] = np.nan  # in the last, partial group
     with pytest.raises(ValueError, match="world 17, body 5"):
         bp.pairs_batch(pos, rot)
@@ -205,10 +201,8 @@ def test_batch_chunks_are_each_taken_once_whatever_the_workers(lane_kernel):
     # most one worker a lane workspace, one a thread.)
     from collide._kernels import lanes
     sc = testing.many_robots(6, 4, seed=47, spread=0.6, planes=1)
-    bp = BroadPhase(sc.articulation)
-    assert bp._J is not None
-    if not lane_kernel:
-        bp._J = None
+    bp = BroadPhase(sc.articulation, batch_path="lanes" if lane_kernel else "worlds")
+    lane_tables = bp._batch.lane_tables
     pos, rot = sc.poses(np.random.default_rng(48), 45)
     want = [bp.pairs(pos[w], rot[w]) for w in range(len(pos))]
     assert sum(len(p) for p in want) > 40  # the scene had hits
@@ -224,7 +218,7 @@ def test_batch_chunks_are_each_taken_once_whatever_the_workers(lane_kernel):
             bt["stats"].fill(-1)
             chunk_info[C, 1] = workers
             if lane_kernel:
-                out = lanes.step_lanes(pos, rot, bt["ctx"], bp._J, bt["LW"], bt["LB"], world_count, world_info,
+                out = lanes.step_lanes(pos, rot, bt["ctx"], lane_tables, bt["LW"], bt["LB"], world_count, world_info,
                                        chunk_info, S, bp._stats)
                 nw = min(workers, C, bt["LW"].shape[0])
             else:
@@ -249,7 +243,7 @@ def test_batch_chunks_are_each_taken_once_whatever_the_workers(lane_kernel):
             run(workers)
     bad = np.empty((2, _kern.N_CI), np.int64)  # no row for the counter: refused, not overrun
     with pytest.raises(ValueError, match="chunk_info: needs a row"):
-        _kern.step_batch(pos[:2], rot[:2], bp._batch["ctx"][:2], np.empty(2, np.int64), np.empty((2, 4), np.int64),
+        _kern.step_batch(pos[:2], rot[:2], bp._batch.buffers["ctx"][:2], np.empty(2, np.int64), np.empty((2, 4), np.int64),
                          bad, _kern.key_shift(bp.geom_count), bp._stats)
 
 
@@ -257,7 +251,7 @@ def test_big_models_batch_world_by_world():
     # More static body pairs than the lanes take: the per-world kernel runs the batch.
     sc = testing.free_hulls(125, seed=46)
     bp = BroadPhase(sc.articulation)
-    assert bp._J is None
+    assert bp.batch_path == "worlds"
     pos, rot = testing.hull_motion(sc, np.random.default_rng(0), 3, 0.02)
     got = bp.pairs_batch(pos, rot)
     assert bp.stats["pairs"] == len(got)
@@ -271,7 +265,7 @@ def test_batch_grows_its_buffers_and_keeps_every_pair():
     bp = BroadPhase(sc.articulation)
     pos, rot = testing.hull_motion(sc, np.random.default_rng(0), 40, 0.02)
     want = bp.pairs_batch(pos, rot)
-    bp._set_batch_buffers(1, 3)  # tiny buffers: grown, rerun
+    bp._batch.set_buffers(1, 3)  # tiny buffers: grown, rerun
     assert np.array_equal(bp.pairs_batch(pos, rot), want)
     assert len(want) > 40
 
@@ -795,11 +789,7 @@ def _batch_equals_single(bp, pos, rot):
     # pairs_batch on the lanes (small models) and on the per-world kernel, each against pairs().
     single = bp.pairs(pos, rot).tolist()
     lanes = bp.pairs_batch(pos[None], rot[None])[:, 1:].tolist()
-    J, bp._J, bp._batch = bp._J, None, None  # the batch buffers are the path's own
-    try:
-        per_world = bp.pairs_batch(pos[None], rot[None])[:, 1:].tolist()
-    finally:
-        bp._J, bp._batch = J, None
+    per_world = BroadPhase(bp.articulation, batch_path="worlds").pairs_batch(pos[None], rot[None])[:, 1:].tolist()
     return single, lanes, per_world
 
 
@@ -812,7 +802,7 @@ def test_batch_lanes_round_as_a_single_world():
     # 1. Cubes touching to within an ulp: the lanes added the AABB slack in another order.
     art = Articulation([0, 0, 0], [1, 2], [CUBE, CUBE])
     bp = BroadPhase(art)
-    assert bp._J is not None
+    assert bp.batch_path == "lanes"
     pos = np.array([[0.0, 0.0, 0.0], [-0.04156428198829166, 0.3, 0.7], [1.958483718364522, 0.3, 0.7]])
     rot = np.tile(EYE, (3, 1, 1))
     assert testing.brute_force_bound_pairs(art, pos, rot).tolist() == [[0, 1]]
@@ -823,7 +813,7 @@ def test_batch_lanes_round_as_a_single_world():
     N = 10
     art = Articulation([0] * (N + 1), np.arange(1, N + 1), [CUBE.transform(np.diag([0.3, 0.2, 0.1]))] * N)
     bp = BroadPhase(art)
-    assert bp._J is not None
+    assert bp.batch_path == "lanes"
     pos = np.zeros((N + 1, 3))
     pos[1:, 1] = np.arange(N) * 5.0
     rot = np.tile(EYE, (N + 1, 1, 1))
@@ -873,13 +863,13 @@ def test_lane_workspace_rows_are_cache_line_aligned():
 
     scene = testing.chain(12, seed=3, planes=1)
     bp = BroadPhase(scene.articulation)
-    assert bp._J is not None
+    assert bp.batch_path == "lanes"
     B = 3 * lanes.LANES + 1
     pos, rot = scene.poses(np.random.default_rng(0), worlds=B)
     out = bp.pairs_batch(pos, rot)
-    LW = bp._batch["LW"]
+    LW = bp._batch.buffers["LW"]
     assert LW.ctypes.data % 64 == 0 and LW.strides[0] % 64 == 0
-    assert LW.shape[0] == min(numba.config.NUMBA_NUM_THREADS, bp._batch["ctx"].shape[0])  # a row a worker
+    assert LW.shape[0] == min(numba.config.NUMBA_NUM_THREADS, bp._batch.buffers["ctx"].shape[0])  # a row a worker
     from collide._kernels import broadphase as _k, layout
 
     # every block of the lane workspace starts on a cache line as its row does
@@ -1583,7 +1573,7 @@ def test_static_masks_equal_the_twin_and_keep_no_list(make):
     a = sc.articulation
     coh, walk = BroadPhase(a), BroadPhase(a, coherent=False)
     L = coh.position_count
-    assert L <= _kern.MASK_MAX and coh._J is not None
+    assert L <= _kern.MASK_MAX and coh.batch_path == "lanes"
     _check_static_masks(coh, a)
     smask = _field(coh, "smask")
     rng = np.random.default_rng(7)

@@ -15,6 +15,7 @@ import numba
 import numpy as np
 import pytest
 
+import collide
 import collide.mujoco as cm
 from collide._kernels import _quat
 from collide._kernels import kinematics as _kin
@@ -525,7 +526,7 @@ def test_pairs_batch_poses_in_the_call_equal_kinematics_then_batch(xml):
     model = mujoco.MjModel.from_xml_string(CHAIN.format(fp="enable") if xml == "chain"
                                            else KIN.replace('size=".1"', 'size=".25"'))
     bp = cm.BroadPhase(model)
-    assert bp.broadphase._J is not None  # the lanes run it
+    assert bp.broadphase.batch_path == "lanes"
     qpos = _random_qpos(model, 21, np.random.default_rng(11))
     got = bp.pairs_batch(model, qpos)
     stats = bp.stats
@@ -550,7 +551,7 @@ def test_pairs_batch_sees_the_models_arrays_changed_in_place():
     # pose or qpos0 changed in place must reach the next call, as it reaches mj_kinematics.
     model = mujoco.MjModel.from_xml_string(KIN.replace('size=".1"', 'size=".25"'))
     bp = cm.BroadPhase(model)
-    assert bp.broadphase._J is not None  # the lanes run it
+    assert bp.broadphase.batch_path == "lanes"
     qpos = _random_qpos(model, 9, np.random.default_rng(3))
     before = bp.pairs_batch(model, qpos)
     assert len(before) > 0
@@ -591,7 +592,7 @@ def test_pairs_batch_names_every_non_finite_qpos_entry(kin):
     model = mujoco.MjModel.from_xml_string(xml)
     assert model.nbody == 7 and model.body_geomnum[6] == 0 and model.body_jntnum[6] == 1
     bp = cm.BroadPhase(model)
-    assert bp.broadphase._J is not None  # the lanes run it
+    assert bp.broadphase.batch_path == "lanes"
     good = _random_qpos(model, 11, np.random.default_rng(5))
     assert len(bp.pairs_batch(model, good)) > 0
     for j in range(model.nq):
@@ -612,13 +613,12 @@ def test_batch_kernels_leave_the_parallel_chunk_size_as_they_found_it():
     # on poses), the kinematics (kinematics_batch).
     model = mujoco.MjModel.from_xml_string(CHAIN.format(fp="enable"))
     bp = cm.BroadPhase(model)
-    assert bp.broadphase._J is not None  # the fused kernel runs it
+    assert bp.broadphase.batch_path == "lanes"  # the fused kernel runs it
     qpos = _random_qpos(model, 20, np.random.default_rng(2))
     bad = qpos.copy()
     bad[7, 0] = 1e200  # the free joint's x: every body beyond MAX_POSITION in world 7
     pos, rot = cm.kinematics_batch(model, qpos)
-    per_world = cm.BroadPhase(model).broadphase
-    per_world._J = None  # step_batch, world by world
+    per_world = collide.BroadPhase(cm.articulation(model), batch_path="worlds")  # step_batch, world by world
     before = numba.get_parallel_chunksize()
     try:
         numba.set_parallel_chunksize(5)
@@ -675,7 +675,7 @@ def test_lane_kinematics_equal_world_kinematics_bit_for_bit(scene):
     pos, rot = cm.kinematics_batch(model, qpos)
     groups = -(-len(qpos) // LANES)
     ps = np.empty((groups, model.nbody, 12, LANES))
-    _lane_poses(qpos, cm._kinematics_arrays(model), ps, np.empty(_kin.lanes_scratch_size(model.nbody, model.njnt)))
+    _lane_poses(qpos, cm.kinematic_tree(model).arrays, ps, np.empty(_kin.lanes_scratch_size(model.nbody, model.njnt)))
     for w in range(len(qpos)):
         g, lane = divmod(w, LANES)
         assert np.array_equal(ps[g, :, :3, lane], pos[w]) and np.array_equal(ps[g, :, 3:, lane], rot[w].reshape(-1, 9))

@@ -15,9 +15,12 @@ Example
 Batches of a small model (`pairs_batch`) run eight worlds at a time in SIMD lanes
 (`_kernels.lanes`). Measurements live in ``tests/bench/*.txt`` and ``docs/performance.md``.
 
-The package: `tables` lays the articulation out once (positions, the one static filter and what
-derives from it); `_kernels.layout` declares every flat buffer; `_kernels.broadphase` and
-`_kernels.lanes` are the per-step kernels; this module owns the buffers and the calls.
+The package, in import order: `tables` lays the articulation out once (positions, the one static
+filter and what derives from it); `_kinematics` holds a kinematic tree in MuJoCo's layout
+(`KinematicTree`, for `BroadPhase.pairs_batch_joints`); `_world_bounds` the pose rules and the world
+bounds in numpy; `_batch` the batch driver (chunks, their buffers, the lanes' or the world-by-world
+kernel); this module owns the single world's buffers and the calls. `_kernels.layout` declares every
+flat buffer; `_kernels.broadphase` and `_kernels.lanes` are the per-step kernels.
 
 `BroadPhase.world_bounds` returns the world spheres and OBBs the broad phase tests (of geoms or
 bodies) and their AABBs, for drawing them, debugging a pair, or feeding another spatial structure.
@@ -26,121 +29,22 @@ bodies) and their AABBs, for drawing them, debugging a pair, or feeding another 
 from __future__ import annotations
 
 import threading
-from typing import NamedTuple
 
-import numba
 import numpy as np
 
 from .._kernels import broadphase as _k
-from .._kernels import lanes as _lanes
-from .._kernels import layout as _layout
 from ..articulation import Articulation
 from . import tables as _tables
+from ._kinematics import KinematicTree
+from ._world_bounds import WorldBounds, check_pose_values, raise_pose_error, world_bounds, world_planes
+from ._batch import Batch
 
-__all__ = ["BroadPhase", "WorldBounds", "check_pose_values", "world_planes"]
+__all__ = ["BroadPhase", "KinematicTree", "WorldBounds", "check_pose_values", "world_planes"]
 
 _STAT_NAMES = ("subtree_tests", "body_aabb_tests", "body_sphere_tests", "body_obb_tests",
                "geom_sphere_tests", "geom_obb_tests", "plane_tests", "pairs", "geom_aabb_tests", "reused")
 
 
-class WorldBounds(NamedTuple):
-    """World bounding volumes of n geoms or bodies (`BroadPhase.world_bounds`).
-
-    Attributes
-    ----------
-    obb_center : (n, 3) float64
-    obb_rot : (n, 3, 3) float64
-        Columns are the box axes in the world.
-    obb_half : (n, 3) float64
-    sphere_center : (n, 3) float64
-    sphere_radius : (n,) float64
-    aabb_min, aabb_max : (n, 3) float64
-        The intersection of the OBB's, the sphere's and the capsule's world AABBs (each contains
-        the shape, so their intersection does), padded by the broad phase's rounding slack. The
-        broad phase tests the OBB's cut to the capsule's (`collide.articulation`, bounds
-        semantics), not the sphere's: a reported pair may have disjoint AABBs here (never a
-        touching one).
-    plane : (n, 4) float64
-        For plane geoms, the world halfspace ``{x : plane[:3] . x <= plane[3]}``; zeros otherwise.
-    """
-
-    obb_center: np.ndarray
-    obb_rot: np.ndarray
-    obb_half: np.ndarray
-    sphere_center: np.ndarray
-    sphere_radius: np.ndarray
-    aabb_min: np.ndarray
-    aabb_max: np.ndarray
-    plane: np.ndarray
-
-
-def _lane_rows_zeros(rows: int, n: int) -> np.ndarray:
-    """Zeroed float64 ``(rows, >= n)`` whose rows start on 64-byte boundaries.
-
-    The lane kernels read and write (LANES,) float64 rows, 64 bytes each, as vectors; numpy aligns
-    its buffers to 16 bytes only, and a row straddling two cache lines costs two accesses.
-    """
-    n = -(-n // 8) * 8
-    buf = np.zeros(rows * n + 8)
-    o = (-buf.ctypes.data % 64) // 8
-    return buf[o:o + rows * n].reshape(rows, n)
-
-
-def check_pose_values(body_pos: np.ndarray, body_rot: np.ndarray, where: str = "") -> None:
-    """Raise ``ValueError`` naming the first body whose pose the kernel refuses (`_k._pose_ok`).
-
-    Parameters
-    ----------
-    body_pos : (L, 3) float64
-    body_rot : (L, 3, 3) float64
-    where : str
-        Prefix of the message (``"world 3, "``).
-    """
-    finite = np.isfinite(body_pos).all(axis=1) & np.isfinite(body_rot).all(axis=(1, 2))
-    with np.errstate(invalid="ignore", over="ignore"):
-        near = (np.abs(body_pos) <= _k.MAX_POSITION).all(axis=1)
-        err = np.abs(np.einsum("lji,ljk->lik", body_rot, body_rot) - np.eye(3)).max(axis=(1, 2), initial=0.0)
-        ok = finite & near & (err <= _k.ORTHO_TOL) & (np.linalg.det(body_rot) > 0)
-    if not ok.all():
-        b = int(np.flatnonzero(~ok)[0])
-        status = _k.BAD_NONFINITE if not finite[b] else _k.BAD_RANGE if not near[b] else _k.BAD_ROTATION
-        BroadPhase._raise(status, b, where)
-
-
-def world_planes(rot: np.ndarray, pos: np.ndarray, local: np.ndarray,
-                 slack: bool = True) -> tuple[np.ndarray, np.ndarray]:
-    """World halfspaces ``{x : n . x <= d}`` (unit ``n``) of local ones under ``x = R y + p``.
-
-    Parameters
-    ----------
-    rot : (n, 3, 3) float64
-        Proper, not necessarily orthonormal (poses are accepted within ``_k.ORTHO_TOL``).
-    pos : (n, 3) float64
-    local : (n, 4) float64
-        Local unit normal and offset.
-    slack : bool, default True
-        Grow the offset by the kernels' rounding slack of the body position (``SLACK_POS |p|_1``),
-        as `_k.plane_world` does; False: the plane itself, up to rounding.
-
-    Returns
-    -------
-    normal : (n, 3) float64
-    offset : (n,) float64
-        ``n`` along ``R^-T n_local``: the image of the plane under the map as given (the kernels'
-        `_k.plane_world`, with a linear solve instead of the cofactors).
-    """
-    w = np.linalg.solve(np.swapaxes(rot, 1, 2), local[:, :3, None])[:, :, 0]
-    norm = np.linalg.norm(w, axis=1)
-    normal = w / norm[:, None]
-    offset = local[:, 3] / norm + np.einsum("ni,ni->n", normal, pos)
-    return normal, offset + (_k.SLACK_POS * np.abs(pos).sum(axis=1) if slack else 0.0)
-
-
-# Chunks of a batch a thread (see BroadPhase._run_batch): the lane kernels' (their big workspaces are
-# a worker's, a chunk keeps its keys, counts and the small per-world buffers of a bad group's
-# fallback) and the world-by-world kernel's (whose workspace is the chunk's).
-CHUNKS_LANES = 16
-CHUNKS = 4
 # Rows of a new output arena (32 KB: below malloc's mmap threshold, so arenas reuse freed heap
 # memory instead of faulting fresh pages in); see BroadPhase._new_arena.
 ARENA_ROWS = 4096
@@ -166,6 +70,10 @@ class BroadPhase:
         world's geoms when it has several) has no tree to cull: every statically allowed body pair
         is a bit of a mask made at set-up, and a call tests them all, a vector compare per eight
         (cheaper there than keeping a list); ``coherent`` changes nothing.
+    batch_path : {"auto", "lanes", "worlds"}, default "auto"
+        How batches run (`batch_path`, the property): ``"auto"`` takes the lanes where the model
+        fits them; ``"worlds"`` runs world by world whatever the model (to compare the two paths);
+        ``"lanes"`` insists on the lanes (``ValueError`` when the model does not fit them).
 
     Attributes
     ----------
@@ -201,11 +109,13 @@ class BroadPhase:
     articulation); `pairs_batch` threads over worlds itself.
     """
 
-    def __init__(self, articulation: Articulation, coherent: bool = True):
+    def __init__(self, articulation: Articulation, coherent: bool = True, batch_path: str = "auto"):
         if not isinstance(articulation, Articulation):
             raise ValueError(f"articulation: expected an Articulation, got {type(articulation).__name__}")
         if not isinstance(coherent, (bool, np.bool_)):
             raise ValueError(f"coherent: expected a bool, got {type(coherent).__name__}")
+        if batch_path not in ("auto", "lanes", "worlds"):
+            raise ValueError(f"batch_path: expected 'auto', 'lanes' or 'worlds', got {batch_path!r}")
         self.coherent = bool(coherent)
         a = self.articulation = articulation
         L, G = a.body_count, a.geom_count
@@ -228,9 +138,15 @@ class BroadPhase:
         self._bound = None
         self._set_buffers(4 * L + 64, 4 * G + 64)
         self._new_arena(ARENA_ROWS)
-        self._batch = None
-        self._J = _tables.lane_tables(filt, fields["gstart"], fields["pgeoms"], fields["planes"], fields["plane_ok"],
-                                      a.pairs, a.geom_is_plane)
+        lanes = None
+        if batch_path != "worlds":
+            lanes = _tables.lane_tables(filt, fields["gstart"], fields["pgeoms"], fields["planes"], fields["plane_ok"],
+                                        a.pairs, a.geom_is_plane)
+            if lanes is None and batch_path == "lanes":
+                raise ValueError("batch_path: 'lanes' takes a model of at most collide._kernels.lanes.MAX_BODY_PAIRS "
+                                 "statically passing body pairs; this one has more (use 'auto' or 'worlds')")
+        self._batch_path_arg = batch_path
+        self._batch = Batch(self._I, self._F, self._sap_init, lanes, L, G, Lp, self._stats)
         self._empty = np.zeros((0, 2), np.int32)
         self._empty.flags.writeable = False
 
@@ -262,15 +178,6 @@ class BroadPhase:
         if body_rot.dtype != np.float64 or not body_rot.flags.c_contiguous or not body_rot.flags.writeable:
             body_rot = np.array(body_rot, np.float64, order="C")
         return body_pos, body_rot
-
-    @staticmethod
-    def _raise(status: int, body: int, where: str = ""):
-        if status == _k.BAD_NONFINITE:
-            raise ValueError(f"{where}body {body}: pose has a non-finite value (NaN or inf)")
-        if status == _k.BAD_RANGE:
-            raise ValueError(f"{where}body {body}: position beyond {_k.MAX_POSITION:g} (the coordinate limit)")
-        raise ValueError(f"{where}body {body}: rotation is not a proper orthonormal matrix "
-                         f"(|R^T R - I| > {_k.ORTHO_TOL:g} or det <= 0)")
 
     def pairs(self, body_pos: np.ndarray | None = None, body_rot: np.ndarray | None = None) -> np.ndarray:
         """Geom pairs whose bounds may touch, for one world.
@@ -419,7 +326,7 @@ class BroadPhase:
         info = self._info
         while k < 0:
             if k == _k.RET_BAD_POSE:
-                self._raise(int(info[0]), int(info[1]))
+                raise_pose_error(int(info[0]), int(info[1]))
             if info[3] > 0:
                 self._set_buffers(2 * int(info[3]), len(self._keys))
             else:
@@ -474,46 +381,7 @@ class BroadPhase:
             body_pos, body_rot = self._bound
         body_pos, body_rot = self._check(body_pos, body_rot, ())
         check_pose_values(body_pos, body_rot)
-        a = self.articulation
-        if of == "geoms":
-            ids = a.geom_body
-            center, rot, half = a.geom_obb_center, a.geom_obb_rot, a.geom_obb_half
-            sc, sr = a.geom_sphere_center, a.geom_sphere_radius
-            m = a.geom_bound_margin if inflate else np.zeros(a.geom_count)
-            half, sr = half + m[:, None], sr + m
-            cap_half, cap_r = a.geom_capsule_half, a.geom_capsule_radius + m
-            unbounded, empty = a.geom_is_plane, np.zeros(a.geom_count, bool)
-        else:
-            ids = np.arange(a.body_count)
-            center, rot, half = a.body_obb_center, a.body_obb_rot, a.body_obb_half.copy()
-            sc, sr = a.body_sphere_center, a.body_sphere_radius.copy()
-            cap_half, cap_r = a.body_capsule_half, a.body_capsule_radius.copy()
-            unbounded, empty = np.zeros(a.body_count, bool), ~a.body_has_bounds
-        R, p = body_rot[ids], body_pos[ids]
-        c = np.einsum("nij,nj->ni", R, center) + p
-        obb_rot = R @ rot
-        s = np.einsum("nij,nj->ni", R, sc) + p
-        # The kernel's slack (`_k.aabb_slack`, `_k.capsule_half`, and the sphere test's): rounding
-        # never lets a shape's point out.
-        w = np.abs(obb_rot) @ half[:, :, None]
-        w = w[:, :, 0] + (_k.SLACK_REL * half.sum(1) + _k.SLACK_POS * np.abs(c).sum(1))[:, None]
-        rs = (sr + _k.SLACK_REL * sr + _k.SLACK_POS * np.abs(s).sum(1))[:, None]
-        e = np.abs(np.einsum("nij,nj->ni", R, cap_half))
-        wc = e + (cap_r + _k.SLACK_REL * (e.sum(1) + cap_r) + _k.SLACK_POS * np.abs(c).sum(1))[:, None]
-        lo = np.maximum(np.maximum(c - w, s - rs), c - wc)
-        hi = np.minimum(np.minimum(c + w, s + rs), c + wc)
-        plane = np.zeros((len(ids), 4))
-        if unbounded.any():
-            q = np.flatnonzero(unbounded)
-            n, d = world_planes(R[q], p[q], a.geom_plane[q])
-            d = d + (a.geom_bound_margin[q] if inflate else 0.0)
-            plane[q, :3], plane[q, 3] = n, d
-            c[q] = s[q] = n * d[:, None]
-            obb_rot[q] = np.eye(3)
-            half[q], sr[q], lo[q], hi[q] = np.inf, np.inf, -np.inf, np.inf
-        if empty.any():
-            half[empty], sr[empty], lo[empty], hi[empty] = -np.inf, -np.inf, np.inf, -np.inf
-        return WorldBounds(c, obb_rot, half, s, sr, lo, hi, plane)
+        return world_bounds(self.articulation, body_pos, body_rot, of, inflate)
 
     @property
     def stats(self) -> dict:
@@ -541,11 +409,8 @@ class BroadPhase:
 
         Notes
         -----
-        A model of at most ``collide._kernels.lanes.MAX_BODY_PAIRS`` statically passing body pairs
-        (a robot, a creature, a chain) runs eight worlds at a time in SIMD lanes, every test a
-        vector operation over the eight (`collide._kernels.lanes`: far less time a world); a
-        bigger one world by world through the single-world kernel. Both give exactly the
-        single-world answers.
+        `batch_path` says how: eight worlds at a time in SIMD lanes, every test a vector operation
+        over the eight (a small model), or world by world; both give exactly the single-world answers.
         Worlds are cut into chunks, which numba's threads take one at a time. On a machine shared
         with other work, set ``OMP_WAIT_POLICY=PASSIVE`` before numba starts its OpenMP runtime:
         spinning waiters can stall each call by a scheduler time slice. The second thread's worth
@@ -560,96 +425,144 @@ class BroadPhase:
                              f"{getattr(body_pos, 'shape', type(body_pos).__name__)}")
         B = body_pos.shape[0]
         body_pos, body_rot = self._check(body_pos, body_rot, (B,))
+        return self._run_batch(B, self._batch.poses_launch(body_pos, body_rot))
 
-        def launch(bt, world_count, world_info, chunk_info, S):
-            if self._J is None:
-                return _k.step_batch(body_pos, body_rot, bt["ctx"], world_count, world_info, chunk_info, S,
-                                     self._stats)
-            return _lanes.step_lanes(body_pos, body_rot, bt["ctx"], self._J, bt["LW"], bt["LB"], world_count,
-                                     world_info, chunk_info, S, self._stats)
+    def pairs_batch_joints(self, tree: KinematicTree, qpos: np.ndarray) -> np.ndarray:
+        """Geom pairs whose bounds may touch, for many joint configurations of a kinematic tree.
 
-        return self._run_batch(B, launch)
+        `pairs_batch` on the body poses of `KinematicTree.poses`, in one call: on the lanes' path
+        (`batch_path`) each thread computes a group of worlds' poses in its own workspace just
+        before testing them (`collide._kernels.kinematics.step_lanes_kin`), none of the batch's
+        poses written out; on the worlds' path the poses are computed, then tested.
+
+        Parameters
+        ----------
+        tree : KinematicTree
+            The bodies and joints that pose this broad phase's bodies (body ``b`` of the tree is
+            body ``b`` of the articulation).
+        qpos : (B, nq) array_like of float
+            One configuration per world.
+
+        Returns
+        -------
+        pairs : (K, 3) int32
+            As `pairs_batch` on ``tree.poses(qpos)``, the same rows and `stats` bit for bit.
+
+        Raises
+        ------
+        ValueError
+            A tree of another body count; a ``qpos`` of the wrong shape or with a NaN or inf
+            (naming the entry); a pose the broad phase refuses (naming the world and body).
+        """
+        if not isinstance(tree, KinematicTree):
+            raise ValueError(f"tree: expected a collide.broadphase.KinematicTree, got {type(tree).__name__}")
+        if tree.body_count != self.body_count:
+            raise ValueError(f"tree: has {tree.body_count} bodies, this broad phase's articulation {self.body_count}")
+        q = qpos
+        lanes = self._batch.lane_tables is not None
+        # The float64 C-contiguous (B, nq) array a simulation loop passes goes to the lane kernel
+        # unchecked: a NaN or inf in it makes a non-finite body pose, which the kernel refuses, and
+        # only then is qpos checked, to name the entry. The full check costs a few per cent of a
+        # big batch's call.
+        unchecked = (lanes and type(q) is np.ndarray and q.dtype == np.float64 and q.ndim == 2
+                     and q.shape[1] == tree.nq and q.flags.c_contiguous)
+        if not unchecked:
+            q = tree.check_qpos(q)
+        if not lanes:
+            return self.pairs_batch(*tree._poses(q))
+        try:
+            return self._run_batch(len(q), self._batch.joints_launch(tree, q))
+        except ValueError:
+            if unchecked:
+                try:
+                    tree.check_qpos(q)
+                except ValueError as named:  # a non-finite qpos is named as such, alone
+                    raise named from None
+            raise
+
+    @property
+    def batch_path(self) -> str:
+        """``"lanes"`` or ``"worlds"``: how `pairs_batch` and `pairs_batch_joints` run.
+
+        ``"lanes"``: eight worlds at a time in SIMD lanes (`collide._kernels.lanes`), for a model of
+        at most ``collide._kernels.lanes.MAX_BODY_PAIRS`` statically passing body pairs (a robot, a
+        creature, a chain); ``"worlds"``: world by world through the single-world kernel (a bigger
+        model, or one built with ``batch_path="worlds"``). Both give exactly the single-world
+        answers; the test counters of `stats` differ (see the class docstring).
+        """
+        return self._batch.path
 
     def _run_batch(self, B: int, launch) -> np.ndarray:
-        # The batch's chunks and buffers, then ``launch(bt, world_count, world_info, chunk_info, S)``
-        # (one of the batch kernels) until no buffer is short: its rows, or the first bad world's
-        # error. `collide.mujoco.BroadPhase.pairs_batch` launches the kernel that computes the
-        # poses itself.
-        # More chunks than threads, taken by the threads one at a time (`_k.start_chunks`): a thread
-        # that starts late or runs slower takes fewer. The lane kernels keep their big workspaces
-        # (lanes, kinematics) a worker, a chunk its keys, counts and small buffers, so their chunks
-        # can be small (CHUNKS_LANES a thread; the lane kernel takes worlds _lanes.LANES at a time:
-        # no more chunks than groups of them); the world-by-world kernel's workspace is the chunk's
-        # (CHUNKS a thread). Sized for numba's most threads, so that a call on fewer
-        # (numba.set_num_threads) finds the same buffers: made afresh, they cost the next call
-        # their first touch.
-        with self._lock:  # one call at a time per instance (see pairs): the buffers are shared
-            return self._run_batch_locked(B, launch)
+        # `_batch.Batch.run` under this instance's lock (one call at a time: the buffers are shared).
+        with self._lock:
+            return self._batch.run(B, launch)
 
-    def _run_batch_locked(self, B: int, launch) -> np.ndarray:
-        most = numba.config.NUMBA_NUM_THREADS
-        if self._J is None:
-            C = max(1, min(CHUNKS * most, B))
-        else:
-            C = max(1, min(CHUNKS_LANES * most, -(-B // _lanes.LANES)))
-        rows = min(most, C)  # a workspace a worker
-        nw = min(numba.get_num_threads(), rows)  # workers: one a thread
-        per = (B + C - 1) // C
-        if self._batch is None or self._batch["ctx"].shape[0] != C:  # rows follow from C
-            L, G = self.body_count, self.geom_count
-            self._batch = {"W": np.zeros((C, self._nW)), "sap": np.tile(self._sap_init, (C, 1)),
-                           "stats": np.zeros((C, _k.N_STATS), np.int64), "info": np.zeros((C, 4), np.int64),
-                           "ctx": np.zeros((C, _k.NCTX), np.int64)}
-            if self._J is not None:
-                # a worker's lane workspace (with room for a group's poses computed in the call) and bitsets
-                self._batch["LW"] = _lane_rows_zeros(rows, _layout.LANE_WORK.size(_k.model_dims(self._I)))
-                self._batch["LB"] = np.zeros((rows, _layout.LANE_BITS.size(_lanes.lane_dims(
-                    self._J, self.position_count))), np.int64)
-            self._set_batch_buffers(4 * L + 64, max(256, 2 * G * per))
-        bt = self._batch
-        # world_info is written for bad worlds only, and the kernel writes every world's count and
-        # every chunk's row: nothing to clear.
-        world_count = np.empty(B, np.int64)
-        world_info = np.empty((B, 4), np.int64)
-        chunk_info = np.empty((C + 1, _k.N_CI), np.int64)  # the chunks', then (counter, workers)
-        chunk_info[C, 1] = nw
-        S = _k.key_shift(self.geom_count)
-        while True:
-            # The kernels sum the chunks' stats into self._stats (`stats` reads it) and return the
-            # rows, or none when a chunk holds a bad world or ran out of room.
-            out = launch(bt, world_count, world_info, chunk_info, S)
-            if len(out):
-                return out
-            chunks = chunk_info[:C]
-            bad = chunks[:, _k.CI_BAD]
-            if bad.max() >= 0:
-                w = int(bad[bad >= 0].min())
-                self._raise(int(world_info[w, 0]), int(world_info[w, 1]), f"world {w}, ")
-            need_bp = int(chunks[:, _k.CI_NEED].max())
-            need = int(chunks[:, _k.CI_KEYS].max())
-            if need_bp > 0:  # never drop a pair: grow and rerun
-                self._set_batch_buffers(2 * need_bp, bt["keys"].shape[1])
-            elif need > bt["keys"].shape[1]:
-                self._set_batch_buffers(bt["bp"].shape[1], 2 * need)
-            else:
-                return out
+    def _swept_pairs(self):
+        # The swept broad phase's tables, made on first use (`swept.SweptPairs`); under the lock.
+        if getattr(self, "_swept", None) is None:
+            from .swept import SweptPairs
+            self._swept = SweptPairs(self)
+        return self._swept
 
-    def _set_batch_buffers(self, body_pairs: int, keys: int) -> None:
-        # Per chunk buffers and their context rows (the kernel reaches them through addresses).
-        bt = self._batch
-        C = bt["ctx"].shape[0]
-        bt["bp"] = np.empty((C, max(1, body_pairs), 2), np.int64)
-        bt["keys"] = np.empty((C, max(1, keys)), np.int64)
-        bt["scr"] = np.empty((C, _k.scratch_size(self.geom_count, bt["keys"].shape[1])), np.int64)
-        for c in range(C):
-            _k.context(self._I, self._F, bt["W"][c], bt["sap"][c], bt["bp"][c], bt["keys"][c], bt["scr"][c],
-                       bt["stats"][c], bt["info"][c], out=bt["ctx"][c])
+    def pairs_swept(self, body_pos0: np.ndarray, body_rot0: np.ndarray, body_pos1: np.ndarray,
+                    body_rot1: np.ndarray) -> np.ndarray:
+        """Geom pairs that may touch at *some* time of a step (a continuous broad phase).
+
+        The motion between the two poses is one step at constant velocity: each body's origin on
+        the line between its positions, its rotation turning at a constant rate about the fixed
+        axis of ``R1 R0ᵀ`` (the angle in ``[0, pi]``; `collide.swept` bounds the same motion).
+
+        Parameters
+        ----------
+        body_pos0, body_rot0 : (L, 3), (L, 3, 3) float64
+            Body poses at the step's start.
+        body_pos1, body_rot1 : (L, 3), (L, 3, 3) float64
+            And at its end.
+
+        Returns
+        -------
+        pairs : (K, 2) int32
+            Lower id first, rows sorted; the same static filter as `pairs`. They contain every
+            pair `pairs` reports at any time of the motion, hence every pair whose geoms touch
+            during the step. A plane whose body moves pairs with every geom its filter lets
+            through (a fixed plane is tested as a half-space). See `collide._kernels.swept`.
+
+        Raises
+        ------
+        ValueError
+            As `pairs`, naming the pose (``start`` or ``end``) and the body.
+        """
+        with self._lock:
+            return self._swept_pairs().pairs(body_pos0, body_rot0, body_pos1, body_rot1)
+
+    def pairs_swept_batch(self, body_pos0: np.ndarray, body_rot0: np.ndarray, body_pos1: np.ndarray,
+                          body_rot1: np.ndarray) -> np.ndarray:
+        """`pairs_swept` for many worlds at once (threads over worlds).
+
+        Parameters
+        ----------
+        body_pos0, body_pos1 : (B, L, 3) float64
+        body_rot0, body_rot1 : (B, L, 3, 3) float64
+
+        Returns
+        -------
+        pairs : (K, 3) int32
+            Rows ``(world, geom1, geom2)``, sorted; world ``w``'s rows equal
+            ``pairs_swept(body_pos0[w], body_rot0[w], body_pos1[w], body_rot1[w])``.
+
+        Raises
+        ------
+        ValueError
+            As `pairs_swept`, naming the first bad world.
+        """
+        with self._lock:
+            return self._swept_pairs().pairs_batch(body_pos0, body_rot0, body_pos1, body_rot1)
 
     def __reduce__(self):
         # The kernel's context holds raw addresses of this object's own buffers: a copy sharing or
         # duplicating them would read another object's memory. Copies and pickles are rebuilt from
         # the articulation instead (unbound; see bind).
-        return (BroadPhase, (self.articulation, self.coherent))
+        return (BroadPhase, (self.articulation, self.coherent, self._batch_path_arg))
 
     def __repr__(self) -> str:
         return f"BroadPhase({self.articulation!r})"

@@ -61,11 +61,11 @@ import numpy as np
 
 from .. import shapes
 from .._kernels import _clock
-from .._kernels import kinematics as _kin
 from .._kernels.broadphase import RET_SAME as _RET_SAME
 from .._validate import as_array, as_count
 from ..articulation import Articulation
 from ..broadphase import BroadPhase as _BroadPhase
+from ..broadphase import KinematicTree
 from ..pointcloud import PointCloud
 from ..volumes import aabb_corners
 
@@ -88,6 +88,7 @@ __all__ = [
     "geom_clouds",
     "geom_frames",
     "geom_inflation",
+    "kinematic_tree",
     "kinematics_batch",
     "log_rerun",
     "model_excludes",
@@ -402,17 +403,16 @@ def weld_groups(model: mujoco.MjModel) -> np.ndarray:
 # Batched forward kinematics (mj_kinematics, engine_core_smooth.c, for body poses only)
 # ----------------------------------------------------------------------------------------------
 
-def _kinematics_arrays(model: mujoco.MjModel) -> tuple:
-    # The model arrays `_kernels.kinematics` reads, contiguous: views of the model's own buffers
-    # (a body's model pose changed in place between calls reaches the next one, as it reaches
-    # mj_kinematics; `BroadPhase.pairs_batch` keeps them per MjModel); the index arrays as MuJoCo
-    # keeps them, int32 (no copy: converting them to int64 cost more than the kernel's work).
-    def c(x, dt=np.float64):
-        return np.ascontiguousarray(x, dtype=dt)
+def kinematic_tree(model: mujoco.MjModel) -> KinematicTree:
+    """The bodies and joints ``mj_kinematics`` reads, as a `collide.broadphase.KinematicTree`.
 
-    return (c(model.qpos0), c(model.body_parentid, np.int32), c(model.body_pos), c(model.body_quat),
-            c(model.body_jntadr, np.int32), c(model.body_jntnum, np.int32), c(model.jnt_type, np.int32),
-            c(model.jnt_qposadr, np.int32), c(model.jnt_pos).reshape(-1, 3), c(model.jnt_axis).reshape(-1, 3))
+    Its float arrays are views of the model's own (a body's pose or ``qpos0`` changed in place
+    reaches the next call, as it reaches ``mj_kinematics``; `BroadPhase.pairs_batch` keeps the
+    tree per ``MjModel``); its index arrays are checked copies.
+    """
+    return KinematicTree(model.qpos0, model.body_parentid, model.body_pos, model.body_quat, model.body_jntadr,
+                         model.body_jntnum, model.jnt_type, model.jnt_qposadr, np.reshape(model.jnt_pos, (-1, 3)),
+                         np.reshape(model.jnt_axis, (-1, 3)))
 
 
 def kinematics_batch(model: mujoco.MjModel, qpos) -> tuple[np.ndarray, np.ndarray]:
@@ -431,13 +431,7 @@ def kinematics_batch(model: mujoco.MjModel, qpos) -> tuple[np.ndarray, np.ndarra
         Equal to ``data.xpos`` / ``data.xmat`` after ``mj_kinematics`` up to rounding (the same
         formulas, engine_core_smooth.c; tested against MuJoCo on every test scene).
     """
-    q = np.ascontiguousarray(as_array(qpos, "qpos", (None, model.nq)), dtype=np.float64)
-    b, n = len(q), model.nbody
-    pos, rot = np.empty((b, n, 3)), np.empty((b, n, 3, 3))
-    chunks = max(1, min(4 * numba.get_num_threads(), b))
-    scratch = np.empty((chunks, _kin.scratch_size(n, model.njnt)))
-    _kin.kinematics_worlds(q, *_kinematics_arrays(model), pos, rot, scratch)
-    return pos, rot
+    return kinematic_tree(model).poses(qpos)
 
 
 def _contacts_disabled(model: mujoco.MjModel) -> bool:
@@ -483,8 +477,7 @@ class BroadPhase:
         self._disabled = _contacts_disabled(model)
         self._views_of = _NOT_BOUND  # the MjData whose arrays are bound (none yet; None is not an MjData)
         self._views = None
-        self._kin_scratch = None  # pairs_batch's kinematics scratch (see there)
-        self._kin_views = (None, None)  # (MjModel, its arrays' views): pairs_batch's, see there
+        self._tree = (None, None)  # (MjModel, its kinematic_tree): pairs_batch's, see there
         # MuJoCo has no collision function for plane-hfield and hfield-hfield (mjCOLLISIONFUNC
         # is NULL there): such pairs never make contacts and are removed after the kernel.
         types = np.asarray(model.geom_type)
@@ -627,10 +620,10 @@ class BroadPhase:
         -------
         pairs : (K, 3) int32
             ``(world, geom1, geom2)`` rows, sorted: those of `kinematics_batch` followed by
-            `collide.BroadPhase.pairs_batch`. On a model the lanes run (`collide._kernels.lanes`)
-            each thread computes a group's poses in its own workspace just before testing
-            them, none of the batch's poses written out (faster back to back, about even with
-            other batch calls in between; tests/bench/broadphase.py). A subclass that overrides the
+            `collide.BroadPhase.pairs_batch`, from one call,
+            `collide.BroadPhase.pairs_batch_joints` on the model's `kinematic_tree` (on a model
+            the lanes run, each thread computes a group's poses in its own workspace just before
+            testing them, none of the batch's poses written out). A subclass that overrides the
             `kinematics_batch` method gets the two calls.
         """
         if not isinstance(model, mujoco.MjModel):
@@ -638,54 +631,22 @@ class BroadPhase:
         diff = _model_mismatch(self.model, model)
         if diff is not None:
             raise ValueError(f"model: not the model this BroadPhase was built from ({diff})")
-        bp = self.broadphase
-        q = qpos
-        lanes = (bp._J is not None and type(self).kinematics_batch is BroadPhase.kinematics_batch
-                 and not self._disabled)
-        # The float64 C-contiguous (B, nq) array a simulation loop passes goes to the lane kernel
-        # unchecked: a NaN or inf in it makes a non-finite body pose, which the kernel refuses, and
-        # only then is qpos checked, to name the entry. The full check (`as_array`) costs a few per
-        # cent of a big batch's call.
-        unchecked = (lanes and type(q) is np.ndarray and q.dtype == np.float64 and q.ndim == 2
-                     and q.shape[1] == model.nq and q.flags.c_contiguous)
-        if not unchecked:
-            q = as_array(qpos, "qpos", (None, model.nq))
         if self._disabled:
+            as_array(qpos, "qpos", (None, model.nq))  # a bad qpos is refused all the same
             return self._empty3
-        if not lanes:
-            # a big model (world by world in the single-world kernel), or kinematics of one's own
-            pos, rot = self.kinematics_batch(model, q)
-            out = bp.pairs_batch(pos, rot)
+        if type(self).kinematics_batch is not BroadPhase.kinematics_batch:  # kinematics of one's own
+            out = self.broadphase.pairs_batch(*self.kinematics_batch(model, as_array(qpos, "qpos", (None, model.nq))))
         else:
-            # A small one: each group of worlds' poses computed by the thread that tests them, in its
-            # workspace (`_kernels.kinematics.step_lanes_kin`); the same rows as `kinematics_batch`
-            # then `collide.BroadPhase.pairs_batch`, without the batch's poses written and read back.
-            # The model's arrays as views (`_kinematics_arrays`), made once per MjModel (held with
-            # them: an id could be reused): its buffer never moves, so the views see every change
-            # made to it in place, as mj_kinematics would. Made afresh at every call (ten binding
-            # accesses) they cost a fifth of a small batch's call.
-            held, arrays = self._kin_views
+            # The model's tree (`kinematic_tree`: views of its float arrays), made once per MjModel
+            # and held with it (an id could be reused): the model's buffers never move, so the views
+            # see every change made to them in place, as mj_kinematics would. Made afresh at every
+            # call (ten binding accesses and the tree's checks) it would cost a good part of a small
+            # batch's call.
+            held, tree = self._tree
             if model is not held:
-                arrays = _kinematics_arrays(model)
-                self._kin_views = (model, arrays)  # one store: another thread sees both or neither
-
-            def launch(bt, world_count, world_info, chunk_info, S):
-                # the kinematics' scratch, a row per worker, kept between calls
-                shape = (bt["LW"].shape[0], _kin.lanes_scratch_size(model.nbody, model.njnt))
-                if self._kin_scratch is None or self._kin_scratch.shape != shape:
-                    self._kin_scratch = np.empty(shape)
-                return _kin.step_lanes_kin(q, *arrays, bt["ctx"], bp._J, bt["LW"], bt["LB"],
-                                           self._kin_scratch, world_count, world_info, chunk_info, S, bp._stats)
-
-            try:
-                out = bp._run_batch(len(q), launch)
-            except ValueError:
-                if unchecked:
-                    try:
-                        as_array(q, "qpos", (None, model.nq))
-                    except ValueError as named:  # a non-finite qpos is named as such, alone
-                        raise named from None
-                raise
+                tree = kinematic_tree(model)
+                self._tree = (model, tree)  # one store: another thread sees both or neither
+            out = self.broadphase.pairs_batch_joints(tree, qpos)
         return out if self._no_function is None else self._drop_null(out, 1)
 
     def kinematics_batch(self, model: mujoco.MjModel, qpos: np.ndarray):
