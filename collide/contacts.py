@@ -34,6 +34,7 @@ import numpy as np
 from . import faces as _faces
 from . import shapes as _shapes
 from ._kernels import manifold as _km
+from ._kernels import plane as _kp
 from .convex import Cylinder, Ellipsoid
 from .support import support_data
 
@@ -91,17 +92,17 @@ class Contacts:
 def _geom_shape(gtype: int, size: np.ndarray, vert: np.ndarray | None):
     # (shape for support_data, plane rule, below-centre flag), or None for a plane/skipped type.
     if gtype == SPHERE:
-        return _shapes.sphere(float(size[0])), _km.RULE_POINTS, False
+        return _shapes.sphere(float(size[0])), _kp.RULE_POINTS, False
     if gtype == CAPSULE:
-        return _shapes.capsule(float(size[0]), float(size[1])), _km.RULE_POINTS, False
+        return _shapes.capsule(float(size[0]), float(size[1])), _kp.RULE_POINTS, False
     if gtype == BOX:
-        return _shapes.box(np.asarray(size[:3], dtype=np.float64)), _km.RULE_VERTICES, True
+        return _shapes.box(np.asarray(size[:3], dtype=np.float64)), _kp.RULE_VERTICES, True
     if gtype == MESH:
-        return _shapes.mesh(np.asarray(vert, dtype=np.float64)), _km.RULE_VERTICES, False
+        return _shapes.mesh(np.asarray(vert, dtype=np.float64)), _kp.RULE_VERTICES, False
     if gtype == CYLINDER:
-        return Cylinder(float(size[0]), float(size[1])), _km.RULE_CYLINDER, False
+        return Cylinder(float(size[0]), float(size[1])), _kp.RULE_CYLINDER, False
     if gtype == ELLIPSOID:
-        return Ellipsoid(np.asarray(size[:3], dtype=np.float64)), _km.RULE_SUPPORT, False
+        return Ellipsoid(np.asarray(size[:3], dtype=np.float64)), _kp.RULE_SUPPORT, False
     raise ValueError(f"unsupported geom type {gtype}")
 
 
@@ -132,7 +133,7 @@ class GeomTable:
     cls : (G,) int8
         `collide._kernels.manifold.PLANE`, ``CONVEX`` or ``SKIPPED``.
     rule : (G,) int8
-        Plane rule (``RULE_*``).
+        Plane rule (`collide._kernels.plane`'s ``RULE_*``).
     below : (G,) bool
     kind : (G,) int64
     prm : (G, 4) float64

@@ -165,6 +165,15 @@ def test_every_import_form_is_followed(tmp_path, source):
     assert want.resolve() in got, (source, got)
 
 
+def test_the_narrow_phase_kernel_depends_on_the_modules_it_was_split_into():
+    # collide_pairs inlines the plane and polytope routines, the clipping and GJK/EPA from their
+    # own files: an edit to any of them must invalidate its cache.
+    deps = {Path(p).relative_to(PACKAGE).as_posix()
+            for p in _cache.dependency_files(str(PACKAGE / "_kernels" / "manifold.py"))}
+    assert deps == {"_kernels/manifold.py", "_kernels/plane.py", "_kernels/polytope.py", "_kernels/faces.py",
+                    "_kernels/distance.py", "_kernels/gjk.py", "_kernels/epa.py", "_kernels/support.py"}
+
+
 def test_the_stamp_changes_with_a_dependency_only(tmp_path):
     copy = tmp_path / "collide"
     shutil.copytree(PACKAGE, copy, ignore=shutil.ignore_patterns("__pycache__"))

@@ -47,21 +47,18 @@ _DUP_EPS = 1e-14
 
 
 @njit(cache=True)
-def _clip_half(poly, n, tmp, coord, sign, limit):
-    # Clip the first n rows of poly (x, y, z) to sign * p[coord] <= limit, z carried along;
-    # the result back in poly, its count returned (tmp: scratch of the same shape).
-    inside = True
-    for k in range(n):
-        if sign * poly[k, coord] - limit > 0.0:
-            inside = False
-            break
-    if inside:
-        return n
+def _clip_plane(poly, n, tmp, s0, s1, s2, off, segment):
+    # One Sutherland-Hodgman step (Sutherland and Hodgman 1974): the first n rows of poly (x, y, z)
+    # clipped to the half-space s . p <= off; the result back in poly, its count returned (tmp:
+    # scratch of the same shape). A vertex on the plane is kept; an edge crossing it strictly adds
+    # the crossing point. With segment, two rows are an open segment (no closing edge back).
     m = 0
     for k in range(n):
         k1 = k + 1 if k + 1 < n else 0
-        dp = sign * poly[k, coord] - limit
-        dq = sign * poly[k1, coord] - limit
+        if segment and n == 2 and k == 1:
+            k1 = 1
+        dp = s0 * poly[k, 0] + s1 * poly[k, 1] + s2 * poly[k, 2] - off
+        dq = s0 * poly[k1, 0] + s1 * poly[k1, 1] + s2 * poly[k1, 2] - off
         if dp <= 0.0:
             for q in range(3):
                 tmp[m, q] = poly[k, q]
@@ -75,6 +72,22 @@ def _clip_half(poly, n, tmp, coord, sign, limit):
         for q in range(3):
             poly[k, q] = tmp[k, q]
     return m
+
+
+@njit(cache=True)
+def _clip_half(poly, n, tmp, coord, sign, limit):
+    # Clip the first n rows of poly (x, y, z) to sign * p[coord] <= limit, z carried along (a
+    # side of the reference rectangle); the result back in poly, its count returned.
+    inside = True
+    for k in range(n):
+        if sign * poly[k, coord] - limit > 0.0:
+            inside = False
+            break
+    if inside:
+        return n
+    # the axis as a plane normal: its zero components add exact zeros to the one product
+    return _clip_plane(poly, n, tmp, sign if coord == 0 else 0.0, sign if coord == 1 else 0.0,
+                       sign if coord == 2 else 0.0, limit, False)
 
 
 @njit(cache=True)
@@ -414,26 +427,7 @@ def clip_faces(ref, nref, nrm, inc, ninc, poly, tmp, res, sel):
         s1 /= sl
         s2 /= sl
         off = s0 * ref[e, 0] + s1 * ref[e, 1] + s2 * ref[e, 2]
-        m = 0
-        for k in range(n):
-            k1 = k + 1 if k + 1 < n else 0
-            if n == 2 and k == 1:
-                k1 = 1  # an open segment: no closing edge
-            dp = s0 * poly[k, 0] + s1 * poly[k, 1] + s2 * poly[k, 2] - off
-            dq = s0 * poly[k1, 0] + s1 * poly[k1, 1] + s2 * poly[k1, 2] - off
-            if dp <= 0.0:
-                for q in range(3):
-                    tmp[m, q] = poly[k, q]
-                m += 1
-            if (dp < 0.0 < dq) or (dq < 0.0 < dp):
-                t = dp / (dp - dq)
-                for q in range(3):
-                    tmp[m, q] = poly[k, q] + t * (poly[k1, q] - poly[k, q])
-                m += 1
-        for k in range(m):
-            for q in range(3):
-                poly[k, q] = tmp[k, q]
-        n = m
+        n = _clip_plane(poly, n, tmp, s0, s1, s2, off, True)  # an edge (n == 2): an open segment
         if n == 0:
             return 0
     # keep the points below the reference plane
