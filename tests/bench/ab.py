@@ -46,7 +46,7 @@ def main() -> None:
     names = []
     for c in args.copies:
         path = Path(c).resolve()
-        if not (path / "mujoco.py").is_file():
+        if not ((path / "mujoco.py").is_file() or (path / "mujoco" / "__init__.py").is_file()):  # module or package
             sys.exit(f"ab.py: {c} holds no copy of the collide package")
         if str(path.parent) not in sys.path:
             sys.path.insert(0, str(path.parent))
