@@ -290,7 +290,7 @@ def test_quaternions_match_scipy():
     # the half turns and near-half turns where a trace-only formula loses its digits.
     from scipy.spatial.transform import Rotation
 
-    from collide.rerun_log import _quat_xyzw
+    from collide.rerun_log._convert import _quat_xyzw
 
     rng = np.random.default_rng(7)
     rots = [Rotation.random(200, random_state=7)]
