@@ -75,7 +75,7 @@ def compare_main(args: argparse.Namespace) -> int:
             return 2
     if args.rerun:
         try:
-            import rerun  # noqa: F401  (said before the run, not after it)
+            __import__("rerun")  # missing: said before the run, not after it
         except ImportError:
             print("error: --rerun needs rerun-sdk: pip install 'collide[viz]' (or pip install rerun-sdk)",
                   file=sys.stderr)
