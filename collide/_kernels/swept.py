@@ -1,0 +1,376 @@
+"""The swept broad phase: every geom pair that may touch at *some* time of a step (issue 44).
+
+The motion of a body over the step is the one `collide.sweep` bounds: ``p(s) = R(s) x + t(s)``,
+``s`` in ``[0, 1]``, ``R(s) = exp(s log(R1 R0ᵀ)) R0`` (a constant-rate turn by the angle ``θ`` of
+``R1 R0ᵀ``) and ``t`` linear. `collide.sweep` proves ``|p(s) - ℓ(s)| <= ρ θ² / 8`` for the point's
+chord ``ℓ(s) = (1 - s) p(0) + s p(1)``, ``ρ`` its distance from the turn's axis through the body's
+origin; here ``ρ <= |x|`` (the body-frame distance from the origin), so each body needs only its
+``k = θ² / 8`` and no axis (and the two ways round at ``θ = π`` are covered alike).
+
+Per geom, from the broad phase's own bounds rows (`layout.F_GLOCAL`, `F_GCAP`, inflated by the
+margins exactly as a single step inflates them):
+
+- its **swept AABB**: the union of its world AABBs at ``s = 0`` and ``s = 1`` (each the OBB's and the
+  capsule's, as `bounds._world_aabb` and `bounds._cap_aabb` make them) grown by ``ρ k``, with ``ρ``
+  the farthest body-frame point of that volume (``|centre| + |half extents|``, ``|centre| + |half
+  segment| + radius``). Every chord point lies in the union's box, so the grown box holds every
+  position of the volume during the step, and every AABB a single step computes at any ``s``;
+- its **sphere's centre** at both ends and that centre's deviation ``|c| k``. Two geoms may meet at
+  time ``s`` only if ``|ℓa(s) - ℓb(s)| <= ra + rb + ma + mb + |ca| ka + |cb| kb``; ``ℓa - ℓb`` is
+  linear in ``s``, so its smallest norm on ``[0, 1]`` is one projection (a continuous sphere test,
+  tighter than the spheres' two swept capsules).
+
+Pairs: the solid geoms are swept and pruned along one axis (an insertion sort of an order kept
+between calls: a step moves little), each overlap tested on the other two axes, the static filter
+(a bit matrix made once from `broadphase.tables.StaticFilter`, the filter's one home) and the
+continuous sphere test. A plane on a body that did not move is a fixed half-space: a geom pairs
+with it when its swept sphere or its swept box reaches it at either end; a plane whose body moved
+(rare: a tilting floor) pairs with every geom the filter lets it (the half-space's own sweep is not
+convex). Explicit pairs: the continuous sphere test with the pair's margins (planes as above).
+
+So the output contains every pair a single step (`broadphase._world`) reports at any ``s`` of
+the motion (its tests are the sphere, the OBBs and the AABBs; each swept test here is implied by
+the single step's at that ``s``), and every pair whose geoms touch during the step.
+
+Rotations are accepted within `bounds.ORTHO_TOL` of orthonormal, as for a single step; ``cos θ`` is
+lowered by `COS_SLACK` so that ``θ`` is never underestimated for the orthonormal rotation nearest to
+each (a trace moved by 9 entries of at most the tolerance each, at both ends).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from .bounds import (SLACK_POS, SLACK_REL, _bounds_ok, _plane_hit, _pose_ok, _row_of, _world_aabb, _world_row,
+                     capsule_half, dot3, plane_world)
+from .keys import _emit
+from .layout import (F_GCAP, F_GLOCAL, F_GMARGIN, F_GPLANE, F_PAIR_M, I_GEOM_BID, I_PAIR_G, I_PGEOMS, I_PLANES,
+                     ROW, Layout, Tables, view_f1, view_f2, view_i1, view_i2)
+
+# Lowering of cos θ (see the module docstring): 2 x 9 entries x ORTHO_TOL, doubled.
+COS_SLACK = 4e-5
+
+# ---------------------------------------------------------------------------- the declarations
+# Counts: G geoms, Gs solid geoms, NB bodies, Q planes, NW = ceil(G / 64) words a bit row.
+SWEPT = Tables("X", header=5)
+XTAB = Layout(SWEPT, "X", np.int64)  # static, made once (`collide.broadphase.swept`)
+X_ALLOW = XTAB.field("allow", "G, NW")  # bit h of allow[g, w]: the pair (g, 64 w + h) passes the static filter
+XWORK = Layout(SWEPT, "XW", np.int64)  # a caller's int64 workspace
+XW_ORDER = XWORK.field("order", "max(Gs, 1)")  # solid geoms by their swept boxes' low ends, kept between calls
+XW_STATE = XWORK.field("state", "2")  # the sweep axis, and 1 once the order is set
+YWORK = Layout(SWEPT, "Y", np.float64)  # a caller's float64 workspace
+Y_BODY = YWORK.field("body", "NB, 4")  # per body: k = θ² / 8, 1.0 when the pose changed, min(θ, 2), |t1 - t0|
+Y_BOX = YWORK.field("box", "G, 6")  # swept AABB (lo, hi) of each solid geom
+Y_SPH = YWORK.field("sph", "G, 9")  # sphere centre at s = 0 (3) and s = 1 (3), radius, centre deviation, reach δ
+Y_ROW = YWORK.field("row", "G, ROW")  # world bounds rows at s = 1
+Y_ROW0 = YWORK.field("row0", "1, ROW")  # scratch row (s = 0)
+Y_TMP = YWORK.field("tmp", "2, 6")  # scratch boxes
+Y_PLANE = YWORK.field("plane", "max(Q, 1), 4")  # a fixed plane's world (n, e); e = nan: its body moved
+H_G, H_GS, H_NB, H_Q, H_S = range(5)  # X's header: the counts, and S of the pair keys (`keys.key_shift`)
+
+BAD_POSE = -1  # returned as BAD_POSE - (2 b + t): body b's pose at t (0: start, 1: end) refused
+
+
+@nb.njit(cache=True, inline="always")
+def _body_motion(pos0, rot0, pos1, rot1, body):
+    # Per body: k = θ² / 8 (θ the angle of R1 R0ᵀ), moved flag; returns -1 or 2 b + t of a bad pose.
+    for b in range(pos0.shape[0]):
+        for t in range(2):
+            r = rot0 if t == 0 else rot1
+            p = pos0 if t == 0 else pos1
+            if not _pose_ok(r[b, 0, 0], r[b, 0, 1], r[b, 0, 2], r[b, 1, 0], r[b, 1, 1], r[b, 1, 2], r[b, 2, 0],
+                            r[b, 2, 1], r[b, 2, 2], p[b, 0], p[b, 1], p[b, 2]):
+                return 2 * b + t
+        tr = 0.0
+        same = True
+        for i in range(3):
+            same &= pos0[b, i] == pos1[b, i]
+            for j in range(3):
+                tr += rot0[b, i, j] * rot1[b, i, j]  # trace of R1 R0ᵀ
+                same &= rot0[b, i, j] == rot1[b, i, j]
+        c = min(1.0, max(-1.0, 0.5 * (tr - 1.0) - COS_SLACK))
+        th = math.acos(c)
+        body[b, 0] = 0.0 if same else th * th * (0.125 * (1.0 + 1e-12))
+        body[b, 1] = 0.0 if same else 1.0
+        body[b, 2] = 0.0 if same else min(th, 2.0) * (1.0 + 1e-12)
+        body[b, 3] = 0.0 if same else _norm3(pos1[b, 0] - pos0[b, 0], pos1[b, 1] - pos0[b, 1], pos1[b, 2] - pos0[b, 2])
+    return -1
+
+
+@nb.njit(cache=True, inline="always")
+def _norm3(a, b, c):
+    return math.sqrt(a * a + b * b + c * c)
+
+
+@nb.njit(cache=True, inline="always")
+def _geom_sweep(g, b, pos0, rot0, pos1, rot1, glocal, gcap, m, body, box, sph, row0, row, tmp):
+    # box[g] = the swept AABB of geom g (margin m) on body b (its motion in body[b]); sph[g] its
+    # sphere and reach; row[g] its world row at s = 1.
+    for t in range(2):
+        r = rot0 if t == 0 else rot1
+        p = pos0 if t == 0 else pos1
+        w = _world_row(r, p, b, glocal, g, row0, 0) if t == 0 else _world_row(r, p, b, glocal, g, row, g)
+        _world_aabb(w, m, tmp, t)
+        h0, h1, h2 = capsule_half(r[b, 0, 0], r[b, 0, 1], r[b, 0, 2], r[b, 1, 0], r[b, 1, 1], r[b, 1, 2],
+                                  r[b, 2, 0], r[b, 2, 1], r[b, 2, 2], gcap[g, 0], gcap[g, 1], gcap[g, 2],
+                                  gcap[g, 3] + m, w[0], w[1], w[2])
+        # the OBB's box cut to the capsule's, as a single step cuts it (`bounds._cap_aabb`)
+        tmp[t, 0] = max(tmp[t, 0], w[0] - h0)
+        tmp[t, 1] = max(tmp[t, 1], w[1] - h1)
+        tmp[t, 2] = max(tmp[t, 2], w[2] - h2)
+        tmp[t, 3] = min(tmp[t, 3], w[0] + h0)
+        tmp[t, 4] = min(tmp[t, 4], w[1] + h1)
+        tmp[t, 5] = min(tmp[t, 5], w[2] + h2)
+        sph[g, 3 * t] = w[15]
+        sph[g, 3 * t + 1] = w[16]
+        sph[g, 3 * t + 2] = w[17]
+    c = _norm3(glocal[g, 0], glocal[g, 1], glocal[g, 2])
+    # the farthest point of the box and of the capsule from the body's origin: the box's cut to
+    # the capsule's holds the geom, so the larger of the two reaches covers every point of it
+    rho = max(c + _norm3(glocal[g, 12] + m, glocal[g, 13] + m, glocal[g, 14] + m),
+              c + _norm3(gcap[g, 0], gcap[g, 1], gcap[g, 2]) + gcap[g, 3] + m)
+    d = rho * body[b, 0] * (1.0 + SLACK_REL)
+    # the reach δ: every point x of the volumes stays within |(R(s) - R1) x| + |t(s) - t1| <=
+    # |x| min(θ, 2) + |t1 - t0| of its place at s = 1 (a chord of the turn, at most the arc)
+    reach = (rho * body[b, 2] + body[b, 3]) * (1.0 + SLACK_REL)
+    for i in range(3):
+        box[g, i] = max(min(tmp[0, i], tmp[1, i]) - d, tmp[1, i] - reach)
+        box[g, 3 + i] = min(max(tmp[0, 3 + i], tmp[1, 3 + i]) + d, tmp[1, 3 + i] + reach)
+    sph[g, 6] = glocal[g, 18]
+    sph[g, 7] = _norm3(glocal[g, 15], glocal[g, 16], glocal[g, 17]) * body[b, 0]
+    sph[g, 8] = reach
+
+
+@nb.njit(cache=True, inline="always")
+def _spheres_meet(sph, a, ma, b, mb):
+    # The continuous sphere test: min over s in [0, 1] of |ℓa(s) - ℓb(s)| <= the radii, margins
+    # and deviations, with the single step's rounding slack (SLACK_REL of the radius, SLACK_POS of
+    # the coordinates).
+    d0 = sph[a, 0] - sph[b, 0]
+    d1 = sph[a, 1] - sph[b, 1]
+    d2 = sph[a, 2] - sph[b, 2]
+    v0 = (sph[a, 3] - sph[b, 3]) - d0
+    v1 = (sph[a, 4] - sph[b, 4]) - d1
+    v2 = (sph[a, 5] - sph[b, 5]) - d2
+    vv = dot3(v0, v1, v2, v0, v1, v2)
+    s = 0.0
+    if vv > 0.0:
+        s = min(1.0, max(0.0, -dot3(d0, d1, d2, v0, v1, v2) / vv))
+    e0 = d0 + s * v0
+    e1 = d1 + s * v1
+    e2 = d2 + s * v2
+    r = sph[a, 6] + ma + sph[a, 7] + sph[b, 6] + mb + sph[b, 7]
+    pos = 0.0
+    for i in range(6):
+        pos += abs(sph[a, i]) + abs(sph[b, i])
+    r += SLACK_REL * r + SLACK_POS * pos
+    return dot3(e0, e1, e2, e0, e1, e2) <= r * r
+
+
+@nb.njit(cache=True, inline="always")
+def _plane_reach(pl, q, mq, sph, g, mg, box):
+    # Does geom g (margin mg) reach the fixed plane pl[q] = (n, e), inflated by mq, at some s: its
+    # sphere (the lower end of its centre's chord, less the deviation) and its swept box (the
+    # corner deepest along n) both reach {n . x <= e + mq}.
+    n0 = pl[q, 0]
+    n1 = pl[q, 1]
+    n2 = pl[q, 2]
+    lim = pl[q, 3] + mq
+    c = min(dot3(n0, n1, n2, sph[g, 0], sph[g, 1], sph[g, 2]), dot3(n0, n1, n2, sph[g, 3], sph[g, 4], sph[g, 5]))
+    r = sph[g, 6] + mg + sph[g, 7]
+    corner = dot3(n0, n1, n2, box[g, 3] if n0 < 0.0 else box[g, 0], box[g, 4] if n1 < 0.0 else box[g, 1],
+                  box[g, 5] if n2 < 0.0 else box[g, 2])
+    scale = abs(pl[q, 3])
+    for i in range(6):
+        scale += abs(sph[g, i]) + abs(box[g, i])
+    tol = SLACK_REL * r + SLACK_POS * scale
+    return (c - r <= lim + tol) & (corner <= lim + tol)
+
+
+@nb.njit(cache=True, inline="always")
+def _allowed(allow, a, b):
+    return (allow[a, b >> 6] >> (b & 63)) & 1 != 0
+
+
+@nb.njit(cache=True, inline="always")
+def _sort_order(order, box, n, axis):
+    # Insertion sort of order[:n] by box[., axis] (the low ends): the previous call's order is
+    # nearly right when bodies move a little, so this costs about one pass.
+    for i in range(1, n):
+        g = order[i]
+        v = box[g, axis]
+        j = i - 1
+        while j >= 0 and box[order[j], axis] > v:
+            order[j + 1] = order[j]
+            j -= 1
+        order[j + 1] = g
+
+
+@nb.njit(cache=True)
+def swept_world(pos0, rot0, pos1, rot1, I, F, X, XW, Y, keys, out):
+    """One world's swept pairs as sorted keys ``g1 << S | g2`` in ``keys``, and as ``(g1, g2)`` rows
+    in ``out`` (an int32 ``(n, 2)`` view of ``keys``' memory, or an empty array: keys only); returns
+    their count (which may exceed ``keys``' length: then only the first were written, and the caller
+    grows the buffer and calls again), or ``BAD_POSE - (2 b + t)`` for body b's refused pose at end
+    t.
+
+    ``I``, ``F``: the broad phase's model (`layout.MODEL`); ``X``: `XTAB` (its counts at 0..3);
+    ``XW``, ``Y``: workspaces of `XWORK` and `YWORK`, owned by one caller at a time.
+    """
+    G = X[H_G]
+    Gs = X[H_GS]
+    body = view_f2(X, Y, Y_BODY)
+    bad = _body_motion(pos0, rot0, pos1, rot1, body)
+    if bad >= 0:
+        return BAD_POSE - bad
+    glocal = view_f2(I, F, F_GLOCAL)
+    gcap = view_f2(I, F, F_GCAP)
+    gmargin = view_f1(I, F, F_GMARGIN)
+    gplane = view_f2(I, F, F_GPLANE)
+    pair_m = view_f1(I, F, F_PAIR_M)
+    geom_bid = view_i1(I, I, I_GEOM_BID)
+    solid = view_i1(I, I, I_PGEOMS)
+    planes = view_i1(I, I, I_PLANES)
+    pair_g = view_i2(I, I, I_PAIR_G)
+    allow = view_i2(X, X, X_ALLOW)
+    order = view_i1(X, XW, XW_ORDER)
+    state = view_i1(X, XW, XW_STATE)
+    box = view_f2(X, Y, Y_BOX)
+    sph = view_f2(X, Y, Y_SPH)
+    row = view_f2(X, Y, Y_ROW)
+    row0 = view_f2(X, Y, Y_ROW0)
+    tmp = view_f2(X, Y, Y_TMP)
+    plw = view_f2(X, Y, Y_PLANE)
+    S = X[H_S]
+    # 1. every solid geom's swept box and sphere; the spread of their centres per axis
+    m0 = m1 = m2 = q0 = q1 = q2 = 0.0
+    for ii in range(Gs):
+        g = solid[ii]
+        b = geom_bid[g]
+        _geom_sweep(g, b, pos0, rot0, pos1, rot1, glocal, gcap, gmargin[g], body, box, sph, row0, row, tmp)
+        c0 = box[g, 0] + box[g, 3]
+        c1 = box[g, 1] + box[g, 4]
+        c2 = box[g, 2] + box[g, 5]
+        m0 += c0
+        m1 += c1
+        m2 += c2
+        q0 += c0 * c0
+        q1 += c1 * c1
+        q2 += c2 * c2
+    # 2. the sweep axis: the widest spread of centres; kept unless another is 1.5x as wide (each
+    # change costs the sort a full pass)
+    if state[1] == 0:
+        for ii in range(Gs):
+            order[ii] = solid[ii]
+        state[1] = 1
+    n = max(Gs, 1)
+    v0 = q0 - m0 * m0 / n
+    v1 = q1 - m1 * m1 / n
+    v2 = q2 - m2 * m2 / n
+    axis = state[0]
+    va = v0 if axis == 0 else v1 if axis == 1 else v2
+    best = 0 if (v0 >= v1) & (v0 >= v2) else 1 if v1 >= v2 else 2
+    vb = v0 if best == 0 else v1 if best == 1 else v2
+    if vb > 1.5 * va:
+        axis = best
+        state[0] = axis
+    _sort_order(order, box, Gs, axis)
+    a1 = (axis + 1) % 3
+    a2 = (axis + 2) % 3
+    k = 0
+    for ii in range(Gs):
+        a = order[ii]
+        hi = box[a, 3 + axis]
+        for jj in range(ii + 1, Gs):
+            b = order[jj]
+            if box[b, axis] > hi:
+                break
+            if ((box[a, a1] <= box[b, 3 + a1]) & (box[b, a1] <= box[a, 3 + a1]) & (box[a, a2] <= box[b, 3 + a2])
+                    & (box[b, a2] <= box[a, 3 + a2])):
+                if (_allowed(allow, a, b) and _spheres_meet(sph, a, gmargin[a], b, gmargin[b])
+                        and _bounds_ok(_row_of(row, a), gmargin[a] + sph[a, 8], _row_of(row, b),
+                                       gmargin[b] + sph[b, 8])):
+                    k = _emit(keys, k, a, b, S)
+    # 3. planes: fixed ones as half-spaces, moving ones against every geom the filter lets them
+    for qi in range(planes.shape[0]):
+        q = planes[qi]
+        bq = geom_bid[q]
+        moving = body[bq, 1] != 0.0
+        if not moving:
+            m0, m1, m2, e = plane_world(rot1[bq, 0, 0], rot1[bq, 0, 1], rot1[bq, 0, 2], rot1[bq, 1, 0],
+                                        rot1[bq, 1, 1], rot1[bq, 1, 2], rot1[bq, 2, 0], rot1[bq, 2, 1],
+                                        rot1[bq, 2, 2], pos1[bq, 0], pos1[bq, 1], pos1[bq, 2], gplane[q, 0],
+                                        gplane[q, 1], gplane[q, 2], gplane[q, 3])
+            plw[qi, 0] = m0
+            plw[qi, 1] = m1
+            plw[qi, 2] = m2
+            plw[qi, 3] = e
+        else:
+            plw[qi, 3] = np.nan
+        for ii in range(Gs):
+            g = solid[ii]
+            if _allowed(allow, q, g) and (moving or (_plane_reach(plw, qi, gmargin[q], sph, g, gmargin[g], box)
+                                                     and _plane_hit(plw, qi, gmargin[q], row, g,
+                                                                    gmargin[g] + sph[g, 8]))):
+                k = _emit(keys, k, q, g, S)
+    # 4. explicit pairs: the pair's margins where given, else the geoms'
+    for i in range(pair_g.shape[0]):
+        g1 = pair_g[i, 0]
+        g2 = pair_g[i, 1]
+        m1 = gmargin[g1] if np.isnan(pair_m[i]) else pair_m[i]
+        m2 = gmargin[g2] if np.isnan(pair_m[i]) else pair_m[i]
+        p1 = gplane[g1, 0] != 0.0 or gplane[g1, 1] != 0.0 or gplane[g1, 2] != 0.0
+        p2 = gplane[g2, 0] != 0.0 or gplane[g2, 1] != 0.0 or gplane[g2, 2] != 0.0
+        if p1 and p2:
+            continue
+        if p1 or p2:
+            gp = g1 if p1 else g2
+            gs = g2 if p1 else g1
+            qi = -1
+            for j in range(planes.shape[0]):
+                if planes[j] == gp:
+                    qi = j
+            mq = m1 if p1 else m2
+            mg = m2 if p1 else m1
+            hit = np.isnan(plw[qi, 3]) or (_plane_reach(plw, qi, mq, sph, gs, mg, box)
+                                           and _plane_hit(plw, qi, mq, row, gs, mg + sph[gs, 8]))
+        else:
+            hit = (_spheres_meet(sph, g1, m1, g2, m2)
+                   and _bounds_ok(_row_of(row, g1), m1 + sph[g1, 8], _row_of(row, g2), m2 + sph[g2, 8]))
+        if hit:
+            k = _emit(keys, k, g1, g2, S)
+    n = min(k, keys.shape[0])
+    keys[:n].sort()
+    if out.shape[0] > 0:
+        mask = (np.int64(1) << S) - 1
+        for i in range(n):
+            key = keys[i]  # read before out[i] (the same 8 bytes) is written
+            out[i, 0] = np.int32(key >> S)
+            out[i, 1] = np.int32(key & mask)
+    return k
+
+
+@nb.njit(cache=True, parallel=True)
+def swept_batch(pos0, rot0, pos1, rot1, I, F, X, XWs, Ys, scratch, counts, offsets, out):
+    """The worlds of a batch, threads over them (``T = XWs.shape[0]`` workers, worker t owning
+    ``XWs[t]``, ``Ys[t]``, ``scratch[t]``). With ``out`` empty: ``counts[w]`` = `swept_world`'s
+    return for world w (a count, or a refused pose), keys written nowhere. Else each world's
+    sorted keys (``counts[w]`` of them, at most ``scratch``' width) into
+    ``out[offsets[w]:offsets[w] + counts[w]]``."""
+    B = pos0.shape[0]
+    T = XWs.shape[0]
+    write = out.shape[0] > 0
+    none = np.zeros((0, 2), np.int32)
+    for t in nb.prange(T):
+        for w in range(t, B, T):
+            if not write:
+                counts[w] = swept_world(pos0[w], rot0[w], pos1[w], rot1[w], I, F, X, XWs[t], Ys[t], scratch[t, :0],
+                                        none)
+            elif counts[w] > 0:
+                n = swept_world(pos0[w], rot0[w], pos1[w], rot1[w], I, F, X, XWs[t], Ys[t], scratch[t], none)
+                o = offsets[w]
+                for i in range(n):
+                    out[o + i] = scratch[t, i]

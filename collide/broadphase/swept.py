@@ -1,0 +1,141 @@
+"""The swept broad phase's Python side: its static tables, made once, and the calls.
+
+`BroadPhase.pairs_swept` and `BroadPhase.pairs_swept_batch` build a `SweptPairs` on first use (a
+model that is never swept pays nothing). The kernel and what its answer contains:
+`collide._kernels.swept`.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from .._kernels import keys as _keys
+from .._kernels import swept as _ks
+from . import tables as _tables
+
+__all__ = ["SweptPairs"]
+
+# Rows of the static filter's geom pairs examined at once while the bit matrix is made (memory).
+_BLOCK = 256
+
+
+def allow_bits(filt: _tables.StaticFilter, gstart: np.ndarray, pgeoms: np.ndarray, planes: np.ndarray,
+               plane_ok: np.ndarray, G: int) -> np.ndarray:
+    """``(G, ceil(G / 64))`` int64: bit ``h`` of row ``g``, word ``w`` set when the geom pair
+    ``(g, 64 w + h)`` passes the static filter (`tables.StaticFilter`, its one home): two solid
+    geoms at positions that pass, whose own masks pass and that are not an explicit pair; a plane
+    and a solid geom whose position the plane's filter row (`tables.plane_filter`) lets through.
+    Symmetric."""
+    NW = max(1, -(-G // 64))
+    bits = np.zeros((G, NW), np.uint64)
+    L = len(gstart) - 1
+    gpos = np.zeros(G, np.int64)
+    gpos[pgeoms] = np.repeat(np.arange(L), np.diff(gstart))
+
+    def put(g1, g2):
+        for a, b in ((g1, g2), (g2, g1)):
+            np.bitwise_or.at(bits, (a, b >> 6), np.left_shift(np.uint64(1), (b & 63).astype(np.uint64)))
+
+    n = len(pgeoms)
+    for i0 in range(0, n, _BLOCK):
+        i, j = np.nonzero(np.triu(np.ones((min(_BLOCK, n - i0), n), bool), 1 + i0))
+        g1, g2 = pgeoms[i + i0], pgeoms[j]
+        ok = filt.bodies(gpos[g1], gpos[g2]) & filt.geoms(g1, g2)
+        put(g1[ok], g2[ok])
+    for qi, q in enumerate(planes):
+        ok = (plane_ok[qi, gpos[pgeoms]] != 0) & filt.geoms(np.full(n, q), pgeoms)
+        put(np.full(int(ok.sum()), q, np.int64), pgeoms[ok])
+    return bits.view(np.int64)
+
+
+class SweptPairs:
+    """The swept pairs of one `BroadPhase`'s model: its tables and one world's workspace.
+
+    Parameters
+    ----------
+    bp : collide.BroadPhase
+        Its model tables (``bp._I``, ``bp._F``) are read, never written.
+    """
+
+    def __init__(self, bp):
+        a = bp.articulation
+        dims, fields, filt = _tables.model_tables(a)
+        G, NB = a.geom_count, a.body_count
+        planes = fields["planes"]
+        self.dims = {"G": G, "Gs": len(fields["pgeoms"]), "NB": NB, "Q": len(planes), "NW": max(1, -(-G // 64))}
+        self.key_shift = _keys.key_shift(G)
+        allow = allow_bits(filt, fields["gstart"], fields["pgeoms"], planes, fields["plane_ok"], G)
+        d = self.dims
+        self._X = _ks.XTAB.pack(d, header=(G, d["Gs"], NB, d["Q"], self.key_shift), allow=allow)
+        self._I, self._F = bp._I, bp._F
+        self._XW = np.zeros(_ks.XWORK.size(d), np.int64)
+        self._Y = np.zeros(_ks.YWORK.size(d))
+        self._set_keys(4 * G + 64)
+        self._check = bp._check
+
+    def _set_keys(self, n: int) -> None:
+        self._keys = np.empty(n, np.int64)
+        self._out = self._keys.view(np.int32).reshape(-1, 2)  # the kernel turns the keys into rows in place
+
+    def _pairs_of(self, keys: np.ndarray) -> np.ndarray:
+        S = self.key_shift
+        out = np.empty((len(keys), 2), np.int32)
+        out[:, 0] = keys >> S
+        out[:, 1] = keys & ((1 << S) - 1)
+        return out
+
+    def _refuse(self, code: int, pos0, rot0, pos1, rot1, where: str = "") -> None:
+        bt = _ks.BAD_POSE - code
+        b, t = divmod(int(bt), 2)
+        from ._world_bounds import check_pose_values  # the message of a single step's refusal
+        pos, rot = (pos0, rot0) if t == 0 else (pos1, rot1)
+        check_pose_values(pos, rot, f"{where}{'start' if t == 0 else 'end'} pose, ")  # its first bad body is b
+        raise ValueError(f"{where}body {b}: {'start' if t == 0 else 'end'} pose refused")  # not reached
+
+    def pairs(self, pos0, rot0, pos1, rot1) -> np.ndarray:
+        """See `BroadPhase.pairs_swept` (the caller holds the lock)."""
+        pos0, rot0 = self._check(pos0, rot0, ())
+        pos1, rot1 = self._check(pos1, rot1, ())
+        while True:
+            k = _ks.swept_world(pos0, rot0, pos1, rot1, self._I, self._F, self._X, self._XW, self._Y, self._keys,
+                                self._out)
+            if k < 0:
+                self._refuse(k, pos0, rot0, pos1, rot1)
+            if k <= len(self._keys):
+                return self._out[:k].copy()
+            self._set_keys(2 * k)
+
+    def pairs_batch(self, pos0, rot0, pos1, rot1) -> np.ndarray:
+        """See `BroadPhase.pairs_swept_batch`."""
+        NB = self.dims["NB"]
+        for name, arr in (("body_pos0", pos0), ("body_pos1", pos1)):
+            if not isinstance(arr, np.ndarray) or arr.ndim != 3:
+                raise ValueError(f"{name}: expected shape (B, {NB}, 3), got "
+                                 f"{getattr(arr, 'shape', type(arr).__name__)}")
+        B = pos0.shape[0]
+        if pos1.shape[0] != B:
+            raise ValueError(f"body_pos1: {pos1.shape[0]} worlds, body_pos0 has {B}")
+        pos0, rot0 = self._check(pos0, rot0, (B,))
+        pos1, rot1 = self._check(pos1, rot1, (B,))
+        T = max(1, min(numba.get_num_threads(), B))
+        XWs = np.zeros((T, self._XW.size), np.int64)
+        Ys = np.zeros((T, self._Y.size))
+        counts = np.zeros(B, np.int64)
+        none = np.zeros(0, np.int64)
+        _ks.swept_batch(pos0, rot0, pos1, rot1, self._I, self._F, self._X, XWs, Ys, np.zeros((T, 1), np.int64),
+                        counts, none, none)
+        bad = np.flatnonzero(counts < 0)
+        if len(bad):
+            w = int(bad[0])
+            self._refuse(int(counts[w]), pos0[w], rot0[w], pos1[w], rot1[w], f"world {w}, ")
+        offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        keys = np.empty(max(1, int(offsets[-1])), np.int64)
+        if offsets[-1]:
+            XWs[:] = 0
+            _ks.swept_batch(pos0, rot0, pos1, rot1, self._I, self._F, self._X, XWs, Ys,
+                            np.empty((T, max(1, int(counts.max()))), np.int64), counts, offsets, keys)
+        out = np.empty((int(offsets[-1]), 3), np.int32)
+        out[:, 0] = np.repeat(np.arange(B, dtype=np.int32), counts)
+        out[:, 1:] = self._pairs_of(keys[:offsets[-1]])
+        return out

@@ -1,0 +1,231 @@
+"""The swept broad phase (`BroadPhase.pairs_swept`, issue 44): every pair that may touch at some time
+of a step, against its brute-force twin and a sampling oracle."""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+
+import collide
+from collide import shapes, testing
+from collide.testing.swept import brute_force_swept_pairs, motion_poses
+
+
+def _set(p):
+    return {tuple(map(int, r)) for r in np.asarray(p).reshape(-1, 2)}
+
+
+def _scenes():
+    return [
+        testing.chain(12, seed=1, planes=1),
+        testing.branching_tree(30, seed=2, planes=1),
+        testing.many_robots(4, links=5, seed=3, planes=1),
+        testing.free_hulls(16, seed=4, filters=True, planes=1),
+    ]
+
+
+def _pose_pair(scene, rng, size):
+    L = scene.articulation.body_count
+    p0, r0 = scene.poses(rng)
+    if size is None:
+        p1, r1 = scene.poses(rng)
+    else:
+        turn = testing.scenes.random_rotation(rng, L)
+        ang = rng.uniform(0, size, L)
+        from scipy.spatial.transform import Rotation
+        rv = Rotation.from_matrix(turn).as_rotvec()
+        rv *= (ang / np.maximum(np.linalg.norm(rv, axis=1), 1e-300))[:, None]
+        r1 = np.einsum("lij,ljk->lik", Rotation.from_rotvec(rv).as_matrix(), r0)
+        p1 = p0 + rng.uniform(-size, size, (L, 3))
+        r1[0], p1[0] = r0[0], p0[0]  # the world stays put
+    return p0, r0, p1, r1
+
+
+@pytest.mark.parametrize("size", [0.05, 0.5, None])
+def test_swept_equals_its_brute_force_twin(size):
+    rng = np.random.default_rng(10)
+    found = 0
+    for scene in _scenes():
+        a = scene.articulation
+        bp = collide.BroadPhase(a)
+        for _ in range(4):
+            p0, r0, p1, r1 = _pose_pair(scene, rng, size)
+            fast = _set(bp.pairs_swept(p0, r0, p1, r1))
+            sure = _set(brute_force_swept_pairs(a, p0, r0, p1, r1, tol=-1e-9))
+            maybe = _set(brute_force_swept_pairs(a, p0, r0, p1, r1, tol=1e-9))
+            assert sure <= fast <= maybe, (scene.name, sorted(sure - fast), sorted(fast - maybe))
+            found += len(fast)
+    assert found > 50  # the scenes had real candidates
+
+
+@pytest.mark.parametrize("size", [0.2, 1.0, None])
+def test_swept_contains_every_pair_of_the_steps_in_between(size):
+    # The oracle: the single-step broad phase at 300 times of the motion; its union must be inside.
+    rng = np.random.default_rng(20)
+    s = np.linspace(0.0, 1.0, 301)
+    between = 0
+    for scene in _scenes():
+        a = scene.articulation
+        bp = collide.BroadPhase(a)
+        for _ in range(3):
+            p0, r0, p1, r1 = _pose_pair(scene, rng, size)
+            swept = _set(bp.pairs_swept(p0, r0, p1, r1))
+            pos, rot = motion_poses(p0, r0, p1, r1, s)
+            seen = set()
+            for t in range(len(s)):
+                seen |= _set(bp.pairs(np.ascontiguousarray(pos[t]), np.ascontiguousarray(rot[t])))
+            assert seen <= swept, (scene.name, sorted(seen - swept))
+            between += len(seen - _set(bp.pairs(p0, r0)) - _set(bp.pairs(p1, r1)))
+    assert between > 0  # some pairs met only between the step's ends
+
+
+def _rod_and_plate():
+    # A rod spinning about its centre by up to pi a step beside a small plate; a fast ball and a
+    # thin wall; a floor.
+    art = collide.Articulation(
+        body_parent=[0, 0, 0, 0],
+        geom_body=[0, 1, 2, 3, 0],
+        geom_cloud=[shapes.plane(), shapes.capsule(0.02, 1.0), shapes.box([0.1, 0.1, 0.1]),
+                    shapes.sphere(0.05), shapes.box([0.01, 1.0, 1.0])],
+        geom_pos=[[0, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0], [5.0, 0, 3.0]],
+    )
+    return art
+
+
+def test_spinning_rod_and_bullet_found_between_the_ends():
+    from scipy.spatial.transform import Rotation
+    art = _rod_and_plate()
+    bp = collide.BroadPhase(art)
+    rz = Rotation.from_euler("z", 179.0, degrees=True).as_matrix()
+    cap = Rotation.from_euler("y", 90.0, degrees=True).as_matrix()  # the capsule along x
+    p0 = np.array([[0, 0, 0], [0, 0, 3.0], [0, 0.95, 3.0], [3.0, 0, 3.0]])
+    r0 = np.tile(np.eye(3), (4, 1, 1))
+    r0[1] = cap
+    p1 = p0.copy()
+    p1[3] = [7.0, 0, 3.0]  # the ball jumps through the wall
+    r1 = r0.copy()
+    r1[1] = rz @ cap
+    ends = _set(bp.pairs(p0, r0)) | _set(bp.pairs(p1, r1))
+    assert (1, 2) not in ends and (3, 4) not in ends  # the discrete broad phase misses both
+    swept = _set(bp.pairs_swept(p0, r0, p1, r1))
+    assert {(1, 2), (3, 4)} <= swept
+    # and they do touch in between: the rod along y at s = 1/2, the ball inside the wall at 1/2
+    pos, rot = motion_poses(p0, r0, p1, r1, np.array([0.5]))
+    touching = _set(testing.brute_force_pairs(art, pos[0], rot[0]))
+    assert {(1, 2), (3, 4)} <= touching
+    assert (0, 1) not in swept and (0, 3) not in swept  # well above the floor all along
+
+
+def test_planes_fixed_and_moving():
+    # A ball above a fixed floor (a half-space: nothing tunnels through it), then the floor's body moved
+    art = collide.Articulation(body_parent=[0, 0, 0], geom_body=[1, 2],
+                               geom_cloud=[shapes.plane(), shapes.sphere(0.1)], geom_margin=[0.0, 0.01])
+    bp = collide.BroadPhase(art)
+    p0 = np.array([[0, 0, 0], [0, 0, 0], [0, 0, 1.0]])
+    r = np.tile(np.eye(3), (3, 1, 1))
+    p1 = p0.copy()
+    p1[2] = [0, 0, -1.0]
+    assert _set(bp.pairs(p0, r)) == set() and _set(bp.pairs(p1, r)) == {(0, 1)}
+    assert _set(bp.pairs_swept(p0, r, p1, r)) == {(0, 1)}
+    p1[2] = [0.5, 0, 0.9]
+    assert _set(bp.pairs_swept(p0, r, p1, r)) == set()  # stays above: a fixed plane is exact here
+    p1b = p1.copy()
+    p1b[1] = [0, 0, 1e-9]  # the plane's body moved: every pair its filter lets through
+    assert _set(bp.pairs_swept(p0, r, p1b, r)) == {(0, 1)}
+    assert _set(brute_force_swept_pairs(art, p0, r, p1b, r)) == {(0, 1)}
+
+
+def test_no_motion_gives_at_least_the_single_step_pairs():
+    rng = np.random.default_rng(30)
+    for scene in _scenes():
+        bp = collide.BroadPhase(scene.articulation)
+        p, r = scene.poses(rng)
+        assert _set(bp.pairs(p, r)) <= _set(bp.pairs_swept(p, r, p, r))
+
+
+def test_touching_in_between_is_found():
+    # Exact geometry (GJK) at 60 times of large motions: every touching pair is a swept candidate.
+    rng = np.random.default_rng(40)
+    scene = testing.free_hulls(10, seed=5, filters=True, planes=1)
+    a = scene.articulation
+    bp = collide.BroadPhase(a)
+    s = np.linspace(0, 1, 61)
+    touched = 0
+    for _ in range(3):
+        p0, r0, p1, r1 = _pose_pair(scene, rng, 1.0)
+        swept = _set(bp.pairs_swept(p0, r0, p1, r1))
+        pos, rot = motion_poses(p0, r0, p1, r1, s)
+        for t in range(len(s)):
+            tp = _set(testing.brute_force_pairs(a, pos[t], rot[t]))
+            assert tp <= swept
+            touched += len(tp)
+    assert touched > 0
+
+
+def test_batch_equals_single_worlds():
+    rng = np.random.default_rng(50)
+    scene = testing.many_robots(3, links=4, seed=6, planes=1)
+    bp = collide.BroadPhase(scene.articulation)
+    B = 7
+    p0, r0 = scene.poses(rng, worlds=B)
+    p1, r1 = scene.poses(rng, worlds=B)
+    out = bp.pairs_swept_batch(p0, r0, p1, r1)
+    assert out.shape[1] == 3 and out.dtype == np.int32 and len(out) > 0
+    for w in range(B):
+        np.testing.assert_array_equal(out[out[:, 0] == w, 1:], bp.pairs_swept(p0[w], r0[w], p1[w], r1[w]))
+    assert bp.pairs_swept_batch(p0[:0], r0[:0], p1[:0], r1[:0]).shape == (0, 3)
+
+
+def test_bad_input_is_named_and_the_object_still_works():
+    scene = testing.chain(6, seed=7, planes=1)
+    bp = collide.BroadPhase(scene.articulation)
+    rng = np.random.default_rng(60)
+    p0, r0 = scene.poses(rng)
+    p1, r1 = scene.poses(rng)
+    good = bp.pairs_swept(p0, r0, p1, r1)
+    bad = p1.copy()
+    bad[3, 1] = np.nan
+    with pytest.raises(ValueError, match="end pose, body 3"):
+        bp.pairs_swept(p0, r0, bad, r1)
+    skew = r0.copy()
+    skew[2] *= 1.1
+    with pytest.raises(ValueError, match="start pose, body 2.*rotation"):
+        bp.pairs_swept(p0, skew, p1, r1)
+    with pytest.raises(ValueError, match="body_pos"):
+        bp.pairs_swept(p0[:-1], r0, p1, r1)
+    with pytest.raises(ValueError, match="body_rot"):
+        bp.pairs_swept(p0, r0, p1, r1[:, :2])
+    P0, R0 = scene.poses(rng, worlds=3)
+    P1, R1 = scene.poses(rng, worlds=3)
+    P1[2, 4, 0] = np.inf
+    with pytest.raises(ValueError, match="world 2, end pose, body 4"):
+        bp.pairs_swept_batch(P0, R0, P1, R1)
+    with pytest.raises(ValueError, match="worlds"):
+        bp.pairs_swept_batch(P0, R0, P1[:2], R1[:2])
+    np.testing.assert_array_equal(bp.pairs_swept(p0, r0, p1, r1), good)
+
+
+def test_two_threads():
+    scene = testing.branching_tree(30, seed=8, planes=1)
+    bp = collide.BroadPhase(scene.articulation)
+    rng = np.random.default_rng(70)
+    steps = [_pose_pair(scene, rng, 0.3) for _ in range(20)]
+    want = [bp.pairs_swept(*s) for s in steps]
+    errors = []
+
+    def run():
+        try:
+            for _ in range(5):
+                for s, w in zip(steps, want):
+                    np.testing.assert_array_equal(bp.pairs_swept(*s), w)
+        except Exception as exc:  # noqa: BLE001 (reported below)
+            errors.append(exc)
+
+    threads = [threading.Thread(target=run) for _ in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors, errors
