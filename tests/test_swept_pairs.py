@@ -229,3 +229,44 @@ def test_two_threads():
     for t in threads:
         t.join()
     assert not errors, errors
+
+
+MODELS = __import__("pathlib").Path(__file__).resolve().parents[1] / ".." / "shared" / "models"
+
+
+@pytest.mark.parametrize("name", ["humanoid", "shadow_hand", "anybotics_anymal_c"])
+def test_mujoco_steps(name):
+    # A MuJoCo simulation with a 3x time step and bang-bang controls: every step's swept pairs hold
+    # both ends' pairs and MuJoCo's contacts at the end.
+    mujoco = pytest.importorskip("mujoco")
+    path = MODELS / name / "scene.xml"
+    if not path.is_file():
+        pytest.skip(f"{path} absent (see the README's 'Test models')")
+    import collide.mujoco as cm
+    model = mujoco.MjModel.from_xml_path(str(path))
+    model.opt.timestep *= 3.0
+    col = cm.Collider(model)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    rng = np.random.default_rng(0)
+    lo, hi = model.actuator_ctrlrange.T if model.nu else (np.zeros(0), np.zeros(0))
+    contacts = steps = 0
+    for step in range(200):
+        if step % 10 == 0:
+            data.ctrl[:] = np.where(rng.random(model.nu) < 0.5, lo, hi)
+        before = mujoco.MjData(model)
+        before.qpos[:], before.qvel[:] = data.qpos, data.qvel
+        mujoco.mj_forward(model, before)
+        mujoco.mj_step(model, data)
+        if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number:
+            break
+        swept = _set(col.pairs_swept(before, data))
+        ends = _set(col.pairs(before)) | _set(col.pairs(data))
+        assert ends <= swept, sorted(ends - swept)
+        made = {tuple(sorted(map(int, c.geom))) for c in data.contact[:data.ncon]}
+        assert made <= swept
+        contacts += len(made)
+        steps += 1
+    assert steps > 20 and contacts > 0
+    with pytest.raises(ValueError, match="data1"):
+        col.pairs_swept(before, mujoco.MjData(model))

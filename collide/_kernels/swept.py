@@ -48,7 +48,7 @@ from .bounds import (SLACK_POS, SLACK_REL, _bounds_ok, _plane_hit, _pose_ok, _ro
                      capsule_half, dot3, plane_world)
 from .keys import _emit
 from .layout import (F_GCAP, F_GLOCAL, F_GMARGIN, F_GPLANE, F_PAIR_M, I_GEOM_BID, I_PAIR_G, I_PGEOMS, I_PLANES,
-                     ROW, Layout, Tables, view_f1, view_f2, view_i1, view_i2)
+                     Layout, Tables, view_f1, view_f2, view_i1, view_i2)
 
 # Lowering of cos θ (see the module docstring): 2 x 9 entries x ORTHO_TOL, doubled.
 COS_SLACK = 4e-5
@@ -220,7 +220,6 @@ def swept_world(pos0, rot0, pos1, rot1, I, F, X, XW, Y, keys, out):
     ``I``, ``F``: the broad phase's model (`layout.MODEL`); ``X``: `XTAB` (its counts at 0..3);
     ``XW``, ``Y``: workspaces of `XWORK` and `YWORK`, owned by one caller at a time.
     """
-    G = X[H_G]
     Gs = X[H_GS]
     body = view_f2(X, Y, Y_BODY)
     bad = _body_motion(pos0, rot0, pos1, rot1, body)

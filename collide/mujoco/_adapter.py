@@ -214,15 +214,49 @@ class BroadPhase:
         else:
             # The model's tree (`kinematic_tree`: views of its float arrays), made once per MjModel
             # and held with it (an id could be reused): the model's buffers never move, so the views
-            # see every change made to them in place, as mj_kinematics would. Made afresh at every
-            # call (ten binding accesses and the tree's checks) it would cost a good part of a small
-            # batch's call.
+            # see every change made to them in place, as mj_kinematics would. Made afresh, it would
+            # add ten binding accesses and the tree's checks to every call.
             held, tree = self._tree
             if model is not held:
                 tree = kinematic_tree(model)
                 self._tree = (model, tree)  # one store: another thread sees both or neither
             out = self.broadphase.pairs_batch_joints(tree, qpos)
         return out if self._no_function is None else self._drop_null(out, 1)
+
+    def pairs_swept(self, data0: mujoco.MjData, data1: mujoco.MjData) -> np.ndarray:
+        """Candidate geom pairs at *some* time between the poses of ``data0`` and ``data1`` (a step).
+
+        `collide.BroadPhase.pairs_swept` on ``xpos`` and ``xmat`` of both, with MuJoCo's filter
+        rules, margins and gaps as in `pairs`: every pair `pairs` reports at any time of the
+        motion between the two (each body's origin on a line, its rotation at a constant rate).
+
+        Parameters
+        ----------
+        data0, data1 : mujoco.MjData
+            The step's start and end (for instance a copy of ``data`` before ``mj_step``, then
+            ``data``), of this broad phase's model.
+
+        Returns
+        -------
+        pairs : (K, 2) int32
+            Geom ids, lower first, rows sorted.
+        """
+        self._check_data(data0)
+        self._check_data(data1)
+        if self._disabled:
+            return self._empty2
+        try:
+            out = self.broadphase.pairs_swept(data0.xpos, data0.xmat.reshape(-1, 3, 3), data1.xpos,
+                                              data1.xmat.reshape(-1, 3, 3))
+        except ValueError as exc:
+            for name, d in (("data0", data0), ("data1", data1)):
+                if not np.any(d.xmat):
+                    raise ValueError(f"{name}: body poses are all zero; run mujoco.mj_kinematics, "
+                                     "mj_forward or mj_step on it first") from exc
+            raise
+        if self._no_function is not None and len(out):
+            out = out[~(self._no_function[out[:, 0]] & self._no_function[out[:, 1]])]
+        return out
 
     def kinematics_batch(self, model: mujoco.MjModel, qpos: np.ndarray):
         """Body poses of each configuration (see the module function `kinematics_batch`)."""

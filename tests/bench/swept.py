@@ -53,7 +53,7 @@ def bench_scene(path: Path, steps: int, fast: bool, seed: int = 0) -> dict:
     mujoco.mj_forward(model, data)
     lo, hi = cm._compare._control_range(model) if hasattr(cm, "_compare") else cm._control_range(model)
     rng = np.random.default_rng(seed)
-    t_single, t_swept, n_single, n_swept, between = [], [], [], [], 0
+    t_single, t_swept, n_single, n_swept, between, skipped = [], [], [], [], 0, 0
     p0 = data.xpos.copy()
     r0 = data.xmat.reshape(-1, 3, 3).copy()
     bp.pairs(p0, r0)
@@ -63,9 +63,14 @@ def bench_scene(path: Path, steps: int, fast: bool, seed: int = 0) -> dict:
         if step % 10 == 0:
             ctrl = np.where(rng.random(model.nu) < 0.5, lo, hi) if fast else rng.uniform(lo, hi)
         data.ctrl[:] = ctrl
+        resets = data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number
         mujoco.mj_step(model, data)
         p1 = data.xpos.copy()
         r1 = data.xmat.reshape(-1, 3, 3).copy()
+        if data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number != resets:  # MuJoCo reset the state: no step
+            p0, r0 = p1, r1
+            skipped += 1
+            continue
         for first in ((0, 1) if step % 2 == 0 else (1, 0)):
             t = time.perf_counter_ns()
             if first == 0:
@@ -83,7 +88,8 @@ def bench_scene(path: Path, steps: int, fast: bool, seed: int = 0) -> dict:
         p0, r0 = p1, r1
     ts, tw = np.median(t_single) / 1e3, np.median(t_swept) / 1e3
     return dict(scene=path.parent.name, bodies=model.nbody, geoms=model.ngeom, single_us=ts, swept_us=tw,
-                ratio=tw / ts, cand=np.mean(n_single), cand_swept=np.mean(n_swept), between=between / steps)
+                ratio=tw / ts, cand=np.mean(n_single), cand_swept=np.mean(n_swept), between=between / len(n_single),
+                skipped=skipped)
 
 
 def main() -> None:
@@ -100,18 +106,20 @@ def main() -> None:
     print(f"# machine: {os.cpu_count()} cores, Python {platform.python_version()}, {_cpu()}; "
           f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; load average at start {load:.1f}")
     print("# both through collide.BroadPhase with the pose arrays passed in (no bind); medians over the steps; "
-          "between: fraction of steps with a swept pair neither end's single step had")
+          "between: fraction of steps with a swept pair neither end's single step had; resets: steps after which "
+          "MuJoCo reset an unstable state (left out)")
     for fast in (False, True):
         print()
         print("## " + ("fast: 10x the time step, controls at their range's ends" if fast else "the model's time step"))
         print(f"{'scene':20s} {'bodies':>6s} {'geoms':>6s} {'single us':>10s} {'swept us':>9s} {'ratio':>6s} "
-              f"{'cand':>7s} {'swept cand':>10s} {'between':>8s}")
+              f"{'cand':>7s} {'swept cand':>10s} {'between':>8s} {'resets':>6s}")
         ratios = []
         for name in scenes:
             r = bench_scene(MODELS / name / "scene.xml", args.steps, fast)
             ratios.append(r["ratio"])
             print(f"{r['scene']:20s} {r['bodies']:6d} {r['geoms']:6d} {r['single_us']:10.2f} {r['swept_us']:9.2f} "
-                  f"{r['ratio']:6.2f} {r['cand']:7.1f} {r['cand_swept']:10.1f} {r['between']:8.3f}", flush=True)
+                  f"{r['ratio']:6.2f} {r['cand']:7.1f} {r['cand_swept']:10.1f} {r['between']:8.3f} {r['skipped']:6d}",
+                  flush=True)
         print(f"# ratio swept / single: median {np.median(ratios):.2f}, worst {max(ratios):.2f}, "
               f"best {min(ratios):.2f}")
     print(f"# load average at end {os.getloadavg()[0]:.1f}")
