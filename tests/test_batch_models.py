@@ -262,7 +262,7 @@ def test_two_threads_share_one_broad_phase():
 def test_large_margins_keep_every_mujoco_contact(kind):
     # MuJoCo's box-box collider makes contacts up to the margin along its separating axes, which
     # may be farther apart than the margin (0.536 apart, margin 0.5: a contact at dist 0.467); a
-    # box's margin counts sqrt(3) times in our bounds (`collide.mujoco._box_factor`).
+    # box's margin counts sqrt(3) times in our bounds (`collide.mujoco._model._box_factor`).
     other = {"box": 'type="box" size=".1 .07 .12"', "capsule": 'type="capsule" size=".05 .1"',
              "mesh": 'type="mesh" mesh="m"'}[kind]
     model = mujoco.MjModel.from_xml_string(f"""<mujoco><asset>
