@@ -270,3 +270,19 @@ def test_mujoco_steps(name):
     assert steps > 20 and contacts > 0
     with pytest.raises(ValueError, match="data1"):
         col.pairs_swept(before, mujoco.MjData(model))
+
+
+def test_the_demo_runs(tmp_path):
+    # demos/deformations.py: the deformed bar's bounds hold their samples, and the swept phase finds
+    # the rod-block and ball-wall pairs that both ends miss (the demo exits non-zero otherwise).
+    import subprocess
+    import sys
+    demo = __import__("pathlib").Path(__file__).resolve().parents[1] / "demos" / "deformations.py"
+    if not demo.is_file():
+        pytest.skip(f"{demo} is absent")
+    run = subprocess.run([sys.executable, str(demo), "--out", str(tmp_path)], capture_output=True, text=True,
+                         timeout=900)
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "single step at both ends: no pairs" in run.stdout
+    assert "'wall-ball', 'rod-block'" in run.stdout
+    assert (tmp_path / "deformations.png").stat().st_size > 10_000 and (tmp_path / "swept.png").stat().st_size > 10_000
