@@ -13,6 +13,7 @@ _checked.enable_boundscheck()
 from . import csg, deformations, hull, shapes, volumes  # noqa: E402
 from .articulation import Articulation  # noqa: E402
 from .broadphase import BroadPhase  # noqa: E402
+from .collider import CheckResult  # noqa: E402
 from .contacts import Contacts  # noqa: E402
 from .convex import Cone, Cylinder, Ellipsoid  # noqa: E402
 from .deforming import deform  # noqa: E402
@@ -25,6 +26,7 @@ __all__ = [
     "AABB",
     "Articulation",
     "BroadPhase",
+    "CheckResult",
     "Cone",
     "Contacts",
     "Cylinder",

@@ -1,19 +1,195 @@
-"""`Collider`: broad phase and contacts of a MuJoCo model (`collide.mujoco.Collider`).
+"""`Collider`: broad phase, contacts and batch collision checks of a MuJoCo model (`collide.mujoco.Collider`).
 
 The broad phase is `collide.mujoco.BroadPhase`, unchanged; the narrow phase
 (`collide.contacts.narrow_phase`) takes its ``(K, 2)`` pairs and MuJoCo's geom poses
 (``data.geom_xpos``, ``data.geom_xmat``), nothing of the broad phase's internals. This module does
 not import ``mujoco`` (DESIGN.md's layers): the adapter `collide.mujoco`, imported when a
 `Collider` is built, reads the model and checks the data.
+
+`Collider.check_batch` answers "which of these configurations are in collision, and how close is
+each to a collision?" for a batch ``qpos (B, nq)`` in one call: the batch broad phase
+(`collide.mujoco.BroadPhase.pairs_batch`) gives each configuration's candidate pairs, and
+`collide._kernels.check.check_worlds` (threads across configurations, the GIL released) computes
+each configuration's poses and decides its pairs, stopping at the first active contact.
 """
 
 from __future__ import annotations
 
+import math
+import threading
+from dataclasses import dataclass
+
+import numba
 import numpy as np
 
 from . import contacts as _contacts
+from ._kernels import check as _kc
+from ._validate import _reject_complex
 
-__all__ = ["Collider"]
+__all__ = ["CheckResult", "Collider"]
+
+# Configurations per call of the broad phase and the check kernel: bounds the broad phase's
+# candidate rows held at once (memory), large enough that a call's fixed costs are spread.
+BLOCK = 4096
+
+# MuJoCo's mjtSameFrame (tests/test_check.py checks them against the bindings).
+_SAME_BODY, _SAME_INERTIA, _SAME_BODYROT, _SAME_INERTIAROT = 1, 2, 3, 4
+
+
+@dataclass(frozen=True, eq=False)
+class CheckResult:
+    """Collision checks of a batch of configurations (`collide.mujoco.Collider.check_batch`).
+
+    Attributes
+    ----------
+    in_collision : (B,) bool
+        MuJoCo would make an active contact (``dist < margin``: not in the gap, MuJoCo's
+        ``exclude == 0``) between a pair of checked geoms, with its filters, margins, gaps,
+        excludes and explicit ``<pair>`` s.
+    min_distance : (B,) float64 or None
+        With ``distance=True``: the signed distance of the closest checked geom pair that
+        passes the filters (negative: penetration; no margin subtracted), ``+inf`` when none is
+        closer than ``distmax``. None otherwise.
+    closest : (B, 2) int32 or None
+        With ``distance=True``: that pair, lower id first; ``-1`` where ``min_distance`` is
+        ``inf``. None otherwise.
+    skipped : (B,) bool
+        A pair with a height field or SDF geom (no narrow phase: `collide.Contacts.skipped`)
+        was left undecided, and no active contact was found elsewhere: ``in_collision`` may be
+        False where MuJoCo would make a contact (and such pairs are left out of
+        ``min_distance``). Reported, never dropped silently.
+    """
+
+    in_collision: np.ndarray
+    min_distance: np.ndarray | None
+    closest: np.ndarray | None
+    skipped: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.in_collision)
+
+
+def _names_to_ids(model, spec, what: str, count: int) -> np.ndarray:
+    # One group of geoms or bodies: ids or names, checked, as an (n,) int64 array.
+    if isinstance(spec, (str, bytes)) or np.isscalar(spec):
+        spec = [spec]
+    ids = []
+    for x in spec:
+        if isinstance(x, str):
+            try:
+                ids.append(int(getattr(model, what)(x).id))
+            except KeyError:
+                raise ValueError(f"{what}s: no {what} named {x!r}") from None
+        elif isinstance(x, (int, np.integer)) and not isinstance(x, (bool, np.bool_)):
+            if not 0 <= int(x) < count:
+                raise ValueError(f"{what}s: {what} id {int(x)} is out of range [0, {count})")
+            ids.append(int(x))
+        else:
+            raise ValueError(f"{what}s: expected {what} ids or names, got {x!r}")
+    if not ids:
+        raise ValueError(f"{what}s: an empty group")
+    return np.asarray(ids, dtype=np.int64)
+
+
+def _is_two_groups(spec) -> bool:
+    return (isinstance(spec, (tuple, list)) and len(spec) == 2
+            and all(not isinstance(x, (str, bytes)) and not np.isscalar(x) for x in spec))
+
+
+def _subset(model, geoms, bodies) -> tuple[int, np.ndarray]:
+    # (mode, label (G,) int8) of the checked subset (`collide._kernels.check.in_subset`).
+    G = int(model.ngeom)
+    label = np.zeros(G, np.int8)
+    if geoms is None and bodies is None:
+        return _kc.SUBSET_ALL, label
+    if geoms is not None and bodies is not None:
+        raise ValueError("geoms, bodies: give one of them, not both")
+    spec, what = (geoms, "geom") if geoms is not None else (bodies, "body")
+    count = G if what == "geom" else int(model.nbody)
+    groups = list(spec) if _is_two_groups(spec) else [spec]
+    geom_body = np.asarray(model.geom_bodyid, dtype=np.int64)
+    for i, grp in enumerate(groups):
+        ids = _names_to_ids(model, grp, what, count)
+        member = np.zeros(G, bool)
+        if what == "geom":
+            member[ids] = True
+        else:
+            member = np.isin(geom_body, ids)
+        label[member] |= np.int8(1 << i)
+    return (_kc.SUBSET_TWO if len(groups) == 2 else _kc.SUBSET_ONE), label
+
+
+def _geom_frames(model) -> tuple[np.ndarray, np.ndarray]:
+    # Each geom's frame in its body's as mj_kinematics places it: (G, 3) positions, (G, 4) unit
+    # quaternions; geom_sameframe applied (`collide.mujoco.geom_frames`, as quaternions: the
+    # kernel composes them with the body's as mj_local2Global does).
+    pos = np.array(model.geom_pos, dtype=np.float64).reshape(-1, 3)
+    quat = np.array(model.geom_quat, dtype=np.float64).reshape(-1, 4)
+    sf = np.asarray(model.geom_sameframe)
+    bid = np.asarray(model.geom_bodyid)
+    ident = np.array([1.0, 0.0, 0.0, 0.0])
+    body = sf == _SAME_BODY
+    pos[body] = 0.0
+    quat[body | (sf == _SAME_BODYROT)] = ident
+    inertia = sf == _SAME_INERTIA
+    pos[inertia] = np.asarray(model.body_ipos, dtype=np.float64)[bid[inertia]]
+    irot = inertia | (sf == _SAME_INERTIAROT)
+    quat[irot] = np.asarray(model.body_iquat, dtype=np.float64)[bid[irot]]
+    return np.ascontiguousarray(pos), np.ascontiguousarray(quat)
+
+
+def filtered_pairs(articulation, no_function: np.ndarray | None = None, block: int = 256) -> np.ndarray:
+    """Every geom pair that passes an articulation's filters, explicit pairs included.
+
+    Parameters
+    ----------
+    articulation : collide.Articulation
+        Its weld groups, parent rule, ``contype`` / ``conaffinity``, excluded body pairs and
+        explicit pairs (planes never pair with planes), as `collide.mujoco.articulation` maps
+        MuJoCo's filters.
+    no_function : (G,) bool, optional
+        Geoms that never collide with each other (MuJoCo's planes and height fields: no
+        collision function for them); None: planes only.
+    block : int
+        Rows of geoms tested at once (bounds the memory: ``block * G`` pairs).
+
+    Returns
+    -------
+    (P, 2) int32
+        Lower id first, sorted, unique.
+    """
+    art = articulation
+    G, L = art.geom_count, art.body_count
+    nf = art.geom_is_plane if no_function is None else (np.asarray(no_function, bool) | art.geom_is_plane)
+    excl = np.sort(art.exclude[:, 0] * L + art.exclude[:, 1]) if len(art.exclude) else np.zeros(0, np.int64)
+    expl = np.sort(art.pairs[:, 0] * G + art.pairs[:, 1]) if len(art.pairs) else np.zeros(0, np.int64)
+    body, weld, par = art.geom_body, art.body_weld, art.body_parent
+    ct, ca = art.geom_contype, art.geom_conaffinity
+    out = []
+    every = np.arange(G, dtype=np.int64)
+    for s in range(0, G, block):
+        rows = every[s:s + block]
+        g1 = np.repeat(rows, G)
+        g2 = np.tile(every, len(rows))
+        upper = g2 > g1
+        g1, g2 = g1[upper], g2[upper]
+        b1, b2 = body[g1], body[g2]
+        ok = weld[b1] != weld[b2]
+        if art.filter_parent:
+            ok &= ~((par[b1] == b2) & (b2 != 0)) & ~((par[b2] == b1) & (b1 != 0))
+        ok &= ((ct[g1] & ca[g2]) != 0) | ((ct[g2] & ca[g1]) != 0)
+        ok &= ~(nf[g1] & nf[g2])
+        if len(excl):
+            ok &= ~np.isin(np.minimum(b1, b2) * L + np.maximum(b1, b2), excl, assume_unique=False)
+        if len(expl):
+            ok &= ~np.isin(g1 * G + g2, expl)
+        out.append(np.stack([g1[ok], g2[ok]], axis=1))
+    if len(art.pairs):
+        p = np.sort(art.pairs, axis=1)
+        out.append(p[~(nf[p[:, 0]] & nf[p[:, 1]])])
+    pairs = np.concatenate(out) if out else np.zeros((0, 2), np.int64)
+    pairs = np.unique(pairs, axis=0) if len(pairs) else pairs.reshape(0, 2)
+    return np.ascontiguousarray(pairs, dtype=np.int32)
 
 
 class Collider:
@@ -26,6 +202,12 @@ class Collider:
         changing them.
     coherent : bool, default True
         Passed to `collide.mujoco.BroadPhase`.
+    geoms, bodies : optional
+        The pairs `check_batch` checks (not `pairs` or `contacts`, which stay the model's): a
+        group of geom (or body) ids or names, for the pairs inside it (say a robot's
+        self-collisions), or a tuple of two groups, for the pairs with one geom in each (say
+        the robot against the world). A body stands for its geoms. One of the two at most.
+        Chosen here, once: each call only tests a label per geom.
 
     Attributes
     ----------
@@ -45,7 +227,7 @@ class Collider:
     ([[0, 1]], [-0.01])
     """
 
-    def __init__(self, model, coherent: bool = True):
+    def __init__(self, model, coherent: bool = True, geoms=None, bodies=None):
         from .mujoco import BroadPhase  # the adapter imports this module: not at import time
 
         self.broadphase = BroadPhase(model, coherent)
@@ -53,16 +235,26 @@ class Collider:
         self.table = _contacts.GeomTable(model)
         self._checked = None  # the last MjData checked (an MjData's arrays never move)
         self._views = None  # its geom_xpos, geom_xmat as (G, 3), (G, 3, 3) views
+        self._subset_spec = (geoms, bodies)
+        self._subset_mode, self._subset_label = _subset(model, geoms, bodies)
+        self._check_setup = None  # check_batch's model arrays, made at its first call
+        self._distance_pairs = None  # check_batch's filtered pairs (distance=True), likewise
+        self._setup_lock = threading.Lock()
 
     def __repr__(self) -> str:
         return f"collide.mujoco.Collider({self.model.nbody} bodies, {self.model.ngeom} geoms)"
 
     def __reduce__(self):
-        return (Collider, (self.model, self.broadphase.broadphase.coherent))
+        return (Collider, (self.model, self.broadphase.broadphase.coherent) + self._subset_spec)
 
     def pairs(self, data) -> np.ndarray:
         """Candidate geom pairs: `collide.mujoco.BroadPhase.pairs` (``(K, 2) int32``, read-only)."""
         return self.broadphase.pairs(data)
+
+    def pairs_swept(self, data0, data1) -> np.ndarray:
+        """Candidate geom pairs at some time of the step from ``data0`` to ``data1``:
+        `collide.mujoco.BroadPhase.pairs_swept` (``(K, 2) int32``)."""
+        return self.broadphase.pairs_swept(data0, data1)
 
     def _poses(self, data) -> tuple[np.ndarray, np.ndarray]:
         # The geom poses of data as the kernel takes them, (G, 3) and (G, 3, 3) views: an MjData's
@@ -118,3 +310,160 @@ class Collider:
         """
         xpos, xmat = self._poses(data)
         return _contacts.geom_distance(self.table, g1, g2, xpos, xmat, distmax)
+
+    # ------------------------------------------------------------------------------------------
+    # Many configurations: check_batch
+    # ------------------------------------------------------------------------------------------
+
+    def _setup_check(self) -> tuple:
+        # The model arrays check_worlds reads, copied once (the Collider reads its model once).
+        setup = self._check_setup
+        if setup is None:
+            m = self.model
+
+            def c(x, dt=np.float64, shape=None):
+                a = np.array(x, dtype=dt)
+                return np.ascontiguousarray(a if shape is None else a.reshape(shape))
+
+            kin = (c(m.qpos0), c(m.body_parentid, np.int32), c(m.body_pos, shape=(-1, 3)),
+                   c(m.body_quat, shape=(-1, 4)), c(m.body_jntadr, np.int32), c(m.body_jntnum, np.int32),
+                   c(m.jnt_type, np.int32), c(m.jnt_qposadr, np.int32), c(m.jnt_pos, shape=(-1, 3)),
+                   c(m.jnt_axis, shape=(-1, 3)))
+            gpos, gquat = _geom_frames(m)
+            setup = self._check_setup = kin + (c(m.geom_bodyid, np.int64), gpos, gquat)
+        return setup
+
+    def _filtered(self) -> np.ndarray:
+        # The pairs min_distance is the minimum over: filtered, in the subset (made once).
+        pairs = self._distance_pairs
+        if pairs is None:
+            with self._setup_lock:
+                pairs = self._distance_pairs
+                if pairs is None:
+                    bp = self.broadphase
+                    if bp._disabled:
+                        pairs = np.zeros((0, 2), np.int32)
+                    else:
+                        gtype = self.table.gtype
+                        nf = (gtype == _contacts.PLANE) | (gtype == _contacts.HFIELD)
+                        pairs = filtered_pairs(bp.articulation, nf)
+                        lab, mode = self._subset_label, self._subset_mode
+                        if mode == _kc.SUBSET_ONE:
+                            pairs = pairs[((lab[pairs[:, 0]] & 1) != 0) & ((lab[pairs[:, 1]] & 1) != 0)]
+                        elif mode == _kc.SUBSET_TWO:
+                            a, b = lab[pairs[:, 0]], lab[pairs[:, 1]]
+                            pairs = pairs[(((a & 1) != 0) & ((b & 2) != 0)) | (((a & 2) != 0) & ((b & 1) != 0))]
+                        pairs = np.ascontiguousarray(pairs, dtype=np.int32)
+                    self._distance_pairs = pairs
+        return pairs
+
+    def _qpos(self, qpos) -> np.ndarray:
+        # (B, nq) float64, C-contiguous, finite: a ValueError naming the configuration otherwise.
+        nq = int(self.model.nq)
+        _reject_complex(qpos, "qpos")
+        try:
+            q = np.ascontiguousarray(qpos, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"qpos: cannot be read as a float64 array ({exc})") from None
+        if q.ndim != 2 or q.shape[1] != nq:
+            raise ValueError(f"qpos: expected shape (B, {nq}) (one configuration a row, nq = {nq}), got {q.shape}")
+        finite = np.isfinite(q).all(axis=1)
+        if not finite.all():
+            b = int(np.flatnonzero(~finite)[0])
+            j = int(np.flatnonzero(~np.isfinite(q[b]))[0])
+            raise ValueError(f"qpos: configuration {b} has a non-finite value (NaN or inf) at coordinate {j}")
+        return q
+
+    def check_batch(self, qpos, distance: bool = False, distmax: float = math.inf) -> CheckResult:
+        """Collision checks of many configurations in one call: which collide, how close each is.
+
+        Per configuration: its body and geom poses as ``mj_kinematics`` computes them, its
+        candidate pairs from the batch broad phase (`collide.mujoco.BroadPhase.pairs_batch`),
+        and for each candidate in the checked subset (``geoms`` / ``bodies`` of the
+        constructor) the deepest contact MuJoCo would make (the rules of `contacts`: margins,
+        gaps, explicit ``<pair>`` s, ``mjENBL_OVERRIDE``); the first active contact
+        (``dist < margin``) ends the configuration's search. Threads across configurations
+        (numba's threading layer, ``numba.set_num_threads``), the GIL released in the kernel.
+
+        Parameters
+        ----------
+        qpos : (B, nq) array_like of float
+            One configuration a row (joint limits are not enforced: configurations outside them
+            are checked as they are). Mocap bodies stay at their model poses.
+        distance : bool, default False
+            Also the closest pair: ``min_distance`` and ``closest``, the minimum over every
+            checked pair that passes the filters (near or not) of its signed distance
+            (`geom_distance`'s, exact: no margin involved), by branch and bound on bounding balls.
+        distmax : float, default inf
+            With ``distance``: pairs at or beyond it are not reported (``inf`` and ``-1``
+            where none is closer); a smaller one prunes more.
+
+        Returns
+        -------
+        CheckResult
+
+        Raises
+        ------
+        ValueError
+            ``qpos`` not ``(B, nq)`` numbers, a non-finite value (naming the configuration and
+            coordinate), a configuration whose poses come out non-finite (naming it), or a NaN
+            ``distmax``. The Collider works as before after it.
+        """
+        q = self._qpos(qpos)
+        if not isinstance(distance, (bool, np.bool_)):
+            raise ValueError(f"distance: expected True or False, got {distance!r}")
+        try:
+            distmax = float(distmax)
+        except (TypeError, ValueError):
+            raise ValueError(f"distmax: expected a number, got {distmax!r}") from None
+        if math.isnan(distmax):
+            raise ValueError("distmax: NaN")
+        B = len(q)
+        hit = np.zeros(B, np.bool_)
+        skipped = np.zeros(B, np.bool_)
+        dist = np.full(B, np.inf) if distance else None
+        closest = np.full((B, 2), -1, np.int32) if distance else None
+        if B == 0:
+            return _result(hit, dist, closest, skipped)
+        kin = self._setup_check()
+        dpairs = self._filtered() if distance else np.zeros((0, 2), np.int32)
+        workers = max(1, numba.get_num_threads())
+        kargs = self.table._kargs
+        err = np.zeros(min(B, BLOCK), np.int64)
+        scratch_dist = dist if distance else np.empty(0)
+        scratch_closest = closest if distance else np.empty((0, 2), np.int32)
+        for s in range(0, B, BLOCK):
+            qb = q[s:s + BLOCK]
+            nb = len(qb)
+            rows = self._candidates(qb, s)
+            row_start = np.searchsorted(rows[:, 0], np.arange(nb + 1, dtype=np.int32)).astype(np.int64)
+            chunks = min(nb, 16 * workers)
+            e = err[:nb]
+            _kc.check_worlds(qb, *kin, rows, row_start, self._subset_mode, self._subset_label, dpairs, distmax,
+                             bool(distance), chunks, min(workers, chunks), np.zeros(1, np.int64), *kargs,
+                             hit[s:s + nb], scratch_dist[s:s + nb] if distance else scratch_dist,
+                             scratch_closest[s:s + nb] if distance else scratch_closest, skipped[s:s + nb], e)
+            if e.any():
+                b = int(np.flatnonzero(e)[0])
+                g = int(e[b] - _kc.ERR_POSE) // 8
+                raise ValueError(f"qpos: configuration {s + b} gives a non-finite pose (NaN or inf) of geom {g}")
+        return _result(hit, dist, closest, skipped)
+
+    def _candidates(self, qb: np.ndarray, first: int) -> np.ndarray:
+        # The batch broad phase's (world, g1, g2) rows of these configurations; a pose it refuses
+        # is traced to the configuration (one at a time: only on that error path).
+        try:
+            rows = self.broadphase.pairs_batch(self.model, qb)
+        except ValueError:
+            for i in range(len(qb)):
+                try:
+                    self.broadphase.pairs_batch(self.model, qb[i:i + 1])
+                except ValueError as exc:
+                    raise ValueError(f"qpos: configuration {first + i} gives a pose the broad phase refuses "
+                                     f"({exc})") from None
+            raise
+        return np.ascontiguousarray(rows, dtype=np.int32).reshape(-1, 3)
+
+
+def _result(hit, dist, closest, skipped) -> CheckResult:
+    return CheckResult(in_collision=hit, min_distance=dist, closest=closest, skipped=skipped)

@@ -1,0 +1,379 @@
+"""Collision checks of many configurations (numba): is each one in collision, and how close.
+
+`check_worlds` takes a batch of configurations ``qpos (B, nq)`` of one MuJoCo-style model and,
+threads across configurations (a ``prange`` over one worker a thread, each taking chunks of
+configurations from a shared counter, `_threads.fetch_add`, so that a thread whose worlds end
+early takes more), for each configuration:
+
+1. its body poses (`kinematics._kinematics_world`, MuJoCo's ``mj_kinematics``) and, when first
+   needed, a geom's world pose, as ``mj_kinematics`` places it (``mj_local2Global``: position
+   ``xpos + xmat @ geom_pos``, rotation from the quaternion product ``xquat * geom_quat``);
+2. ``in_collision``: over the configuration's candidate pairs (a broad phase's rows), the
+   deepest contact MuJoCo would make for the pair, by the same rules as
+   `collide._kernels.manifold.collide_pairs` (`deepest_contact`); the first pair whose deepest
+   contact is active (``dist < margin``, not in the gap: MuJoCo's ``exclude == 0``) ends the
+   configuration's search (an early exit);
+3. with distances asked: the signed distance of the closest pair of a static list of filtered
+   pairs (`pair_signed_distance`, the single-pair distance of ``mj_geomDistance``), by branch and
+   bound: a lower bound per pair from balls about the geoms' origins (``|c1 - c2| - r1 - r2``, or
+   a plane's ``n . (c - p) - r``, valid for the signed distance too: moving one geom by the balls'
+   overlap separates them), the pair of smallest bound first, then every pair whose bound is
+   below the best distance so far.
+
+Nothing is allocated per configuration: each worker allocates its scratch once per call.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from ._quat import _qmat, _qmul
+from ._threads import fetch_add, set_chunksize
+from .kinematics import _kinematics_world
+from .manifold import (BOX_WS, MAX_PER_PAIR, OUT_DISTANCE, OUT_SIZE, PLANE, SKIPPED, T_BOX, T_MESH,
+                       _finite_pose, _shape, box_box, pair_distance, pair_signed_distance, plane_convex,
+                       plane_mesh)
+
+# `deepest_contact`'s answers.
+NO_CONTACT, ACTIVE, IN_GAP, NOT_COLLIDED = 0, 1, 2, 3
+
+# Errors written to ``out_err`` (per configuration): a non-finite geom pose.
+ERR_POSE = 1
+
+# Subset modes (`collide.collider.Collider`'s ``geoms`` / ``bodies``): every pair; pairs inside
+# group 1; pairs with one geom in group 1 and the other in group 2.
+SUBSET_ALL, SUBSET_ONE, SUBSET_TWO = 0, 1, 2
+
+
+@nb.njit(cache=True, inline="always")
+def in_subset(mode, label, g1, g2):
+    """Whether the pair ``(g1, g2)`` is checked: ``label (G,) int8`` bit 1 (group 1), bit 2 (group 2)."""
+    if mode == SUBSET_ALL:
+        return True
+    a = label[g1]
+    b = label[g2]
+    if mode == SUBSET_ONE:
+        return (a & 1) != 0 and (b & 1) != 0
+    return ((a & 1) != 0 and (b & 2) != 0) or ((a & 2) != 0 and (b & 1) != 0)
+
+
+@nb.njit(cache=True, inline="always")
+def geom_pose(g, body_pos, body_rot, body_quat, geom_body, geom_pos, geom_quat, xpos, xmat):
+    """World pose of geom ``g`` into ``xpos[g]``, ``xmat[g]`` from its body's (``mj_local2Global``)."""
+    b = geom_body[g]
+    for i in range(3):
+        xpos[g, i] = (body_pos[b, i] + body_rot[b, i, 0] * geom_pos[g, 0] + body_rot[b, i, 1] * geom_pos[g, 1]
+                      + body_rot[b, i, 2] * geom_pos[g, 2])
+    q0, q1, q2, q3 = _qmul(body_quat[b, 0], body_quat[b, 1], body_quat[b, 2], body_quat[b, 3],
+                           geom_quat[g, 0], geom_quat[g, 1], geom_quat[g, 2], geom_quat[g, 3])
+    m = _qmat(q0, q1, q2, q3)
+    xmat[g, 0, 0], xmat[g, 0, 1], xmat[g, 0, 2] = m[0], m[1], m[2]
+    xmat[g, 1, 0], xmat[g, 1, 1], xmat[g, 1, 2] = m[3], m[4], m[5]
+    xmat[g, 2, 0], xmat[g, 2, 1], xmat[g, 2, 2] = m[6], m[7], m[8]
+
+
+@nb.njit(cache=True)
+def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, pts_num, nbr_start,
+                    nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, rbound, size, geom_margin, geom_gap,
+                    pair_key, pair_margin, pair_gap, override, o_margin, gtype, half, hv_adr, hv_num, hv, f_adr,
+                    f_num, f_normal, f_offset, f_vadr, f_vnum, f_vidx, cand, dep, sel, res, bnrm, bws, pcand, pdep,
+                    out, d0):
+    """Whether MuJoCo would make an active contact for the pair ``(g1, g2)`` at these poses.
+
+    The pair's contacts are those of `collide._kernels.manifold.collide_pairs` (same branches,
+    same functions, same thresholds); only their deepest ``dist`` is kept, which is all that
+    decides whether a contact is active: a face manifold's deepest point is the pair's exact
+    distance (`polytope_contacts` sets it so), so the manifold is not built.
+
+    Parameters
+    ----------
+    g1, g2 : int
+        Geom ids, ``g1 < g2``; their poses must be in ``xpos``, ``xmat`` and finite.
+    xpos : (G, 3) float64
+    xmat : (G, 3, 3) float64
+    cls ... f_vidx
+        The per-geom tables, as `collide._kernels.manifold.collide_pairs` takes them.
+    cand, dep, sel, res, bnrm, bws, pcand, pdep, out, d0
+        Scratch (`check_worlds` sizes them).
+
+    Returns
+    -------
+    int
+        `ACTIVE` (a contact with ``dist < margin``), `IN_GAP` (contacts, all in the gap),
+        `NO_CONTACT`, or `NOT_COLLIDED` (a height field or SDF geom: reported, not decided).
+    """
+    c1 = cls[g1]
+    c2 = cls[g2]
+    if c1 == SKIPPED or c2 == SKIPPED:
+        return NOT_COLLIDED
+    if c1 == PLANE and c2 == PLANE:
+        return NO_CONTACT
+    G = cls.shape[0]
+    P = pair_key.shape[0]
+    key = min(g1, g2) * G + max(g1, g2)
+    j = np.searchsorted(pair_key, key) if P > 0 else 0
+    explicit = j < P and pair_key[j] == key
+    nent = 1
+    if explicit:
+        while j + nent < P and pair_key[j + nent] == key:
+            nent += 1
+    found = NO_CONTACT
+    for e in range(nent):
+        if explicit:
+            margin = pair_margin[j + e]
+            gap = pair_gap[j + e]
+        else:
+            margin = geom_margin[g1] + geom_margin[g2]
+            gap = geom_gap[g1] + geom_gap[g2]
+        if override:
+            margin = o_margin
+        thr = margin + gap
+        d = np.inf
+        if c1 == PLANE or c2 == PLANE:
+            gp = g1 if c1 == PLANE else g2
+            gc = g2 if c1 == PLANE else g1
+            n = xmat[gp, :, 2].copy()
+            p0 = xpos[gp]
+            cd = n[0] * (xpos[gc, 0] - p0[0]) + n[1] * (xpos[gc, 1] - p0[1]) + n[2] * (xpos[gc, 2] - p0[2])
+            if cd - rbound[gc] > thr:
+                continue
+            if gtype[gc] == T_MESH and hv_num[gc] > 0:
+                a = hv_adr[gc]
+                m = plane_mesh(hv[a:a + hv_num[gc]], f_adr[gc], f_num[gc], f_normal, f_vadr, f_vnum, f_vidx,
+                               xmat[gc], xpos[gc], n, p0, thr, pcand, pdep, sel, res)
+            else:
+                sc = _shape(gc, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
+                            nbr_adr, nbr_num, xpos, xmat)
+                m = plane_convex(rule[gc], below[gc], sc, n, p0, thr, cand, dep, sel, res)
+            for i in range(m):
+                d = min(d, res[i, 0])
+        else:
+            cc = math.sqrt((xpos[g2, 0] - xpos[g1, 0]) ** 2 + (xpos[g2, 1] - xpos[g1, 1]) ** 2
+                           + (xpos[g2, 2] - xpos[g1, 2]) ** 2)
+            if cc - rbound[g1] - rbound[g2] > thr:
+                continue
+            if gtype[g1] == T_BOX and gtype[g2] == T_BOX:
+                m = box_box(xpos[g1], xmat[g1], half[g1], xpos[g2], xmat[g2], half[g2], thr, res, bnrm, bws)
+                for i in range(m):
+                    d = min(d, res[i, 0])
+            else:
+                s1 = _shape(g1, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
+                            nbr_adr, nbr_num, xpos, xmat)
+                s2 = _shape(g2, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
+                            nbr_adr, nbr_num, xpos, xmat)
+                pair_distance(s1, s2, 1e-12 * (size[g1] + size[g2]), d0, -1, -1, 128, out)
+                d = out[OUT_DISTANCE]
+        if d <= thr:  # a contact is made (collide_pairs' rule) ...
+            if d < margin:  # ... and active: MuJoCo's exclude == 0
+                return ACTIVE
+            found = IN_GAP
+    return found
+
+
+@nb.njit(cache=True, parallel=True, nogil=True)
+def check_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr,
+                 jnt_pos, jnt_axis, geom_body, geom_pos, geom_quat, rows, row_start, mode, label, dpairs, distmax,
+                 want_distance, chunks, workers, counter, cls, rule, below, kind, prm, pts, pts_adr, pts_num,
+                 nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, rbound, size, geom_margin,
+                 geom_gap, pair_key, pair_margin, pair_gap, override, o_margin, gtype, half, hv_adr, hv_num, hv,
+                 f_adr, f_num, f_normal, f_offset, f_vadr, f_vnum, f_vidx, out_hit, out_dist, out_closest,
+                 out_skipped, out_err):
+    """Collision checks of the configurations ``qpos (B, nq)`` (module docstring).
+
+    Parameters
+    ----------
+    qpos : (B, nq) float64
+        Finite (the caller checks).
+    qpos0 ... jnt_axis
+        The model's kinematics arrays (`collide._kernels.kinematics`).
+    geom_body : (G,) int64
+    geom_pos : (G, 3) float64
+    geom_quat : (G, 4) float64
+        Each geom's frame in its body's, as ``mj_kinematics`` places it (``geom_sameframe``
+        applied), the quaternion unit.
+    rows : (K, 3) int32
+        Candidate pairs ``(world, g1, g2)``, ``g1 < g2``, sorted by world (a broad phase's).
+    row_start : (B + 1,) int64
+        World ``w``'s rows are ``rows[row_start[w]:row_start[w + 1]]``.
+    mode : int
+    label : (G,) int8
+        The checked subset (`in_subset`).
+    dpairs : (P, 2) int32
+        The filtered pairs the distance is the minimum over (already restricted to the subset).
+    distmax : float
+        Distances at or beyond it are not reported.
+    want_distance : bool
+    chunks : int
+        Chunks of configurations handed out to the workers.
+    workers : int
+        Parallel workers (the threads).
+    counter : (1,) int64
+        Zero: the shared chunk counter.
+    cls ... f_vidx
+        `collide.contacts.GeomTable.kernel_args`.
+    out_hit : (B,) bool
+        Receives ``in_collision``.
+    out_dist : (B,) float64
+    out_closest : (B, 2) int32
+        Receive the closest filtered pair's signed distance and ids, ``inf`` and ``-1`` when none is
+        closer than ``distmax`` (written only when ``want_distance``).
+    out_skipped : (B,) bool
+        Receives True where a pair with a height field or SDF geom was left undecided and no
+        active contact was found.
+    out_err : (B,) int64
+        Receives 0, or ``ERR_POSE + 8 * g`` for a non-finite pose of geom ``g``.
+
+    Returns
+    -------
+    int
+        0.
+    """
+    B = qpos.shape[0]
+    L = body_parent.shape[0]
+    G = geom_body.shape[0]
+    nj = jnt_type.shape[0]
+    P = dpairs.shape[0]
+    cap = 1
+    for g in range(G):
+        if pts_num[g] > cap:
+            cap = pts_num[g]
+    fmax = 4
+    for f in range(f_vnum.shape[0]):
+        if f_vnum[f] > fmax:
+            fmax = f_vnum[f]
+    addr = counter.ctypes.data
+    chunksize = set_chunksize(1)  # one iteration a worker (`_threads`)
+    for wk in nb.prange(workers):
+        bpos = np.empty((L, 3))
+        brot = np.empty((L, 3, 3))
+        bquat = np.empty((L, 4))
+        sc = np.empty((max(nj, 1), 2))
+        xpos = np.zeros((G, 3))
+        xmat = np.zeros((G, 3, 3))
+        stamp = np.full(G, -1, np.int64)
+        cand = np.empty((cap, 3))
+        dep = np.empty(cap)
+        sel = np.zeros(4, np.int64)
+        res = np.empty((MAX_PER_PAIR, 4))
+        bnrm = np.zeros(3)
+        bws = np.empty(BOX_WS)
+        pcand = np.empty((fmax, 3))
+        pdep = np.empty(fmax)
+        out = np.empty(OUT_SIZE)
+        out7 = np.empty(7)
+        d0 = np.zeros(3)  # GJK's first direction: the centres' difference
+        lb = np.empty(P if want_distance else 0)
+        while True:
+            c = fetch_add(addr, 1)
+            if c >= chunks:
+                break
+            for w in range((B * c) // chunks, (B * (c + 1)) // chunks):
+                _kinematics_world(qpos[w], qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum,
+                                  jnt_type, jnt_qposadr, jnt_pos, jnt_axis, bpos, brot, bquat, sc)
+                hit = False
+                skipped = False
+                err = 0
+                for r in range(row_start[w], row_start[w + 1]):
+                    g1 = rows[r, 1]
+                    g2 = rows[r, 2]
+                    if not in_subset(mode, label, g1, g2):
+                        continue
+                    for g in (g1, g2):
+                        if stamp[g] != w:
+                            geom_pose(g, bpos, brot, bquat, geom_body, geom_pos, geom_quat, xpos, xmat)
+                            stamp[g] = w
+                            if not _finite_pose(xpos, xmat, g) and err == 0:
+                                err = ERR_POSE + 8 * g
+                    if err != 0:
+                        break
+                    a = deepest_contact(g1, g2, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, pts_num,
+                                        nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, rbound,
+                                        size, geom_margin, geom_gap, pair_key, pair_margin, pair_gap, override,
+                                        o_margin, gtype, half, hv_adr, hv_num, hv, f_adr, f_num, f_normal,
+                                        f_offset, f_vadr, f_vnum, f_vidx, cand, dep, sel, res, bnrm, bws, pcand,
+                                        pdep, out, d0)
+                    if a == ACTIVE:
+                        hit = True
+                        break  # the early exit: one active contact decides
+                    if a == NOT_COLLIDED:
+                        skipped = True
+                out_hit[w] = hit
+                out_skipped[w] = skipped and not hit
+                if want_distance and err == 0:
+                    err = _closest(w, dpairs, distmax, bpos, brot, bquat, geom_body, geom_pos, geom_quat, xpos,
+                                   xmat, stamp, lb, cls, kind, prm, pts, pts_adr, pts_num, nbr_start,
+                                   nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, rbound, size, out7,
+                                   out_dist, out_closest, out_skipped)
+                out_err[w] = err
+    set_chunksize(chunksize)
+    return 0
+
+
+@nb.njit(cache=True)
+def _lower_bound(g1, g2, cls, rbound, xpos, xmat):
+    # A lower bound of the pair's signed distance from balls about the geoms' origins (module
+    # docstring); a plane's from its own equation.
+    if cls[g1] == PLANE or cls[g2] == PLANE:
+        gp = g1 if cls[g1] == PLANE else g2
+        gc = g2 if cls[g1] == PLANE else g1
+        return (xmat[gp, 0, 2] * (xpos[gc, 0] - xpos[gp, 0]) + xmat[gp, 1, 2] * (xpos[gc, 1] - xpos[gp, 1])
+                + xmat[gp, 2, 2] * (xpos[gc, 2] - xpos[gp, 2]) - rbound[gc])
+    cc = math.sqrt((xpos[g2, 0] - xpos[g1, 0]) ** 2 + (xpos[g2, 1] - xpos[g1, 1]) ** 2
+                   + (xpos[g2, 2] - xpos[g1, 2]) ** 2)
+    return cc - rbound[g1] - rbound[g2]
+
+
+@nb.njit(cache=True)
+def _closest(w, dpairs, distmax, bpos, brot, bquat, geom_body, geom_pos, geom_quat, xpos, xmat, stamp, lb, cls, kind,
+             prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, rbound,
+             size, out7, out_dist, out_closest, out_skipped):
+    # The closest pair of dpairs of world w (branch and bound, module docstring): writes
+    # out_dist[w], out_closest[w]; returns an error code (a non-finite geom pose) or 0.
+    P = dpairs.shape[0]
+    best = distmax
+    bi = -1
+    first = -1
+    lo = np.inf
+    for p in range(P):
+        g1 = dpairs[p, 0]
+        g2 = dpairs[p, 1]
+        if cls[g1] == SKIPPED or cls[g2] == SKIPPED:
+            lb[p] = np.inf
+            out_skipped[w] = True
+            continue
+        for g in (g1, g2):
+            if stamp[g] != w:
+                geom_pose(g, bpos, brot, bquat, geom_body, geom_pos, geom_quat, xpos, xmat)
+                stamp[g] = w
+                if not _finite_pose(xpos, xmat, g):
+                    return ERR_POSE + 8 * g
+        v = _lower_bound(g1, g2, cls, rbound, xpos, xmat)
+        lb[p] = v
+        if v < lo:
+            lo = v
+            first = p
+    for k in range(-1, P):
+        p = first if k < 0 else k
+        if p < 0 or (k >= 0 and p == first) or not lb[p] < best:
+            continue
+        e = pair_signed_distance(dpairs[p, 0], dpairs[p, 1], xpos, xmat, cls, kind, prm, pts, pts_adr, pts_num,
+                                 nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, size, out7)
+        if e == 0 and out7[0] < best:
+            best = out7[0]
+            bi = p
+    if bi >= 0:
+        out_dist[w] = best
+        out_closest[w, 0] = dpairs[bi, 0]
+        out_closest[w, 1] = dpairs[bi, 1]
+    else:
+        out_dist[w] = np.inf
+        out_closest[w, 0] = -1
+        out_closest[w, 1] = -1
+    return 0
+
+
+__all__ = ["ACTIVE", "ERR_POSE", "IN_GAP", "NOT_COLLIDED", "NO_CONTACT", "SUBSET_ALL", "SUBSET_ONE", "SUBSET_TWO",
+           "check_worlds", "deepest_contact", "geom_pose", "in_subset"]

@@ -1,0 +1,379 @@
+"""Collision checks of many configurations (issue 43): `collide.mujoco.Collider.check_batch`.
+
+Correctness against MuJoCo 4 and against brute-force twins:
+
+* ``in_collision`` equals "MuJoCo made an active contact" (``mj_kinematics`` + ``mj_collision`` on
+  the same qpos, a contact with ``exclude == 0``: ``dist < includemargin``; contacts MuJoCo makes
+  in the gap do not count) on random configurations of every model in ../shared/models, inside
+  and outside the joint limits. Where the two differ, the deciding pair must be within its
+  tolerance (`contact_check.pair_tolerance`: 1e-9 of the size for MuJoCo's analytic functions,
+  ``opt.ccd_tolerance`` for its GJK/EPA) of its margin on the side that made the contact: a nearly
+  touching pair, where either answer is right. Those are counted (`BOUNDARY`), never hidden, and
+  every other difference fails.
+* ``in_collision`` equals what `Collider.contacts` says on the same poses (an active contact), the
+  single-configuration path with MuJoCo's own geom poses.
+* ``min_distance`` / ``closest`` equal `collide.testing.brute_force_min_distance` over
+  `collide.testing.all_filtered_pairs` (`Collider.geom_distance`'s function on every filtered pair,
+  no pruning) within `DIST_TOL`.
+"""
+
+from __future__ import annotations
+
+import copy
+import pickle
+import threading
+
+import mujoco
+import numba
+import numpy as np
+import pytest
+
+import collide
+import collide.mujoco as cm
+from collide import collider as ccol
+from collide import testing
+from collide._kernels import check as kc
+from contact_check import MODELS, pair_tolerance
+
+SCENES = sorted(p.name for p in MODELS.iterdir() if (p / "scene.xml").is_file()) if MODELS.is_dir() else []
+NO_MODELS = f"the test models are not present at {MODELS} (../shared/models)"
+# Configurations per scene against MuJoCo, and per scene against the brute-force distance twin
+# (a Python call per filtered pair: fewer on the big scenes).
+N_MUJOCO = 300
+N_DISTANCE = {"22_humanoids": 2, "humanoid100": 3, "stonehenge": 4}
+# min_distance against the twin: the same kernel on poses a rounding apart (ours from our
+# kinematics, the twin's MuJoCo's), GJK converged to 1e-12 of the sizes.
+DIST_TOL = 1e-9
+# Scenes with a contact in every configuration: a base on the floor (kinova_gen3, robotis_op3),
+# pieces touching at rest (cube_3x3x3, stonehenge), one of 22 humanoids always down.
+ALWAYS_TOUCHING = {"22_humanoids", "cube_3x3x3", "kinova_gen3", "robotis_op3", "stonehenge"}
+# Per scene: (configurations, in collision by MuJoCo, boundary differences); filled by the tests.
+BOUNDARY: dict = {}
+
+
+def _model(body: str, extra: str = "", option: str = "") -> mujoco.MjModel:
+    return mujoco.MjModel.from_xml_string(
+        f"<mujoco><option {option}/><worldbody>{body}</worldbody>{extra}</mujoco>")
+
+
+def mujoco_active(model, data, q) -> tuple[np.ndarray, list]:
+    """MuJoCo's answer per configuration: an active contact after mj_kinematics + mj_collision,
+    and (deepest dist - includemargin, g1, g2) of each configuration's deepest contact."""
+    out = np.zeros(len(q), bool)
+    deepest = []
+    for i, x in enumerate(q):
+        data.qpos[:] = x
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_collision(model, data)
+        best = (np.inf, -1, -1)
+        for c in data.contact[:data.ncon]:
+            v = float(c.dist - c.includemargin)
+            if v < best[0]:
+                best = (v, int(min(c.geom)), int(max(c.geom)))
+            out[i] |= int(c.exclude) == 0
+        deepest.append(best)
+    return out, deepest
+
+
+def ours_active(col, model, data, x) -> tuple[bool, tuple]:
+    # Collider.contacts on MuJoCo's poses of x: an active contact, and the deepest (dist - margin, g1, g2).
+    data.qpos[:] = x
+    mujoco.mj_kinematics(model, data)
+    c = col.contacts(data)
+    if len(c) == 0:
+        return False, (np.inf, -1, -1)
+    v = c.dist - c.margin
+    i = int(np.argmin(v))
+    return bool(np.any(v < 0)), (float(v[i]), int(c.geom[i, 0]), int(c.geom[i, 1]))
+
+
+def _load(scene: str) -> mujoco.MjModel:
+    return mujoco.MjModel.from_xml_path(str(MODELS / scene / "scene.xml"))
+
+
+def test_constants_and_surface():
+    assert collide.CheckResult is ccol.CheckResult
+    sf = mujoco.mjtSameFrame
+    assert (ccol._SAME_BODY, ccol._SAME_INERTIA, ccol._SAME_BODYROT, ccol._SAME_INERTIAROT) == (
+        int(sf.mjSAMEFRAME_BODY), int(sf.mjSAMEFRAME_INERTIA), int(sf.mjSAMEFRAME_BODYROT),
+        int(sf.mjSAMEFRAME_INERTIAROT))
+
+
+# ------------------------------------------------------------------------------------------------
+# Every shared model against MuJoCo
+# ------------------------------------------------------------------------------------------------
+
+@pytest.mark.skipif(not SCENES, reason=NO_MODELS)
+@pytest.mark.parametrize("scene", SCENES)
+def test_in_collision_is_mujocos(scene):
+    model = _load(scene)
+    data = mujoco.MjData(model)
+    col = cm.Collider(model)
+    rng = np.random.default_rng(43)
+    q = testing.random_configurations(model, N_MUJOCO, rng, outside=0.25)
+    res = col.check_batch(q)
+    assert res.in_collision.dtype == np.bool_ and res.in_collision.shape == (N_MUJOCO,)
+    assert res.min_distance is None and res.closest is None and not res.skipped.any()
+    mj, mj_deep = mujoco_active(model, data, q)
+    boundary, failures = 0, []
+    for i in np.flatnonzero(res.in_collision != mj):
+        ours, our_deep = ours_active(col, model, data, q[i])
+        v, g1, g2 = mj_deep[i] if mj[i] else our_deep
+        if g1 >= 0 and -pair_tolerance(model, g1, g2) <= v < 0:
+            boundary += 1  # the pair that made the contact is within its tolerance of its margin
+        else:
+            failures.append((int(i), bool(mj[i]), mj_deep[i], our_deep))
+    BOUNDARY[scene] = (N_MUJOCO, int(mj.sum()), boundary)
+    print(f"{scene}: {N_MUJOCO} configurations, {int(mj.sum())} in collision (MuJoCo), "
+          f"{int(res.in_collision.sum())} (ours), {boundary} boundary")
+    assert not failures, failures[:5]
+    # the scene had real collisions, and free configurations unless it always touches
+    assert mj.sum() > 0
+    if scene not in ALWAYS_TOUCHING:
+        assert (~mj).sum() > 0
+
+
+@pytest.mark.skipif(not SCENES, reason=NO_MODELS)
+@pytest.mark.parametrize("scene", SCENES)
+def test_in_collision_is_the_contacts_of_each_configuration(scene):
+    # The same question through Collider.contacts, one MjData at a time on MuJoCo's poses: equal
+    # but where the deciding contact is within 1e-9 of its margin (poses a rounding apart).
+    model = _load(scene)
+    data = mujoco.MjData(model)
+    col = cm.Collider(model)
+    q = testing.random_configurations(model, 120, np.random.default_rng(7), outside=0.25)
+    res = col.check_batch(q)
+    for i, x in enumerate(q):
+        ours, deep = ours_active(col, model, data, x)
+        assert ours == res.in_collision[i] or abs(deep[0]) < 1e-9, (i, deep)
+
+
+@pytest.mark.skipif(not SCENES, reason=NO_MODELS)
+@pytest.mark.parametrize("scene", SCENES)
+def test_min_distance_is_the_brute_force_minimum(scene):
+    model = _load(scene)
+    data = mujoco.MjData(model)
+    col = cm.Collider(model)
+    n = N_DISTANCE.get(scene, 6)
+    q = testing.random_configurations(model, n, np.random.default_rng(5), outside=0.25)
+    distmax = 50.0
+    res = col.check_batch(q, distance=True, distmax=distmax)
+    assert np.array_equal(res.in_collision, col.check_batch(q).in_collision)  # the early exit changes nothing
+    pairs = testing.all_filtered_pairs(col.broadphase.articulation)
+    signs = set()
+    for i, x in enumerate(q):
+        data.qpos[:] = x
+        mujoco.mj_kinematics(model, data)
+        d, pair = testing.brute_force_min_distance(col.table, pairs, data.geom_xpos, data.geom_xmat, distmax)
+        assert abs(res.min_distance[i] - d) <= DIST_TOL, (i, res.min_distance[i], d, res.closest[i], pair)
+        g1, g2 = (int(g) for g in res.closest[i])
+        dd, _ = col.geom_distance(data, g1, g2, distmax)
+        assert abs(dd - d) <= DIST_TOL  # the pair reported is a closest one
+        signs.add(np.sign(d))
+    assert np.all(np.isfinite(res.min_distance))
+
+
+def test_filtered_pairs_are_the_twins():
+    scenes = [_load(s) for s in SCENES] + [cm.default_scene(seed=1, objects=10), _pairs_model()]
+    for model in scenes:
+        art = cm.articulation(model)
+        assert np.array_equal(ccol.filtered_pairs(art, block=7), testing.all_filtered_pairs(art))
+
+
+# ------------------------------------------------------------------------------------------------
+# MuJoCo's rules: margins, gaps, explicit pairs, override, excludes
+# ------------------------------------------------------------------------------------------------
+
+def _two_spheres(m1, m2, g1, g2, pair="", option=""):
+    body = (f'<body><freejoint/><geom name="a" type="sphere" size="0.5" margin="{m1}" gap="{g1}"/></body>'
+            f'<body pos="1 0 0"><freejoint/><geom name="b" type="sphere" size="0.5" margin="{m2}" '
+            f'gap="{g2}"/></body>')
+    return _model(body, pair, option)
+
+
+@pytest.mark.parametrize("case", [
+    (0.1, 0.2, 0.0, 0.0, "", ""),
+    (0.1, 0.2, 0.05, 0.07, "", ""),
+    (0.0, 0.0, 0.0, 0.0, "", ""),
+    (0.1, 0.2, 0.05, 0.05, '<contact><pair geom1="a" geom2="b" margin="0.03" gap="0.02"/></contact>', ""),
+    (0.1, 0.2, 0.05, 0.05, "", 'o_margin="0.06"><flag override="enable"/></option><option'),
+    (0.1, 0.2, 0.05, 0.05, '<contact><exclude body1="world" body2="world"/></contact>', ""),
+])
+def test_margins_gaps_pairs_override_are_mujocos(case):
+    m1, m2, g1, g2, pair, option = case
+    model = _two_spheres(m1, m2, g1, g2, pair, option)
+    data = mujoco.MjData(model)
+    d = np.linspace(-0.2, 0.8, 201)
+    q = np.tile(model.qpos0, (len(d), 1))
+    q[:, 7] += d
+    res = cm.Collider(model).check_batch(q, distance=True)
+    mj, _ = mujoco_active(model, data, q)
+    margin = 0.03 if "pair" in pair else (0.06 if "override" in option else m1 + m2)
+    away = np.abs(d - margin) > 1e-9
+    assert np.array_equal(res.in_collision[away], mj[away])
+    assert mj.any() and not mj.all()
+    assert np.allclose(res.min_distance, d, atol=1e-12)  # exact distance: no margin
+    assert (res.closest == [0, 1]).all()
+
+
+def _pairs_model() -> mujoco.MjModel:
+    # a parent and child overlapping (the parent filter drops them), an explicit pair bringing them
+    # back, contype/conaffinity that never match, an <exclude>
+    return _model(
+        '<geom type="plane" size="5 5 .1"/>'
+        '<body name="p" pos="0 0 1"><joint type="hinge" axis="0 1 0"/><geom name="pa" type="capsule" size=".1" '
+        'fromto="0 0 0 .5 0 0"/><body name="c" pos=".5 0 0"><joint name="h" type="hinge" axis="0 1 0"/>'
+        '<geom name="ch" type="box" size=".3 .1 .1" pos=".45 0 0"/></body></body>'
+        '<body name="o" pos="0 0 .5"><joint type="slide" axis="1 0 0" range="-1 1"/>'
+        '<geom name="o1" type="sphere" size=".2" contype="2" conaffinity="2"/></body>'
+        '<body name="e" pos=".4 0 .5"><joint type="slide" axis="0 0 1" range="-.5 .5"/>'
+        '<geom type="ellipsoid" size=".2 .1 .15"/></body>',
+        '<contact><pair geom1="pa" geom2="ch" margin="0.01"/><exclude body1="e" body2="p"/></contact>')
+
+
+def test_explicit_pairs_and_filters_are_mujocos():
+    model = _pairs_model()
+    data = mujoco.MjData(model)
+    q = testing.random_configurations(model, 400, np.random.default_rng(3), outside=0.2)
+    res = cm.Collider(model).check_batch(q)
+    mj, _ = mujoco_active(model, data, q)
+    assert mj.any() and not mj.all()
+    assert np.array_equal(res.in_collision, mj)
+
+
+# ------------------------------------------------------------------------------------------------
+# Subsets, batches, threads
+# ------------------------------------------------------------------------------------------------
+
+def test_subsets_are_the_pairs_they_name():
+    model = _pairs_model()
+    data = mujoco.MjData(model)
+    q = testing.random_configurations(model, 300, np.random.default_rng(11), outside=0.2)
+    full = cm.Collider(model)
+    arm = ["p", "c"]
+    cases = {
+        "self": (dict(bodies=arm), lambda b1, b2: b1 in (1, 2) and b2 in (1, 2)),
+        "arm-world": (dict(bodies=(arm, ["world", "o", "e"])), lambda b1, b2: (b1 in (1, 2)) != (b2 in (1, 2))),
+        "geoms": (dict(geoms=(["ch"], [0, 4])), lambda b1, b2: {b1, b2} in ({2, 0}, {2, 4})),
+    }
+    gb = model.geom_bodyid
+    for name, (kw, keep) in cases.items():
+        col = cm.Collider(model, **kw)
+        res = col.check_batch(q, distance=True, distmax=10.0)
+        pairs = [(g1, g2) for g1, g2 in testing.all_filtered_pairs(col.broadphase.articulation).tolist()
+                 if keep(gb[g1], gb[g2])]
+        hits = 0
+        for i, x in enumerate(q):
+            data.qpos[:] = x
+            mujoco.mj_kinematics(model, data)
+            c = full.contacts(data)
+            act = any(keep(gb[a], gb[b]) and dd < m for (a, b), dd, m in zip(c.geom.tolist(), c.dist, c.margin))
+            assert res.in_collision[i] == act, (name, i)
+            hits += act
+            d, _ = testing.brute_force_min_distance(col.table, pairs, data.geom_xpos, data.geom_xmat, 10.0)
+            assert abs(res.min_distance[i] - d) <= DIST_TOL, (name, i)
+        assert 0 < hits < len(q), name
+    assert pickle.loads(pickle.dumps(cm.Collider(model, bodies=arm))).check_batch(q).in_collision.tolist() == \
+        cm.Collider(model, bodies=arm).check_batch(q).in_collision.tolist()
+
+
+def test_subset_arguments_are_checked():
+    model = _pairs_model()
+    for kw, match in [(dict(geoms=[99]), "out of range"), (dict(bodies=["nope"]), "no body named"),
+                      (dict(geoms=[]), "empty"), (dict(geoms=[0], bodies=[1]), "not both"),
+                      (dict(geoms=[1.5]), "ids or names")]:
+        with pytest.raises(ValueError, match=match):
+            cm.Collider(model, **kw)
+
+
+def test_blocks_threads_and_reuse_give_the_same_answers(monkeypatch):
+    model = cm.default_scene(seed=3, objects=12)
+    q = testing.random_configurations(model, 257, np.random.default_rng(1), outside=0.1)
+    col = cm.Collider(model)
+    ref = col.check_batch(q, distance=True)
+    assert 0 < ref.in_collision.sum() < len(q)
+    monkeypatch.setattr(ccol, "BLOCK", 10)  # several blocks of the broad phase
+    again = col.check_batch(q, distance=True)
+    monkeypatch.undo()
+    old = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = col.check_batch(q, distance=True)
+    finally:
+        numba.set_num_threads(old)
+    for r in (again, one):
+        assert np.array_equal(r.in_collision, ref.in_collision)
+        assert np.array_equal(r.min_distance, ref.min_distance) and np.array_equal(r.closest, ref.closest)
+    # two Python threads, each with its own Collider (a copy), at the same time
+    out = {}
+
+    def work(k):
+        c = copy.deepcopy(col) if k else cm.Collider(model)
+        out[k] = [c.check_batch(q, distance=bool(j % 2)) for j in range(4)]
+
+    ts = [threading.Thread(target=work, args=(k,)) for k in range(2)]
+    for t in ts:
+        t.start()
+    for t in ts:
+        t.join()
+    for k in range(2):
+        for j, r in enumerate(out[k]):
+            assert np.array_equal(r.in_collision, ref.in_collision)
+            if j % 2:
+                assert np.array_equal(r.min_distance, ref.min_distance)
+
+
+def test_distmax_and_empty():
+    model = _two_spheres(0, 0, 0, 0)
+    q = np.tile(model.qpos0, (3, 1))
+    q[:, 7] += [-0.1, 0.5, 2.0]
+    col = cm.Collider(model)
+    r = col.check_batch(q, distance=True, distmax=1.0)
+    assert r.in_collision.tolist() == [True, False, False]
+    assert np.allclose(r.min_distance[:2], [-0.1, 0.5]) and r.min_distance[2] == np.inf
+    assert r.closest.tolist() == [[0, 1], [0, 1], [-1, -1]] and r.closest.dtype == np.int32
+    e = col.check_batch(np.zeros((0, model.nq)), distance=True)
+    assert len(e) == 0 and e.min_distance.shape == (0,) and e.closest.shape == (0, 2)
+
+
+def test_height_fields_are_reported_skipped():
+    model = mujoco.MjModel.from_xml_string(
+        '<mujoco><asset><hfield name="h" nrow="3" ncol="3" size="1 1 0.1 0.1" '
+        'elevation="0 0 0 0 0 0 0 0 0"/></asset><worldbody><geom type="hfield" hfield="h"/>'
+        '<body pos="0 0 0.03"><freejoint/><geom type="sphere" size="0.05"/></body></worldbody></mujoco>')
+    r = cm.Collider(model).check_batch(np.tile(model.qpos0, (2, 1)), distance=True)
+    assert r.skipped.all() and not r.in_collision.any() and (r.min_distance == np.inf).all()
+
+
+def test_bad_qpos_names_the_configuration():
+    model = _two_spheres(0, 0, 0, 0)
+    col = cm.Collider(model)
+    q = np.tile(model.qpos0, (5, 1))
+    good = col.check_batch(q).in_collision.copy()
+    bad = q.copy()
+    bad[3, 2] = np.nan
+    with pytest.raises(ValueError, match="configuration 3 .*coordinate 2"):
+        col.check_batch(bad)
+    bad[3, 2] = np.inf
+    with pytest.raises(ValueError, match="configuration 3"):
+        col.check_batch(bad, distance=True)
+    huge = q.copy()
+    huge[1, 0] = 1e308
+    huge[1, 7] = -1e308  # finite qpos, an infinite distance between the two: still checked, or named
+    try:
+        col.check_batch(huge, distance=True)
+    except ValueError as exc:
+        assert "configuration 1" in str(exc)
+    for arg, match in [(q[:, :5], r"expected shape \(B, 14\)"), (q[0], "expected shape"),
+                       ([["a"] * 14], "float64"), (q + 1j, "complex")]:
+        with pytest.raises(ValueError, match=match):
+            col.check_batch(arg)
+    with pytest.raises(ValueError, match="distmax"):
+        col.check_batch(q, distance=True, distmax=float("nan"))
+    with pytest.raises(ValueError, match="distance"):
+        col.check_batch(q, distance="yes")
+    assert np.array_equal(col.check_batch(q).in_collision, good)  # still works
+
+
+def test_kernel_constants():
+    assert kc.ACTIVE != kc.IN_GAP != kc.NO_CONTACT != kc.NOT_COLLIDED
