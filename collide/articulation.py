@@ -32,6 +32,7 @@ import numpy as np
 
 from . import shapes as _shapes
 from . import volumes as _volumes
+from ._kernels.bounds import ORTHO_TOL as _KERNEL_ORTHO_TOL
 from ._validate import as_array
 from .pointcloud import PointCloud, union
 
@@ -70,8 +71,8 @@ def fit_local_sphere(cloud: PointCloud) -> _volumes.Sphere:
 # direction differs from the box's by at most ~4 tol (h_0 + h_1 + h_2), and ||R|| <= 1 + 1.5 tol
 # grows spheres. Every local bound carries that slack (8 tol sum(h), and 2 tol r), so a pair that
 # a slightly scaled rotation brings into contact is never culled (found 2026-11-21: a 4.5e-7
-# scaled rotation missed touching boxes 4e-7 apart).
-POSE_ORTHO_TOL = 1e-6
+# scaled rotation missed touching boxes 4e-7 apart). The tolerance is the per-step kernel's.
+POSE_ORTHO_TOL = _KERNEL_ORTHO_TOL
 ROTATION_SLACK = 8.0 * POSE_ORTHO_TOL
 # Margins are added to the half extents and radii the kernel moves with the same rotations, so
 # they need the same cover: a margin-1 point under R = (1 - 4.9e-7) I reached 1 - 4.9e-7 along

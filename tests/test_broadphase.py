@@ -6,10 +6,16 @@ import pytest
 
 import collide.broadphase
 from collide import Articulation, BroadPhase, PointCloud, shapes, testing
-from collide._kernels import broadphase as _kern
+from collide._kernels import batch as _batch
+from collide._kernels import bounds as _bounds
+from collide._kernels import coherence as _coh
+from collide._kernels import culling as _cull
+from collide._kernels import keys as _keys
 from collide._kernels import _ptr
-from collide._kernels import lanes as _lanes
+from collide._kernels import _simd
+from collide._kernels import lane_tests as _lane_tests
 from collide._kernels import layout as _layout
+from collide._kernels import walk as _walk
 from collide.broadphase import ARENA_ROWS
 from collide.testing.scenes import random_rotation
 
@@ -194,7 +200,7 @@ def test_lanes_keep_every_pair_of_each_world_and_name_a_bad_one():
 
 @pytest.mark.parametrize("lane_kernel", [True, False], ids=["lanes", "world_by_world"])
 def test_batch_chunks_are_each_taken_once_whatever_the_workers(lane_kernel):
-    # The batch kernels' workers take chunks from a shared counter (`_kernels.broadphase.next_chunk`)
+    # The batch kernels' workers take chunks from a shared counter (`_kernels.batch.next_chunk`)
     # until none is left: with one worker, with as many as threads, and with more workers than
     # threads (several run one after the other on a thread), every chunk is run exactly once, in
     # its own rows, and a bad world in any chunk is still the one named. (The lane kernels run at
@@ -222,7 +228,7 @@ def test_batch_chunks_are_each_taken_once_whatever_the_workers(lane_kernel):
                                        chunk_info, S, bp._stats)
                 nw = min(workers, C, bt["LW"].shape[0])
             else:
-                out = _kern.step_batch(pos, rot, bt["ctx"], world_count, world_info, chunk_info, S, bp._stats)
+                out = _batch.step_batch(pos, rot, bt["ctx"], world_count, world_info, chunk_info, S, bp._stats)
                 nw = min(workers, C)
             assert chunk_info[C, 0] == C + nw  # every chunk taken once, then each worker's last try
             return out
@@ -241,10 +247,10 @@ def test_batch_chunks_are_each_taken_once_whatever_the_workers(lane_kernel):
     for workers in (1, 3):
         with pytest.raises(ValueError, match="world 30, body 2"):
             run(workers)
-    bad = np.empty((2, _kern.N_CI), np.int64)  # no row for the counter: refused, not overrun
+    bad = np.empty((2, _batch.N_CI), np.int64)  # no row for the counter: refused, not overrun
     with pytest.raises(ValueError, match="chunk_info: needs a row"):
-        _kern.step_batch(pos[:2], rot[:2], bp._batch.buffers["ctx"][:2], np.empty(2, np.int64), np.empty((2, 4), np.int64),
-                         bad, _kern.key_shift(bp.geom_count), bp._stats)
+        _batch.step_batch(pos[:2], rot[:2], bp._batch.buffers["ctx"][:2], np.empty(2, np.int64),
+                          np.empty((2, 4), np.int64), bad, _keys.key_shift(bp.geom_count), bp._stats)
 
 
 def test_big_models_batch_world_by_world():
@@ -275,7 +281,7 @@ def test_single_grows_its_buffer_and_keeps_every_pair(n, coherent):
     # 41 positions: the static masks (`_scan_masks`); 65: the tree
     sc = testing.free_hulls(n, seed=6)
     bp = BroadPhase(sc.articulation, coherent=coherent)
-    assert (bp.position_count <= _kern.MASK_MAX) == (n == 40)
+    assert (bp.position_count <= _cull.MASK_MAX) == (n == 40)
     pos, rot = testing.hull_motion(sc, np.random.default_rng(0), 1, 0.02)
     want = testing.brute_force_bound_pairs(sc.articulation, pos[0], rot[0])
     bp._set_buffers(1, 2)  # tiny buffers: grown, rerun
@@ -395,7 +401,7 @@ def test_grid_with_subtree_children():
     for _ in range(3):
         pos, rot = sc.poses(rng)
         kc, spread = _root_subtree_spread(a, pos, rot)
-        assert kc > _kern.GRID_MIN and spread > 2 * _kern.GRID_SWEEP  # the grid's side of the rule
+        assert kc > _walk.GRID_MIN and spread > 2 * _walk.GRID_SWEEP  # the grid's side of the rule
         got = bp.pairs(pos, rot)
         assert np.array_equal(got, testing.brute_force_bound_pairs(a, pos, rot))
         b1, b2 = a.geom_body[got[:, 0]], a.geom_body[got[:, 1]]
@@ -847,8 +853,8 @@ def test_batch_lanes_round_as_a_single_world():
             bp.pairs(pos, rot)
         with pytest.raises(ValueError, match="world 0, body 1: position beyond"):
             bp.pairs_batch(pos[None], rot[None])
-        pos[1] = _kern.MAX_POSITION
-        pos[2] = _kern.MAX_POSITION * (1 - 1e-16 * rng.integers(0, 3))
+        pos[1] = _bounds.MAX_POSITION
+        pos[2] = _bounds.MAX_POSITION * (1 - 1e-16 * rng.integers(0, 3))
         single, lanes, per_world = _batch_equals_single(bp, pos, rot)
         assert single == lanes == per_world, seed
         hits += len(single)
@@ -859,12 +865,10 @@ def test_lane_workspace_rows_are_cache_line_aligned():
     """Every worker's lane workspace starts on a 64-byte boundary (its blocks are whole (LANES,)
     float64 rows, 64 bytes each): numpy aligns to 16 only, and a row across two cache lines cost
     the chain's batch 7 %. The answer does not depend on it; this keeps the layout from drifting."""
-    from collide._kernels import lanes
-
     scene = testing.chain(12, seed=3, planes=1)
     bp = BroadPhase(scene.articulation)
     assert bp.batch_path == "lanes"
-    B = 3 * lanes.LANES + 1
+    B = 3 * _simd.LANES + 1
     pos, rot = scene.poses(np.random.default_rng(0), worlds=B)
     out = bp.pairs_batch(pos, rot)
     LW = bp._batch.buffers["LW"]
@@ -873,7 +877,7 @@ def test_lane_workspace_rows_are_cache_line_aligned():
     from collide._kernels import broadphase as _k, layout
 
     # every block of the lane workspace starts on a cache line as its row does
-    assert all(off % lanes.LANES == 0 for off, _ in layout.LANE_WORK.spans(_k.model_dims(bp._I)))
+    assert all(off % _simd.LANES == 0 for off, _ in layout.LANE_WORK.spans(_k.model_dims(bp._I)))
     assert len(out) > 0
     for w in range(B):
         assert np.array_equal(out[out[:, 0] == w, 1:], bp.pairs(pos[w], rot[w]))
@@ -883,8 +887,6 @@ def test_lane_intrinsics_equal_the_scalar_code():
     """`_simd.aabb_mask8` and `_simd.aabb_merge8` (LLVM vector IR) give numba's scalar answers bit for
     bit: ties, signed zeros, the empty box's BIG sentinels, NaN; and a block merged with itself."""
     import numba
-
-    from collide._kernels import _simd
 
     @numba.njit
     def vector(q, x):
@@ -907,7 +909,7 @@ def test_lane_intrinsics_equal_the_scalar_code():
         return m
 
     rng = np.random.default_rng(5)
-    values = np.array([-0.0, 0.0, 1.0, -1.0, 0.5, _kern.BIG, -_kern.BIG, np.nan, 1e-300, -2.5])
+    values = np.array([-0.0, 0.0, 1.0, -1.0, 0.5, _bounds.BIG, -_bounds.BIG, np.nan, 1e-300, -2.5])
     hits = 0
     for trial in range(400):
         if trial % 2:  # the special values
@@ -929,10 +931,6 @@ def test_lane_intrinsics_equal_the_scalar_code():
 def test_slightly_scaled_rotations_never_lose_a_touching_pair():
     # Rotations are accepted up to |R^T R - I| <= 1e-6 (float32 poses); the bounds carry the slack.
     # Reproducer (2026-11-21): a rotation scaled by 1 + 4.5e-7 missed boxes 4e-7 apart.
-    from collide import articulation as art_mod
-    from collide._kernels import broadphase as kern
-
-    assert kern.ORTHO_TOL == art_mod.POSE_ORTHO_TOL
     art = Articulation([0, 0, 0], [1, 2], [shapes.box([1, 1, 1]), shapes.box([1, 1, 1])])
     bp = BroadPhase(art)
     hits = 0
@@ -1008,7 +1006,7 @@ def test_loose_multi_geom_bodies_skip_body_tests_and_lose_nothing():
     bp = BroadPhase(art)
     # The world's 6 geoms became leaves of their own (positions 1..6); the dumbbells are loose.
     I = bp._I
-    Lp, V = I[_kern.H_L], I[_kern.H_V]
+    Lp, V = I[_layout.H_L], I[_layout.H_V]
     assert V == n_walls and Lp == art.body_count + V == bp.position_count
     single, has_bounds = _field(bp, "single"), _field(bp, "has_bounds")
     assert has_bounds[0] == 0 and np.all(single[1:V + 1] == 1)
@@ -1041,7 +1039,7 @@ def test_key_sort_equals_numpy(G, k, order, distinct):
     # the kernel produces and worse; the keys buffer's tail and everything outside the scratch stay
     # untouched, and garbage in the scratch does no harm.
     rng = np.random.default_rng(G + k)
-    S = _kern.key_shift(G)
+    S = _keys.key_shift(G)
     g = np.sort(rng.integers(0, G, (k, 2)), axis=1)
     if order == "one_first_id":
         g[:, 0] = 0
@@ -1064,8 +1062,8 @@ def test_key_sort_equals_numpy(G, k, order, distinct):
     cap = k + 3
     for k4 in sorted({0, k // 3, k}):  # body-level keys first, then plane keys: each part sorted apart
         buf = np.concatenate([keys, [-7, -7, -7]])
-        scr = np.full(_kern.scratch_size(G, cap) + 2, -9, np.int64)
-        _kern._sort_keys(buf, k, k4, S, G, scr[:-2])
+        scr = np.full(_keys.scratch_size(G, cap) + 2, -9, np.int64)
+        _keys._sort_keys(buf, k, k4, S, G, scr[:-2])
         assert np.array_equal(buf[:k], ref) and np.all(buf[k:] == -7) and np.all(scr[-2:] == -9)
 
 
@@ -1082,7 +1080,7 @@ def test_traversal_paths_equal_bounds_twin():
     parent = np.r_[0, 0, np.arange(1, n), 0, np.arange(n + 1, 2 * n)]
     a = Articulation(parent, np.arange(1, 2 * n + 1), [PointCloud([[0, 0, 0], [0.1, 0, 0]], 0.04)] * (2 * n))
     bp = BroadPhase(a, coherent=False)  # the walk itself (its subtree AABBs are read below)
-    assert n * n > _kern.FLAT_MAX and not _field(bp, "flat_root").any()
+    assert n * n > _cull.FLAT_MAX and not _field(bp, "flat_root").any()
     total = 0
     for _ in range(5):
         pos = rng.uniform(-1, 1, (2 * n + 1, 3))
@@ -1094,13 +1092,13 @@ def test_traversal_paths_equal_bounds_twin():
         baabb, saabb = _field(bp, "baabb"), _field(bp, "saabb")
         meets = [((baabb[ch, :3] <= saabb[other, 3:]) & (saabb[other, :3] <= baabb[ch, 3:])).all(axis=1).sum()
                  for ch, other in ((np.arange(1, n + 1), n + 1), (np.arange(n + 1, 2 * n + 1), 1))]
-        assert meets[0] * meets[1] > _kern.FLAT_MAX
+        assert meets[0] * meets[1] > _cull.FLAT_MAX
     assert total > 50  # the scenes had hits
 
     sc = testing.many_robots(11, 6, seed=32, spread=0.5)
     bp = BroadPhase(sc.articulation)
     flat_root = _field(bp, "flat_root")
-    assert flat_root.sum() >= 5 and bp.position_count > _kern.MASK_MAX  # walked: up to 64, no tree
+    assert flat_root.sum() >= 5 and bp.position_count > _cull.MASK_MAX  # walked: up to 64, no tree
     pos, rot = sc.poses(np.random.default_rng(33), worlds=6)
     total = 0
     for w in range(len(pos)):
@@ -1395,7 +1393,7 @@ def test_the_exact_twin_keeps_exact_margins_and_the_bounds_their_slack():
 
 
 def test_position_limit_is_the_geoms_coordinate_limit():
-    assert _kern.MAX_POSITION == collide.hull.MAX_COORDINATE
+    assert _bounds.MAX_POSITION == collide.hull.MAX_COORDINATE
 
 
 def test_world_aabbs_carry_the_rounding_slack_of_their_centres():
@@ -1405,7 +1403,7 @@ def test_world_aabbs_carry_the_rounding_slack_of_their_centres():
     bp = BroadPhase(Articulation([0, 0], [1], [PointCloud([[0.3, 0.2, 0.1]])]))
     pos = np.array([[0, 0, 0], [1e8, -2e8, 3e8]])
     wb = bp.world_bounds(pos, np.stack([EYE, random_rotation(np.random.default_rng(0))]))
-    assert np.all(wb.aabb_max[0] - wb.aabb_min[0] >= _kern.SLACK_POS * np.abs(wb.obb_center[0]).sum())
+    assert np.all(wb.aabb_max[0] - wb.aabb_min[0] >= _bounds.SLACK_POS * np.abs(wb.obb_center[0]).sum())
 
 
 def test_planes_on_nearly_orthonormal_bodies_are_moved_exactly():
@@ -1478,7 +1476,7 @@ def test_coherent_calls_equal_the_walk_along_motions_and_jumps(name, make, step)
     sc = make()
     a = sc.articulation
     coh, walk = BroadPhase(a), BroadPhase(a, coherent=False)
-    assert coh.coherent and not walk.coherent and coh.position_count > _kern.MASK_MAX
+    assert coh.coherent and not walk.coherent and coh.position_count > _cull.MASK_MAX
     rng = np.random.default_rng(7)
     pos, rot = _motion(sc, rng, 120, step)
     reused = pairs = 0
@@ -1519,11 +1517,11 @@ def _check_static_masks(bp, a):
         _field(bp, n) for n in ("single", "has_bounds", "weld", "parent_pos", "contype", "conaffinity", "ex_start",
                                 "ex_other"))
     allp = np.array([(x, y) for x in range(L) for y in range(x + 1, L) if has_bounds[x] and has_bounds[y]], np.int64)
-    n = _kern._filter(allp, len(allp), contype, conaffinity, weld, parent_pos, a.filter_parent, ex_start, ex_other,
+    n = _cull._filter(allp, len(allp), contype, conaffinity, weld, parent_pos, a.filter_parent, ex_start, ex_other,
                       single)
     gstart, pgeoms, gct, gca = (_field(bp, n) for n in ("gstart", "pgeoms", "geom_contype", "geom_conaffinity"))
     explicit = set(_field(bp, "pair_keys").tolist())
-    S = int(bp._I[_kern.H_KS])
+    S = int(bp._I[_layout.H_KS])
     want = np.zeros(L, np.uint64)
     dropped = 0
     for x, y in allp[:n]:
@@ -1541,7 +1539,7 @@ def _check_static_masks(bp, a):
 
 @pytest.mark.parametrize("make", [s[1] for s in MASK_SCENES], ids=[s[0] for s in MASK_SCENES])
 def test_kernel_filter_is_the_static_filter(make):
-    """`_kernels.broadphase._filter` (the per-step filter of the pairs the walk finds) and
+    """`_kernels.culling._filter` (the per-step filter of the pairs the walk finds) and
     `broadphase.tables.StaticFilter.bodies` (from which masks, flat roots, planes and lanes derive)
     agree on every position pair with bounds: the one rule, in its two forms."""
     from collide.broadphase import tables
@@ -1557,7 +1555,7 @@ def test_kernel_filter_is_the_static_filter(make):
     got = np.zeros(len(allp), bool)
     for i, (x, y) in enumerate(allp):  # one pair a call: the kernel compacts its buffer
         one = np.array([[x, y]], np.int64)
-        got[i] = _kern._filter(one, 1, *(_field(bp, n) for n in ("contype", "conaffinity", "weld", "parent_pos")),
+        got[i] = _cull._filter(one, 1, *(_field(bp, n) for n in ("contype", "conaffinity", "weld", "parent_pos")),
                                a.filter_parent, _field(bp, "ex_start"), _field(bp, "ex_other"),
                                _field(bp, "single")) == 1
     assert np.array_equal(got, want)
@@ -1573,7 +1571,7 @@ def test_static_masks_equal_the_twin_and_keep_no_list(make):
     a = sc.articulation
     coh, walk = BroadPhase(a), BroadPhase(a, coherent=False)
     L = coh.position_count
-    assert L <= _kern.MASK_MAX and coh.batch_path == "lanes"
+    assert L <= _cull.MASK_MAX and coh.batch_path == "lanes"
     _check_static_masks(coh, a)
     smask = _field(coh, "smask")
     rng = np.random.default_rng(7)
@@ -1604,7 +1602,7 @@ def test_static_masks_drop_the_pairs_left_to_explicit_pairs_and_keep_the_worlds_
     assert dropped > 0
     art = _walls_and_dumbbells(np.random.default_rng(12))[0]
     bp = BroadPhase(art)
-    assert bp._I[_kern.H_V] > 0 and bp.position_count <= _kern.MASK_MAX
+    assert bp._I[_layout.H_V] > 0 and bp.position_count <= _cull.MASK_MAX
     _check_static_masks(bp, art)
 
 
@@ -1624,10 +1622,10 @@ def test_coherence_gives_way_to_the_walk_when_bodies_keep_leaving_their_boxes():
         assert np.array_equal(got, walk.pairs(pos[s], rot[s]))
         total += len(got)
         st = _coherence_state(coh)
-        if st[_kern.COH_SKIP] > 0 and st[_kern.COH_SKIP] == st[_kern.COH_BACKOFF] - 1:
-            spells.append(st[_kern.COH_BACKOFF])
+        if st[_coh.COH_SKIP] > 0 and st[_coh.COH_SKIP] == st[_coh.COH_BACKOFF] - 1:
+            spells.append(st[_coh.COH_BACKOFF])
     assert total > 500
-    assert len(spells) >= 2 and spells[0] == _kern.COH_BACKOFF_MIN and spells[1] == 2 * spells[0]
+    assert len(spells) >= 2 and spells[0] == _coh.COH_BACKOFF_MIN and spells[1] == 2 * spells[0]
     pos, rot = _motion(sc, rng, 80)
     reused = 0
     for s in range(len(pos)):
@@ -1668,20 +1666,20 @@ def test_coherent_must_be_a_bool():
 @numba.njit  # not cached: numba's cache would not see a change to the kernels it inlines
 def _lane_bounds_both(A, B, ma, mb, out):
     # every block pair's lane mask, through the lanes' vector form and the loop over the lanes
-    rb = _lanes.ROW_BYTES
+    rb = _lane_tests.ROW_BYTES
     at = np.int64(A.ctypes.data)
     bt = np.int64(B.ctypes.data)
     for k in range(A.shape[0]):
-        out[k, 0] = _lanes.bounds8(at + rb * k, ma[k], bt + rb * k, mb[k])
-        out[k, 1] = _kern.bounds_mask(A, k, ma[k], B, k, mb[k], _lanes.LANES)
+        out[k, 0] = _lane_tests.bounds8(at + rb * k, ma[k], bt + rb * k, mb[k])
+        out[k, 1] = _bounds.bounds_mask(A, k, ma[k], B, k, mb[k], _simd.LANES)
 
 
 def test_lane_bounds_as_vectors_are_the_scalar_test_bit_for_bit():
-    # `lanes.bounds8` replays `_bounds_ok`'s source on LLVM vectors: lane by lane the scalar test's
+    # `lane_tests.bounds8` replays `_bounds_ok`'s source on LLVM vectors: lane by lane the scalar test's
     # outcome, on boxes near each other (hits and misses by every axis), margins, and non-finite
     # coordinates (NaN separates nothing).
     rng = np.random.default_rng(3)
-    n, R, L = 4000, _kern.ROW, _lanes.LANES
+    n, R, L = 4000, _layout.ROW, _simd.LANES
 
     def rows():
         X = np.empty((n, R, L))
@@ -1715,10 +1713,10 @@ def _pair_bits_both(bw, bp, out):
     for c0 in range(0, m, 64):
         cnt = min(64, m - c0)
         h = np.uint64(0)
-        for j in range(0, cnt, _kern.PAIR_LANES):
-            h |= _kern.pair_bits(wa, pa, c0 + j, min(_kern.PAIR_LANES, cnt - j)) << np.uint64(j)
+        for j in range(0, cnt, _bounds.PAIR_LANES):
+            h |= _bounds.pair_bits(wa, pa, c0 + j, min(_bounds.PAIR_LANES, cnt - j)) << np.uint64(j)
         out[c0 // 64, 0] = h
-        out[c0 // 64, 1] = _kern._pairs_mask(bw, bp, c0, cnt)
+        out[c0 // 64, 1] = _bounds._pairs_mask(bw, bp, c0, cnt)
 
 
 def test_pair_bits_are_the_scalar_test_bit_for_bit():
@@ -1727,7 +1725,7 @@ def test_pair_bits_are_the_scalar_test_bit_for_bit():
     # first pair again and must be dropped), second bodies marked ~y, NaN, inf and huge coordinates.
     rng = np.random.default_rng(5)
     L = 60
-    bw = np.empty((L, _kern.ROW))
+    bw = np.empty((L, _layout.ROW))
     bw[:, 3:12] = random_rotation(rng, L).reshape(L, 9)
     bw[:, 0:3] = rng.normal(size=(L, 3)) * 0.6
     bw[:, 12:15] = rng.uniform(0.0, 1.0, (L, 3))
@@ -1751,15 +1749,15 @@ def test_pair_bits_are_the_scalar_test_bit_for_bit():
 
 @numba.njit  # not cached, as above
 def _lane_places_both(ps, src, cap, gp, m, rows, boxes, planes, want_rows, want_boxes, want_planes):
-    # Case k: the lanes' vector forms (`lanes.place8`, `lanes.plane8`) on the poses ps[k] (12, LANES),
+    # Case k: the lanes' vector forms (`lane_tests.place8`, `lane_tests.plane8`) on the poses ps[k] (12, LANES),
     # and the per-world kernel's scalar functions lane by lane.
-    L = _lanes.LANES
+    L = _simd.LANES
     for k in range(ps.shape[0]):
-        pa = np.int64(ps.ctypes.data) + _lanes.POSE_BYTES * k
-        _lanes.place8(pa, np.int64(src.ctypes.data) + 8 * _kern.ROW * k, np.int64(cap.ctypes.data) + 32 * k, m[k],
-                      np.int64(rows.ctypes.data) + 8 * _kern.ROW * L * k, np.int64(boxes.ctypes.data) + 48 * L * k,
-                      np.int64(boxes.ctypes.data) + 48 * L * k)
-        _lanes.plane8(pa, np.int64(gp.ctypes.data) + 32 * k, np.int64(planes.ctypes.data) + 32 * L * k)
+        pa = np.int64(ps.ctypes.data) + _lane_tests.POSE_BYTES * k
+        _lane_tests.place8(pa, np.int64(src.ctypes.data) + 8 * _layout.ROW * k, np.int64(cap.ctypes.data) + 32 * k,
+                           m[k], np.int64(rows.ctypes.data) + 8 * _layout.ROW * L * k,
+                           np.int64(boxes.ctypes.data) + 48 * L * k, np.int64(boxes.ctypes.data) + 48 * L * k)
+        _lane_tests.plane8(pa, np.int64(gp.ctypes.data) + 32 * k, np.int64(planes.ctypes.data) + 32 * L * k)
         rot = np.empty((1, 3, 3))
         pos = np.empty((1, 3))
         for lane in range(L):
@@ -1767,17 +1765,17 @@ def _lane_places_both(ps, src, cap, gp, m, rows, boxes, planes, want_rows, want_
                 pos[0, i] = ps[k, i, lane]
                 for j in range(3):
                     rot[0, i, j] = ps[k, 3 + 3 * i + j, lane]
-            w = _kern._world_row(rot, pos, 0, src, k, want_rows[k], lane)
-            _kern._world_aabb(w, m[k], want_boxes[k], lane)
-            _kern._cap_aabb(rot, 0, cap, k, w, m[k], want_boxes[k], lane)
-            _kern._plane_world(0, pos, rot, np.zeros(1, np.int64), gp[k:k + 1], want_planes[k], lane)
+            w = _bounds._world_row(rot, pos, 0, src, k, want_rows[k], lane)
+            _bounds._world_aabb(w, m[k], want_boxes[k], lane)
+            _bounds._cap_aabb(rot, 0, cap, k, w, m[k], want_boxes[k], lane)
+            _bounds._plane_world(0, pos, rot, np.zeros(1, np.int64), gp[k:k + 1], want_planes[k], lane)
 
 
 def test_lane_rows_boxes_and_planes_are_the_single_world_values_bit_for_bit():
     # The values themselves, not only outcomes: a one-ulp difference between the lanes and one world
     # (an fmuladd split, a sum reordered) can flip a touching pair in either.
     rng = np.random.default_rng(11)
-    n, R, L = 300, _kern.ROW, _lanes.LANES
+    n, R, L = 300, _layout.ROW, _simd.LANES
     ps = np.empty((n, 12, L))
     ps[:, 0:3] = rng.normal(size=(n, 3, L)) * 10.0 ** rng.integers(-6, 6, (n, 1, 1))
     ps[:, 3:12] = random_rotation(rng, n * L).reshape(n, L, 9).transpose(0, 2, 1)
@@ -1797,7 +1795,7 @@ def test_lane_rows_boxes_and_planes_are_the_single_world_values_bit_for_bit():
         assert np.array_equal(got.transpose(0, 2, 1).view(np.int64), want.view(np.int64))
 
 
-@numba.njit(_nrt=False)  # as the per-step kernels (`broadphase.NO_NRT`): where numba.carray is refused
+@numba.njit(_nrt=False)  # as the per-step kernels (`_ptr.NO_NRT`): where numba.carray is refused
 def _views_of(fa, ia, ja, n):
     a = _ptr.view_of(_ptr.f64_ptr(fa), (n, 3))
     b = _ptr.view_of(_ptr.i64_ptr(ia), n)

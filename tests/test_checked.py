@@ -8,7 +8,6 @@ import pytest
 
 import collide
 from collide import _checked, shapes
-from collide._kernels import broadphase as _k
 from collide._kernels import layout
 from collide._kernels._ptr import check_span
 
@@ -23,7 +22,7 @@ def _views_of(I, F, W):
     layout.view_i1(I, I, layout.I_SMASK)
     layout.view_f2(I, F, layout.F_GCAP)
     layout.view_f1(I, W, layout.W_COH)
-    return I[_k.H_L]
+    return I[layout.H_L]
 
 
 @numba.njit

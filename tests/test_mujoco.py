@@ -19,7 +19,7 @@ import collide
 import collide.mujoco as cm
 from collide._kernels import _quat
 from collide._kernels import kinematics as _kin
-from collide._kernels.lanes import LANES
+from collide._kernels._simd import LANES
 
 MODELS = Path(__file__).resolve().parents[1] / ".." / "shared" / "models"
 SCENES = sorted(p.name for p in MODELS.iterdir() if (p / "scene.xml").is_file()) if MODELS.is_dir() else []

@@ -79,7 +79,7 @@ def view_of(typingctx, ptr, shape):
     Unlike ``carray`` (a compiled function returning an array) it is allowed in functions compiled
     without numba's reference counting (``_nrt=False``), where no array value costs an increment
     and a decrement: the per-step kernel's views and their passing around made dozens of calls a
-    step to numba's reference-count functions, all on null records (see `broadphase.NO_NRT`).
+    step to numba's reference-count functions, all on null records (see `_ptr.NO_NRT`).
     """
     if not isinstance(ptr, types.CPointer):
         return None

@@ -13,7 +13,7 @@ shortcuts that MuJoCo does not take, decided per joint and per body from the mod
 (`_turn`).
 
 What breaks when misused: compiled with fast-math flags, or changed without their hand-written
-vector forms (`_simd._qnorm_vec`, `_simd._sincos` replay `_qnorm` and `_sincos`), the lanes and
+vector forms (`_simd_kin._qnorm_vec`, `_simd_kin._sincos` replay `_qnorm` and `_sincos`), the lanes and
 the worlds differ in the last bits, and a batch's pairs may then differ from one world's at a
 touching contact; a branch on a value cannot be replayed (see `_simd`). `_qrot` and `_qmat`
 assume a unit quaternion: another gives a scaled matrix, not a rotation.
@@ -74,7 +74,7 @@ def _qnorm(q0, q1, q2, q3):
     # MuJoCo's (four divisions would cost the lanes' kinematics four vector divisions, among the
     # slowest instructions). Whether |n - 1| exceeds 1e-15 comes out either way on rounding
     # alone, so a branch there mispredicts in about every other body: a select instead, and a
-    # product by exactly 1.0, which changes no bit. `_simd._qnorm_vec` computes the same.
+    # product by exactly 1.0, which changes no bit. `_simd_kin._qnorm_vec` computes the same.
     n = np.sqrt(fmuladd(q3, q3, fmuladd(q2, q2, fmuladd(q1, q1, q0 * q0))))
     if n < 1e-15:
         return 1.0, 0.0, 0.0, 0.0
@@ -147,7 +147,7 @@ def _slide(p0, p1, p2, c0, c1, c2, c3, u0, u1, u2, d):
     return fmuladd(v0, d, p0), fmuladd(v1, d, p1), fmuladd(v2, d, p2)
 
 
-# sin and cos of a half angle (`kinematics._half_angles`, `_simd.sincos8`): Cody-Waite reduction by
+# sin and cos of a half angle (`kinematics._half_angles`, `_simd_kin.sincos8`): Cody-Waite reduction by
 # pi/2 (Cody & Waite 1980; PIO2_1 and PIO2_2 carry 31 and 32 significant bits, so that k * PIO2_1
 # and k * PIO2_2 are exact for |k| < 2**21, and |k| < 6.4e5 here), then the Taylor series on
 # |r| <= pi/4, whose first omitted terms are below 1e-19 of the result: within 1 ulp of libm for

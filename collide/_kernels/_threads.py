@@ -1,10 +1,10 @@
 """numba's parallel chunk size, set from inside a parallel kernel, and an atomic counter: how the
 batch kernels share their chunks of worlds among the threads.
 
-The batch kernels `broadphase.step_batch`, `lanes.step_lanes` and `kinematics.step_lanes_kin` cut
+The batch kernels `batch.step_batch`, `lanes.step_lanes` and `kinematics.step_lanes_kin` cut
 their worlds into more chunks than threads; a ``prange`` over one worker a thread (chunk size 1:
 one iteration each) takes them from a shared counter (`fetch_add`, see
-`broadphase.start_chunks`), so that a thread that starts late or that the OS pauses takes fewer
+`batch.start_chunks`), so that a thread that starts late or that the OS pauses takes fewer
 (see `collide.BroadPhase._run_batch`). `kinematics.kinematics_worlds` runs its chunks as a plain
 ``prange`` (chunk size 1), which numba's OpenMP layer splits into one fixed block a thread.
 Setting the chunk size around the call from Python, ``with numba.parallel_chunksize(1)``, costs

@@ -11,13 +11,11 @@ AABB is its OBB's cut to its capsule's (`_cap_aabb`).
 
 The static model travels as two flat arrays (``I`` int64 with a header of counts and the field
 table, ``F`` float64) and the workspace as one (``W`` float64), every field of each declared once
-in `layout` (`INT`, `FLT`, `WORK`); one step is a call with three arguments (the two pose
-arrays and a *context* of buffer addresses, see `_ptr` and `context`), or with the context's own
-address alone when it holds the pose arrays' addresses too (`step_bound`: arrays that stay put, as
-MuJoCo's): a numba call pays for every array argument, and views built from pointers carry no
-reference count. Each stage takes the views it needs by slot (`layout.view_i1` ...: no copy).
-The stages' parts live by concept: `bounds` (rows and their tests), `culling` (the walk, the sweep,
-the filter) and `keys` (pair keys and their sort); this module holds the stages and the entry points.
+in `layout` (`INT`, `FLT`, `WORK`); one step is one call of `step`'s entry points (a batch:
+`batch`, `lanes`). Each stage takes the views it needs by slot (`layout.view_i1` ...: no copy).
+The stages' parts live by concept: `bounds` (rows and their tests), `walk` (the walk down the
+tree), `culling` (the tests among subtrees, the hash grid, the sweep, the filter), `coherence` (the
+body pairs kept between calls) and `keys` (pair keys and their sort); this module holds the stages.
 
 One step, for one world (`_world`):
 1. validate each body's pose (finite, proper orthonormal rotation: one combined test) and move
@@ -67,63 +65,28 @@ import numba as nb
 from numba.cpython.unsafe.numbers import trailing_zeros
 import numpy as np
 
-from ._ptr import NO_NRT, check_span, f64_ptr, i32_ptr, i64_ptr, view_of
-from ._threads import fetch_add, set_chunksize
-# The stages' parts live by concept (bounds, culling, keys); the names other modules, the Python side
-# and the tests read here are re-exported.
-from .bounds import (BIG, EPS_PAR, MAX_POSITION, ORTHO_TOL, PAIR_LANES, SLACK_POS, SLACK_REL,  # noqa: F401
-                     _aabb_hit, _bounds_ok, _cap_aabb, _explicit_hit, _geom_rows, _pairs_mask, _place, _plane_hit,
-                     _plane_hit_local, _plane_world, _pose_ok, _pose_row, _row_of, _sphere_hit, _world_aabb,
-                     _world_row, aabb_slack, bounds_mask, capsule_half, dot3, pair_bits, plane_world)
-from .culling import (FLAT_MAX, GRID_MIN, GRID_SWEEP, MASK_MAX, SAP_MIN, _filter, _scan,  # noqa: F401
-                      _scan_masks, _sweep, _traverse, sap_state)
-from .keys import _emit, _in_sorted, _pair_key, _sort_keys, key_shift, scratch_size  # noqa: F401
-from .layout import (F_BCAP, F_BLOCAL, F_GCAP, F_GLOCAL, F_GMARGIN, F_GPLANE, F_PAIR_M, FLT, I_CHILD_START, I_CHILDREN,
-                    I_CONAFFINITY, I_CONTYPE, I_END, I_EX_OTHER, I_EX_START, I_FLAT_MASK, I_FLAT_N, I_FLAT_ROOT,
-                    I_GEOM_BID, I_GEOM_CONAFFINITY, I_GEOM_CONTYPE, I_GSTART, I_HAS_BOUNDS, I_NCHILD, I_ORDER,
-                    I_PAIR_G, I_PAIR_KEYS, I_PAIRFLAG, I_PARENT_POS, I_PGEOMS, I_PLANE_OK, I_PLANES, I_POS_OF,
-                    I_SINGLE, I_SMASK, I_WELD, INT, N_COH, N_STATS, ROW, ST_BODY_AABB, ST_BODY_OBB, ST_BODY_SPHERE,
-                    ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT, ST_PLANE, ST_REUSED, ST_SUBTREE, W_BAABB,
-                    W_BAABB_T, W_BW, W_COH, W_FAT_B, W_FAT_S, W_FAT_T, W_GAABB, W_GSTAMP, W_GW, W_PLW, W_SAABB, W_TMP,
-                    WORK, view_f1, view_f2, view_i1, view_i2)
+from ._ptr import NO_NRT, f64_ptr, view_of
+from .bounds import (BIG, MAX_POSITION, PAIR_LANES, SLACK_POS, _aabb_hit, _bounds_ok, _explicit_hit, _geom_rows,
+                     _place, _plane_hit, _plane_hit_local, _plane_world, _pose_ok, _row_of, _sphere_hit, dot3,
+                     pair_bits)
+from .coherence import NO_LIST, _kept_pairs
+from .culling import MASK_MAX, _scan_masks, _sweep
+from .keys import _emit, _in_sorted, _pair_key, _sort_keys, key_shift
+from .layout import (F_BCAP, F_BLOCAL, F_GCAP, F_GLOCAL, F_GMARGIN, F_GPLANE, F_PAIR_M, FLT, H_E, H_FLAT, H_FP, H_G,
+                     H_GS, H_KS, H_L, H_NB, H_P, H_Q, H_V, HEADER, I_GEOM_BID, I_GEOM_CONAFFINITY, I_GEOM_CONTYPE,
+                     I_GSTART, I_HAS_BOUNDS, I_ORDER, I_PAIR_G, I_PAIR_KEYS, I_PAIRFLAG, I_PGEOMS, I_PLANE_OK,
+                     I_PLANES, I_POS_OF, I_PARENT_POS, I_SINGLE, I_SMASK, INT, N_STATS, ST_BODY_AABB, ST_BODY_OBB,
+                     ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT, ST_PLANE, W_BAABB, W_BAABB_T,
+                     W_BW, W_GAABB, W_GSTAMP, W_GW, W_PLW, W_SAABB, W_TMP, WORK, view_f1, view_f2,
+                     view_i1, view_i2)
+from .walk import _walk
+
 
 # Status codes written to info[0]
 OK = 0
 BAD_NONFINITE = 1
 BAD_ROTATION = 2
 BAD_RANGE = 3
-
-# Frame coherence (`_world`, single-world calls only): the body pairs whose *fat* boxes (each body's
-# AABB grown by FAT_GROW of its largest extent on every side) overlap and pass the static filter are
-# kept between calls; while every body's AABB stays inside its fat box, a call tests that list's
-# exact AABBs instead of walking the tree: two AABBs inside two fat boxes can only meet if the fat
-# boxes do (the broad phase of Bullet's and Box2D's dynamic trees: fat AABBs; Catto, "Dynamic
-# AABB Trees", GDC 2019). The answer is the walk's, bit for bit. State, float64, in the
-# workspace's ``coh`` field (`layout.W_COH`): the list is valid, its length, a decayed count of
-# recent rebuilds (x COH_DECAY a call, +1 a rebuild), calls left on the exact walk, and the length
-# of the next such spell.
-FAT_GROW = 0.2
-COH_VALID, COH_N, COH_SCORE, COH_SKIP, COH_BACKOFF = range(5)
-assert COH_BACKOFF < N_COH
-COH_DECAY = 0.875
-# Above this decayed count (rebuilds in more than about a third of the calls, 8 x the rate in a
-# steady state: bodies leave their fat boxes all the time, as 22 falling humanoids do), rebuilding
-# costs more than the list saves: the exact walk runs for COH_BACKOFF calls (8, doubled each time
-# up to COH_BACKOFF_MAX, halved by each call that reuses the list) before the list is tried again.
-# The threshold weighs the two kinds of model, measured in alternating passes: set higher, the
-# humanoid under the benchmark's extreme controls paid for rebuilds that did not pay off; at 2.5
-# it stayed near the walk alone, while wonik_allegro and shadow_hand kept most of their gain.
-COH_SCORE_MAX = 2.5
-COH_BACKOFF_MIN = 8.0
-COH_BACKOFF_MAX = 1024.0
-
-# Header of I: counts. Positions (``H_L``) are the bodies in depth-first order plus, when the world
-# has several solid geoms, one leaf per world geom (``H_V`` of them, at positions 1..V; see
-# BroadPhase): bodies (``H_NB``) index the pose arrays, positions everything else. ``H_FLAT``: 1 when
-# some subtree is flat (``flat_root``), so that the step writes ``baabb_t`` (see `_place`; it does
-# too up to MASK_MAX positions).
-H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP, H_KS, H_NB, H_V, H_FLAT = range(11)
-HEADER = 11
 
 
 def pack(dims: dict, n_virtual: int = 0, filter_parent: bool = False, **fields) -> tuple[np.ndarray, np.ndarray]:
@@ -158,12 +121,6 @@ def model_dims(I: np.ndarray) -> dict:
 def workspace_size(I: np.ndarray) -> int:
     """Length of the float64 workspace ``W`` of one world of the model ``I``."""
     return WORK.size(model_dims(I))
-
-
-@nb.njit(cache=True, inline="always")
-def _fat_views(I, W):
-    # The frame-coherence part of W: fat_b (L, 6), fat_s (L, 6), fat_t (6, L), state (N_COH).
-    return view_f2(I, W, W_FAT_B), view_f2(I, W, W_FAT_S), view_f2(I, W, W_FAT_T), view_f1(I, W, W_COH)
 
 
 @nb.njit(**NO_NRT)
@@ -266,22 +223,6 @@ def _place_bodies(body_pos, body_rot, I, F, W):
         _place(body_rot, body_pos, 0, blocal, bcap, x, bw, baabb, saabb, baabb_t, cols, not by_masks)
 
 
-@nb.njit(cache=True, inline="always")
-def _walk(I, W, sap, bp, stats, boxes, sboxes, cols, exact):
-    # The tree walk over the given boxes (the exact AABBs, or the fat ones; ``cols``: their columns),
-    # then the static filter: the body pairs into bp, their count; when bp is too short, minus the
-    # count needed.
-    L = I[H_L]
-    nbp = _traverse(L, view_i1(I, I, I_END), view_i1(I, I, I_NCHILD), view_i1(I, I, I_CHILD_START),
-                    view_i1(I, I, I_CHILDREN), view_i1(I, I, I_HAS_BOUNDS), boxes, sboxes, view_f2(I, W, W_BW), sap, bp,
-                    stats, I[H_FP] != 0, cols, view_i1(I, I, I_FLAT_ROOT), view_i1(I, I, I_FLAT_N),
-                    view_i1(I, I, I_FLAT_MASK), exact)
-    if nbp > bp.shape[0]:
-        return -nbp
-    return _filter(bp, nbp, view_i1(I, I, I_CONTYPE), view_i1(I, I, I_CONAFFINITY), view_i1(I, I, I_WELD),
-                   view_i1(I, I, I_PARENT_POS), I[H_FP] != 0, view_i1(I, I, I_EX_START), view_i1(I, I, I_EX_OTHER),
-                   view_i1(I, I, I_SINGLE))
-
 
 @nb.njit(cache=True, inline="always")
 def _body_pairs(I, W, sap, bp, stats, info, cl, coherent):
@@ -294,57 +235,9 @@ def _body_pairs(I, W, sap, bp, stats, info, cl, coherent):
     baabb = view_f2(I, W, W_BAABB)
     by_masks = L <= MASK_MAX
     if coherent and not by_masks:  # (up to MASK_MAX positions the masks' scan costs less than the list's upkeep)
-        fat_b, fat_s, fat_t, cs = _fat_views(I, W)
-        if cs[COH_SKIP] > 0.0:
-            cs[COH_SKIP] -= 1.0
-        else:
-            out = False
-            for x in range(L):  # branch-free: vectorised
-                out |= ((baabb[x, 0] < fat_b[x, 0]) | (baabb[x, 1] < fat_b[x, 1]) | (baabb[x, 2] < fat_b[x, 2])
-                        | (baabb[x, 3] > fat_b[x, 3]) | (baabb[x, 4] > fat_b[x, 4]) | (baabb[x, 5] > fat_b[x, 5]))
-            if cs[COH_VALID] != 0.0 and not out:
-                stats[ST_REUSED] = 1
-                cs[COH_SCORE] *= COH_DECAY
-                cs[COH_BACKOFF] *= 0.5
-                n = np.int64(cs[COH_N])
-                stats[ST_BODY_AABB] += n
-                return _scan(cl, n, baabb, bp)
-            score = cs[COH_SCORE] * COH_DECAY + 1.0
-            cs[COH_VALID] = 0.0  # until rebuilt (an overflow below returns first)
-            if score > COH_SCORE_MAX:
-                back = min(max(2.0 * cs[COH_BACKOFF], COH_BACKOFF_MIN), COH_BACKOFF_MAX)
-                cs[COH_SKIP] = back - 1.0  # this call is the spell's first
-                cs[COH_BACKOFF] = back
-                cs[COH_SCORE] = 0.0
-            else:
-                cs[COH_SCORE] = score
-                # Rebuild: fat boxes (a body without bounds keeps its empty box), their subtree
-                # boxes, the walk over them, the filter; the list kept, then tested as above.
-                for x in range(L):
-                    g = max(FAT_GROW * max(baabb[x, 3] - baabb[x, 0], baabb[x, 4] - baabb[x, 1],
-                                           baabb[x, 5] - baabb[x, 2]), 0.0)
-                    for i in range(3):
-                        fat_b[x, i] = baabb[x, i] - g
-                        fat_b[x, 3 + i] = baabb[x, 3 + i] + g
-                    for i in range(6):
-                        fat_s[x, i] = fat_b[x, i]
-                if I[H_FLAT] != 0:
-                    for i in range(6):
-                        for x in range(L):
-                            fat_t[i, x] = fat_b[x, i]
-                _sweep(fat_s, view_i1(I, I, I_PARENT_POS), L)
-                n = _walk(I, W, sap, bp, stats, fat_b, fat_s, fat_t, False)
-                if n < 0:
-                    info[3] = -n
-                    cs[COH_SCORE] = score - 1.0  # the caller grows bp and reruns: one rebuild
-                    return -1
-                for t in range(n):
-                    cl[t, 0] = bp[t, 0]
-                    cl[t, 1] = bp[t, 1]
-                cs[COH_N] = n
-                cs[COH_VALID] = 1.0
-                stats[ST_BODY_AABB] += n
-                return _scan(cl, n, baabb, bp)
+        m = _kept_pairs(I, W, sap, bp, stats, info, cl, baabb)
+        if m != NO_LIST:
+            return m
     if by_masks:
         # at most MASK_MAX positions: every pair passing the static filter, a row at a time over
         # baabb's columns (`_scan_masks`); no tree.
@@ -572,334 +465,12 @@ def _explicit_pairs(body_pos, body_rot, I, F, W, keys, k, stats):
     return k
 
 
-# ------------------------------------------------------------------------------- entry points
-
-# Context: one int64 array of buffer addresses and lengths (see `_ptr`); the owner keeps the
-# buffers alive and rebuilds the context when it replaces one. C_POS, C_ROT may hold the addresses of
-# pose arrays bound to it (for `step_bound`, see BroadPhase.bind); C_OUT, C_NOUT, C_OFF an output
-# arena of (C_NOUT, 2) int32 rows filled from C_OFF on (see `_step`). `context` leaves these five; C_CL:
-# the address of the kept body-pair list (0: no frame coherence, see ``FAT_GROW``). C_LAST, C_NLAST:
-# the arena row and count of the last non-empty result (-1: none to compare with), which `_step`
-# reports again as `RET_SAME` when its pairs are the same; `context` leaves them too (a zeroed row,
-# as the batch's, never matches: C_NLAST 0 against K > 0).
-(C_I, C_NI, C_F, C_NF, C_W, C_NW, C_SAP, C_NSAP, C_BP, C_NBP, C_KEYS, C_NKEYS, C_SCR, C_NSCR, C_STATS,
- C_INFO, C_POS, C_ROT, C_OUT, C_NOUT, C_OFF, C_CL, C_LAST, C_NLAST) = range(24)
-NCTX = 24
-# A batch chunk's summary (`step_batch`'s chunk_info rows): its key count, its first bad world (-1:
-# none), the body-pair capacity a world lacked (0: none).
-CI_KEYS, CI_BAD, CI_NEED = range(3)
-N_CI = 3
-
-# step() return codes below zero
-RET_BAD_POSE = -1
-RET_OVERFLOW = -2
-RET_BAD_SHAPE = -3
-# step() returns RET_SAME + K when its K > 0 pairs are the rows of the last non-empty result (C_LAST)
-RET_SAME = 1 << 40
-
-
-def context(I, F, W, sap, bp, keys, scr, stats, info, out=None, cl=None) -> np.ndarray:
-    """The context of one world's buffers (written into ``out`` when given, for a batch row).
-
-    ``scr`` must hold at least ``scratch_size(G, keys.size)`` entries. ``cl``, int64 of ``bp``'s
-    shape, turns frame coherence on (the body-pair list kept between calls, see ``FAT_GROW``; its
-    state in ``W`` is cleared here).
-    """
-    ctx = np.zeros(NCTX, np.int64) if out is None else out
-    for arr, dt in ((I, np.int64), (F, np.float64), (W, np.float64), (sap, np.int64), (bp, np.int64),
-                    (keys, np.int64), (scr, np.int64), (stats, np.int64), (info, np.int64)):
-        if arr.dtype != dt or not arr.flags.c_contiguous:
-            raise ValueError("context: buffers must be C-contiguous arrays of the kernel's dtypes")
-    if scr.size < scratch_size(int(I[H_G]), keys.size):
-        raise ValueError("context: the sort scratch is shorter than scratch_size(G, keys)")
-    if cl is not None and (cl.dtype != np.int64 or not cl.flags.c_contiguous or cl.shape != bp.shape):
-        raise ValueError("context: the kept body-pair list must be C-contiguous int64 of bp's shape")
-    ctx[:C_POS] = (I.ctypes.data, I.size, F.ctypes.data, F.size, W.ctypes.data, W.size, sap.ctypes.data,
-                   sap.size, bp.ctypes.data, bp.shape[0], keys.ctypes.data, keys.size, scr.ctypes.data, scr.size,
-                   stats.ctypes.data, info.ctypes.data)
-    ctx[C_CL] = 0 if cl is None else cl.ctypes.data
-    # the list (if any) starts empty: the next call rebuilds it
-    WORK.view(I, W, "coh")[COH_VALID] = 0.0
-    return ctx
-
-
-@nb.njit(cache=True, inline="always")
-def _buffers(ctx):
-    I = view_of(i64_ptr(ctx[C_I]), ctx[C_NI])
-    F = view_of(f64_ptr(ctx[C_F]), ctx[C_NF])
-    W = view_of(f64_ptr(ctx[C_W]), ctx[C_NW])
-    sap = view_of(i64_ptr(ctx[C_SAP]), ctx[C_NSAP])
-    bp = view_of(i64_ptr(ctx[C_BP]), (ctx[C_NBP], 2))
-    scr = view_of(i64_ptr(ctx[C_SCR]), ctx[C_NSCR])
-    stats = view_of(i64_ptr(ctx[C_STATS]), N_STATS)
-    info = view_of(i64_ptr(ctx[C_INFO]), 4)
-    return I, F, W, sap, bp, scr, stats, info
-
-
-def _step(body_pos, body_rot, ctx):
-    """One world, one call; returns the pair count ``K``, or `RET_BAD_POSE` / `RET_OVERFLOW` /
-    `RET_BAD_SHAPE`.
-
-    The pairs are written as ``(K, 2) int32`` rows into the output arena at ``ctx[C_OFF]``, which
-    then advances by ``K`` (and ``ctx[C_LAST]``, ``ctx[C_NLAST]`` record them); where the arena has
-    no room left (or ``ctx[C_NOUT]`` is 0) they are written over the keys buffer's own memory
-    instead (a key of row ``i`` is read before its 8 bytes are rewritten), ``ctx[C_OFF]`` stays and
-    ``ctx[C_LAST]`` becomes -1 (the caller copies them into a new arena and records them there).
-    K > 0 pairs equal to the ``ctx[C_NLAST]`` rows at ``ctx[C_LAST]`` are not written again:
-    ``RET_SAME + K`` is returned. ``info`` = (status, body, keys needed, body pairs needed): on
-    `RET_OVERFLOW` the caller grows the buffer named there and reruns.
-    """
-    L = view_of(i64_ptr(ctx[C_I]), ctx[C_NI])[H_NB]
-    if (body_pos.shape[0] != L or body_pos.shape[1] != 3 or body_rot.shape[0] != L or body_rot.shape[1] != 3
-            or body_rot.shape[2] != 3):
-        return RET_BAD_SHAPE
-    return _step_impl(body_pos, body_rot, ctx)
-
-
-def _step_bound(addr):
-    """`_step` on the pose arrays whose addresses the context holds (``C_POS``, ``C_ROT``), the context
-    given by its own address ``addr``: one integer argument, the cheapest call. An array argument
-    costs more in a simulation loop: numba's unboxing allocates a reference-counting record for it
-    and frees it on return (a ``malloc`` and a ``free`` a call, on allocator memory the engine's step
-    left cold: a visible part of a small scene's call). The owner
-    keeps the context array alive and never replaces it, and checked the pose arrays' shapes and
-    dtypes when it bound them."""
-    ctx = view_of(i64_ptr(addr), NCTX)
-    L = view_of(i64_ptr(ctx[C_I]), ctx[C_NI])[H_NB]
-    body_pos = view_of(f64_ptr(ctx[C_POS]), (L, 3))
-    body_rot = view_of(f64_ptr(ctx[C_ROT]), (L, 3, 3))
-    return _step_impl(body_pos, body_rot, ctx)
-
-
-@nb.njit(cache=True, inline="always")
-def _step_impl(body_pos, body_rot, ctx):
-    I, F, W, sap, bp, scr, stats, info = _buffers(ctx)
-    keys = view_of(i64_ptr(ctx[C_KEYS]), ctx[C_NKEYS])
-    info[0] = OK
-    coherent = ctx[C_CL] != 0
-    cl = view_of(i64_ptr(ctx[C_CL] if coherent else ctx[C_BP]), (ctx[C_NBP], 2))
-    k = _world(body_pos, body_rot, I, F, W, sap, bp, keys, scr, stats, info, cl, coherent)
-    info[2] = k
-    if k < 0:
-        return RET_BAD_POSE
-    if k > keys.shape[0] or info[3] > 0:
-        return RET_OVERFLOW
-    if k == 0:
-        return 0
-    S = I[H_KS]
-    mask = (np.int64(1) << S) - 1
-    last = ctx[C_LAST]
-    if k == ctx[C_NLAST] and last >= 0:
-        # The same pairs as the last non-empty result (most steps of a robot in a simulation loop,
-        # few of a crowd's): the caller hands out that array again, where a new view of new rows
-        # costs more than this pass (tests/bench/reuse.py, its output reuse.amd-epyc.txt). Compared
-        # with the rows themselves, so a caller that wrote into its result (having made it
-        # writable) gets new rows.
-        prev = view_of(i32_ptr(ctx[C_OUT] + 8 * last), (k, 2))
-        same = True
-        for i in range(k):  # no early exit: a pass over K rows, cheaper than a branch per row
-            v = keys[i]
-            same &= (prev[i, 0] == (v >> S)) & (prev[i, 1] == (v & mask))
-        if same:
-            return RET_SAME + k
-    off = ctx[C_OFF]
-    if off + k <= ctx[C_NOUT]:
-        # Rows handed out as views of the arena are never written again (the owner starts a new
-        # arena when this one is full): the caller needs no copy.
-        out = view_of(i32_ptr(ctx[C_OUT] + 8 * off), (k, 2))
-        ctx[C_OFF] = off + k
-        ctx[C_LAST] = off
-    else:
-        out = view_of(i32_ptr(ctx[C_KEYS]), (k, 2))
-        ctx[C_LAST] = -1
-    ctx[C_NLAST] = k
-    for i in range(k):
-        v = keys[i]
-        out[i, 0] = v >> S
-        out[i, 1] = v & mask
-    return k
-
-
-# One signature, compiled on first use (not at import): any other argument type (float32, a
-# strided view, a list) makes the dispatcher raise TypeError instead of compiling a new
-# specialisation, so the caller needs no dtype or layout checks on its fast path.
-STEP_SIGNATURE = "int64(float64[:, ::1], float64[:, :, ::1], int64[::1])"
-_step_dispatcher = None
-_bound_entry = None
-
-
-def step_function():
-    """The compiled `_step` (``STEP_SIGNATURE`` only; loaded from numba's cache after the first run)."""
-    global _step_dispatcher
-    if _step_dispatcher is None:
-        _step_dispatcher = nb.njit(STEP_SIGNATURE, **NO_NRT)(_step)
-    return _step_dispatcher
-
-
-def step_bound():
-    """A callable ``f(addr) -> K`` running `_step_bound`: the compiled function's own entry point.
-
-    The dispatcher checks every argument's type on each call; its single argument here is
-    always the address of the owner's int64 context array (``ctx.ctypes.data``), so the entry point
-    behind the check is called directly (falling back to the dispatcher if this numba does not
-    expose it).
-    """
-    global _bound_entry
-    if _bound_entry is None:
-        disp = nb.njit("int64(int64)", **NO_NRT)(_step_bound)
-        try:
-            entry = disp.overloads[disp.signatures[0]].entry_point
-        except (AttributeError, IndexError, KeyError):
-            entry = None
-        _bound_entry = entry if callable(entry) else disp
-    return _bound_entry
-
-
-@nb.njit(cache=True, inline="always")
-def _batch_world(w, pos_w, rot_w, I, F, W, sap, bp, kp, cap, off, scr, stats, info, world_info, world_count, st,
-                 so, ci):
-    # World w of a batch (poses pos_w, rot_w) through `_world`, its sorted keys at offset off of
-    # the chunk's keys (at address kp, capacity cap), its count and stats (into st[so:]) recorded,
-    # its status in world_info[w] when bad and in its chunk's summary ci (CI_BAD, CI_NEED); returns
-    # the next offset. Beyond capacity it keeps counting (on a zero-length tail) so the caller
-    # learns the size.
-    start = off if off < cap else cap
-    keys = view_of(i64_ptr(kp + 8 * start), cap - start)
-    info[0] = OK
-    kw = _world(pos_w, rot_w, I, F, W, sap, bp, keys, scr, stats, info, bp, False)
-    world_count[w] = kw
-    if kw < 0:
-        for i in range(4):
-            world_info[w, i] = info[i]
-        if ci[CI_BAD] < 0:
-            ci[CI_BAD] = w
-    if info[3] > ci[CI_NEED]:
-        ci[CI_NEED] = info[3]
-    for s in range(N_STATS):
-        st[so + s] += stats[s]
-    return off + kw if kw > 0 else off
-
-
-@nb.njit(cache=True, inline="always")
-def start_chunks(chunk_info, C):
-    """Before a batch kernel's parallel loop: clear the chunk counter (the row after the ``C``
-    chunks' rows of ``chunk_info``, whose second entry the caller sets to the number of workers,
-    one a thread) and return the number of workers.
-
-    Each worker then takes chunks by `next_chunk` until none is left: a thread that starts late
-    (woken from sleep) or runs slower (a busier core) takes fewer of them, where a fixed share
-    held up the whole call (timed per chunk: every call ended long after the faster thread was
-    done; see `_threads.fetch_add`). The count comes from the caller: numba's
-    ``get_num_threads`` in a kernel keeps it from being cached."""
-    if chunk_info.shape[0] <= C or chunk_info.shape[1] < 2:
-        # without the row, the counter would be written past the array's end
-        raise ValueError("chunk_info: needs a row after the chunks' (counter, workers)")
-    chunk_info[C, 0] = 0
-    return max(1, min(chunk_info[C, 1], C))
-
-
-@nb.njit(cache=True, inline="always")
-def next_chunk(chunk_info, C):
-    """The next chunk not yet taken (``>= C`` once all are): see `start_chunks`."""
-    return fetch_add(np.int64(chunk_info.ctypes.data) + 8 * N_CI * C, 1)
-
-
-@nb.njit(cache=True, inline="always")
-def chunk_buffers(ctxs, chunk_info, c):
-    """Chunk c of a batch kernel: its context row, its `chunk_info` row (cleared) and its buffers
-    (`_buffers`), all pointer-built."""
-    check_span(NCTX * (c + 1), ctxs.size)
-    check_span(N_CI * (c + 1), chunk_info.size)
-    ctx = view_of(i64_ptr(np.int64(ctxs.ctypes.data) + 8 * NCTX * c), NCTX)
-    ci = view_of(i64_ptr(np.int64(chunk_info.ctypes.data) + 8 * N_CI * c), N_CI)
-    ci[CI_BAD] = -1
-    ci[CI_NEED] = 0
-    I, F, W, sap, bp, scr, stats, info = _buffers(ctx)
-    return ctx, ci, I, F, W, sap, bp, scr, stats, info
-
-
-@nb.njit(cache=True, parallel=True)
-def step_batch(body_pos, body_rot, ctxs, world_count, world_info, chunk_info, S, stats_out):
-    """Worlds split into ``C = ctxs.shape[0]`` contiguous chunks taken by numba's threads one at a
-    time (`start_chunks`: ``chunk_info`` has a row more, the counter and the worker count the
-    caller sets), each chunk with its own buffers (a context row; the static ``I`` and ``F`` are
-    shared, read only).
-    World ``w``'s sorted keys follow the previous worlds of its chunk in the chunk's keys;
-    ``world_count[w]`` is its pair count (-1 with ``world_info[w]`` = (status, body, ...) on a bad
-    pose; ``world_info`` is written for bad worlds only). ``chunk_info[c]`` (int64, 3) sums up chunk
-    c (`CI_KEYS`: its key count, which may exceed the keys' capacity; `CI_BAD`: its first bad world
-    or -1; `CI_NEED`: the body-pair capacity a world lacked, or 0), and `gather_batch` reads them
-    here, in the same call, then returns its rows (``stats_out``: the chunks' stats summed): the
-    caller has nothing left to do on the arrays of B rows (see `gather_batch`). ``body_pos`` and
-    ``body_rot`` must be C-contiguous.
-
-    Every view here is pointer-built (no reference count): views of a shared reference-counted
-    array would bump its counter atomically on every world, from both cores (measured: two
-    threads slower than one).
-    """
-    B = body_pos.shape[0]
-    L = body_pos.shape[1]
-    C = ctxs.shape[0]
-    pos_all = view_of(f64_ptr(np.int64(body_pos.ctypes.data)), (B, L, 3))
-    rot_all = view_of(f64_ptr(np.int64(body_rot.ctypes.data)), (B, L, 3, 3))
-    nw = start_chunks(chunk_info, C)
-    chunksize = set_chunksize(1)  # one worker a thread (`_threads`)
-    for _ in nb.prange(nw):
-        st = np.zeros(2 * N_STATS, np.int64)
-        while True:
-            c = next_chunk(chunk_info, C)
-            if c >= C:
-                break
-            ctx, ci, I, F, W, sap, bp, scr, stats, info = chunk_buffers(ctxs, chunk_info, c)
-            cap = ctx[C_NKEYS]
-            for s in range(N_STATS):
-                st[N_STATS + s] = 0
-            off = 0
-            for w in range((B * c) // C, (B * (c + 1)) // C):
-                off = _batch_world(w, pos_all[w], rot_all[w], I, F, W, sap, bp, ctx[C_KEYS], cap, off, scr, stats,
-                                   info, world_info, world_count, st, N_STATS, ci)
-            for s in range(N_STATS):
-                stats[s] = st[N_STATS + s]
-            ci[CI_KEYS] = off
-    set_chunksize(chunksize)
-    return gather_batch(ctxs, world_count, chunk_info, S, stats_out)
-
-
-@nb.njit(cache=True)
-def gather_batch(ctxs, world_count, chunk_info, S, stats):
-    """At the end of a batch kernel (`step_batch`, `lanes.step_lanes`, `kinematics.step_lanes_kin`), in
-    its call: rows ``(world, g1, g2)`` int32 from the chunks' keys, world by world, and ``stats``
-    (N_STATS,) = the chunks' stats summed; ``(0, 3)`` rows when a chunk holds a bad world or ran out
-    of room (the caller reads ``chunk_info`` then).
-
-    In the parallel kernels' own call rather than the caller's: the first numpy operation after a
-    batch is slow, the Python and numpy code having left the caches. One thread: a parallel region
-    of its own costs more than it saves, its waiting thread having gone to sleep."""
-    B = world_count.shape[0]
-    C = ctxs.shape[0]
-    for c in range(C):
-        if chunk_info[c, CI_BAD] >= 0 or chunk_info[c, CI_NEED] > 0 or chunk_info[c, CI_KEYS] > ctxs[c, C_NKEYS]:
-            return np.empty((0, 3), np.int32)
-    mask = (np.int64(1) << S) - 1
-    K = 0
-    for c in range(C):
-        K += chunk_info[c, CI_KEYS]
-    for s in range(N_STATS):
-        stats[s] = 0
-    for c in range(C):
-        cs = view_of(i64_ptr(ctxs[c, C_STATS]), N_STATS)
-        for s in range(N_STATS):
-            stats[s] += cs[s]
-    out = np.empty((K, 3), np.int32)
-    r = 0
-    for c in range(C):
-        keys = view_of(i64_ptr(ctxs[c, C_KEYS]), ctxs[c, C_NKEYS])
-        i = 0
-        for w in range((B * c) // C, (B * (c + 1)) // C):
-            for _ in range(world_count[w]):
-                out[r, 0] = w
-                out[r, 1] = keys[i] >> S
-                out[r, 2] = keys[i] & mask
-                r += 1
-                i += 1
-    return out
+# ------------------------------------------------------------------------------- moved names
+# `collide.mujoco` (being split into modules by a parallel change of issue 42) still reads RET_SAME
+# here; it lives in `step`. To be removed once it imports it from there. Looked up on first use:
+# `step` imports this module.
+def __getattr__(name: str):
+    if name == "RET_SAME":
+        from importlib import import_module
+        return import_module(".step", __package__).RET_SAME
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,11 +1,12 @@
 """Culling of the per-step broad phase: which body pairs' AABBs may overlap.
 
-The walk (`_traverse`) finds every body pair once at its lowest common ancestor: a body against its own
-subtree (`_body_walk`), pairs of child subtrees (`_subtree_pair`), sweep-and-prune or a hash grid
-(`_grid_pairs`) among many children, and small branching subtrees from static bit masks (flat roots). A
-subtree whose AABB misses is skipped whole. `_sweep` makes the subtree AABBs in one reverse pass;
-`_filter` is the static filter of the pairs found (the kernel form of `collide.broadphase.tables
-.StaticFilter.bodies`); `_scan` and `_scan_masks` test a kept list or the static masks of a small model.
+The walk (`walk._traverse`) finds every body pair once at its lowest common ancestor with the tests
+here: a body against its own subtree (`_body_walk`), pairs of child subtrees (`_subtree_pair`), a hash
+grid (`_grid_pairs`) among many children, and the rows of small branching subtrees' static bit masks
+(`_row_hits`). A subtree whose AABB misses is skipped whole. `_sweep` makes the subtree AABBs in one
+reverse pass; `_filter` is the static filter of the pairs found (the kernel form of
+`collide.broadphase.tables.StaticFilter.bodies`); `_scan` and `_scan_masks` test a kept list or the
+static masks of a small model.
 """
 
 from __future__ import annotations
@@ -19,9 +20,6 @@ from ._simd import LANES as LANES8, box_row8
 from .bounds import _sphere_hit
 from .layout import ST_BODY_AABB, ST_BODY_SPHERE, ST_SUBTREE
 
-SAP_MIN = 8  # a node with more children than this sorts them (sweep-and-prune) ...
-GRID_MIN = 64  # ... or, with more than this, hashes them into a uniform grid
-GRID_SWEEP = 8.0  # ... when the children's widths along the sweep axis sum to more than this x its extent
 # Forward neighbour cells (lexicographically after (0, 0, 0)): each pair of adjacent cells once.
 _FWD = np.array([(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
                  if (dx, dy, dz) > (0, 0, 0)], np.int64)
@@ -94,7 +92,6 @@ def _body_walk(a, q, stop, skip_child, end, baabb, saabb, has_bounds, bp, nb_, s
 
 
 MASK_MAX = 64  # up to this many positions, the body pairs come from static bit masks (`_scan_masks`), no tree
-FLAT_DESC = 16  # a body with at most this many descendants tests them all flat, else walks
 FLAT_MAX = 4096  # _subtree_pair: at most this many body x body tests flat, else the walk
 
 
@@ -154,18 +151,9 @@ def _subtree_pair(A, B, end, baabb, saabb, has_bounds, bp, nb_, stats, lst):
     return nb_
 
 
-@nb.njit(cache=True, _nrt=True)  # allocates: counted (see NO_NRT; a callee takes its caller's flag)
-def _grid_pairs(n, off, kc, children, saabb, end, baabb, has_bounds, bw, bp, nb_, stats, lst, use_sph):
-    """Pairs of overlapping child subtrees of a wide node through a uniform hash grid.
-
-    A sweep on one axis tests O(k^(5/3)) pairs when k children fill a volume (a scene of free
-    bodies); a grid whose cell is at least every child's extent finds overlaps in O(k): each child
-    sits in the cell of its AABB's min corner, and two overlapping AABBs have min corners at most
-    one cell apart per axis, so a child's own cell and its 13 forward neighbours cover every pair
-    exactly once. Children much larger than the mean (over four times) would inflate the cell;
-    they are tested against every child instead. Without ``use_sph`` (a walk over fat boxes, see ``FAT_GROW``), two
-    leaf bodies are paired on their boxes alone: the spheres in ``bw`` are the exact ones.
-    """
+@nb.njit(cache=True, inline="always")
+def _grid_extents(off, kc, children, saabb):
+    # Each child's largest extent (-1: no bounds in its subtree), their sum and count.
     ext = np.empty(kc)
     total = 0.0
     nvalid = 0
@@ -178,8 +166,13 @@ def _grid_pairs(n, off, kc, children, saabb, end, baabb, has_bounds, bw, bp, nb_
         ext[i] = e
         total += e
         nvalid += 1
-    if nvalid < 2:
-        return nb_
+    return ext, total, nvalid
+
+
+@nb.njit(cache=True, inline="always")
+def _grid_cell(n, ext, kc, total, nvalid, saabb):
+    # The oversized children's limit (four times the mean extent) and the cell: at least every
+    # other child's extent.
     lim = 4.0 * total / nvalid
     h = 0.0
     for i in range(kc):
@@ -192,12 +185,11 @@ def _grid_pairs(n, off, kc, children, saabb, end, baabb, has_bounds, bw, bp, nb_
     # The slack (1e-9 of a cell) must dwarf the rounding of (lo - origin) / h, ~1e-16 of the cell
     # index: at most 1e6 cells per axis keeps it so (a coarser grid is still correct).
     h = max(h * (1.0 + 1e-9), 1e-6 * span, 1e-12 * scale, 1e-300)
-    ox = saabb[n, 0]
-    oy = saabb[n, 1]
-    oz = saabb[n, 2]
-    T = 16
-    while T < 2 * nvalid:
-        T *= 2
+    return lim, h
+
+
+@nb.njit(cache=True, inline="always")
+def _grid_fill(off, kc, children, saabb, bw, ext, lim, h, ox, oy, oz, T):
     # Cells as one int64 key (21 bits per axis: at most 1e6 cells per axis, see h above), counting
     # sort by hash slot, then everything a query reads copied contiguously in slot order.
     key = np.empty(kc, np.int64)
@@ -234,6 +226,13 @@ def _grid_pairs(n, off, kc, children, saabb, end, baabb, has_bounds, bw, bp, nb_
                 sbox[u, d] = saabb[c, d]
             for d in range(4):
                 sbox[u, 6 + d] = bw[c, 15 + d]
+    return skey, sbox, schild, cnt, m
+
+
+@nb.njit(cache=True, inline="always")
+def _grid_query(skey, sbox, schild, cnt, m, T, h, ox, oy, oz, end, baabb, saabb, has_bounds, bp, nb_, stats, lst,
+                use_sph):
+    # Each child against the entries of its own cell after it and of its 13 forward neighbours.
     ntest = 0
     nsph = 0
     cap = bp.shape[0]
@@ -291,6 +290,11 @@ def _grid_pairs(n, off, kc, children, saabb, end, baabb, has_bounds, bw, bp, nb_
                     nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
     stats[ST_SUBTREE] += ntest
     stats[ST_BODY_SPHERE] += nsph
+    return nb_
+
+
+@nb.njit(cache=True, inline="always")
+def _grid_oversized(off, kc, children, ext, lim, end, baabb, saabb, has_bounds, bp, nb_, stats, lst):
     # the oversized children against every child
     for i in range(kc):
         if ext[i] <= lim:
@@ -308,166 +312,33 @@ def _grid_pairs(n, off, kc, children, saabb, end, baabb, has_bounds, bw, bp, nb_
 
 
 @nb.njit(cache=True, _nrt=True)  # allocates: counted (see NO_NRT; a callee takes its caller's flag)
-def _traverse(L, end, nchild, child_start, children, has_bounds, baabb, saabb, bw, sap, bp, stats, filter_parent,
-              baabb_t, flat_root, flat_n, flat_mask, use_sph):
-    """Candidate body pairs (world AABBs overlap) into ``bp``; returns their count (may exceed cap).
+def _grid_pairs(n, off, kc, children, saabb, end, baabb, has_bounds, bw, bp, nb_, stats, lst, use_sph):
+    """Pairs of overlapping child subtrees of a wide node through a uniform hash grid.
 
-    ``sap`` (`sap_state`): the sweep orders of the children lists, then scratch for `_subtree_pair`.
-    ``baabb``, ``saabb``, ``baabb_t``: the exact boxes, or the fat ones with ``use_sph`` false (see
-    `_grid_pairs`).
+    A sweep on one axis tests O(k^(5/3)) pairs when k children fill a volume (a scene of free
+    bodies); a grid whose cell is at least every child's extent finds overlaps in O(k): each child
+    sits in the cell of its AABB's min corner, and two overlapping AABBs have min corners at most
+    one cell apart per axis, so a child's own cell and its 13 forward neighbours cover every pair
+    exactly once. Children much larger than the mean (over four times) would inflate the cell;
+    they are tested against every child instead. Without ``use_sph`` (a walk over fat boxes, see ``FAT_GROW``), two
+    leaf bodies are paired on their boxes alone: the spheres in ``bw`` are the exact ones.
     """
-    nb_ = 0
-    lst = sap[L - 1:]
-    cap = bp.shape[0]
-    skip_to = 0  # the end of the last flat subtree
-    bt_at = np.int64(baabb_t.ctypes.data)
-    bt_n = baabb_t.shape[1]
-    for n in range(L):
-        if n < skip_to:
-            continue
-        if flat_root[n]:
-            # A small subtree (a robot, a hand): its body pairs that pass the static filter, as a
-            # bit mask per body made at set-up (bit i of flat_mask[a]: the pair (a, n + i)). Each
-            # row of AABB tests, a against every body of the subtree, runs over baabb's columns
-            # (baabb_t) in vector compares, into a bit mask; the static one keeps the pairs to
-            # push. No walk, no sibling pairs, no call (faster than the pair tests one by one).
-            for a in range(n, end[n]):
-                keep = np.uint64(flat_mask[a])
-                if keep == 0:
-                    continue
-                hits = _row_hits(bt_at, bt_n, n, a, keep)
-                while hits != 0:
-                    if nb_ < cap:
-                        bp[nb_, 0] = a
-                        bp[nb_, 1] = ~(n + np.int64(trailing_zeros(hits)))  # ~q: the static filter passed
-                    nb_ += 1
-                    hits &= hits - np.uint64(1)
-            stats[ST_BODY_AABB] += flat_n[n]
-            skip_to = end[n]
-            continue
-        # body n against its descendants; n + 1 is its first child, each sibling follows the
-        # previous one's range
-        if has_bounds[n] and end[n] > n + 1:
-            # One walk over the descendants [n + 1, end[n]) (every child's subtree in turn),
-            # skipping a missed subtree whole. Under the parent rule a direct child is a parent
-            # pair, never reported: its subtree AABB still culls, its body is not paired.
-            skip = filter_parent and n != 0
-            if end[n] - n - 1 > FLAT_DESC or nchild[n] < 2:
-                nb_ = _body_walk(n, n + 1, end[n], skip, end, baabb, saabb, has_bounds, bp, nb_, stats)
-            else:
-                # A small branching subtree: every descendant's body AABB against n's, flat,
-                # independent tests (no subtree AABB steering a walk: fewer tests than the walk's
-                # two per inner body, and no branch on their outcomes). Below a single child (a
-                # chain) the walk stops after a few links, the flat loop would test them all. A body without bounds has
-                # an empty AABB: never a hit.
-                nxt = n + 1  # the next direct child
-                cap = bp.shape[0]
-                for q in range(n + 1, end[n]):
-                    top = q == nxt
-                    nxt = end[q] if top else nxt
-                    if nb_ < cap:
-                        bp[nb_, 0] = n
-                        bp[nb_, 1] = q
-                    nb_ += np.int64((baabb[n, 0] <= baabb[q, 3]) & (baabb[q, 0] <= baabb[n, 3])
-                                    & (baabb[n, 1] <= baabb[q, 4]) & (baabb[q, 1] <= baabb[n, 4])
-                                    & (baabb[n, 2] <= baabb[q, 5]) & (baabb[q, 2] <= baabb[n, 5]) & ~(top & skip))
-                stats[ST_BODY_AABB] += end[n] - n - 1
-        kc = nchild[n]
-        if kc < 2:
-            continue
-        off = child_start[n]
-        if kc <= SAP_MIN:
-            for i in range(kc):
-                ci = children[off + i]
-                for j in range(i + 1, kc):
-                    cj = children[off + j]
-                    stats[ST_SUBTREE] += 1
-                    if ((saabb[ci, 0] <= saabb[cj, 3]) & (saabb[cj, 0] <= saabb[ci, 3]) & (saabb[ci, 1] <= saabb[cj, 4])
-                            & (saabb[cj, 1] <= saabb[ci, 4]) & (saabb[ci, 2] <= saabb[cj, 5])
-                            & (saabb[cj, 2] <= saabb[ci, 5])):
-                        if end[ci] == ci + 1 and end[cj] == cj + 1:  # two bodies: no call
-                            if has_bounds[ci] and has_bounds[cj]:
-                                nb_ = _push(bp, nb_, ci, cj)
-                        else:
-                            nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
-            continue
-        # Sweep and prune on the axis of the node's largest extent. The order persists between
-        # calls (sap holds it), so insertion sort is ~linear under small motion; a big reshuffle
-        # (a new world in a batch, an axis change) falls back to a full sort.
-        ax = 0
-        best = -1.0
-        for d in range(3):
-            e = saabb[n, 3 + d] - saabb[n, d]
-            if e > best:
-                best = e
-                ax = d
-        if kc > GRID_MIN:
-            # Grid or sweep: k children of mean width w on an axis of extent E give the sweep
-            # ~k^2 w / E interval tests, the grid ~k cell probes of a few tests each. A scene
-            # filling a volume (free bodies in a box) goes to the grid; bodies spread over a floor
-            # (objects, robots, stones) overlap little along the sweep axis and the sweep, with
-            # its persistent order and no set-up, wins (humanoid100, stonehenge). Up to GRID_MIN
-            # children the sweep wins even in a filled volume (64 free hulls, cube_3x3x3's 26
-            # cubelets); with a few hundred the grid does.
-            sumw = 0.0
-            for i in range(kc):
-                c = children[off + i]
-                w = saabb[c, 3 + ax] - saabb[c, ax]
-                if w > 0.0:
-                    sumw += w
-            if sumw > GRID_SWEEP * best:
-                nb_ = _grid_pairs(n, off, kc, children, saabb, end, baabb, has_bounds, bw, bp, nb_, stats, lst, use_sph)
-                continue
-        swaps = 0
-        limit = 16 * kc + 64
-        for i in range(1, kc):
-            c = sap[off + i]
-            v = saabb[c, ax]
-            j = i - 1
-            while j >= 0 and saabb[sap[off + j], ax] > v:
-                sap[off + j + 1] = sap[off + j]
-                j -= 1
-                swaps += 1
-            sap[off + j + 1] = c
-            if swaps > limit:
-                break
-        if swaps > limit:
-            lo = np.empty(kc)
-            for i in range(kc):
-                lo[i] = saabb[children[off + i], ax]
-            idx = np.argsort(lo)
-            for i in range(kc):
-                sap[off + i] = children[off + idx[i]]
-        cap = bp.shape[0]
-        for i in range(kc):
-            ci = sap[off + i]
-            hi = saabb[ci, 3 + ax]
-            leaf_i = end[ci] == ci + 1
-            # ci's box in locals: the stores into bp below would otherwise reload it every time
-            lo0 = saabb[ci, 0]
-            lo1 = saabb[ci, 1]
-            lo2 = saabb[ci, 2]
-            hi0 = saabb[ci, 3]
-            hi1 = saabb[ci, 4]
-            hi2 = saabb[ci, 5]
-            ntest = 0
-            for j in range(i + 1, kc):
-                cj = sap[off + j]
-                if saabb[cj, ax] > hi:
-                    break
-                ntest += 1
-                hit = ((lo0 <= saabb[cj, 3]) & (saabb[cj, 0] <= hi0) & (lo1 <= saabb[cj, 4])
-                       & (saabb[cj, 1] <= hi1) & (lo2 <= saabb[cj, 5]) & (saabb[cj, 2] <= hi2))
-                if leaf_i and end[cj] == cj + 1:
-                    # Two bodies, the common case of a wide node: no branch on the outcome (see
-                    # _subtree_pair); a body without bounds has an empty AABB, never a hit.
-                    if nb_ < cap:
-                        bp[nb_, 0] = ci
-                        bp[nb_, 1] = cj
-                    nb_ += np.int64(hit)
-                elif hit:
-                    nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
-            stats[ST_SUBTREE] += ntest
+    ext, total, nvalid = _grid_extents(off, kc, children, saabb)
+    if nvalid < 2:
+        return nb_
+    lim, h = _grid_cell(n, ext, kc, total, nvalid, saabb)
+    ox = saabb[n, 0]
+    oy = saabb[n, 1]
+    oz = saabb[n, 2]
+    T = 16
+    while T < 2 * nvalid:
+        T *= 2
+    skey, sbox, schild, cnt, m = _grid_fill(off, kc, children, saabb, bw, ext, lim, h, ox, oy, oz, T)
+    nb_ = _grid_query(skey, sbox, schild, cnt, m, T, h, ox, oy, oz, end, baabb, saabb, has_bounds, bp, nb_, stats, lst,
+                      use_sph)
+    return _grid_oversized(off, kc, children, ext, lim, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
+
+
     return nb_
 
 

@@ -23,12 +23,13 @@ import numpy as np
 from ._ptr import check_span, f64_ptr, i32_ptr, i64_ptr
 from ._quat import (SINCOS_MAX, _frame_point, _qmat, _qmul, _qnorm, _rotate_about, _sincos, _slide, _turn, _unit_quat,
                     _zero3)
-from ._simd import (kin_ball8, kin_ball8_origin, kin_finish8, kin_hinge8, kin_hinge8_origin, kin_slide8, kin_start8,
-                    kin_start8_unit, sincos8)
+from ._simd import LANES
+from ._simd_kin import (kin_ball8, kin_ball8_origin, kin_finish8, kin_hinge8, kin_hinge8_origin, kin_slide8, kin_start8,
+                        kin_start8_unit, sincos8)
 from ._threads import set_chunksize
-from .broadphase import CI_KEYS, N_STATS, chunk_buffers, gather_batch, next_chunk, start_chunks
-from .lanes import LANES, _lane_group, lane_buffers
-from .layout import LW_GPOS, LW_GROT, LW_POSES, view_f3, view_f4
+from .batch import CI_KEYS, chunk_buffers, gather_batch, next_chunk, start_chunks
+from .lanes import _lane_group, lane_buffers
+from .layout import LW_GPOS, LW_GROT, LW_POSES, N_STATS, view_f3, view_f4
 
 JNT_FREE, JNT_BALL, JNT_SLIDE, JNT_HINGE = 0, 1, 2, 3  # mjtJoint
 
@@ -38,7 +39,7 @@ def _half_angles(q, qpos0, jnt_type, jnt_qposadr, sc):
     # sin and cos of every hinge's half angle (mju_axisAngle2Quat), before the walk down the tree:
     # a call to libm inside it spilled every live value of the pose chain around the call (all
     # float registers are caller-saved). `_quat._sincos`, not libm: the lanes compute the same bits
-    # eight at a time (`_simd.sincos8`), which libm, called one value at a time, cannot.
+    # eight at a time (`_simd_kin.sincos8`), which libm, called one value at a time, cannot.
     for j in range(jnt_type.shape[0]):
         if jnt_type[j] == JNT_HINGE:
             a = jnt_qposadr[j]
@@ -119,7 +120,7 @@ def _kinematics_lanes(qp, g0, nl, qpos0, body_parent, body_pos, body_quat, body_
     # `_kinematics_world` of the worlds g0 .. g0 + nl - 1 of qp (B, nq), one a lane, into the lanes'
     # poses ps (L, 12, LANES) (`layout.LW_POSES`; lanes past nl repeat world g0, as lanes._group
     # does). Every world has the same tree and joints, so each branch holds for all the lanes, and
-    # each step runs on all of them at once (`_simd.kin_start8` ...: the scalar steps' operations,
+    # each step runs on all of them at once (`_simd_kin.kin_start8` ...: the scalar steps' operations,
     # the same bits); what reads qpos (free and ball joints, slides, the hinges' half angles) fills
     # its block lane by lane first. Scratch at address at (`lanes_scratch_size`): xq
     # (L, 4, LANES), sc (nj, 2, LANES), the running pose st (7, LANES), a block tmp (4, LANES).

@@ -6,7 +6,7 @@ robot, a creature: reinforcement learning, sampling-based planning) runs the sam
 times; here every static candidate -- each body pair that passes the static filter, each (plane,
 body) pair, each explicit pair -- is tested in ``LANES`` worlds at once, without a branch, and the
 outcomes kept as a lane bit mask. Only a pair that hits in some lane goes on to its next test. The
-hot tests (`bounds8`, `place8`, `pose_ok8`, `plane8`, `corner8`, `plane_hit8`) are the scalar
+hot tests (`lane_tests`: `bounds8`, `place8`, `pose_ok8`, `plane8`, `corner8`, `plane_hit8`) are the scalar
 functions' source replayed on ``<LANES x double>`` LLVM vectors (`_simd._py`): one instruction an
 operation on AVX-512, the mask one compare's; written as loops over the lanes they compiled to
 4-wide vectors and built each mask with a shift and an or per lane.
@@ -27,32 +27,23 @@ each explicit pair; the keys by rank.
 from __future__ import annotations
 
 import numba as nb
-from llvmlite import ir
-from numba.core import types
 from numba.cpython.unsafe.numbers import trailing_zeros
-from numba.extending import intrinsic
 import numpy as np
 
 from ._ptr import check_span, f64_ptr, i64_ptr
-from ._simd import _Rows, _get, _put, _py, _scalars, _splat, _Vec, _vmax, _vmin, aabb_mask8, aabb_merge8
+from ._simd import LANES, aabb_mask8, aabb_merge8
 from ._threads import set_chunksize
-from .layout import (F_BCAP, F_BLOCAL, F_GCAP, F_GLOCAL, F_GMARGIN, F_GPLANE, F_PAIR_M, I_END, I_GEOM_BID, I_GSTART,
-                     I_HAS_BOUNDS, I_ORDER, I_PAIR_G, I_PARENT_POS, I_PGEOMS, I_PLANES, I_SINGLE, J_BODY_PAIRS,
-                     J_EXPLICIT_RANK, J_PAIR_GEOMS, J_PAIR_GSTART, J_PLANE_GEOMS, J_PLANE_GSTART, J_PLANE_POS,
-                     J_PLANE_START, J_RANK_KEYS, J_ROW_START, LB_BITS, LB_STAMP, LTAB, LW_GA, LW_GW, LW_PLN,
-                     LW_POSES, LW_SA, LW_WA, LW_WB, W_TMP, address, view_f1, view_f2, view_f3, view_i1, view_i2)
-from .broadphase import (BIG, C_KEYS, C_NKEYS, CI_KEYS, H_L, H_NB, N_STATS, ROW, SLACK_POS, ST_BODY_OBB,
-                         ST_BODY_SPHERE, ST_GEOM_AABB, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT, ST_PLANE, ST_SUBTREE,
-                         _batch_world, _bounds_ok, _explicit_hit, _plane_hit_local, _pose_ok,
-                         _pose_row, aabb_slack, capsule_half, chunk_buffers, dot3, gather_batch, next_chunk,
-                         plane_world, start_chunks)
-
-LANES = 8
-# Bytes of the blocks the intrinsics take by address: a pose (12, LANES), a bounds row (ROW, LANES),
-# an AABB (6, LANES: lo x, y, z, hi x, y, z)
-POSE_BYTES = 8 * 12 * LANES
-ROW_BYTES = 8 * ROW * LANES
-AABB_BYTES = 8 * 6 * LANES
+from .batch import CI_KEYS, _batch_world, chunk_buffers, gather_batch, next_chunk, start_chunks
+from .bounds import BIG, SLACK_POS, _explicit_hit, _plane_hit_local, dot3
+from .lane_tests import AABB_BYTES, POSE_BYTES, ROW_BYTES, bounds8, corner8, place8, plane8, plane_hit8, pose_ok8
+from .layout import (F_BCAP, F_BLOCAL, F_GCAP, F_GLOCAL, F_GMARGIN, F_GPLANE, F_PAIR_M, H_L, H_NB, I_END, I_GEOM_BID,
+                     I_GSTART, I_HAS_BOUNDS, I_ORDER, I_PAIR_G, I_PARENT_POS, I_PGEOMS, I_PLANES, I_SINGLE,
+                     J_BODY_PAIRS, J_EXPLICIT_RANK, J_PAIR_GEOMS, J_PAIR_GSTART, J_PLANE_GEOMS, J_PLANE_GSTART,
+                     J_PLANE_POS, J_PLANE_START, J_RANK_KEYS, J_ROW_START, LB_BITS, LB_STAMP, LTAB, LW_GA, LW_GW,
+                     LW_PLN, LW_POSES, LW_SA, LW_WA, LW_WB, N_STATS, ROW, ST_BODY_OBB, ST_BODY_SPHERE, ST_GEOM_AABB,
+                     ST_GEOM_OBB, ST_GEOM_SPHERE, ST_OUT, ST_PLANE, ST_SUBTREE, W_TMP, address, view_f1, view_f2,
+                     view_f3, view_i1, view_i2)
+from .step import C_KEYS, C_NKEYS
 MAX_BODY_PAIRS = 4096  # above this many static body pairs, the tree of the per-world kernel culls better
 
 # Header of J: counts (then the field table of `layout.LANE_TABLES`).
@@ -86,145 +77,8 @@ def pack_lanes(L: int, Q: int, **fields) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------- lane tests
-# Each is the per-world kernel's test (same operations, same order: the same bits): the hot ones as
-# the scalar source replayed on LLVM vectors (the intrinsics), the rest as loops over the lanes, the
-# lane index innermost.
-
-@intrinsic
-def bounds8(typingctx, pa, ma, pb, mb):
-    """Bit l set when the bounds in lane l of the ``(ROW, LANES)`` blocks at addresses ``pa`` and
-    ``pb``, inflated by ``ma``, ``mb``, overlap: `broadphase._bounds_ok`'s source replayed on
-    ``<LANES x double>`` vectors (`_simd._py`: the same operations in the same order, the same bits),
-    its outcome one vector compare's mask. The loop over the lanes it replaced (`bounds_mask`)
-    compiled to 4-wide vectors and built its mask with a shift and an or per lane (those mask
-    reductions stood out in `_group`'s profile)."""
-    if not (isinstance(pa, types.Integer) and isinstance(pb, types.Integer) and ma == types.float64
-            and mb == types.float64):
-        return None
-    sig = types.uint64(pa, ma, pb, mb)
-
-    def codegen(context, builder, signature, args):
-        a, fa, b, fb = args
-        ok = _py(_bounds_ok)(tuple(_get(builder, a, ROW)), _splat(builder, fa), tuple(_get(builder, b, ROW)),
-                             _splat(builder, fb))
-        return ok.bits()
-
-    return sig, codegen
-
-
-@intrinsic
-def plane8(typingctx, psb, gp, dst):
-    """dst ``(4, LANES)`` = `broadphase.plane_world` of the static local plane at ``gp`` (4 float64:
-    n, d) under each lane's pose in the `layout.LW_POSES` block at ``psb``: its source replayed on
-    vectors (the same bits; a loop over the lanes ran scalar, four divisions a lane)."""
-    if not all(isinstance(a, types.Integer) for a in (psb, gp, dst)):
-        return None
-
-    def codegen(context, builder, signature, args):
-        P = _get(builder, args[0], 12)
-        _put(builder, args[2], list(_py(plane_world)(*P[3:12], *P[0:3], *_scalars(builder, args[1], 4))))
-        return context.get_dummy_value()
-
-    return types.void(psb, gp, dst), codegen
-
-
-def _lane_plane(builder, pa, mq):
-    # the plane block (4, LANES) at pa: n0, n1, n2, d, and the limit d + mq
-    n0, n1, n2, pd = _get(builder, pa, 4)
-    return n0, n1, n2, pd, pd + _splat(builder, mq)
-
-
-@intrinsic
-def corner8(typingctx, pa, mq, box):
-    """Bit l set when lane l's AABB (the ``(6, LANES)`` block at ``box``) reaches the halfspace of
-    lane l's plane (block at ``pa``, inflated by ``mq``): `_corner_in` on vectors, its corner picked
-    by a select per axis (numba's ``lo if n > 0 else hi``), the same outcome."""
-    if not (isinstance(pa, types.Integer) and isinstance(box, types.Integer) and mq == types.float64):
-        return None
-
-    def codegen(context, builder, signature, args):
-        n0, n1, n2, pd, lim = _lane_plane(builder, args[0], args[1])
-        B = _get(builder, args[2], 6)
-        zero = ir.Constant(ir.VectorType(ir.DoubleType(), LANES), [0.0] * LANES)
-        c = [_Vec(builder, builder.select(builder.fcmp_ordered(">", n.v, zero), B[k].v, B[3 + k].v))
-             for k, n in enumerate((n0, n1, n2))]
-        v = _py(dot3)(n0, n1, n2, c[0], c[1], c[2])
-        return (v <= lim + SLACK_POS * (abs(v) + abs(pd))).bits()
-
-    return types.uint64(pa, mq, box), codegen
-
-
-@intrinsic
-def plane_hit8(typingctx, pa, mq, row):
-    """Bit l set when lane l's bounds (the ``(ROW, LANES)`` block at ``row``) reach lane l's plane
-    (block at ``pa``, inflated by ``mq``): `broadphase._plane_hit` (`_plane_hit_local`'s source on
-    vectors), the same outcome."""
-    if not (isinstance(pa, types.Integer) and isinstance(row, types.Integer) and mq == types.float64):
-        return None
-
-    def codegen(context, builder, signature, args):
-        n0, n1, n2, pd, lim = _lane_plane(builder, args[0], args[1])
-        W = _get(builder, args[2], ROW)
-        scale = abs(W[0]) + abs(W[1]) + abs(W[2]) + abs(pd)
-        ok = _py(_plane_hit_local)(n0, n1, n2, lim, scale, _Rows(W), 0, _splat(builder, ir.Constant(
-            ir.DoubleType(), 0.0)))
-        return ok.bits()
-
-    return types.uint64(pa, mq, row), codegen
-
-
-@intrinsic
-def pose_ok8(typingctx, psb):
-    """Bit l set when lane l's pose in the `layout.LW_POSES` block ``(12, LANES)`` at address ``psb`` passes
-    `broadphase._pose_ok` (its source replayed on vectors: the same outcome)."""
-    if not isinstance(psb, types.Integer):
-        return None
-
-    def codegen(context, builder, signature, args):
-        P = _get(builder, args[0], 12)
-        return _py(_pose_ok)(*P[3:12], *P[0:3]).bits()
-
-    return types.uint64(psb), codegen
-
-
-@intrinsic
-def place8(typingctx, psb, src, cap, m, dst, box, box2):
-    """One body's (or geom's) bounds in every lane: the world rows ``(ROW, LANES)`` at address
-    ``dst`` of the static local row at ``src`` (ROW float64) under the lanes' poses at ``psb`` (a
-    `layout.LW_POSES` block ``(12, LANES)``), and their AABBs ``(6, LANES)`` at ``box`` and ``box2``:
-    the OBB's inflated by ``m`` cut to the capsule's (static row at ``cap``: half segment, radius)
-    inflated by ``m``. `broadphase._pose_row`, `aabb_slack`, `capsule_half` and `dot3` replayed on
-    ``<LANES x double>`` vectors (`_simd._py`), the cut as numba's ``max``/``min``: the operations
-    of `broadphase._world_row`, `_world_aabb` and `_cap_aabb` in one world, the same bits. The
-    loops over the lanes it replaces compiled to 4-wide vectors."""
-    addrs = (psb, src, cap, dst, box, box2)
-    if not (all(isinstance(a, types.Integer) for a in addrs) and m == types.float64):
-        return None
-    sig = types.void(psb, src, cap, m, dst, box, box2)
-
-    def codegen(context, builder, signature, args):
-        pa, sa, ca, mv, da, ba, b2 = args
-        P = _get(builder, pa, 12)
-        R = P[3:12]
-        row = _py(_pose_row)(*R, *P[0:3], tuple(_scalars(builder, sa, ROW)))
-        mm = _splat(builder, mv)
-        e = [row[12 + k] + mm for k in range(3)]
-        tol = _py(aabb_slack)(e[0], e[1], e[2], row[0], row[1], row[2])
-        C = _scalars(builder, ca, 4)
-        hc = _py(capsule_half)(*R, C[0], C[1], C[2], C[3] + mm, row[0], row[1], row[2])
-        lo, hi = [], []
-        for i in range(3):
-            h = _py(dot3)(abs(row[3 + 3 * i]), abs(row[4 + 3 * i]), abs(row[5 + 3 * i]), e[0], e[1], e[2]) + tol
-            c = row[i]
-            lo.append(_vmax(builder, c - h, c - hc[i]))
-            hi.append(_vmin(builder, c + h, c + hc[i]))
-        _put(builder, da, list(row))
-        _put(builder, ba, lo + hi)
-        _put(builder, b2, lo + hi)
-        return context.get_dummy_value()
-
-    return sig, codegen
-
+# The hot ones are `lane_tests`' intrinsics; here the rest, as loops over the lanes, the lane index
+# innermost.
 
 @nb.njit(cache=True, inline="always")
 def _corner_in(n0, n1, n2, pd, lim, box, k, l):
@@ -289,6 +143,120 @@ def _lane_pair(p, m, x, y, single, wb, wa_at, stamp, order, gstart, pgeoms, gloc
 
 # ------------------------------------------------------------------------------- one group
 
+@nb.njit(cache=True, inline="always")
+def _lane_bodies(L, row_start, body_pairs, end, wa_at, sa_at, valid, single, wb, stamp, order, gstart, pgeoms, glocal,
+                 gcap, gmargin, ps, gwl, gal, gal_at, pair_gstart, pair_geoms, bits, stats, nlanes, nv):
+    # 2. body pairs: each position a against the positions after it in depth-first order (every
+    # later subtree whole), a subtree missed in every lane skipped (as `_body_walk` in one world:
+    # a 64-link chain tests a few links below each body, not all 2000 pairs); a body hit in some
+    # lane that is a's static partner (the next in a's sorted row) goes on to sphere and OBB, then
+    # its geom pairs.
+    ntest = 0
+    for a in range(L):
+        ptr = row_start[a]
+        pend = row_start[a + 1]
+        if ptr == pend:
+            continue
+        last = body_pairs[pend - 1, 1]
+        pa = wa_at + AABB_BYTES * a
+        q = a + 1
+        while q <= last:
+            ntest += 1
+            m = aabb_mask8(pa, sa_at + AABB_BYTES * q) & valid
+            if m == 0:
+                q = end[q]
+                continue
+            while body_pairs[ptr, 1] < q:
+                ptr += 1
+            if body_pairs[ptr, 1] == q:
+                if end[q] != q + 1:  # a leaf's subtree AABB is its body's
+                    ntest += 1
+                    m &= aabb_mask8(pa, wa_at + AABB_BYTES * q)
+                if m != 0:
+                    _lane_pair(ptr, m, a, q, single, wb, wa_at, stamp, order, gstart, pgeoms, glocal, gcap, gmargin,
+                               ps, gwl, gal, gal_at, pair_gstart, pair_geoms, bits, stats, nv)
+            q += 1
+    stats[ST_SUBTREE] += ntest * nlanes
+
+
+@nb.njit(cache=True, inline="always")
+def _lane_planes(planes, geom_bid, gmargin, pln_at, ps_at, gp_at, plane_start, plane_pos, plane_gstart, plane_geoms,
+                 wa_at, wb_at, valid, single, bits, stamp, order, gstart, pgeoms, glocal, gcap, ps, gwl, gal, pln,
+                 stats, nlanes, nv):
+    Q = planes.shape[0]
+    # 3. planes: each (plane, position) pair that passes the static filter.
+    for i in range(Q):
+        qg = planes[i]
+        b = geom_bid[qg]
+        mq = gmargin[qg]
+        pa = pln_at + 32 * LANES * i
+        plane8(ps_at + POSE_BYTES * b, gp_at + 32 * qg, pa)
+        stats[ST_PLANE] += (plane_start[i + 1] - plane_start[i]) * nlanes
+        for e in range(plane_start[i], plane_start[i + 1]):
+            x = plane_pos[e]
+            # the AABB corner deepest along -n, then the bounds (`_world`, stage 5a)
+            m = corner8(pa, mq, wa_at + AABB_BYTES * x) & valid
+            if m == 0:
+                continue
+            stats[ST_PLANE] += _popcount(m)
+            m &= plane_hit8(pa, mq, wb_at + ROW_BYTES * x)  # `_plane_hit` on the body's world row
+            if m == 0:
+                continue
+            if single[x] > 0:
+                for f in range(plane_gstart[e], plane_gstart[e + 1]):
+                    _set_bits(bits, plane_geoms[f, 1], m, nv)
+                continue
+            # several geoms: each one's AABB corner, then its sphere and box in the body's frame, as
+            # `_world` does
+            _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gcap, gmargin, ps, gwl, gal, nv)
+            bb = order[x]
+            for f in range(plane_gstart[e], plane_gstart[e + 1]):
+                g = plane_geoms[f, 0]
+                stats[ST_PLANE] += _popcount(m)
+                mg = np.uint64(0)
+                for l in range(nv):
+                    n0 = pln[i, 0, l]
+                    n1 = pln[i, 1, l]
+                    n2 = pln[i, 2, l]
+                    pd = pln[i, 3, l]
+                    lim = pd + mq
+                    cok = _corner_in(n0, n1, n2, pd, lim, gal, g, l)
+                    ln0 = dot3(ps[bb, 3, l], ps[bb, 6, l], ps[bb, 9, l], n0, n1, n2)
+                    ln1 = dot3(ps[bb, 4, l], ps[bb, 7, l], ps[bb, 10, l], n0, n1, n2)
+                    ln2 = dot3(ps[bb, 5, l], ps[bb, 8, l], ps[bb, 11, l], n0, n1, n2)
+                    llim = lim - dot3(n0, n1, n2, ps[bb, 0, l], ps[bb, 1, l], ps[bb, 2, l])
+                    lscale = abs(ps[bb, 0, l]) + abs(ps[bb, 1, l]) + abs(ps[bb, 2, l]) + abs(pd)
+                    mg |= np.uint64(cok & _plane_hit_local(ln0, ln1, ln2, llim, lscale + abs(glocal[g, 0])
+                                                       + abs(glocal[g, 1]) + abs(glocal[g, 2]), glocal, g,
+                                                       gmargin[g])) << np.uint64(l)
+                _set_bits(bits, plane_geoms[f, 1], m & mg, nv)
+
+
+@nb.njit(cache=True, inline="always")
+def _lane_explicit(pos_all, rot_all, w0, nl, pair_g, explicit_rank, pair_m, gmargin, gplane, geom_bid, glocal, tmp,
+                   ps, bits, stats, posed, nv):
+    # 4. explicit pairs, lane by lane on the worlds' own pose arrays (`_world`, stage 5b). Posed,
+    # those arrays were never written (`step_lanes_kin` fills them only for a group with a bad
+    # pose): the two bodies' poses are copied out of the lanes first, so that no stale or zero
+    # pose is read.
+    for i in range(pair_g.shape[0]):
+        r = explicit_rank[i]
+        if r < 0:
+            continue
+        if posed:
+            for k in range(2):
+                b = geom_bid[pair_g[i, k]]
+                for l in range(nl):
+                    for ii in range(3):
+                        pos_all[w0 + l, b, ii] = ps[b, ii, l]
+                        for j in range(3):
+                            rot_all[w0 + l, b, ii, j] = ps[b, 3 + 3 * ii + j, l]
+        for l in range(nl):
+            if _explicit_hit(i, pair_g, pair_m, gmargin, gplane, geom_bid, glocal, pos_all[w0 + l],
+                             rot_all[w0 + l], tmp, stats):
+                _set_bits(bits, r, np.uint64(1) << np.uint64(l), nv)
+
+
 @nb.njit(cache=True)
 def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
     """Worlds ``w0 .. w0 + nl - 1`` (nl <= LANES) into the bitsets ``LB[:LANES * NWd]``; returns
@@ -313,7 +281,6 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
     bcap = view_f2(I, F, F_BCAP)
     gcap = view_f2(I, F, F_GCAP)
     tmp = view_f2(I, W, W_TMP)
-    Q = planes.shape[0]
     body_pairs = view_i2(J, J, J_BODY_PAIRS)
     row_start = view_i1(J, J, J_ROW_START)
     pair_gstart = view_i1(J, J, J_PAIR_GSTART)
@@ -363,7 +330,7 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
     for x in range(L):
         stamp[x] = 0
         if has_bounds[x]:
-            # world rows and AABBs (the OBB's cut to the capsule's), as broadphase._place
+            # world rows and AABBs (the OBB's cut to the capsule's), as bounds._place
             place8(ps_at + POSE_BYTES * order[x], bl_at + 8 * ROW * x, bc_at + 32 * x, 0.0, wb_at + ROW_BYTES * x,
                    wa_at + AABB_BYTES * x, sa_at + AABB_BYTES * x)
         else:
@@ -381,105 +348,14 @@ def _group(pos_all, rot_all, w0, nl, I, F, W, J, LW, LB, stats, posed=False):
             bits[wi, l] = 0
     nlanes = np.int64(nl)
 
-    # 2. body pairs: each position a against the positions after it in depth-first order (every
-    # later subtree whole), a subtree missed in every lane skipped (as `_body_walk` in one world:
-    # a 64-link chain tests a few links below each body, not all 2000 pairs); a body hit in some
-    # lane that is a's static partner (the next in a's sorted row) goes on to sphere and OBB, then
-    # its geom pairs.
-    ntest = 0
-    for a in range(L):
-        ptr = row_start[a]
-        pend = row_start[a + 1]
-        if ptr == pend:
-            continue
-        last = body_pairs[pend - 1, 1]
-        pa = wa_at + AABB_BYTES * a
-        q = a + 1
-        while q <= last:
-            ntest += 1
-            m = aabb_mask8(pa, sa_at + AABB_BYTES * q) & valid
-            if m == 0:
-                q = end[q]
-                continue
-            while body_pairs[ptr, 1] < q:
-                ptr += 1
-            if body_pairs[ptr, 1] == q:
-                if end[q] != q + 1:  # a leaf's subtree AABB is its body's
-                    ntest += 1
-                    m &= aabb_mask8(pa, wa_at + AABB_BYTES * q)
-                if m != 0:
-                    _lane_pair(ptr, m, a, q, single, wb, wa_at, stamp, order, gstart, pgeoms, glocal, gcap, gmargin,
-                               ps, gwl, gal, gal_at, pair_gstart, pair_geoms, bits, stats, nv)
-            q += 1
-    stats[ST_SUBTREE] += ntest * nlanes
-
-    # 3. planes: each (plane, position) pair that passes the static filter.
-    for i in range(Q):
-        qg = planes[i]
-        b = geom_bid[qg]
-        mq = gmargin[qg]
-        pa = pln_at + 32 * LANES * i
-        plane8(ps_at + POSE_BYTES * b, gp_at + 32 * qg, pa)
-        stats[ST_PLANE] += (plane_start[i + 1] - plane_start[i]) * nlanes
-        for e in range(plane_start[i], plane_start[i + 1]):
-            x = plane_pos[e]
-            # the AABB corner deepest along -n, then the bounds (`_world`, stage 5a)
-            m = corner8(pa, mq, wa_at + AABB_BYTES * x) & valid
-            if m == 0:
-                continue
-            stats[ST_PLANE] += _popcount(m)
-            m &= plane_hit8(pa, mq, wb_at + ROW_BYTES * x)  # `_plane_hit` on the body's world row
-            if m == 0:
-                continue
-            if single[x] > 0:
-                for f in range(plane_gstart[e], plane_gstart[e + 1]):
-                    _set_bits(bits, plane_geoms[f, 1], m, nv)
-                continue
-            # several geoms: each one's AABB corner, then its sphere and box in the body's frame, as
-            # `_world` does
-            _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gcap, gmargin, ps, gwl, gal, nv)
-            bb = order[x]
-            for f in range(plane_gstart[e], plane_gstart[e + 1]):
-                g = plane_geoms[f, 0]
-                stats[ST_PLANE] += _popcount(m)
-                mg = np.uint64(0)
-                for l in range(nv):
-                    n0 = pln[i, 0, l]
-                    n1 = pln[i, 1, l]
-                    n2 = pln[i, 2, l]
-                    pd = pln[i, 3, l]
-                    lim = pd + mq
-                    cok = _corner_in(n0, n1, n2, pd, lim, gal, g, l)
-                    ln0 = dot3(ps[bb, 3, l], ps[bb, 6, l], ps[bb, 9, l], n0, n1, n2)
-                    ln1 = dot3(ps[bb, 4, l], ps[bb, 7, l], ps[bb, 10, l], n0, n1, n2)
-                    ln2 = dot3(ps[bb, 5, l], ps[bb, 8, l], ps[bb, 11, l], n0, n1, n2)
-                    llim = lim - dot3(n0, n1, n2, ps[bb, 0, l], ps[bb, 1, l], ps[bb, 2, l])
-                    lscale = abs(ps[bb, 0, l]) + abs(ps[bb, 1, l]) + abs(ps[bb, 2, l]) + abs(pd)
-                    mg |= np.uint64(cok & _plane_hit_local(ln0, ln1, ln2, llim, lscale + abs(glocal[g, 0])
-                                                       + abs(glocal[g, 1]) + abs(glocal[g, 2]), glocal, g,
-                                                       gmargin[g])) << np.uint64(l)
-                _set_bits(bits, plane_geoms[f, 1], m & mg, nv)
-
-    # 4. explicit pairs, lane by lane on the worlds' own pose arrays (`_world`, stage 5b). Posed,
-    # those arrays were never written (`step_lanes_kin` fills them only for a group with a bad
-    # pose): the two bodies' poses are copied out of the lanes first, so that no stale or zero
-    # pose is read.
-    for i in range(pair_g.shape[0]):
-        r = explicit_rank[i]
-        if r < 0:
-            continue
-        if posed:
-            for k in range(2):
-                b = geom_bid[pair_g[i, k]]
-                for l in range(nl):
-                    for ii in range(3):
-                        pos_all[w0 + l, b, ii] = ps[b, ii, l]
-                        for j in range(3):
-                            rot_all[w0 + l, b, ii, j] = ps[b, 3 + 3 * ii + j, l]
-        for l in range(nl):
-            if _explicit_hit(i, pair_g, pair_m, gmargin, gplane, geom_bid, glocal, pos_all[w0 + l],
-                             rot_all[w0 + l], tmp, stats):
-                _set_bits(bits, r, np.uint64(1) << np.uint64(l), nv)
+    # 2. body pairs, 3. planes, 4. explicit pairs
+    _lane_bodies(L, row_start, body_pairs, end, wa_at, sa_at, valid, single, wb, stamp, order, gstart, pgeoms, glocal,
+                 gcap, gmargin, ps, gwl, gal, gal_at, pair_gstart, pair_geoms, bits, stats, nlanes, nv)
+    _lane_planes(planes, geom_bid, gmargin, pln_at, ps_at, gp_at, plane_start, plane_pos, plane_gstart, plane_geoms,
+                 wa_at, wb_at, valid, single, bits, stamp, order, gstart, pgeoms, glocal, gcap, ps, gwl, gal, pln,
+                 stats, nlanes, nv)
+    _lane_explicit(pos_all, rot_all, w0, nl, pair_g, explicit_rank, pair_m, gmargin, gplane, geom_bid, glocal, tmp, ps,
+                   bits, stats, posed, nv)
     return True
 
 
@@ -495,7 +371,7 @@ def _popcount(m):
 @nb.njit(cache=True, inline="always")
 def _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gcap, gmargin, ps, gwl, gal, nv):
     # World rows and margin-inflated AABBs of the geoms of the multi-geom body at position x in
-    # every lane, once per group (`broadphase._geom_rows`).
+    # every lane, once per group (`bounds._geom_rows`).
     if stamp[x] != 0:
         return
     stamp[x] = 1
@@ -506,7 +382,7 @@ def _lane_geoms(x, stamp, order, gstart, pgeoms, glocal, gcap, gmargin, ps, gwl,
     ga_at = np.int64(gal.ctypes.data)
     for ii in range(gstart[x], gstart[x + 1]):
         g = pgeoms[ii]
-        # the geom's rows and margin-inflated AABBs, as broadphase._geom_rows
+        # the geom's rows and margin-inflated AABBs, as bounds._geom_rows
         place8(pb, gl_at + 8 * ROW * g, gc_at + 32 * g, gmargin[g], gw_at + ROW_BYTES * g, ga_at + AABB_BYTES * g,
                ga_at + AABB_BYTES * g)
 
@@ -570,9 +446,9 @@ def lane_buffers(LWs, LBs, wk):
 
 @nb.njit(cache=True, parallel=True)
 def step_lanes(body_pos, body_rot, ctxs, J, LWs, LBs, world_count, world_info, chunk_info, S, stats_out):
-    """`broadphase.step_batch` through the lanes: each chunk's worlds ``LANES`` at a time, each
+    """`batch.step_batch` through the lanes: each chunk's worlds ``LANES`` at a time, each
     world's sorted keys after the previous worlds' in its chunk's keys; a lane workspace (a row of
-    ``LWs`` and of ``LBs``) a worker, ``chunk_info`` as there (`broadphase.start_chunks`). A group with a bad pose
+    ``LWs`` and of ``LBs``) a worker, ``chunk_info`` as there (`batch.start_chunks`). A group with a bad pose
     runs world by world through `broadphase._world` (which reports the offender, and whose
     answers are the same)."""
     B = body_pos.shape[0]

@@ -34,7 +34,7 @@ MAX_DIMS = SLOT - 1
 # A bounds record ("row") is ROW float64: OBB centre (3), OBB rotation (9, row-major, columns are
 # the box axes), OBB half extents (3), sphere centre (3), sphere radius (1).
 ROW = 19
-N_COH = 8  # frame-coherence state slots (`broadphase.FAT_GROW`)
+N_COH = 8  # frame-coherence state slots (`coherence.FAT_GROW`)
 CONSTANTS = {"ROW": ROW, "LANES": LANES, "N_COH": N_COH}
 
 
@@ -266,7 +266,15 @@ N_STATS = 10
 # partner entries, P explicit pairs; for the lanes NP static body pairs, NLG their geom pairs, NPL
 # (plane, position) pairs, NPLG their geoms, NR ranks (keys a world may report), NWd = ceil(NR / 64).
 
-MODEL = Tables("I", header=11)  # the per-world model; its table lives in I (counts: broadphase.H_*)
+# Header of I: counts. Positions (``H_L``) are the bodies in depth-first order plus, when the world
+# has several solid geoms, one leaf per world geom (``H_V`` of them, at positions 1..V; see
+# BroadPhase): bodies (``H_NB``) index the pose arrays, positions everything else. ``H_FLAT``: 1 when
+# some subtree is flat (``flat_root``), so that the step writes ``baabb_t`` (see `bounds._place`; it
+# does too up to MASK_MAX positions). `broadphase.pack` writes it.
+H_L, H_G, H_GS, H_Q, H_E, H_P, H_FP, H_KS, H_NB, H_V, H_FLAT = range(11)
+HEADER = 11
+
+MODEL = Tables("I", header=HEADER)  # the per-world model; its table lives in I (counts: H_*)
 
 INT = Layout(MODEL, "I", np.int64)  # static model, int64
 I_ORDER = INT.field("order", "L")  # position -> body

@@ -33,6 +33,10 @@ import threading
 import numpy as np
 
 from .._kernels import broadphase as _k
+from .._kernels import culling as _kcull
+from .._kernels import keys as _kkeys
+from .._kernels import layout as _layout
+from .._kernels import step as _kstep
 from ..articulation import Articulation
 from . import tables as _tables
 from ._kinematics import KinematicTree
@@ -59,7 +63,7 @@ class BroadPhase:
     coherent : bool, default True
         Frame coherence for `pairs`: keep, from one call to the next, the body pairs whose *fat*
         boxes overlap (each body's AABB grown by 20 % of its largest extent on every side,
-        ``_k.FAT_GROW``), and while every body's AABB stays inside its fat box test only those
+        ``_kernels.coherence.FAT_GROW``), and while every body's AABB stays inside its fat box test only those
         pairs' AABBs instead of culling down the tree. The answer is the same whatever the poses
         (any sequence of calls, unrelated poses included); only the time differs: a simulation
         step usually moves every body less than that (the MuJoCo models under moderate random
@@ -125,14 +129,14 @@ class BroadPhase:
         Lp = dims["L"]
         self.position_count = Lp
         self._nW = _k.workspace_size(self._I)
-        self._sap_init = _k.sap_state(fields["children"])
+        self._sap_init = _kcull.sap_state(fields["children"])
         self._W = np.zeros(self._nW)
         self._sap = self._sap_init.copy()
-        self._stats = np.zeros(_k.N_STATS, np.int64)
+        self._stats = np.zeros(_layout.N_STATS, np.int64)
         self._info = np.zeros(4, np.int64)
-        self._ctx = np.zeros(_k.NCTX, np.int64)
-        self._ctx_addr = self._ctx.ctypes.data  # `_k.step_bound`'s argument: never replaced
-        self._step = _k.step_function()
+        self._ctx = np.zeros(_kstep.NCTX, np.int64)
+        self._ctx_addr = self._ctx.ctypes.data  # `_kstep.step_bound`'s argument: never replaced
+        self._step = _kstep.step_function()
         self._step_bound = None  # see bind
         self._lock = threading.Lock()  # see pairs
         self._bound = None
@@ -154,11 +158,11 @@ class BroadPhase:
         # The kernel reaches every buffer through self._ctx (addresses): replace a buffer only here.
         self._bp = np.empty((max(1, body_pairs), 2), np.int64)
         self._keys = np.empty(max(1, keys), np.int64)
-        self._scr = np.empty(_k.scratch_size(self.geom_count, self._keys.size), np.int64)
+        self._scr = np.empty(_kkeys.scratch_size(self.geom_count, self._keys.size), np.int64)
         self._out = self._keys.view(np.int32).reshape(-1, 2)  # the kernel writes the pairs here
         # the body pairs kept between calls (coherent): bp's shape, so a list always fits bp
         self._cl = np.empty_like(self._bp) if self.coherent else None
-        _k.context(self._I, self._F, self._W, self._sap, self._bp, self._keys, self._scr, self._stats,
+        _kstep.context(self._I, self._F, self._W, self._sap, self._bp, self._keys, self._scr, self._stats,
                    self._info, out=self._ctx, cl=self._cl)
 
     def _check(self, body_pos, body_rot, lead: tuple):
@@ -206,7 +210,7 @@ class BroadPhase:
         ------
         ValueError
             Wrong shape or dtype, or a pose with a NaN/inf, a position beyond ``1e150``
-            (`_k.MAX_POSITION`) or a rotation that is not orthonormal (naming the first offending
+            (`_kernels.bounds.MAX_POSITION`) or a rotation that is not orthonormal (naming the first offending
             body); the broad phase stays usable.
         """
         # One call at a time per instance (workspace, arena and bookkeeping are shared): a second
@@ -229,13 +233,13 @@ class BroadPhase:
                 try:
                     k = self._step(body_pos, body_rot, self._ctx)
                 except TypeError:
-                    k = _k.RET_BAD_SHAPE
+                    k = _kstep.RET_BAD_SHAPE
                 if k < 0:
                     body_pos, body_rot = self._check(body_pos, body_rot, ())
                     k = self._rerun(body_pos, body_rot, self._step(body_pos, body_rot, self._ctx))
             # The kernel recorded its rows (ctx C_OFF, C_LAST) before returning: _arena_used and _last
             # follow them here, with nothing in between that could raise but an asynchronous exception.
-            if k >= _k.RET_SAME:  # the pairs of the last non-empty result: its array again
+            if k >= _kstep.RET_SAME:  # the pairs of the last non-empty result: its array again
                 return self._last
             if k > 0:
                 o = self._arena_used  # `_take`, written out: a Python call costs more than these lines
@@ -279,10 +283,10 @@ class BroadPhase:
                                  f"{'' if arr.flags.c_contiguous else ' (not C-contiguous)'}")
         self._check(body_pos, body_rot, ())
         if self._step_bound is None:
-            self._step_bound = _k.step_bound()
+            self._step_bound = _kstep.step_bound()
         self._bound = (body_pos, body_rot)
-        self._ctx[_k.C_POS] = body_pos.ctypes.data
-        self._ctx[_k.C_ROT] = body_rot.ctypes.data
+        self._ctx[_kstep.C_POS] = body_pos.ctypes.data
+        self._ctx[_kstep.C_ROT] = body_rot.ctypes.data
 
     def _new_arena(self, rows: int) -> None:
         # The (rows, 2) int32 output arena: each call's pairs are written by the kernel into the next
@@ -294,11 +298,11 @@ class BroadPhase:
         self._arena.flags.writeable = False
         self._arena_rows = rows
         self._arena_used = 0
-        self._ctx[_k.C_OUT] = self._arena_w.ctypes.data
-        self._ctx[_k.C_NOUT] = rows
-        self._ctx[_k.C_OFF] = 0
-        self._ctx[_k.C_LAST] = -1  # no result in this arena to compare with (see `_k._step`)
-        self._ctx[_k.C_NLAST] = -1
+        self._ctx[_kstep.C_OUT] = self._arena_w.ctypes.data
+        self._ctx[_kstep.C_NOUT] = rows
+        self._ctx[_kstep.C_OFF] = 0
+        self._ctx[_kstep.C_LAST] = -1  # no result in this arena to compare with (see `_kstep._step`)
+        self._ctx[_kstep.C_NLAST] = -1
         self._last = None
 
     def _take(self, k: int) -> np.ndarray:
@@ -315,9 +319,9 @@ class BroadPhase:
         self._new_arena(max(ARENA_ROWS, 4 * k))
         self._arena_w[:k] = self._out[:k]
         self._arena_used = k
-        self._ctx[_k.C_OFF] = k
-        self._ctx[_k.C_LAST] = 0
-        self._ctx[_k.C_NLAST] = k
+        self._ctx[_kstep.C_OFF] = k
+        self._ctx[_kstep.C_LAST] = 0
+        self._ctx[_kstep.C_NLAST] = k
         out = self._last = self._arena[:k]
         return out
 
@@ -325,7 +329,7 @@ class BroadPhase:
         # A bad pose raises; a full buffer is grown and the step rerun (never drop a pair).
         info = self._info
         while k < 0:
-            if k == _k.RET_BAD_POSE:
+            if k == _kstep.RET_BAD_POSE:
                 raise_pose_error(int(info[0]), int(info[1]))
             if info[3] > 0:
                 self._set_buffers(2 * int(info[3]), len(self._keys))

@@ -16,6 +16,9 @@ import numba
 import numpy as np
 
 from .._kernels import broadphase as _k
+from .._kernels import batch as _kbatch
+from .._kernels import keys as _kkeys
+from .._kernels import step as _kstep
 from .._kernels import kinematics as _kin
 from .._kernels import lanes as _lanes
 from .._kernels import layout as _layout
@@ -76,7 +79,7 @@ class Batch:
         """The launch of `run` for checked ``(B, L, 3)``, ``(B, L, 3, 3)`` C-contiguous float64 poses."""
         def launch(bt, world_count, world_info, chunk_info, S):
             if self.lane_tables is None:
-                return _k.step_batch(body_pos, body_rot, bt["ctx"], world_count, world_info, chunk_info, S,
+                return _kbatch.step_batch(body_pos, body_rot, bt["ctx"], world_count, world_info, chunk_info, S,
                                      self.stats)
             return _lanes.step_lanes(body_pos, body_rot, bt["ctx"], self.lane_tables, bt["LW"], bt["LB"],
                                      world_count, world_info, chunk_info, S, self.stats)
@@ -97,7 +100,7 @@ class Batch:
         """The batch's chunks and buffers, then ``launch(bt, world_count, world_info, chunk_info, S)``
         (one of the batch kernels) until no buffer is short: its ``(K, 3)`` rows, or the first bad
         world's ``ValueError``."""
-        # More chunks than threads, taken by the threads one at a time (`_k.start_chunks`): a thread
+        # More chunks than threads, taken by the threads one at a time (`_kbatch.start_chunks`): a thread
         # that starts late or runs slower takes fewer. The lane kernels keep their big workspaces
         # (lanes, kinematics) a worker, a chunk its keys, counts and small buffers, so their chunks
         # can be small (CHUNKS_LANES a thread; the lane kernel takes worlds _lanes.LANES at a time:
@@ -116,8 +119,8 @@ class Batch:
         if self.buffers is None or self.buffers["ctx"].shape[0] != C:  # rows follow from C
             L, G = self.body_count, self.geom_count
             self.buffers = {"W": np.zeros((C, self.nW)), "sap": np.tile(self.sap_init, (C, 1)),
-                            "stats": np.zeros((C, _k.N_STATS), np.int64), "info": np.zeros((C, 4), np.int64),
-                            "ctx": np.zeros((C, _k.NCTX), np.int64)}
+                            "stats": np.zeros((C, _layout.N_STATS), np.int64), "info": np.zeros((C, 4), np.int64),
+                            "ctx": np.zeros((C, _kstep.NCTX), np.int64)}
             if self.lane_tables is not None:
                 # a worker's lane workspace (with room for a group's poses computed in the call) and bitsets
                 self.buffers["LW"] = _lane_rows_zeros(rows, _layout.LANE_WORK.size(_k.model_dims(self.I)))
@@ -129,9 +132,9 @@ class Batch:
         # every chunk's row: nothing to clear.
         world_count = np.empty(B, np.int64)
         world_info = np.empty((B, 4), np.int64)
-        chunk_info = np.empty((C + 1, _k.N_CI), np.int64)  # the chunks', then (counter, workers)
+        chunk_info = np.empty((C + 1, _kbatch.N_CI), np.int64)  # the chunks', then (counter, workers)
         chunk_info[C, 1] = nw
-        S = _k.key_shift(self.geom_count)
+        S = _kkeys.key_shift(self.geom_count)
         while True:
             # The kernels sum the chunks' stats into self.stats (`BroadPhase.stats` reads it) and
             # return the rows, or none when a chunk holds a bad world or ran out of room.
@@ -139,12 +142,12 @@ class Batch:
             if len(out):
                 return out
             chunks = chunk_info[:C]
-            bad = chunks[:, _k.CI_BAD]
+            bad = chunks[:, _kbatch.CI_BAD]
             if bad.max() >= 0:
                 w = int(bad[bad >= 0].min())
                 raise_pose_error(int(world_info[w, 0]), int(world_info[w, 1]), f"world {w}, ")
-            need_bp = int(chunks[:, _k.CI_NEED].max())
-            need = int(chunks[:, _k.CI_KEYS].max())
+            need_bp = int(chunks[:, _kbatch.CI_NEED].max())
+            need = int(chunks[:, _kbatch.CI_KEYS].max())
             if need_bp > 0:  # never drop a pair: grow and rerun
                 self.set_buffers(2 * need_bp, bt["keys"].shape[1])
             elif need > bt["keys"].shape[1]:
@@ -159,7 +162,7 @@ class Batch:
         C = bt["ctx"].shape[0]
         bt["bp"] = np.empty((C, max(1, body_pairs), 2), np.int64)
         bt["keys"] = np.empty((C, max(1, keys)), np.int64)
-        bt["scr"] = np.empty((C, _k.scratch_size(self.geom_count, bt["keys"].shape[1])), np.int64)
+        bt["scr"] = np.empty((C, _kkeys.scratch_size(self.geom_count, bt["keys"].shape[1])), np.int64)
         for c in range(C):
-            _k.context(self.I, self.F, bt["W"][c], bt["sap"][c], bt["bp"][c], bt["keys"][c], bt["scr"][c],
+            _kstep.context(self.I, self.F, bt["W"][c], bt["sap"][c], bt["bp"][c], bt["keys"][c], bt["scr"][c],
                        bt["stats"][c], bt["info"][c], out=bt["ctx"][c])

@@ -13,6 +13,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .._kernels import broadphase as _k
+from .._kernels import bounds as _kbounds
 from ..articulation import Articulation
 
 __all__ = ["WorldBounds", "check_pose_values", "raise_pose_error", "world_bounds", "world_planes"]
@@ -57,13 +58,13 @@ def raise_pose_error(status: int, body: int, where: str = "") -> None:
     if status == _k.BAD_NONFINITE:
         raise ValueError(f"{where}body {body}: pose has a non-finite value (NaN or inf)")
     if status == _k.BAD_RANGE:
-        raise ValueError(f"{where}body {body}: position beyond {_k.MAX_POSITION:g} (the coordinate limit)")
+        raise ValueError(f"{where}body {body}: position beyond {_kbounds.MAX_POSITION:g} (the coordinate limit)")
     raise ValueError(f"{where}body {body}: rotation is not a proper orthonormal matrix "
-                     f"(|R^T R - I| > {_k.ORTHO_TOL:g} or det <= 0)")
+                     f"(|R^T R - I| > {_kbounds.ORTHO_TOL:g} or det <= 0)")
 
 
 def check_pose_values(body_pos: np.ndarray, body_rot: np.ndarray, where: str = "") -> None:
-    """Raise ``ValueError`` naming the first body whose pose the kernel refuses (`_k._pose_ok`).
+    """Raise ``ValueError`` naming the first body whose pose the kernel refuses (`_kbounds._pose_ok`).
 
     Parameters
     ----------
@@ -74,9 +75,9 @@ def check_pose_values(body_pos: np.ndarray, body_rot: np.ndarray, where: str = "
     """
     finite = np.isfinite(body_pos).all(axis=1) & np.isfinite(body_rot).all(axis=(1, 2))
     with np.errstate(invalid="ignore", over="ignore"):
-        near = (np.abs(body_pos) <= _k.MAX_POSITION).all(axis=1)
+        near = (np.abs(body_pos) <= _kbounds.MAX_POSITION).all(axis=1)
         err = np.abs(np.einsum("lji,ljk->lik", body_rot, body_rot) - np.eye(3)).max(axis=(1, 2), initial=0.0)
-        ok = finite & near & (err <= _k.ORTHO_TOL) & (np.linalg.det(body_rot) > 0)
+        ok = finite & near & (err <= _kbounds.ORTHO_TOL) & (np.linalg.det(body_rot) > 0)
     if not ok.all():
         b = int(np.flatnonzero(~ok)[0])
         status = _k.BAD_NONFINITE if not finite[b] else _k.BAD_RANGE if not near[b] else _k.BAD_ROTATION
@@ -90,26 +91,26 @@ def world_planes(rot: np.ndarray, pos: np.ndarray, local: np.ndarray,
     Parameters
     ----------
     rot : (n, 3, 3) float64
-        Proper, not necessarily orthonormal (poses are accepted within ``_k.ORTHO_TOL``).
+        Proper, not necessarily orthonormal (poses are accepted within ``_kbounds.ORTHO_TOL``).
     pos : (n, 3) float64
     local : (n, 4) float64
         Local unit normal and offset.
     slack : bool, default True
         Grow the offset by the kernels' rounding slack of the body position (``SLACK_POS |p|_1``),
-        as `_k.plane_world` does; False: the plane itself, up to rounding.
+        as `_kbounds.plane_world` does; False: the plane itself, up to rounding.
 
     Returns
     -------
     normal : (n, 3) float64
     offset : (n,) float64
         ``n`` along ``R^-T n_local``: the image of the plane under the map as given (the kernels'
-        `_k.plane_world`, with a linear solve instead of the cofactors).
+        `_kbounds.plane_world`, with a linear solve instead of the cofactors).
     """
     w = np.linalg.solve(np.swapaxes(rot, 1, 2), local[:, :3, None])[:, :, 0]
     norm = np.linalg.norm(w, axis=1)
     normal = w / norm[:, None]
     offset = local[:, 3] / norm + np.einsum("ni,ni->n", normal, pos)
-    return normal, offset + (_k.SLACK_POS * np.abs(pos).sum(axis=1) if slack else 0.0)
+    return normal, offset + (_kbounds.SLACK_POS * np.abs(pos).sum(axis=1) if slack else 0.0)
 
 
 def world_bounds(a: Articulation, body_pos: np.ndarray, body_rot: np.ndarray, of: str,
@@ -133,13 +134,13 @@ def world_bounds(a: Articulation, body_pos: np.ndarray, body_rot: np.ndarray, of
     c = np.einsum("nij,nj->ni", R, center) + p
     obb_rot = R @ rot
     s = np.einsum("nij,nj->ni", R, sc) + p
-    # The kernel's slack (`_k.aabb_slack`, `_k.capsule_half`, and the sphere test's): rounding
+    # The kernel's slack (`_kbounds.aabb_slack`, `_kbounds.capsule_half`, and the sphere test's): rounding
     # never lets a shape's point out.
     w = np.abs(obb_rot) @ half[:, :, None]
-    w = w[:, :, 0] + (_k.SLACK_REL * half.sum(1) + _k.SLACK_POS * np.abs(c).sum(1))[:, None]
-    rs = (sr + _k.SLACK_REL * sr + _k.SLACK_POS * np.abs(s).sum(1))[:, None]
+    w = w[:, :, 0] + (_kbounds.SLACK_REL * half.sum(1) + _kbounds.SLACK_POS * np.abs(c).sum(1))[:, None]
+    rs = (sr + _kbounds.SLACK_REL * sr + _kbounds.SLACK_POS * np.abs(s).sum(1))[:, None]
     e = np.abs(np.einsum("nij,nj->ni", R, cap_half))
-    wc = e + (cap_r + _k.SLACK_REL * (e.sum(1) + cap_r) + _k.SLACK_POS * np.abs(c).sum(1))[:, None]
+    wc = e + (cap_r + _kbounds.SLACK_REL * (e.sum(1) + cap_r) + _kbounds.SLACK_POS * np.abs(c).sum(1))[:, None]
     lo = np.maximum(np.maximum(c - w, s - rs), c - wc)
     hi = np.minimum(np.minimum(c + w, s + rs), c + wc)
     plane = np.zeros((len(ids), 4))

@@ -15,7 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._kernels import broadphase as _k
+from .._kernels import culling as _kcull
+from .._kernels import keys as _kkeys
+from .._kernels import layout as _layout
 from .._kernels import lanes as _lanes
 from ..articulation import Articulation
 
@@ -81,7 +83,7 @@ class StaticFilter:
 def _local_rows(center, rot, half, sc, sr) -> np.ndarray:
     # (n, ROW) bounds rows (`_kernels.layout.ROW`) from the articulation's local OBBs and spheres
     n = len(center)
-    rows = np.empty((n, _k.ROW))
+    rows = np.empty((n, _layout.ROW))
     rows[:, 0:3] = center
     rows[:, 3:12] = rot.reshape(n, 9)
     rows[:, 12:15] = half
@@ -146,7 +148,7 @@ def model_tables(a: Articulation) -> tuple[dict, dict, StaticFilter]:
     ex = np.concatenate([ex, ex[:, ::-1]]).astype(i64)
     ex = ex[np.lexsort((ex[:, 1], ex[:, 0]))]
     ex_start = np.searchsorted(ex[:, 0], np.arange(Lp + 1)).astype(i64)
-    S = _k.key_shift(G)
+    S = _kkeys.key_shift(G)
     pair_keys = (a.pairs[:, 0].astype(i64) << S) | a.pairs[:, 1]
     filt = StaticFilter(has_bounds, weld, contype, conaffinity, parent_pos, a.filter_parent, ex_start, ex[:, 1],
                         a.geom_contype, a.geom_conaffinity, pair_keys, S)
@@ -194,7 +196,7 @@ def static_masks(f: StaticFilter, gstart, pgeoms) -> np.ndarray:
     their count. Zeros beyond MASK_MAX positions."""
     L = len(f.has_bounds)
     out = np.zeros(L + 1, np.uint64)
-    if L > _k.MASK_MAX:
+    if L > _kcull.MASK_MAX:
         return out.view(np.int64)
     p, q = np.triu_indices(L, 1)
     ok = f.bodies(p, q)

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from .._kernels import broadphase as _k
+from .._kernels import bounds as _k
 from ..articulation import Articulation
 from ..broadphase import check_pose_values, world_planes
 

@@ -28,7 +28,7 @@ into a temporary cache folder: each run takes a few minutes before it samples an
 x86-64 processor (the disassembly). Session 27 (2026-11-27, AMD EPYC, humanoid, 1024 worlds, one
 thread, before `_simd.aabb_merge8` lost its masked stores): 62 % of the compiled code's samples in
 `lanes._group`, 35 % in the parallel loop of `kinematics.step_lanes_kin` (the lane kinematics,
-inlined there), 1.9 % in `broadphase.gather_batch`; in `_group`, the merge's stretches 8 % and the
+inlined there), 1.9 % in `batch.gather_batch`; in `_group`, the merge's stretches 8 % and the
 walk's box test with its branch 5 %, nothing else above 3 %. Session 33 (2026-11-28, Intel Xeon, after
 the bounds' fused dot products): the same batch 70 % `_group`, 28 % the kinematics; 22 humanoids with
 ``--replay`` (49.6 us a call, the poses' copy included), 67 % `broadphase._world` (the placing of the

@@ -18,7 +18,7 @@ among ours).
 
 The floor: the same loop again (same controls) with a `BroadPhase` whose ``pairs(data)`` keeps the
 Python wrapper and a compiled call made as ours is made (the compiled function's entry point, past
-numba's dispatcher: `collide._kernels.broadphase.step_bound`) and returns the last result's array
+numba's dispatcher: `collide._kernels.step.step_bound`) and returns the last result's array
 as ours does on a step whose pairs did not change, but does no work (`_Floor`). After
 ``mj_step`` that costs 0.6-4 us on the AMD machine's models under 30 bodies and 5-7 us on 22
 humanoids (2026-11-28 runs; code and data the engine's step evicted): no kernel behind a Python
@@ -79,7 +79,7 @@ def _no_op(addr):
 
 
 # Called as `pairs(data)` calls the kernel: through the compiled function's entry point, not the
-# dispatcher (`collide._kernels.broadphase.step_bound`). Through the dispatcher the floor read
+# dispatcher (`collide._kernels.step.step_bound`). Through the dispatcher the floor read
 # 1.4 us more on humanoid and 8 us more on 22 humanoids after mj_step (a no-op timed both ways in
 # the loop, AMD EPYC, 2026-11-28): more than our call pays.
 _no_op_entry = _no_op.overloads[_no_op.signatures[0]].entry_point

@@ -3,7 +3,7 @@
     python tests/bench/reuse.py [SCENE ...] [--steps N] > tests/bench/reuse.<machine>.txt
 
 When a step's pairs are those of the last call that found any, the kernel writes no rows and
-``pairs(data)`` returns that call's array again (`collide._kernels.broadphase.RET_SAME`); before,
+``pairs(data)`` returns that call's array again (`collide._kernels.step.RET_SAME`); before,
 every call made a new numpy view of new rows. Here both run in one simulation loop (the controls
 of `collide.mujoco.compare`, seed 0), each step timing one of them right after ``mj_step``, in turn:
 ours, and a subclass that makes a new view of the same rows on every call, as the code before did
@@ -29,7 +29,7 @@ import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
 import collide.mujoco as cm  # noqa: E402
-from collide._kernels import broadphase as _k  # noqa: E402
+from collide._kernels import step as _k  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mujoco_models import MODELS, _cpu  # noqa: E402
