@@ -10,11 +10,14 @@ origin; here ``ρ <= |x|`` (the body-frame distance from the origin), so each bo
 Per geom, from the broad phase's own bounds rows (`layout.F_GLOCAL`, `F_GCAP`, inflated by the
 margins exactly as a single step inflates them):
 
-- its **swept AABB**: the union of its world AABBs at ``s = 0`` and ``s = 1`` (each the OBB's and the
-  capsule's, as `bounds._world_aabb` and `bounds._cap_aabb` make them) grown by ``ρ k``, with ``ρ``
-  the farthest body-frame point of that volume (``|centre| + |half extents|``, ``|centre| + |half
-  segment| + radius``). Every chord point lies in the union's box, so the grown box holds every
-  position of the volume during the step, and every AABB a single step computes at any ``s``;
+- its **swept AABB**: the union of its OBB's world AABBs at ``s = 0`` and ``s = 1``
+  (`bounds._world_aabb`) grown by ``ρ k``, cut to the same of its capsule's (`bounds._cap_aabb`),
+  with ``ρ`` the farthest body-frame point of either volume (``|centre| + |half extents|``,
+  ``|centre| + |half segment| + radius``). Every chord point lies in the union's box, so each grown
+  box holds every position of its volume during the step, and the cut holds every AABB (the OBB's
+  cut to the capsule's) a single step computes at any ``s``. (The union of the ends' cut boxes
+  does not: where the OBB's box is the tighter at one end and the capsule's at the other, the cut
+  in between can be wider than both);
 - its **sphere's centre** at both ends and that centre's deviation ``|c| k``. Two geoms may meet at
   time ``s`` only if ``|ℓa(s) - ℓb(s)| <= ra + rb + ma + mb + |ca| ka + |cb| kb``; ``ℓa - ℓb`` is
   linear in ``s``, so its smallest norm on ``[0, 1]`` is one projection (a continuous sphere test,
@@ -67,7 +70,7 @@ Y_BOX = YWORK.field("box", "G, 6")  # swept AABB (lo, hi) of each solid geom
 Y_SPH = YWORK.field("sph", "G, 9")  # sphere centre at s = 0 (3) and s = 1 (3), radius, centre deviation, reach δ
 Y_ROW = YWORK.field("row", "G, ROW")  # world bounds rows at s = 1
 Y_ROW0 = YWORK.field("row0", "1, ROW")  # scratch row (s = 0)
-Y_TMP = YWORK.field("tmp", "2, 6")  # scratch boxes
+Y_TMP = YWORK.field("tmp", "4, 6")  # scratch boxes: the OBB's at s = 0, 1, the capsule's at s = 0, 1
 Y_PLANE = YWORK.field("plane", "max(Q, 1), 4")  # a fixed plane's world (n, e); e = nan: its body moved
 H_G, H_GS, H_NB, H_Q, H_S = range(5)  # X's header: the counts, and S of the pair keys (`keys.key_shift`)
 
@@ -117,13 +120,16 @@ def _geom_sweep(g, b, pos0, rot0, pos1, rot1, glocal, gcap, m, body, box, sph, r
         h0, h1, h2 = capsule_half(r[b, 0, 0], r[b, 0, 1], r[b, 0, 2], r[b, 1, 0], r[b, 1, 1], r[b, 1, 2],
                                   r[b, 2, 0], r[b, 2, 1], r[b, 2, 2], gcap[g, 0], gcap[g, 1], gcap[g, 2],
                                   gcap[g, 3] + m, w[0], w[1], w[2])
-        # the OBB's box cut to the capsule's, as a single step cuts it (`bounds._cap_aabb`)
-        tmp[t, 0] = max(tmp[t, 0], w[0] - h0)
-        tmp[t, 1] = max(tmp[t, 1], w[1] - h1)
-        tmp[t, 2] = max(tmp[t, 2], w[2] - h2)
-        tmp[t, 3] = min(tmp[t, 3], w[0] + h0)
-        tmp[t, 4] = min(tmp[t, 4], w[1] + h1)
-        tmp[t, 5] = min(tmp[t, 5], w[2] + h2)
+        # the capsule's box apart (rows 2, 3): a single step cuts the OBB's box to it
+        # (`bounds._cap_aabb`), but the cut of an intermediate time is not inside the union of the
+        # ends' cuts (the OBB's the tighter at one end, the capsule's at the other, neither in
+        # between): each box is swept on its own and the two swept boxes are cut
+        tmp[2 + t, 0] = w[0] - h0
+        tmp[2 + t, 1] = w[1] - h1
+        tmp[2 + t, 2] = w[2] - h2
+        tmp[2 + t, 3] = w[0] + h0
+        tmp[2 + t, 4] = w[1] + h1
+        tmp[2 + t, 5] = w[2] + h2
         sph[g, 3 * t] = w[15]
         sph[g, 3 * t + 1] = w[16]
         sph[g, 3 * t + 2] = w[17]
@@ -136,9 +142,12 @@ def _geom_sweep(g, b, pos0, rot0, pos1, rot1, glocal, gcap, m, body, box, sph, r
     # the reach δ: every point x of the volumes stays within |(R(s) - R1) x| + |t(s) - t1| <=
     # |x| min(θ, 2) + |t1 - t0| of its place at s = 1 (a chord of the turn, at most the arc)
     reach = (rho * body[b, 2] + body[b, 3]) * (1.0 + SLACK_REL)
+    # (the end box at s = 1, cut, grown by δ: each of its two boxes' points moves at most δ)
     for i in range(3):
-        box[g, i] = max(min(tmp[0, i], tmp[1, i]) - d, tmp[1, i] - reach)
-        box[g, 3 + i] = min(max(tmp[0, 3 + i], tmp[1, 3 + i]) + d, tmp[1, 3 + i] + reach)
+        lo = max(min(tmp[0, i], tmp[1, i]), min(tmp[2, i], tmp[3, i])) - d
+        hi = min(max(tmp[0, 3 + i], tmp[1, 3 + i]), max(tmp[2, 3 + i], tmp[3, 3 + i])) + d
+        box[g, i] = max(lo, max(tmp[1, i], tmp[3, i]) - reach)
+        box[g, 3 + i] = min(hi, min(tmp[1, 3 + i], tmp[3, 3 + i]) + reach)
     sph[g, 6] = glocal[g, 18]
     sph[g, 7] = _norm3(glocal[g, 15], glocal[g, 16], glocal[g, 17]) * body[b, 0]
     sph[g, 8] = reach

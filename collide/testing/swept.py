@@ -56,7 +56,7 @@ def _swept_geoms(art: Articulation, pos0, rot0, pos1, rot1, tol):
     G = art.geom_count
     m = art.geom_bound_margin
     b = art.geom_body
-    boxes = []
+    boxes = []  # per end: the OBB's world AABB, then the capsule's (swept apart, then cut)
     ends = []
     for R, p in ((rot0, pos0), (rot1, pos1)):
         Rb, pb = R[b], p[b]
@@ -69,17 +69,18 @@ def _swept_geoms(art: Articulation, pos0, rot0, pos1, rot1, tol):
         r = art.geom_capsule_radius + m
         tc = SLACK_REL * (d.sum(1) + r) + SLACK_POS * np.abs(c).sum(1)
         hc = d + (r + tc)[:, None]
-        boxes.append(np.concatenate([np.maximum(c - h, c - hc), np.minimum(c + h, c + hc)], axis=1))
+        boxes.append((np.concatenate([c - h, c + h], axis=1), np.concatenate([c - hc, c + hc], axis=1)))
         ends.append(np.einsum("gij,gj->gi", Rb, art.geom_sphere_center) + pb)
     cn = np.linalg.norm(art.geom_obb_center, axis=1)
     rho = np.maximum(cn + np.linalg.norm(art.geom_obb_half + m[:, None], axis=1),
                      cn + np.linalg.norm(art.geom_capsule_half, axis=1) + art.geom_capsule_radius + m)
     dev = rho * k[b] * (1.0 + SLACK_REL) + tol
     reach = (rho * turn[b] + shift[b]) * (1.0 + SLACK_REL)
-    box = np.concatenate([np.maximum(np.minimum(boxes[0][:, :3], boxes[1][:, :3]) - dev[:, None],
-                                     boxes[1][:, :3] - (reach + tol)[:, None]),
-                          np.minimum(np.maximum(boxes[0][:, 3:], boxes[1][:, 3:]) + dev[:, None],
-                                     boxes[1][:, 3:] + (reach + tol)[:, None])], axis=1)
+    (o0, c0), (o1, c1) = boxes
+    lo = np.maximum(np.minimum(o0[:, :3], o1[:, :3]), np.minimum(c0[:, :3], c1[:, :3])) - dev[:, None]
+    hi = np.minimum(np.maximum(o0[:, 3:], o1[:, 3:]), np.maximum(c0[:, 3:], c1[:, 3:])) + dev[:, None]
+    box = np.concatenate([np.maximum(lo, np.maximum(o1[:, :3], c1[:, :3]) - (reach + tol)[:, None]),
+                          np.minimum(hi, np.minimum(o1[:, 3:], c1[:, 3:]) + (reach + tol)[:, None])], axis=1)
     cdev = np.linalg.norm(art.geom_sphere_center, axis=1) * k[b]
     assert box.shape == (G, 6)
     return box, np.stack(ends, axis=1), art.geom_sphere_radius, cdev, same, reach
