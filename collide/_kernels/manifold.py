@@ -119,6 +119,58 @@ def _polytope(t):
 
 
 @njit(cache=True)
+def _scratch(pts_num, f_vnum):
+    # `collide_pairs`' scratch, allocated once a call: sized by the most support points of a geom
+    # (plane contacts of a convex geom) and the most vertices of a hull face (clipped faces).
+    cap = 1
+    for g in range(pts_num.shape[0]):
+        if pts_num[g] > cap:
+            cap = pts_num[g]
+    fmax = 4
+    for f in range(f_vnum.shape[0]):
+        if f_vnum[f] > fmax:
+            fmax = f_vnum[f]
+    cand = np.empty((cap, 3))
+    dep = np.empty(cap)
+    sel = np.zeros(4, np.int64)
+    res = np.empty((MAX_PER_PAIR, 4))
+    bnrm = np.empty(3)
+    bws = np.empty(BOX_WS)
+    seg = np.empty((2, 3))
+    pcand = np.empty((fmax, 3))
+    pdep = np.empty(fmax)
+    face1 = np.empty((fmax, 3))
+    face2 = np.empty((fmax, 3))
+    poly = np.empty((2 * fmax + 8, 3))
+    tmp = np.empty((2 * fmax + 8, 3))
+    cand1 = np.empty(32, np.int64)
+    cand2 = np.empty(32, np.int64)
+    cnrm1 = np.empty((32, 3))
+    cnrm2 = np.empty((32, 3))
+    pa = np.empty(3)
+    pb = np.empty(3)
+    nv = np.empty(3)
+    out = np.empty(OUT_SIZE)
+    d0 = np.zeros(3)
+    return (cand, dep, sel, res, bnrm, bws, seg, pcand, pdep, face1, face2, poly, tmp, cand1, cand2, cnrm1, cnrm2,
+            pa, pb, nv, out, d0)
+
+
+@njit(cache=True)
+def _pair_rows(pair_key, key):
+    # The explicit pairs of the geom pair ``key`` (``lo * G + hi``): their first row in the sorted
+    # ``pair_key``, how many, and whether there is one (else one entry, the geoms' own margins).
+    P = pair_key.shape[0]
+    j = np.searchsorted(pair_key, key) if P > 0 else 0
+    nent = 1
+    explicit = j < P and pair_key[j] == key
+    if explicit:
+        while j + nent < P and pair_key[j + nent] == key:
+            nent += 1
+    return j, nent, explicit
+
+
+@njit(cache=True)
 def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, pts_num, nbr_start,
                   nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, rbound, size, geom_margin, geom_gap,
                   pair_key, pair_margin, pair_gap, override, o_margin, gtype, half, hv_adr, hv_num, hv, f_adr, f_num,
@@ -181,38 +233,9 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
         Contacts written; ``-(8 g + ERR_POSE) - 1`` for a non-finite pose of geom ``g``.
     """
     G = cls.shape[0]
-    P = pair_key.shape[0]
+    (cand, dep, sel, res, bnrm, bws, seg, pcand, pdep, face1, face2, poly, tmp, cand1, cand2, cnrm1, cnrm2, pa, pb,
+     nv, out, d0) = _scratch(pts_num, f_vnum)
     k = 0
-    cap = 1
-    for g in range(G):
-        if pts_num[g] > cap:
-            cap = pts_num[g]
-    cand = np.empty((cap, 3))
-    dep = np.empty(cap)
-    sel = np.zeros(4, np.int64)
-    res = np.empty((MAX_PER_PAIR, 4))
-    bnrm = np.empty(3)
-    bws = np.empty(BOX_WS)
-    seg = np.empty((2, 3))
-    fmax = 4
-    for f in range(f_vnum.shape[0]):
-        if f_vnum[f] > fmax:
-            fmax = f_vnum[f]
-    pcand = np.empty((fmax, 3))
-    pdep = np.empty(fmax)
-    face1 = np.empty((fmax, 3))
-    face2 = np.empty((fmax, 3))
-    poly = np.empty((2 * fmax + 8, 3))
-    tmp = np.empty((2 * fmax + 8, 3))
-    cand1 = np.empty(32, np.int64)
-    cand2 = np.empty(32, np.int64)
-    cnrm1 = np.empty((32, 3))
-    cnrm2 = np.empty((32, 3))
-    pa = np.empty(3)
-    pb = np.empty(3)
-    nv = np.empty(3)
-    out = np.empty(OUT_SIZE)
-    d0 = np.zeros(3)
     for p in range(pairs.shape[0]):
         g1 = pairs[p, 0]
         g2 = pairs[p, 1]
@@ -230,15 +253,7 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
             return -(8 * g2 + ERR_POSE) - 1
         # the pair's margin and gap: an explicit pair's own, else the geoms' sums; a geom pair
         # listed in several <pair>s is collided once for each, with its own (as MuJoCo does)
-        lo = min(g1, g2)
-        hi = max(g1, g2)
-        key = lo * G + hi
-        j = np.searchsorted(pair_key, key) if P > 0 else 0
-        nent = 1
-        explicit = j < P and pair_key[j] == key
-        if explicit:
-            while j + nent < P and pair_key[j + nent] == key:
-                nent += 1
+        j, nent, explicit = _pair_rows(pair_key, min(g1, g2) * G + max(g1, g2))
         for e in range(nent):
             if explicit:
                 margin = pair_margin[j + e]

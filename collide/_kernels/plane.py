@@ -5,8 +5,9 @@ from the support point along ``-n`` (``h_K(-n)``), and the contacts follow the r
 geom's type (`RULE_*`, `collide.contacts.GeomTable.rule`):
 
 * `RULE_POINTS`, `RULE_VERTICES`: each core point of a sphere or capsule (a capsule's two end
-  spheres), or the corners of a box that lie within the contact distance on its side of the
-  centre facing the plane; at most 4 (`reduce_four`), as MuJoCo's plane-box;
+  spheres), or the vertices of a box (those on its side of the centre facing the plane) or of a
+  mesh without hull faces, within the contact distance; at most 4 (`reduce_four`), as MuJoCo's
+  plane-box;
 * `RULE_CYLINDER`: the four points MuJoCo's plane-cylinder test places (the rim points nearest
   the plane on both caps and two more on the nearer cap's rim, at 120 degrees);
 * `RULE_SUPPORT`: the single support point;
