@@ -193,10 +193,12 @@ def test_bad_input_is_named_and_the_object_still_works():
     skew[2] *= 1.1
     with pytest.raises(ValueError, match="start pose, body 2.*rotation"):
         bp.pairs_swept(p0, skew, p1, r1)
-    with pytest.raises(ValueError, match="body_pos"):
+    with pytest.raises(ValueError, match="body_pos0: expected shape"):
         bp.pairs_swept(p0[:-1], r0, p1, r1)
-    with pytest.raises(ValueError, match="body_rot"):
+    with pytest.raises(ValueError, match="body_rot1: expected shape"):
         bp.pairs_swept(p0, r0, p1, r1[:, :2])
+    with pytest.raises(ValueError, match="body_pos1: expected a float array"):
+        bp.pairs_swept(p0, r0, p1.astype(int), r1)
     P0, R0 = scene.poses(rng, worlds=3)
     P1, R1 = scene.poses(rng, worlds=3)
     P1[2, 4, 0] = np.inf
@@ -204,6 +206,8 @@ def test_bad_input_is_named_and_the_object_still_works():
         bp.pairs_swept_batch(P0, R0, P1, R1)
     with pytest.raises(ValueError, match="worlds"):
         bp.pairs_swept_batch(P0, R0, P1[:2], R1[:2])
+    with pytest.raises(ValueError, match="body_rot1: expected shape"):
+        bp.pairs_swept_batch(P0, R0, P1, R1[:2])
     np.testing.assert_array_equal(bp.pairs_swept(p0, r0, p1, r1), good)
 
 

@@ -93,10 +93,21 @@ class SweptPairs:
         check_pose_values(pos, rot, f"{where}{'start' if t == 0 else 'end'} pose, ")  # its first bad body is b
         raise ValueError(f"{where}body {b}: {'start' if t == 0 else 'end'} pose refused")  # not reached
 
+    def _check_end(self, pos, rot, lead: tuple, t: int):
+        # `BroadPhase._check`, its message naming the argument (body_pos0 or body_pos1, ...)
+        try:
+            return self._check(pos, rot, lead)
+        except ValueError as exc:
+            msg = str(exc)
+            for name in ("body_pos", "body_rot"):
+                if msg.startswith(name + ":"):
+                    msg = f"{name}{t}{msg[len(name):]}"
+            raise ValueError(msg) from None
+
     def pairs(self, pos0, rot0, pos1, rot1) -> np.ndarray:
         """See `BroadPhase.pairs_swept` (the caller holds the lock)."""
-        pos0, rot0 = self._check(pos0, rot0, ())
-        pos1, rot1 = self._check(pos1, rot1, ())
+        pos0, rot0 = self._check_end(pos0, rot0, (), 0)
+        pos1, rot1 = self._check_end(pos1, rot1, (), 1)
         while True:
             k = _ks.swept_world(pos0, rot0, pos1, rot1, self._I, self._F, self._X, self._XW, self._Y, self._keys,
                                 self._out)
@@ -116,8 +127,8 @@ class SweptPairs:
         B = pos0.shape[0]
         if pos1.shape[0] != B:
             raise ValueError(f"body_pos1: {pos1.shape[0]} worlds, body_pos0 has {B}")
-        pos0, rot0 = self._check(pos0, rot0, (B,))
-        pos1, rot1 = self._check(pos1, rot1, (B,))
+        pos0, rot0 = self._check_end(pos0, rot0, (B,), 0)
+        pos1, rot1 = self._check_end(pos1, rot1, (B,), 1)
         T = max(1, min(numba.get_num_threads(), B))
         XWs = np.zeros((T, self._XW.size), np.int64)
         Ys = np.zeros((T, self._Y.size))
