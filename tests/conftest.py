@@ -27,6 +27,11 @@ SLOW: dict[str, frozenset[str]] = {
         "test_compare_on_a_model_file",            # 200 steps of the humanoid
         "test_demo_runs_without_a_gl_backend",     # the MuJoCo demo in a fresh process
     }),
+    "test_check.py": frozenset({
+        "test_in_collision_is_mujocos",                  # 300 configurations of each real model against MuJoCo
+        "test_in_collision_is_the_contacts_of_each_configuration",  # 120 of each, one MjData at a time
+        "test_min_distance_is_the_brute_force_minimum",  # a Python call per filtered pair, each real model
+    }),
     "test_obb_exact.py": frozenset({
         "test_model_meshes",                       # the exact OBB of every mesh of the real models
     }),

@@ -32,7 +32,9 @@ import numpy as np
 
 from ._quat import _qmat, _qmul
 from ._threads import fetch_add, set_chunksize
+from .gjk import OVERLAP, SEPARATED, gjk
 from .kinematics import _kinematics_world
+from .support import POINTS
 from .manifold import (BOX_WS, MAX_PER_PAIR, OUT_DISTANCE, OUT_SIZE, PLANE, SKIPPED, T_BOX, T_MESH,
                        _finite_pose, _shape, box_box, pair_distance, pair_signed_distance, plane_convex,
                        plane_mesh)
@@ -80,13 +82,20 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, kind, prm, pts, pts_ad
                     nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, rbound, size, geom_margin, geom_gap,
                     pair_key, pair_margin, pair_gap, override, o_margin, gtype, half, hv_adr, hv_num, hv, f_adr,
                     f_num, f_normal, f_offset, f_vadr, f_vnum, f_vidx, cand, dep, sel, res, bnrm, bws, pcand, pdep,
-                    out, d0):
+                    out, d0, gws, g4, hints):
     """Whether MuJoCo would make an active contact for the pair ``(g1, g2)`` at these poses.
 
     The pair's contacts are those of `collide._kernels.manifold.collide_pairs` (same branches,
     same functions, same thresholds); only their deepest ``dist`` is kept, which is all that
     decides whether a contact is active: a face manifold's deepest point is the pair's exact
-    distance (`polytope_contacts` sets it so), so the manifold is not built.
+    distance (`polytope_contacts` sets it so), so the manifold is not built. Two convex geoms
+    (not two boxes) are first decided by GJK alone, on its certified bounds: cores that GJK
+    finds overlapping within its tolerance (``1e-12`` of the two sizes, as
+    `collide._kernels.distance.pair_distance` uses) make an active contact (no EPA: the depth is
+    not needed), a lower bound beyond the contact distance none, an upper bound below the margin
+    an active one; only a pair within the tolerance of a threshold, or a stalled GJK, runs the
+    full signed distance. So a pair touching within that tolerance may count as active where
+    `collide_pairs` finds it ``1e-12`` of the sizes apart: the tolerance of the answer.
 
     Parameters
     ----------
@@ -96,8 +105,9 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, kind, prm, pts, pts_ad
     xmat : (G, 3, 3) float64
     cls ... f_vidx
         The per-geom tables, as `collide._kernels.manifold.collide_pairs` takes them.
-    cand, dep, sel, res, bnrm, bws, pcand, pdep, out, d0
-        Scratch (`check_worlds` sizes them).
+    cand, dep, sel, res, bnrm, bws, pcand, pdep, out, d0, gws, g4, hints
+        Scratch (`check_worlds` sizes them; ``gws (4, 4, 3)``, ``g4 (2, 4)`` and ``hints (2,) int64``
+        GJK's).
 
     Returns
     -------
@@ -164,7 +174,33 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, kind, prm, pts, pts_ad
                             nbr_adr, nbr_num, xpos, xmat)
                 s2 = _shape(g2, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
                             nbr_adr, nbr_num, xpos, xmat)
-                pair_distance(s1, s2, 1e-12 * (size[g1] + size[g2]), d0, -1, -1, 128, out)
+                tol = 1e-12 * (size[g1] + size[g2])
+                r = prm[g1, 3] + prm[g2, 3]
+                if kind[g1] == POINTS and kind[g2] == POINTS and pts_num[g1] <= 2 and pts_num[g2] <= 2:
+                    # spheres and capsules: pair_distance's closed form (no iteration) decides
+                    pair_distance(s1, s2, tol, d0, -1, -1, 128, out)
+                    d = out[OUT_DISTANCE]
+                    if d <= thr:
+                        if d < margin:
+                            return ACTIVE
+                        found = IN_GAP
+                    continue
+                hints[0] = -1
+                hints[1] = -1
+                gws[:] = 0.0  # a fresh simplex, as pair_distance starts from
+                g4[:] = 0.0
+                st, nsx, lower, scale, iters = gjk(s1, s2, d0, hints, tol, 128, gws[0], gws[1], gws[2], g4[0],
+                                                   gws[3, 0], g4[1], gws[3, 1], gws[3, 2])
+                if st == OVERLAP:
+                    return ACTIVE  # cores within tol of touching: d <= tol - r
+                if st == SEPARATED:
+                    if lower - r > thr:
+                        continue  # certainly no contact
+                    v = gws[3, 0]
+                    upper = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])  # |v|: a point of A - B
+                    if upper - r < margin and upper - r <= thr:
+                        return ACTIVE
+                pair_distance(s1, s2, tol, d0, -1, -1, 128, out)
                 d = out[OUT_DISTANCE]
         if d <= thr:  # a contact is made (collide_pairs' rule) ...
             if d < margin:  # ... and active: MuJoCo's exclude == 0
@@ -265,6 +301,9 @@ def check_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, bod
         out = np.empty(OUT_SIZE)
         out7 = np.empty(7)
         d0 = np.zeros(3)  # GJK's first direction: the centres' difference
+        gws = np.zeros((4, 4, 3))  # GJK's W, WA, WB (4, 3), then v, pa, pb (3,)
+        g4 = np.zeros((2, 4))  # GJK's lam, dirn
+        hints = np.empty(2, np.int64)
         lb = np.empty(P if want_distance else 0)
         while True:
             c = fetch_add(addr, 1)
@@ -294,7 +333,7 @@ def check_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, bod
                                         size, geom_margin, geom_gap, pair_key, pair_margin, pair_gap, override,
                                         o_margin, gtype, half, hv_adr, hv_num, hv, f_adr, f_num, f_normal,
                                         f_offset, f_vadr, f_vnum, f_vidx, cand, dep, sel, res, bnrm, bws, pcand,
-                                        pdep, out, d0)
+                                        pdep, out, d0, gws, g4, hints)
                     if a == ACTIVE:
                         hit = True
                         break  # the early exit: one active contact decides

@@ -7,8 +7,9 @@ Per scene in ../shared/models, ``N`` random configurations inside the joint limi
 (`collide.testing.random_configurations`, seed 0), in the same run:
 
 * ours: ``Collider.check_batch(qpos)`` (one call, ``T`` numba threads), its wall time per
-  configuration (the best of ``R`` calls), and with ``distance=True`` (one call); the batch broad
-  phase alone (``BroadPhase.pairs_batch``, a part of ours) and the batch kinematics alone
+  configuration (the best of ``R`` calls), and with ``distance=True`` (one call); its narrow
+  phase's share (ours less the same call on a one-geom subset, where no pair is left to decide);
+  the batch broad phase alone (``BroadPhase.pairs_batch``, a part of ours) and the batch kinematics alone
   (``kinematics_batch``, for scale);
 * MuJoCo's loop, what a Python user pays today: ``data.qpos[:] = q; mj_kinematics; mj_collision``
   per configuration, its wall time per configuration;
@@ -77,6 +78,10 @@ def bench_scene(name: str, n: int, reps: int) -> dict:
     t0 = time.perf_counter()
     col.check_batch(q, distance=True)
     ours_dist = time.perf_counter() - t0
+    # no pair passes a one-geom subset: the broad phase, kinematics and poses without the narrow phase
+    bare = cm.Collider(model, geoms=[model.ngeom - 1])
+    bare.check_batch(q[:4])
+    no_narrow = _best(lambda: bare.check_batch(q), reps)
     broad = _best(lambda: col.broadphase.pairs_batch(model, q), reps)
     rows = len(col.broadphase.pairs_batch(model, q))
     kin = _best(lambda: cm.kinematics_batch(model, q), reps)
@@ -101,7 +106,7 @@ def bench_scene(name: str, n: int, reps: int) -> dict:
     floor = floor_b + floor_n
     mem = 8 * model.nq + 2 + 12 * rows / n  # qpos copy, in_collision + skipped, candidate rows
     return {"scene": name, "nq": model.nq, "ngeom": model.ngeom, "ours": ours * per, "ours_dist": ours_dist * per,
-            "broad": broad * per, "kin": kin * per, "loop": loop * per, "floor_b": floor_b, "floor_n": floor_n,
+            "broad": broad * per, "kin": kin * per, "narrow": (ours - no_narrow) * per, "loop": loop * per, "floor_b": floor_b, "floor_n": floor_n,
             "r_loop": ours * per / (loop * per), "r_floor": ours * per / floor, "hit": float(res.in_collision.mean()),
             "agree": int(np.sum(res.in_collision == mj)), "n": n, "rows": rows / n, "mem": mem}
 
@@ -124,19 +129,20 @@ def main(argv=None) -> int:
           f"{os.getloadavg()[0]:.1f} (machine shared with other processes)")
     print(f"# command: python tests/bench/check_batch.py {' '.join(sys.argv[1:])}".rstrip())
     print("# us per configuration. ours: check_batch(qpos) (best of reps), +dist: distance=True (one call); "
-          "broad: pairs_batch alone, kin: kinematics_batch alone (both inside ours' time, for scale)")
+          "narrow: ours less the same call\n#   with no pair to decide (a one-geom subset: broad phase, kinematics, poses); broad: pairs_batch alone, "
+          "kin: kinematics_batch alone (both inside ours, for scale)")
     print(f"# MJ loop: data.qpos[:] = q; mj_kinematics; mj_collision from Python; MJ C floor: "
           f"mjTIMER_COL_BROAD + mjTIMER_COL_NARROW ({cm.timer_clock()} clock); x loop, x floor: ours / MuJoCo's")
     print("# hit: fraction in collision; agree: configurations where in_collision equals MuJoCo's active contact; "
           "rows: candidate pairs per configuration; mem: bytes per configuration held by a call")
     print()
-    head = (f"{'scene':<20}{'ours':>8}{'+dist':>9}{'broad':>8}{'kin':>7}{'MJ loop':>9}{'MJ broad':>9}"
+    head = (f"{'scene':<20}{'ours':>8}{'+dist':>9}{'narrow':>8}{'broad':>8}{'kin':>7}{'MJ loop':>9}{'MJ broad':>9}"
             f"{'MJ narr':>9}{'x loop':>8}{'x floor':>8}{'hit':>6}{'agree':>12}{'rows':>7}{'mem':>7}")
     print(head)
     print("-" * len(head))
     for s in a.scenes:
         r = bench_scene(s, a.configs, a.reps)
-        print(f"{r['scene']:<20}{r['ours']:>8.2f}{r['ours_dist']:>9.1f}{r['broad']:>8.2f}{r['kin']:>7.2f}"
+        print(f"{r['scene']:<20}{r['ours']:>8.2f}{r['ours_dist']:>9.1f}{r['narrow']:>8.2f}{r['broad']:>8.2f}{r['kin']:>7.2f}"
               f"{r['loop']:>9.2f}{r['floor_b']:>9.2f}{r['floor_n']:>9.2f}{r['r_loop']:>8.3f}{r['r_floor']:>8.2f}"
               f"{r['hit']:>6.2f}{r['agree']:>7d}/{r['n']:<4d}{r['rows']:>7.1f}{r['mem']:>7.0f}", flush=True)
     print("-" * len(head))
