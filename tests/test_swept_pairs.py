@@ -315,3 +315,21 @@ def test_an_aabb_cut_to_the_capsule_in_between_is_inside():
     assert len(bp.pairs(p0, r0)) == 0 and len(bp.pairs(p1, r1)) == 0 and 0 < len(seen) < 100  # in between only
     assert _set(bp.pairs_swept(p0, r0, p1, r1)) == {(0, 1)}
     assert _set(brute_force_swept_pairs(art, p0, r0, p1, r1, tol=-1e-9)) == {(0, 1)}
+
+
+def test_a_half_turn_from_a_stretched_rotation_keeps_the_start_pair():
+    # Rotations are accepted within ORTHO_TOL of orthonormal: a start rotation stretched by 4.9e-7
+    # along x carries the point 1 + 4.9e-7 from its body's origin, and a half turn (θ = π, where
+    # the cos slack adds nothing) moves it 2 + 4.9e-7: the reach 2 |x| alone lost the start pose's
+    # own pair (adversarial review of issue 44).
+    art = collide.Articulation([0, 0, 0], [1, 2], [collide.PointCloud([[0, 0, 0]], 0.0),
+                                                   collide.PointCloud([[0, 0, 0]], 1e-7)],
+                               geom_pos=[[1.0, 0, 0], [0, 0, 0]])
+    bp = collide.BroadPhase(art)
+    eye = np.eye(3)
+    r0 = np.array([eye, np.diag([1 + 4.9e-7, 1.0, 1.0]), eye])
+    r1 = np.array([eye, np.diag([-1.0, -1.0, 1.0]), eye])
+    p = np.array([[0, 0, 0], [0, 0, 0], [1 + 5.4e-7, 0, 0]])
+    assert _set(bp.pairs(p, r0)) == {(0, 1)} and _set(bp.pairs(p, r1)) == set()
+    assert _set(bp.pairs_swept(p, r0, p, r1)) == {(0, 1)}
+    assert _set(brute_force_swept_pairs(art, p, r0, p, r1, tol=-1e-9)) == {(0, 1)}

@@ -47,7 +47,7 @@ import math
 import numba as nb
 import numpy as np
 
-from .bounds import (SLACK_POS, SLACK_REL, _bounds_ok, _plane_hit, _pose_ok, _row_of, _world_aabb, _world_row,
+from .bounds import (ORTHO_TOL, SLACK_POS, SLACK_REL, _bounds_ok, _plane_hit, _pose_ok, _row_of, _world_aabb, _world_row,
                      capsule_half, dot3, plane_world)
 from .keys import _emit
 from .layout import (F_GCAP, F_GLOCAL, F_GMARGIN, F_GPLANE, F_PAIR_M, I_GEOM_BID, I_PAIR_G, I_PGEOMS, I_PLANES,
@@ -98,7 +98,13 @@ def _body_motion(pos0, rot0, pos1, rot1, body):
         th = math.acos(c)
         body[b, 0] = 0.0 if same else th * th * (0.125 * (1.0 + 1e-12))
         body[b, 1] = 0.0 if same else 1.0
-        body[b, 2] = 0.0 if same else min(th, 2.0) * (1.0 + 1e-12)
+        # the chord 2 sin(θ / 2) |R0 x| <= min(θ, 2) |R0 x|, and |R0 x| <= (1 + 1.5 ORTHO_TOL) |x| for
+        # an accepted R0 (|R0ᵀ R0 - I| <= ORTHO_TOL entrywise: σmax² <= 1 + 3 ORTHO_TOL). θ's cos
+        # slack covers the factor below θ = 2, not at θ = π, where the turn's chord is 2 |R0 x|: a
+        # point 1 from its body's origin, turned by π from a start rotation stretched by 5e-7,
+        # landed 2 + 5e-7 from its end place, and its start pose's pair was lost (adversarial
+        # review of issue 44)
+        body[b, 2] = 0.0 if same else min(th, 2.0) * (1.0 + 2.0 * ORTHO_TOL)
         body[b, 3] = 0.0 if same else _norm3(pos1[b, 0] - pos0[b, 0], pos1[b, 1] - pos0[b, 1], pos1[b, 2] - pos0[b, 2])
     return -1
 

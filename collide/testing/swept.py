@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .._kernels.bounds import SLACK_POS, SLACK_REL
+from .._kernels.bounds import ORTHO_TOL, SLACK_POS, SLACK_REL
 from .._kernels.swept import COS_SLACK
 from ..articulation import Articulation
 from .brute import _bounds_test, _check_poses, filter_passing_pairs, world_bounds
@@ -51,7 +51,7 @@ def _swept_geoms(art: Articulation, pos0, rot0, pos1, rot1, tol):
     theta = np.arccos(np.clip(0.5 * (tr - 1.0) - COS_SLACK, -1.0, 1.0))
     same = (pos0 == pos1).all(axis=1) & (rot0 == rot1).all(axis=(1, 2))
     k = np.where(same, 0.0, theta ** 2 * (0.125 * (1.0 + 1e-12)))
-    turn = np.where(same, 0.0, np.minimum(theta, 2.0) * (1.0 + 1e-12))
+    turn = np.where(same, 0.0, np.minimum(theta, 2.0) * (1.0 + 2.0 * ORTHO_TOL))  # |R0 x| <= (1 + 1.5 tol) |x|
     shift = np.where(same, 0.0, np.linalg.norm(pos1 - pos0, axis=1))
     G = art.geom_count
     m = art.geom_bound_margin
