@@ -6,8 +6,8 @@ What it does:
 
 1. builds a MuJoCo model: a five-joint arm of capsules on a fixed base among random obstacles
    (boxes, spheres, cylinders) on a floor, made in code; or your MJCF file;
-2. samples configurations uniformly inside the joint limits (``--configs``, default 5,000: about
-   a minute with the first call's compilation; ``--full``: the issue's 100,000);
+2. samples configurations uniformly inside the joint limits (``--configs``, default 5,000, small
+   enough for a quick run; ``--full``: the issue's 100,000);
 3. checks them all in one call, ``collide.mujoco.Collider(model).check_batch(qpos, distance=True)``:
    ``in_collision`` (a contact as MuJoCo would make one), ``min_distance`` and ``closest`` (the
    closest pair that passes MuJoCo's filters); and the robot against the world alone, a
