@@ -417,3 +417,20 @@ def test_bad_qpos_names_the_configuration():
 
 def test_kernel_constants():
     assert kc.ACTIVE != kc.IN_GAP != kc.NO_CONTACT != kc.NOT_COLLIDED
+
+
+def test_disabled_contacts_and_any_layout_of_qpos():
+    on = _two_spheres(0, 0, 0, 0)
+    off = _two_spheres(0, 0, 0, 0, option='><flag contact="disable"/></option><option')
+    q = np.tile(on.qpos0, (4, 1))
+    q[:, 7] += [-0.2, -0.1, 0.3, 0.6]
+    mj, _ = mujoco_active(off, mujoco.MjData(off), q)
+    r = cm.Collider(off).check_batch(q, distance=True)
+    assert not mj.any() and not r.in_collision.any() and (r.min_distance == np.inf).all()
+    col = cm.Collider(on)
+    ref = col.check_batch(q).in_collision
+    assert ref.tolist() == [True, True, False, False]
+    assert np.array_equal(col.check_batch(np.asfortranarray(q)).in_collision, ref)
+    assert np.array_equal(col.check_batch(q.tolist()).in_collision, ref)
+    assert np.array_equal(col.check_batch(np.round(q).astype(np.int64)).in_collision,
+                          col.check_batch(np.round(q)).in_collision)
