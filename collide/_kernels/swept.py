@@ -37,7 +37,9 @@ the single step's at that ``s``), and every pair whose geoms touch during the st
 
 Rotations are accepted within `bounds.ORTHO_TOL` of orthonormal, as for a single step; ``cos θ`` is
 lowered by `COS_SLACK` so that ``θ`` is never underestimated for the orthonormal rotation nearest to
-each (a trace moved by 9 entries of at most the tolerance each, at both ends).
+each (a trace moved by 9 entries of at most the tolerance each, at both ends), and the reach's
+``min(θ, 2)`` carries the factor ``1 + 2 ORTHO_TOL`` (such a rotation stretches ``|x|`` by up to
+``1 + 1.5 ORTHO_TOL``; at ``θ = π`` no cos slack covers it).
 """
 
 from __future__ import annotations
@@ -47,8 +49,8 @@ import math
 import numba as nb
 import numpy as np
 
-from .bounds import (ORTHO_TOL, SLACK_POS, SLACK_REL, _bounds_ok, _plane_hit, _pose_ok, _row_of, _world_aabb, _world_row,
-                     capsule_half, dot3, plane_world)
+from .bounds import (ORTHO_TOL, SLACK_POS, SLACK_REL, _bounds_ok, _plane_hit, _pose_ok, _row_of, _world_aabb,
+                     _world_row, capsule_half, dot3, plane_world)
 from .keys import _emit
 from .layout import (F_GCAP, F_GLOCAL, F_GMARGIN, F_GPLANE, F_PAIR_M, I_GEOM_BID, I_PAIR_G, I_PGEOMS, I_PLANES,
                      Layout, Tables, view_f1, view_f2, view_i1, view_i2)
