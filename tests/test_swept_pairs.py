@@ -333,3 +333,22 @@ def test_a_half_turn_from_a_stretched_rotation_keeps_the_start_pair():
     assert _set(bp.pairs(p, r0)) == {(0, 1)} and _set(bp.pairs(p, r1)) == set()
     assert _set(bp.pairs_swept(p, r0, p, r1)) == {(0, 1)}
     assert _set(brute_force_swept_pairs(art, p, r0, p, r1, tol=-1e-9)) == {(0, 1)}
+
+
+def test_an_explicit_plane_pair_with_its_own_margin():
+    # An explicit (plane, ball) pair whose margin (0.1) exceeds the ball's own (0): a single step
+    # inflates both by the pair's margin and reports the ball 0.15 above the floor; the swept
+    # phase's fixed-plane test also cut with the ball's swept box, made with its own margin, and
+    # lost the pair even without motion (adversarial review of issue 44).
+    art = collide.Articulation([0, 0], [0, 1], [shapes.plane(), shapes.sphere(0.1)], pairs=[[0, 1]],
+                               pair_margin=[0.1], geom_contype=[0, 0], geom_conaffinity=[0, 0])
+    bp = collide.BroadPhase(art)
+    r = np.tile(np.eye(3), (2, 1, 1))
+    p0 = np.array([[0, 0, 0], [0, 0, 0.25]])
+    p1 = np.array([[0, 0, 0], [0.3, 0, 0.25]])
+    assert _set(bp.pairs(p0, r)) == _set(bp.pairs(p1, r)) == {(0, 1)}
+    for end in (p0, p1):
+        assert _set(bp.pairs_swept(p0, r, end, r)) == {(0, 1)}
+        assert _set(brute_force_swept_pairs(art, p0, r, end, r, tol=-1e-9)) == {(0, 1)}
+    p2 = np.array([[0, 0, 0], [0, 0, 0.35]])  # 0.25 above: beyond both margins, all along
+    assert _set(bp.pairs_swept(p2, r, p2 + [[0, 0, 0], [0.3, 0, 0]], r)) == set()

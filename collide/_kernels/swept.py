@@ -188,10 +188,11 @@ def _spheres_meet(sph, a, ma, b, mb):
 
 
 @nb.njit(cache=True, inline="always")
-def _plane_reach(pl, q, mq, sph, g, mg, box):
+def _plane_reach(pl, q, mq, sph, g, mg, box, corner_too):
     # Does geom g (margin mg) reach the fixed plane pl[q] = (n, e), inflated by mq, at some s: its
-    # sphere (the lower end of its centre's chord, less the deviation) and its swept box (the
-    # corner deepest along n) both reach {n . x <= e + mq}.
+    # sphere (the lower end of its centre's chord, less the deviation) and, with corner_too, its
+    # swept box (the corner deepest along n; made with the geom's own margin) both reach
+    # {n . x <= e + mq}.
     n0 = pl[q, 0]
     n1 = pl[q, 1]
     n2 = pl[q, 2]
@@ -204,7 +205,16 @@ def _plane_reach(pl, q, mq, sph, g, mg, box):
     for i in range(6):
         scale += abs(sph[g, i]) + abs(box[g, i])
     tol = SLACK_REL * r + SLACK_POS * scale
-    return (c - r <= lim + tol) & (corner <= lim + tol)
+    return (c - r <= lim + tol) & ((corner <= lim + tol) | (not corner_too))
+
+
+@nb.njit(cache=True, inline="always")
+def _pair_reach(sph, g, m, gm, turn):
+    # Geom g's reach δ (`_geom_sweep`, its volumes inflated by its own margin gm) for an explicit
+    # pair's margin m: the farthest point of the volumes inflated by m is at most √3 (m - gm) (a
+    # box's half diagonal) farther from the body's origin, so it turns at most that times the
+    # body's min(θ, 2) farther.
+    return sph[g, 8] + 1.7320508075688774 * max(0.0, m - gm) * turn * (1.0 + SLACK_REL)
 
 
 @nb.njit(cache=True, inline="always")
@@ -328,11 +338,15 @@ def swept_world(pos0, rot0, pos1, rot1, I, F, X, XW, Y, keys, out):
             plw[qi, 3] = np.nan
         for ii in range(Gs):
             g = solid[ii]
-            if _allowed(allow, q, g) and (moving or (_plane_reach(plw, qi, gmargin[q], sph, g, gmargin[g], box)
+            if _allowed(allow, q, g) and (moving or (_plane_reach(plw, qi, gmargin[q], sph, g, gmargin[g], box, True)
                                                      and _plane_hit(plw, qi, gmargin[q], row, g,
                                                                     gmargin[g] + sph[g, 8]))):
                 k = _emit(keys, k, q, g, S)
-    # 4. explicit pairs: the pair's margins where given, else the geoms'
+    # 4. explicit pairs: the pair's margins where given, else the geoms'. A single step tests them
+    # with their spheres and OBBs only (`bounds._explicit_hit`), inflated by the pair's margin: no
+    # swept box here (it carries the geom's own margin, and a plane pair with a larger pair margin
+    # was lost even without motion; adversarial review of issue 44), and the reach grown to the
+    # pair's margin (`_pair_reach`)
     for i in range(pair_g.shape[0]):
         g1 = pair_g[i, 0]
         g2 = pair_g[i, 1]
@@ -351,11 +365,13 @@ def swept_world(pos0, rot0, pos1, rot1, I, F, X, XW, Y, keys, out):
                     qi = j
             mq = m1 if p1 else m2
             mg = m2 if p1 else m1
-            hit = np.isnan(plw[qi, 3]) or (_plane_reach(plw, qi, mq, sph, gs, mg, box)
-                                           and _plane_hit(plw, qi, mq, row, gs, mg + sph[gs, 8]))
+            hit = np.isnan(plw[qi, 3]) or (
+                _plane_reach(plw, qi, mq, sph, gs, mg, box, False)
+                and _plane_hit(plw, qi, mq, row, gs, mg + _pair_reach(sph, gs, mg, gmargin[gs], body[geom_bid[gs], 2])))
         else:
             hit = (_spheres_meet(sph, g1, m1, g2, m2)
-                   and _bounds_ok(_row_of(row, g1), m1 + sph[g1, 8], _row_of(row, g2), m2 + sph[g2, 8]))
+                   and _bounds_ok(_row_of(row, g1), m1 + _pair_reach(sph, g1, m1, gmargin[g1], body[geom_bid[g1], 2]),
+                                  _row_of(row, g2), m2 + _pair_reach(sph, g2, m2, gmargin[g2], body[geom_bid[g2], 2])))
         if hit:
             k = _emit(keys, k, g1, g2, S)
     n = min(k, keys.shape[0])

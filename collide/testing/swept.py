@@ -83,7 +83,7 @@ def _swept_geoms(art: Articulation, pos0, rot0, pos1, rot1, tol):
                           np.minimum(hi, np.minimum(o1[:, 3:], c1[:, 3:]) + (reach + tol)[:, None])], axis=1)
     cdev = np.linalg.norm(art.geom_sphere_center, axis=1) * k[b]
     assert box.shape == (G, 6)
-    return box, np.stack(ends, axis=1), art.geom_sphere_radius, cdev, same, reach
+    return box, np.stack(ends, axis=1), art.geom_sphere_radius, cdev, same, reach, turn[b]
 
 
 def _spheres(ends, rad, cdev, g1, g2, m1, m2, tol):
@@ -108,7 +108,7 @@ def _world_plane(art: Articulation, q, pos, rot):
     return n / norm, art.geom_plane[q, 3] * det / norm + (n / norm) @ p + SLACK_POS * np.abs(p).sum()
 
 
-def _plane(art, q, g, mq, mg, box, ends, rad, cdev, pos1, rot1, tol):
+def _plane(art, q, g, mq, mg, box, ends, rad, cdev, pos1, rot1, tol, corner_too=True):
     n, e = _world_plane(art, q, pos1, rot1)
     lim = e + mq
     c = min(n @ ends[g, 0], n @ ends[g, 1])
@@ -116,7 +116,7 @@ def _plane(art, q, g, mq, mg, box, ends, rad, cdev, pos1, rot1, tol):
     corner = n @ np.where(n < 0.0, box[g, 3:], box[g, :3])
     scale = abs(e) + np.abs(ends[g]).sum() + np.abs(box[g]).sum()
     t = SLACK_REL * r + SLACK_POS * scale + tol
-    return (c - r <= lim + t) and (corner <= lim + t)
+    return (c - r <= lim + t) and (corner <= lim + t or not corner_too)
 
 
 def brute_force_swept_pairs(art: Articulation, pos0, rot0, pos1, rot1, tol: float = 0.0) -> np.ndarray:
@@ -138,13 +138,17 @@ def brute_force_swept_pairs(art: Articulation, pos0, rot0, pos1, rot1, tol: floa
     """
     pos0, rot0 = _check_poses(art, pos0, rot0)
     pos1, rot1 = _check_poses(art, pos1, rot1)
-    box, ends, rad, cdev, same, reach = _swept_geoms(art, pos0, rot0, pos1, rot1, tol)
+    box, ends, rad, cdev, same, reach, turn = _swept_geoms(art, pos0, rot0, pos1, rot1, tol)
     wb = world_bounds(art, pos1, rot1)
 
     def at_end(x, y, mx, my):
-        # the single step's test at s = 1 with every volume grown by its reach (and tol)
+        # the single step's test at s = 1 with every volume grown by its reach (and tol); an
+        # explicit pair's margin above the geom's own grows the reach by sqrt(3) (margin
+        # difference) times the turn
         x, y = np.atleast_1d(x), np.atleast_1d(y)
-        return _bounds_test(wb, x, y, mx + reach[x] + tol, my + reach[y] + tol, art.geom_is_plane)
+        rx = reach[x] + np.sqrt(3.0) * np.maximum(0.0, mx - m[x]) * turn[x] * (1.0 + SLACK_REL)
+        ry = reach[y] + np.sqrt(3.0) * np.maximum(0.0, my - m[y]) * turn[y] * (1.0 + SLACK_REL)
+        return _bounds_test(wb, x, y, mx + rx + tol, my + ry + tol, art.geom_is_plane)
 
     m = art.geom_bound_margin
     plane = art.geom_is_plane
@@ -169,8 +173,8 @@ def brute_force_swept_pairs(art: Articulation, pos0, rot0, pos1, rot1, tol: floa
             continue
         if plane[x] or plane[y]:
             q, g, mq, mg = (x, y, mx, my) if plane[x] else (y, x, my, mx)
-            hit = not same[art.geom_body[q]] or (_plane(art, q, g, mq, mg, box, ends, rad, cdev, pos1, rot1, tol)
-                                                 and at_end(q, g, mq, mg)[0])
+            hit = not same[art.geom_body[q]] or (_plane(art, q, g, mq, mg, box, ends, rad, cdev, pos1, rot1, tol,
+                                                        corner_too=False) and at_end(q, g, mq, mg)[0])
         else:
             hit = bool(_spheres(ends, rad, cdev, np.array([x]), np.array([y]), mx, my, tol)[0]) and at_end(x, y, mx, my)[0]
         if hit:
