@@ -274,6 +274,9 @@ def test_mujoco_steps(name):
     assert steps > 20 and contacts > 0
     with pytest.raises(ValueError, match="data1"):
         col.pairs_swept(before, mujoco.MjData(model))
+    other = mujoco.MjData(mujoco.MjModel.from_xml_string("<mujoco><worldbody/></mujoco>"))
+    with pytest.raises(ValueError, match="^data0: made for a model with"):
+        col.pairs_swept(other, data)
 
 
 def test_the_demo_runs(tmp_path):

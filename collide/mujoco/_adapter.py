@@ -241,8 +241,11 @@ class BroadPhase:
         pairs : (K, 2) int32
             Geom ids, lower first, rows sorted.
         """
-        self._check_data(data0)
-        self._check_data(data1)
+        for name, d in (("data0", data0), ("data1", data1)):
+            try:
+                self._check_data(d)
+            except ValueError as exc:  # name the argument
+                raise ValueError(name + str(exc)[len("data"):]) from None
         if self._disabled:
             return self._empty2
         try:
