@@ -42,6 +42,7 @@ from . import tables as _tables
 from ._kinematics import KinematicTree
 from ._world_bounds import WorldBounds, check_pose_values, raise_pose_error, world_bounds, world_planes
 from ._batch import Batch
+from .swept import SweptCalls
 
 __all__ = ["BroadPhase", "KinematicTree", "WorldBounds", "check_pose_values", "world_planes"]
 
@@ -54,7 +55,7 @@ _STAT_NAMES = ("subtree_tests", "body_aabb_tests", "body_sphere_tests", "body_ob
 ARENA_ROWS = 4096
 
 
-class BroadPhase:
+class BroadPhase(SweptCalls):
     """Per-step broad phase of an `Articulation`.
 
     Parameters
@@ -500,67 +501,6 @@ class BroadPhase:
         # `_batch.Batch.run` under this instance's lock (one call at a time: the buffers are shared).
         with self._lock:
             return self._batch.run(B, launch)
-
-    def _swept_pairs(self):
-        # The swept broad phase's tables, made on first use (`swept.SweptPairs`); under the lock.
-        if getattr(self, "_swept", None) is None:
-            from .swept import SweptPairs
-            self._swept = SweptPairs(self)
-        return self._swept
-
-    def pairs_swept(self, body_pos0: np.ndarray, body_rot0: np.ndarray, body_pos1: np.ndarray,
-                    body_rot1: np.ndarray) -> np.ndarray:
-        """Geom pairs that may touch at *some* time of a step (a continuous broad phase).
-
-        The motion between the two poses is one step at constant velocity: each body's origin on
-        the line between its positions, its rotation turning at a constant rate about the fixed
-        axis of ``R1 R0ᵀ`` (the angle in ``[0, pi]``; `collide.swept` bounds the same motion).
-
-        Parameters
-        ----------
-        body_pos0, body_rot0 : (L, 3), (L, 3, 3) float64
-            Body poses at the step's start.
-        body_pos1, body_rot1 : (L, 3), (L, 3, 3) float64
-            And at its end.
-
-        Returns
-        -------
-        pairs : (K, 2) int32
-            Lower id first, rows sorted; the same static filter as `pairs`. They contain every
-            pair `pairs` reports at any time of the motion, hence every pair whose geoms touch
-            during the step. A plane whose body moves pairs with every geom its filter lets
-            through (a fixed plane is tested as a half-space). See `collide._kernels.swept`.
-
-        Raises
-        ------
-        ValueError
-            As `pairs`, naming the pose (``start`` or ``end``) and the body.
-        """
-        with self._lock:
-            return self._swept_pairs().pairs(body_pos0, body_rot0, body_pos1, body_rot1)
-
-    def pairs_swept_batch(self, body_pos0: np.ndarray, body_rot0: np.ndarray, body_pos1: np.ndarray,
-                          body_rot1: np.ndarray) -> np.ndarray:
-        """`pairs_swept` for many worlds at once (threads over worlds).
-
-        Parameters
-        ----------
-        body_pos0, body_pos1 : (B, L, 3) float64
-        body_rot0, body_rot1 : (B, L, 3, 3) float64
-
-        Returns
-        -------
-        pairs : (K, 3) int32
-            Rows ``(world, geom1, geom2)``, sorted; world ``w``'s rows equal
-            ``pairs_swept(body_pos0[w], body_rot0[w], body_pos1[w], body_rot1[w])``.
-
-        Raises
-        ------
-        ValueError
-            As `pairs_swept`, naming the first bad world.
-        """
-        with self._lock:
-            return self._swept_pairs().pairs_batch(body_pos0, body_rot0, body_pos1, body_rot1)
 
     def __reduce__(self):
         # The kernel's context holds raw addresses of this object's own buffers: a copy sharing or

@@ -14,7 +14,7 @@ from .._kernels import keys as _keys
 from .._kernels import swept as _ks
 from . import tables as _tables
 
-__all__ = ["SweptPairs"]
+__all__ = ["SweptCalls", "SweptPairs"]
 
 # Rows of the static filter's geom pairs examined at once while the bit matrix is made (memory).
 _BLOCK = 256
@@ -150,3 +150,67 @@ class SweptPairs:
         out[:, 0] = np.repeat(np.arange(B, dtype=np.int32), counts)
         out[:, 1:] = self._pairs_of(keys[:offsets[-1]])
         return out
+
+
+class SweptCalls:
+    """`BroadPhase`'s swept calls (a base class of it: its lock, its tables)."""
+
+    def _swept_pairs(self):
+        # The swept broad phase's tables, made on first use (`swept.SweptPairs`); under the lock.
+        if getattr(self, "_swept", None) is None:
+            self._swept = SweptPairs(self)
+        return self._swept
+
+    def pairs_swept(self, body_pos0: np.ndarray, body_rot0: np.ndarray, body_pos1: np.ndarray,
+                    body_rot1: np.ndarray) -> np.ndarray:
+        """Geom pairs that may touch at *some* time of a step (a continuous broad phase).
+
+        The motion between the two poses is one step at constant velocity: each body's origin on
+        the line between its positions, its rotation turning at a constant rate about the fixed
+        axis of ``R1 R0ᵀ`` (the angle in ``[0, pi]``; `collide.swept` bounds the same motion).
+
+        Parameters
+        ----------
+        body_pos0, body_rot0 : (L, 3), (L, 3, 3) float64
+            Body poses at the step's start.
+        body_pos1, body_rot1 : (L, 3), (L, 3, 3) float64
+            And at its end.
+
+        Returns
+        -------
+        pairs : (K, 2) int32
+            Lower id first, rows sorted; the same static filter as `pairs`. They contain every
+            pair `pairs` reports at any time of the motion, hence every pair whose geoms touch
+            during the step. A plane whose body moves pairs with every geom its filter lets
+            through (a fixed plane is tested as a half-space). See `collide._kernels.swept`.
+
+        Raises
+        ------
+        ValueError
+            As `pairs`, naming the pose (``start`` or ``end``) and the body.
+        """
+        with self._lock:
+            return self._swept_pairs().pairs(body_pos0, body_rot0, body_pos1, body_rot1)
+
+    def pairs_swept_batch(self, body_pos0: np.ndarray, body_rot0: np.ndarray, body_pos1: np.ndarray,
+                          body_rot1: np.ndarray) -> np.ndarray:
+        """`pairs_swept` for many worlds at once (threads over worlds).
+
+        Parameters
+        ----------
+        body_pos0, body_pos1 : (B, L, 3) float64
+        body_rot0, body_rot1 : (B, L, 3, 3) float64
+
+        Returns
+        -------
+        pairs : (K, 3) int32
+            Rows ``(world, geom1, geom2)``, sorted; world ``w``'s rows equal
+            ``pairs_swept(body_pos0[w], body_rot0[w], body_pos1[w], body_rot1[w])``.
+
+        Raises
+        ------
+        ValueError
+            As `pairs_swept`, naming the first bad world.
+        """
+        with self._lock:
+            return self._swept_pairs().pairs_batch(body_pos0, body_rot0, body_pos1, body_rot1)
