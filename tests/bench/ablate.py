@@ -77,7 +77,8 @@ ABLATIONS = {
             "            a0, a1, a2, a3, a4, a5 =",
          "        a0, a1, a2, a3, a4, a5 =")]),
     "sphere": ("`_sphere_hit` as a cull before `_bounds_ok` in the geom pairs (straight to `_bounds_ok`)", [
-        (K, "                        if not _sphere_hit(A, a, ma, B, b, mb):\n                            continue\n", "")]),
+        (K, "                        if not _sphere_hit(A, a, ma, B, b, mb):\n"
+            "                            continue\n", "")]),
     "pairbits": ("`pair_bits` (four body pairs a vector) in the geom-pair stage (its scalar twin `_pairs_mask`)", [
         (K, "        for j in range(0, cnt, PAIR_LANES):\n"
             "            hits |= pair_bits(bw_at, bp_at, c0 + j, min(PAIR_LANES, cnt - j)) << np.uint64(j)\n",
@@ -169,23 +170,33 @@ def summarize(path: str) -> str:
     """The table of an ab.py output (base first): per ablation, its time over the base's on each
     scene: the median over the scenes, the best and the worst scene, and the verdict of issue 42
     (kept where switching it off costs >= 5 % on the median or >= 15 % on some scene, and saves no
-    scene more than 3 %: no ratio below 0.97)."""
-    rows = {}
+    scene more than 3 %: no ratio below 0.97). Then the same ratios of ``xR`` (each copy's time over
+    MuJoCo's broad-phase timer in the same rounds: the machine's drift divided out), as a second
+    reading; the ``null`` copy (no patch) shows the run's noise."""
+    rows, xrs = {}, {}
     for line in Path(path).read_text().splitlines():
         if line.startswith("#") or " us (" not in line:
             continue
         scene, rest = line.split(None, 1)
         for part in rest.split(")")[:-1]:
-            name, _, _, ratio, _ = part.replace("(", " ").replace(",", " ").split()
+            name, _, _, ratio, xr = part.replace("(", " ").replace(",", " ").split()
             rows.setdefault(name, {})[scene] = float(ratio)
-    out = ["| switched off | median | best (scene) | worst (scene) | verdict |", "|---|---:|---:|---:|---|"]
-    for name, r in list(rows.items())[1:]:
+            xrs.setdefault(name, {})[scene] = float(xr.lstrip("x"))
+    names = list(rows)
+    base = names[0]
+    out = [f"{len(rows[base])} scenes",
+           "| switched off | median | best (scene) | worst (scene) | verdict | xR median | xR best | xR worst |",
+           "|---|---:|---:|---:|---|---:|---:|---:|"]
+    for name in names[1:]:
+        r = rows[name]
         v = np.array(list(r.values()))
         hi = max(r, key=r.get)
         lo = min(r, key=r.get)
         keep = (np.median(v) >= 1.05 or v.max() >= 1.15) and v.min() >= 0.97
-        out.append(f"| {name.removeprefix('collide_')} | {np.median(v):.3f} | {r[hi]:.3f} ({hi}) | {r[lo]:.3f} ({lo}) | "
-                   f"{'keep' if keep else 'remove'} |")
+        x = np.array([xrs[name][s] / xrs[base][s] for s in r])
+        out.append(f"| {name.removeprefix('collide_')} | {np.median(v):.3f} | {r[hi]:.3f} ({hi}) | "
+                   f"{r[lo]:.3f} ({lo}) | {'keep' if keep else 'remove'} | {np.median(x):.3f} | "
+                   f"{x.max():.3f} | {x.min():.3f} |")
     return "\n".join(out)
 
 
