@@ -173,10 +173,18 @@ def summarize(path: str) -> str:
     scene more than 3 %: no ratio below 0.97). Then the same ratios of ``xR`` (each copy's time over
     MuJoCo's broad-phase timer in the same rounds: the machine's drift divided out), as a second
     reading; the ``null`` copy (no patch) shows the run's noise."""
+    runs, text = [], Path(path).read_text().splitlines()
+    for line in text:
+        if line.startswith("# ") and "ab.py /" in line:  # each run's command line starts a table
+            runs.append([])
+        elif runs and " us (" in line and not line.startswith("#"):
+            runs[-1].append(line)
+    return "\n\n".join(_table(r) for r in runs if r)
+
+
+def _table(lines: list[str]) -> str:
     rows, xrs = {}, {}
-    for line in Path(path).read_text().splitlines():
-        if line.startswith("#") or " us (" not in line:
-            continue
+    for line in lines:
         scene, rest = line.split(None, 1)
         for part in rest.split(")")[:-1]:
             name, _, _, ratio, xr = part.replace("(", " ").replace(",", " ").split()
