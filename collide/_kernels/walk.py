@@ -1,12 +1,13 @@
 """The walk of the per-step broad phase: every body pair whose AABBs may overlap, found once at its
 lowest common ancestor (`_traverse`), then the static filter (`_walk`).
 
-At each position ``n``: a flat root's statically passing pairs from bit masks (`_flat_root_pairs`),
-body ``n`` against its descendants (`_descendant_pairs`), then pairs of ``n``'s child subtrees: all
-pairs for a few children (`_child_pairs`), sweep-and-prune on one axis from ``SAP_MIN``
-(`_sap_sort`, `_sap_pairs`), a hash grid from ``GRID_MIN`` children that fill a volume
-(`culling._grid_pairs`). The tests among subtrees are `culling`'s; the parts here are inlined into
-`_traverse` (numba's ``inline="always"``: one compiled function, as when they were written out).
+At each position ``n``: a flat root's statically passing pairs from bit masks (`culling._row_hits`),
+body ``n`` against its descendants, then pairs of ``n``'s child subtrees: all pairs for a few
+children, sweep-and-prune on one axis from ``SAP_MIN``, a hash grid from ``GRID_MIN`` children that
+fill a volume (`culling._grid_pairs`). The tests among subtrees are `culling`'s. `_traverse` stays one
+function, its parts written out: split into inlined helpers, each helper's array arguments cost
+reference-count calls per node in this reference-counted function (measured: a long chain's walk
+slower, beyond run-to-run noise).
 """
 
 from __future__ import annotations
@@ -26,140 +27,6 @@ GRID_SWEEP = 8.0  # ... when the children's widths along the sweep axis sum to m
 FLAT_DESC = 16  # a body with at most this many descendants tests them all flat, else walks
 
 
-@nb.njit(cache=True, inline="always")
-def _flat_root_pairs(n, end, flat_mask, bt_at, bt_n, bp, nb_):
-    # A small subtree (a robot, a hand): its body pairs that pass the static filter, as a
-    # bit mask per body made at set-up (bit i of flat_mask[a]: the pair (a, n + i)). Each
-    # row of AABB tests, a against every body of the subtree, runs over baabb's columns
-    # (baabb_t) in vector compares, into a bit mask; the static one keeps the pairs to
-    # push. No walk, no sibling pairs, no call (faster than the pair tests one by one).
-    cap = bp.shape[0]
-    for a in range(n, end[n]):
-        keep = np.uint64(flat_mask[a])
-        if keep == 0:
-            continue
-        hits = _row_hits(bt_at, bt_n, n, a, keep)
-        while hits != 0:
-            if nb_ < cap:
-                bp[nb_, 0] = a
-                bp[nb_, 1] = ~(n + np.int64(trailing_zeros(hits)))  # ~q: the static filter passed
-            nb_ += 1
-            hits &= hits - np.uint64(1)
-    return nb_
-
-
-@nb.njit(cache=True, inline="always")
-def _descendant_pairs(n, end, nchild, has_bounds, baabb, saabb, bp, nb_, stats, filter_parent):
-    # Body n against its descendants; n + 1 is its first child, each sibling follows the previous
-    # one's range. One walk over the descendants [n + 1, end[n]) (every child's subtree in turn),
-    # skipping a missed subtree whole. Under the parent rule a direct child is a parent pair, never
-    # reported: its subtree AABB still culls, its body is not paired.
-    skip = filter_parent and n != 0
-    if end[n] - n - 1 > FLAT_DESC or nchild[n] < 2:
-        nb_ = _body_walk(n, n + 1, end[n], skip, end, baabb, saabb, has_bounds, bp, nb_, stats)
-    else:
-        # A small branching subtree: every descendant's body AABB against n's, flat, independent
-        # tests (no subtree AABB steering a walk: fewer tests than the walk's two per inner body,
-        # and no branch on their outcomes). Below a single child (a chain) the walk stops after a
-        # few links, the flat loop would test them all. A body without bounds has an empty AABB:
-        # never a hit.
-        nxt = n + 1  # the next direct child
-        cap = bp.shape[0]
-        for q in range(n + 1, end[n]):
-            top = q == nxt
-            nxt = end[q] if top else nxt
-            if nb_ < cap:
-                bp[nb_, 0] = n
-                bp[nb_, 1] = q
-            nb_ += np.int64((baabb[n, 0] <= baabb[q, 3]) & (baabb[q, 0] <= baabb[n, 3])
-                            & (baabb[n, 1] <= baabb[q, 4]) & (baabb[q, 1] <= baabb[n, 4])
-                            & (baabb[n, 2] <= baabb[q, 5]) & (baabb[q, 2] <= baabb[n, 5]) & ~(top & skip))
-        stats[ST_BODY_AABB] += end[n] - n - 1
-    return nb_
-
-
-@nb.njit(cache=True, inline="always")
-def _child_pairs(off, kc, children, end, baabb, saabb, has_bounds, bp, nb_, stats, lst):
-    # Every pair of a few child subtrees (at most SAP_MIN).
-    for i in range(kc):
-        ci = children[off + i]
-        for j in range(i + 1, kc):
-            cj = children[off + j]
-            stats[ST_SUBTREE] += 1
-            if ((saabb[ci, 0] <= saabb[cj, 3]) & (saabb[cj, 0] <= saabb[ci, 3]) & (saabb[ci, 1] <= saabb[cj, 4])
-                    & (saabb[cj, 1] <= saabb[ci, 4]) & (saabb[ci, 2] <= saabb[cj, 5])
-                    & (saabb[cj, 2] <= saabb[ci, 5])):
-                if end[ci] == ci + 1 and end[cj] == cj + 1:  # two bodies: no call
-                    if has_bounds[ci] and has_bounds[cj]:
-                        nb_ = _push(bp, nb_, ci, cj)
-                else:
-                    nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
-    return nb_
-
-
-@nb.njit(cache=True, inline="always")
-def _sap_sort(sap, off, kc, children, saabb, ax):
-    # The children's sweep order on axis ax: insertion sort of the order kept in sap (~linear under
-    # small motion), a full sort after a big reshuffle (a new world in a batch, an axis change).
-    swaps = 0
-    limit = 16 * kc + 64
-    for i in range(1, kc):
-        c = sap[off + i]
-        v = saabb[c, ax]
-        j = i - 1
-        while j >= 0 and saabb[sap[off + j], ax] > v:
-            sap[off + j + 1] = sap[off + j]
-            j -= 1
-            swaps += 1
-        sap[off + j + 1] = c
-        if swaps > limit:
-            break
-    if swaps > limit:
-        lo = np.empty(kc)
-        for i in range(kc):
-            lo[i] = saabb[children[off + i], ax]
-        idx = np.argsort(lo)
-        for i in range(kc):
-            sap[off + i] = children[off + idx[i]]
-
-
-@nb.njit(cache=True, inline="always")
-def _sap_pairs(sap, off, kc, ax, end, baabb, saabb, has_bounds, bp, nb_, stats, lst):
-    # Sweep and prune over the children in sweep order: each against the ones after it until one
-    # starts past its end on axis ax.
-    cap = bp.shape[0]
-    for i in range(kc):
-        ci = sap[off + i]
-        hi = saabb[ci, 3 + ax]
-        leaf_i = end[ci] == ci + 1
-        # ci's box in locals: the stores into bp below would otherwise reload it every time
-        lo0 = saabb[ci, 0]
-        lo1 = saabb[ci, 1]
-        lo2 = saabb[ci, 2]
-        hi0 = saabb[ci, 3]
-        hi1 = saabb[ci, 4]
-        hi2 = saabb[ci, 5]
-        ntest = 0
-        for j in range(i + 1, kc):
-            cj = sap[off + j]
-            if saabb[cj, ax] > hi:
-                break
-            ntest += 1
-            hit = ((lo0 <= saabb[cj, 3]) & (saabb[cj, 0] <= hi0) & (lo1 <= saabb[cj, 4])
-                   & (saabb[cj, 1] <= hi1) & (lo2 <= saabb[cj, 5]) & (saabb[cj, 2] <= hi2))
-            if leaf_i and end[cj] == cj + 1:
-                # Two bodies, the common case of a wide node: no branch on the outcome (see
-                # _subtree_pair); a body without bounds has an empty AABB, never a hit.
-                if nb_ < cap:
-                    bp[nb_, 0] = ci
-                    bp[nb_, 1] = cj
-                nb_ += np.int64(hit)
-            elif hit:
-                nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
-        stats[ST_SUBTREE] += ntest
-    return nb_
-
-
 @nb.njit(cache=True, _nrt=True)  # allocates: counted (see NO_NRT; a callee takes its caller's flag)
 def _traverse(L, end, nchild, child_start, children, has_bounds, baabb, saabb, bw, sap, bp, stats, filter_parent,
               baabb_t, flat_root, flat_n, flat_mask, use_sph):
@@ -171,6 +38,7 @@ def _traverse(L, end, nchild, child_start, children, has_bounds, baabb, saabb, b
     """
     nb_ = 0
     lst = sap[L - 1:]
+    cap = bp.shape[0]
     skip_to = 0  # the end of the last flat subtree
     bt_at = np.int64(baabb_t.ctypes.data)
     bt_n = baabb_t.shape[1]
@@ -178,23 +46,74 @@ def _traverse(L, end, nchild, child_start, children, has_bounds, baabb, saabb, b
         if n < skip_to:
             continue
         if flat_root[n]:
-            # A small subtree (a robot, a hand): its body pairs that pass the static filter, from bit
-            # masks made at set-up (`_flat_root_pairs`). No walk, no sibling pairs.
-            nb_ = _flat_root_pairs(n, end, flat_mask, bt_at, bt_n, bp, nb_)
+            # A small subtree (a robot, a hand): its body pairs that pass the static filter, as a
+            # bit mask per body made at set-up (bit i of flat_mask[a]: the pair (a, n + i)). Each
+            # row of AABB tests, a against every body of the subtree, runs over baabb's columns
+            # (baabb_t) in vector compares, into a bit mask; the static one keeps the pairs to
+            # push. No walk, no sibling pairs, no call (faster than the pair tests one by one).
+            for a in range(n, end[n]):
+                keep = np.uint64(flat_mask[a])
+                if keep == 0:
+                    continue
+                hits = _row_hits(bt_at, bt_n, n, a, keep)
+                while hits != 0:
+                    if nb_ < cap:
+                        bp[nb_, 0] = a
+                        bp[nb_, 1] = ~(n + np.int64(trailing_zeros(hits)))  # ~q: the static filter passed
+                    nb_ += 1
+                    hits &= hits - np.uint64(1)
             stats[ST_BODY_AABB] += flat_n[n]
             skip_to = end[n]
             continue
+        # body n against its descendants; n + 1 is its first child, each sibling follows the
+        # previous one's range
         if has_bounds[n] and end[n] > n + 1:
-            nb_ = _descendant_pairs(n, end, nchild, has_bounds, baabb, saabb, bp, nb_, stats, filter_parent)
+            # One walk over the descendants [n + 1, end[n]) (every child's subtree in turn),
+            # skipping a missed subtree whole. Under the parent rule a direct child is a parent
+            # pair, never reported: its subtree AABB still culls, its body is not paired.
+            skip = filter_parent and n != 0
+            if end[n] - n - 1 > FLAT_DESC or nchild[n] < 2:
+                nb_ = _body_walk(n, n + 1, end[n], skip, end, baabb, saabb, has_bounds, bp, nb_, stats)
+            else:
+                # A small branching subtree: every descendant's body AABB against n's, flat,
+                # independent tests (no subtree AABB steering a walk: fewer tests than the walk's
+                # two per inner body, and no branch on their outcomes). Below a single child (a
+                # chain) the walk stops after a few links, the flat loop would test them all. A body without bounds has
+                # an empty AABB: never a hit.
+                nxt = n + 1  # the next direct child
+                cap = bp.shape[0]
+                for q in range(n + 1, end[n]):
+                    top = q == nxt
+                    nxt = end[q] if top else nxt
+                    if nb_ < cap:
+                        bp[nb_, 0] = n
+                        bp[nb_, 1] = q
+                    nb_ += np.int64((baabb[n, 0] <= baabb[q, 3]) & (baabb[q, 0] <= baabb[n, 3])
+                                    & (baabb[n, 1] <= baabb[q, 4]) & (baabb[q, 1] <= baabb[n, 4])
+                                    & (baabb[n, 2] <= baabb[q, 5]) & (baabb[q, 2] <= baabb[n, 5]) & ~(top & skip))
+                stats[ST_BODY_AABB] += end[n] - n - 1
         kc = nchild[n]
         if kc < 2:
             continue
         off = child_start[n]
         if kc <= SAP_MIN:
-            nb_ = _child_pairs(off, kc, children, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
+            for i in range(kc):
+                ci = children[off + i]
+                for j in range(i + 1, kc):
+                    cj = children[off + j]
+                    stats[ST_SUBTREE] += 1
+                    if ((saabb[ci, 0] <= saabb[cj, 3]) & (saabb[cj, 0] <= saabb[ci, 3]) & (saabb[ci, 1] <= saabb[cj, 4])
+                            & (saabb[cj, 1] <= saabb[ci, 4]) & (saabb[ci, 2] <= saabb[cj, 5])
+                            & (saabb[cj, 2] <= saabb[ci, 5])):
+                        if end[ci] == ci + 1 and end[cj] == cj + 1:  # two bodies: no call
+                            if has_bounds[ci] and has_bounds[cj]:
+                                nb_ = _push(bp, nb_, ci, cj)
+                        else:
+                            nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
             continue
-        # Sweep and prune on the axis of the node's largest extent, its order kept between calls
-        # in sap (`_sap_sort`), unless the grid wins.
+        # Sweep and prune on the axis of the node's largest extent. The order persists between
+        # calls (sap holds it), so insertion sort is ~linear under small motion; a big reshuffle
+        # (a new world in a batch, an axis change) falls back to a full sort.
         ax = 0
         best = -1.0
         for d in range(3):
@@ -219,8 +138,56 @@ def _traverse(L, end, nchild, child_start, children, has_bounds, baabb, saabb, b
             if sumw > GRID_SWEEP * best:
                 nb_ = _grid_pairs(n, off, kc, children, saabb, end, baabb, has_bounds, bw, bp, nb_, stats, lst, use_sph)
                 continue
-        _sap_sort(sap, off, kc, children, saabb, ax)
-        nb_ = _sap_pairs(sap, off, kc, ax, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
+        swaps = 0
+        limit = 16 * kc + 64
+        for i in range(1, kc):
+            c = sap[off + i]
+            v = saabb[c, ax]
+            j = i - 1
+            while j >= 0 and saabb[sap[off + j], ax] > v:
+                sap[off + j + 1] = sap[off + j]
+                j -= 1
+                swaps += 1
+            sap[off + j + 1] = c
+            if swaps > limit:
+                break
+        if swaps > limit:
+            lo = np.empty(kc)
+            for i in range(kc):
+                lo[i] = saabb[children[off + i], ax]
+            idx = np.argsort(lo)
+            for i in range(kc):
+                sap[off + i] = children[off + idx[i]]
+        cap = bp.shape[0]
+        for i in range(kc):
+            ci = sap[off + i]
+            hi = saabb[ci, 3 + ax]
+            leaf_i = end[ci] == ci + 1
+            # ci's box in locals: the stores into bp below would otherwise reload it every time
+            lo0 = saabb[ci, 0]
+            lo1 = saabb[ci, 1]
+            lo2 = saabb[ci, 2]
+            hi0 = saabb[ci, 3]
+            hi1 = saabb[ci, 4]
+            hi2 = saabb[ci, 5]
+            ntest = 0
+            for j in range(i + 1, kc):
+                cj = sap[off + j]
+                if saabb[cj, ax] > hi:
+                    break
+                ntest += 1
+                hit = ((lo0 <= saabb[cj, 3]) & (saabb[cj, 0] <= hi0) & (lo1 <= saabb[cj, 4])
+                       & (saabb[cj, 1] <= hi1) & (lo2 <= saabb[cj, 5]) & (saabb[cj, 2] <= hi2))
+                if leaf_i and end[cj] == cj + 1:
+                    # Two bodies, the common case of a wide node: no branch on the outcome (see
+                    # _subtree_pair); a body without bounds has an empty AABB, never a hit.
+                    if nb_ < cap:
+                        bp[nb_, 0] = ci
+                        bp[nb_, 1] = cj
+                    nb_ += np.int64(hit)
+                elif hit:
+                    nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
+            stats[ST_SUBTREE] += ntest
     return nb_
 
 
