@@ -464,13 +464,3 @@ def _explicit_pairs(body_pos, body_rot, I, F, W, keys, k, stats):
             k = _emit(keys, k, pair_g[i, 0], pair_g[i, 1], S)
     return k
 
-
-# ------------------------------------------------------------------------------- moved names
-# `collide.mujoco` (being split into modules by a parallel change of issue 42) still reads RET_SAME
-# here; it lives in `step`. To be removed once it imports it from there. Looked up on first use:
-# `step` imports this module.
-def __getattr__(name: str):
-    if name == "RET_SAME":
-        from importlib import import_module
-        return import_module(".step", __package__).RET_SAME
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -6,7 +6,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from .._kernels.broadphase import RET_SAME as _RET_SAME
+from .._kernels.step import RET_SAME as _RET_SAME
 from .._validate import as_array
 from ..broadphase import BroadPhase as _BroadPhase
 from ._model import _GEOM, _contacts_disabled, _model_mismatch, articulation
