@@ -63,7 +63,6 @@ def test_pure_translation_and_identity_are_exact():
 
 def test_pi_both_ways_round():
     # At exactly pi the turn may go either way: the other way's positions are inside too.
-    rng = np.random.default_rng(2)
     cloud = shapes.box([1.0, 0.2, 0.2])
     R0 = np.eye(3)
     axis = np.array([0.0, 0.0, 1.0])

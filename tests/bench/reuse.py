@@ -116,7 +116,7 @@ def main(argv=None) -> int:
     print(f"# machine: {numba.config.NUMBA_NUM_THREADS} cores, {_cpu()}; "
           f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; load average at start "
           f"{os.getloadavg()[0]:.1f}")
-    print(f"# unchanged: steps whose pairs were the last non-empty result's; empty: steps without pairs")
+    print("# unchanged: steps whose pairs were the last non-empty result's; empty: steps without pairs")
     print()
     head = f"{'scene':<20}{'bodies':>7}{'unchanged':>10}{'empty':>7}{'before us':>10}{'ours us':>9}{'ratio':>7}"
     print(head)
