@@ -472,15 +472,23 @@ def _plane_world(g, body_pos, body_rot, geom_bid, gplane, out, o):
 
 
 @nb.njit(cache=True, inline="always")
-def _explicit_hit(i, pair_g, pair_m, gmargin, gplane, geom_bid, glocal, body_pos, body_rot, tmp, stats):
-    # Explicit pair i: its geoms' world bounds (rows 0 and 1 of tmp), inflated by the pair's own
-    # margin if given, else the geoms'; a plane against the other geom's bounds; never two planes.
+def explicit_pair(i, pair_g, pair_m, gmargin, gplane):
+    """Explicit pair ``i``: its geoms ``g1, g2``, their inflations (the pair's own margin if given,
+    else the geoms') and whether each is a plane (a plane row has a nonzero normal)."""
     g1 = pair_g[i, 0]
     g2 = pair_g[i, 1]
     m1 = gmargin[g1] if np.isnan(pair_m[i]) else pair_m[i]
     m2 = gmargin[g2] if np.isnan(pair_m[i]) else pair_m[i]
     p1 = gplane[g1, 0] != 0.0 or gplane[g1, 1] != 0.0 or gplane[g1, 2] != 0.0
     p2 = gplane[g2, 0] != 0.0 or gplane[g2, 1] != 0.0 or gplane[g2, 2] != 0.0
+    return g1, g2, m1, m2, p1, p2
+
+
+@nb.njit(cache=True, inline="always")
+def _explicit_hit(i, pair_g, pair_m, gmargin, gplane, geom_bid, glocal, body_pos, body_rot, tmp, stats):
+    # Explicit pair i: its geoms' world bounds (rows 0 and 1 of tmp), inflated by the pair's own
+    # margin if given, else the geoms'; a plane against the other geom's bounds; never two planes.
+    g1, g2, m1, m2, p1, p2 = explicit_pair(i, pair_g, pair_m, gmargin, gplane)
     if p1 and p2:
         return False
     if p1 or p2:

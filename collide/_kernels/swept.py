@@ -50,7 +50,7 @@ import numba as nb
 import numpy as np
 
 from .bounds import (ORTHO_TOL, SLACK_POS, SLACK_REL, _bounds_ok, _plane_hit, _pose_ok, _row_of, _world_aabb,
-                     _world_row, capsule_half, dot3, plane_world)
+                     _world_row, capsule_half, dot3, explicit_pair, plane_world)
 from .keys import _emit
 from .layout import (F_GCAP, F_GLOCAL, F_GMARGIN, F_GPLANE, F_PAIR_M, I_GEOM_BID, I_PAIR_G, I_PGEOMS, I_PLANES,
                      Layout, Tables, view_f1, view_f2, view_i1, view_i2)
@@ -348,12 +348,7 @@ def swept_world(pos0, rot0, pos1, rot1, I, F, X, XW, Y, keys, out):
     # was lost even without motion; adversarial review of issue 44), and the reach grown to the
     # pair's margin (`_pair_reach`)
     for i in range(pair_g.shape[0]):
-        g1 = pair_g[i, 0]
-        g2 = pair_g[i, 1]
-        m1 = gmargin[g1] if np.isnan(pair_m[i]) else pair_m[i]
-        m2 = gmargin[g2] if np.isnan(pair_m[i]) else pair_m[i]
-        p1 = gplane[g1, 0] != 0.0 or gplane[g1, 1] != 0.0 or gplane[g1, 2] != 0.0
-        p2 = gplane[g2, 0] != 0.0 or gplane[g2, 1] != 0.0 or gplane[g2, 2] != 0.0
+        g1, g2, m1, m2, p1, p2 = explicit_pair(i, pair_g, pair_m, gmargin, gplane)
         if p1 and p2:
             continue
         if p1 or p2:
