@@ -15,7 +15,6 @@ from collide._kernels import _ptr
 from collide._kernels import _simd
 from collide._kernels import lane_tests as _lane_tests
 from collide._kernels import layout as _layout
-from collide._kernels import walk as _walk
 from collide.broadphase import ARENA_ROWS
 from collide.testing.scenes import random_rotation
 
@@ -325,10 +324,10 @@ def test_bound_arrays_are_read_in_place():
     assert np.array_equal(bp.pairs(), want)  # a refused bind keeps the arrays bound before
 
 
-@pytest.mark.parametrize("n", [40, 125], ids=["sweep_and_prune", "grid"])
+@pytest.mark.parametrize("n", [40, 125], ids=["40_children", "125_children"])
 def test_wide_nodes_survive_reshuffles(n):
-    # Many children at the world: sweep-and-prune (its order persists between calls; unrelated
-    # poses force the full-sort fallback) or, past GRID_MIN children, the hash grid.
+    # Many children at the world: sweep-and-prune, its order persisting between calls (unrelated
+    # poses force the full-sort fallback), with a few dozen children or over a hundred.
     sc = testing.free_hulls(n, seed=7)
     a = sc.articulation
     bp = BroadPhase(a)
@@ -345,8 +344,9 @@ def test_wide_nodes_survive_reshuffles(n):
         assert len(got) > n // 3
 
 
-def test_grid_with_oversized_children():
-    # A few children far larger than the rest are kept out of the grid and tested against all.
+def test_wide_node_with_oversized_children():
+    # 154 children filling a volume, a few far larger than the rest: each of those long boxes
+    # overlaps many others along the sweep axis.
     rng = np.random.default_rng(4)
     n_small, n_big = 150, 4
     clouds = [PointCloud(np.zeros((1, 3)), 0.3) for _ in range(n_small)]
@@ -377,7 +377,7 @@ def _world_child_of(a):
 
 def _root_subtree_spread(a, pos, rot):
     """Children of the world and the sum of their subtree AABBs' widths along the scene's longest axis,
-    over that axis's extent: the kernel's grid-or-sweep criterion (`_traverse`), from the brute bounds."""
+    over that axis's extent (the sweep's axis in `_traverse`), from the brute bounds."""
     c, R, h, _, _, _ = testing.world_bounds(a, pos, rot)
     half = np.einsum("gij,gj->gi", np.abs(R), h + a.geom_margin[:, None])
     lo, hi = c - half, c + half
@@ -389,9 +389,10 @@ def _root_subtree_spread(a, pos, rot):
     return len(roots), width[:, ax].sum() / ext[ax]
 
 
-def test_grid_with_subtree_children():
-    # Small robots filling a volume: the world's children go to the hash grid, and the overlapping
-    # children are subtrees (a robot against a robot, `_subtree_pair`), not single bodies.
+def test_wide_node_filling_a_volume_with_subtree_children():
+    # Small robots filling a volume: a hundred children of the world on the sweep, their intervals
+    # along its axis deep in each other (the widths sum to many times the extent), and the
+    # overlapping children are subtrees (a robot against a robot, `_subtree_pair`), not single bodies.
     sc = testing.many_robots(100, 3, seed=5, spread=0.8, planes=0)
     a = sc.articulation
     bp = BroadPhase(a)
@@ -401,7 +402,7 @@ def test_grid_with_subtree_children():
     for _ in range(3):
         pos, rot = sc.poses(rng)
         kc, spread = _root_subtree_spread(a, pos, rot)
-        assert kc > _walk.GRID_MIN and spread > 2 * _walk.GRID_SWEEP  # the grid's side of the rule
+        assert kc > 64 and spread > 16  # many children, most of them overlapping along the axis
         got = bp.pairs(pos, rot)
         assert np.array_equal(got, testing.brute_force_bound_pairs(a, pos, rot))
         b1, b2 = a.geom_body[got[:, 0]], a.geom_body[got[:, 1]]
@@ -1453,7 +1454,7 @@ COHERENT_SCENES = [
     ("tree", lambda: testing.branching_tree(70, seed=22, planes=1), 0.002),
     ("robots", lambda: testing.many_robots(11, 6, seed=23, spread=0.6, planes=1), 0.01),  # flat roots
     ("hulls_sweep", lambda: testing.free_hulls(64, seed=24, filters=True, planes=1), 0.01),
-    ("hulls_grid", lambda: testing.free_hulls(125, seed=25, filters=True), 0.01),
+    ("hulls_many", lambda: testing.free_hulls(125, seed=25, filters=True), 0.01),
 ]
 
 
@@ -1486,10 +1487,9 @@ def test_coherent_calls_equal_the_walk_along_motions_and_jumps(name, make, step)
         reused += coh.stats["reused"]
         assert np.array_equal(got, walk.pairs(p, r)), s
         assert walk.stats["reused"] == 0
-        # the same body pairs on to the same tests (a loose pair's body test skipped in both; the
-        # walk's grid tests spheres of its own, counted as body sphere tests)
-        for key in ("geom_aabb_tests", "geom_sphere_tests", "geom_obb_tests", "plane_tests") + (
-                ("body_sphere_tests", "body_obb_tests") if name != "hulls_grid" else ()):
+        # the same body pairs on to the same tests (a loose pair's body test skipped in both)
+        for key in ("geom_aabb_tests", "geom_sphere_tests", "geom_obb_tests", "plane_tests", "body_sphere_tests",
+                    "body_obb_tests"):
             assert coh.stats[key] == walk.stats[key], (s, key)
         if s % 10 == 0:
             assert np.array_equal(got, testing.brute_force_bound_pairs(a, p, r)), s

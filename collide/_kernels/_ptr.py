@@ -33,8 +33,8 @@ from .._checked import CHECKED
 # The per-step functions are compiled without numba's reference counting: in them an array value
 # costs nothing when copied or dropped, where numba emits a call to its runtime for each (~50 a step
 # in `_world` and its callees, every one on the null record of a view made from a pointer, which
-# LLVM cannot see through: `_ptr.view_of`). They allocate nothing; the walk's `_traverse` and
-# `_grid_pairs` do, and keep the counting (stated: a function called from one compiled without it
+# LLVM cannot see through: `_ptr.view_of`). They allocate nothing; the walk's `_traverse` does (its
+# sweep's full sort), and keeps the counting (stated: a function called from one compiled without it
 # is compiled without it too, unless its own decorator says otherwise). The gain, in a loop after
 # mj_step, was largest on the humanoid, small on the robots.
 NO_NRT = dict(cache=True, _nrt=False)

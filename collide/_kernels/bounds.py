@@ -212,15 +212,16 @@ def _place(body_rot, body_pos, b, blocal, bcap, x, bw, baabb, saabb, baabb_t, ha
 
 
 @nb.njit(cache=True, inline="always")
-def _sphere_hit(A, a, ma, B, b, mb, o=15):
-    # Spheres (centre at columns o..o+2, radius at o+3) inflated by ma, mb overlap.
-    dx = A[a, o] - B[b, o]
-    dy = A[a, o + 1] - B[b, o + 1]
-    dz = A[a, o + 2] - B[b, o + 2]
-    r = A[a, o + 3] + ma + B[b, o + 3] + mb
-    # Each box's magnitudes summed apart: the same bits in either order (the grid tests pairs in
-    # its own order; with ma = mb = 0 the radius sum commutes too).
-    pos = (abs(A[a, o]) + abs(A[a, o + 1]) + abs(A[a, o + 2])) + (abs(B[b, o]) + abs(B[b, o + 1]) + abs(B[b, o + 2]))
+def _sphere_hit(A, a, ma, B, b, mb):
+    # The spheres of rows A[a] and B[b] (centre at columns 15..17, radius at 18) inflated by ma, mb
+    # overlap: `_bounds_ok`'s first test, the same arithmetic.
+    dx = A[a, 15] - B[b, 15]
+    dy = A[a, 16] - B[b, 16]
+    dz = A[a, 17] - B[b, 17]
+    r = A[a, 18] + ma + B[b, 18] + mb
+    # Each box's magnitudes summed apart: the same bits in either order (with ma = mb = 0 the
+    # radius sum commutes too).
+    pos = (abs(A[a, 15]) + abs(A[a, 16]) + abs(A[a, 17])) + (abs(B[b, 15]) + abs(B[b, 16]) + abs(B[b, 17]))
     r += SLACK_REL * r + SLACK_POS * pos
     return dot3(dx, dy, dz, dx, dy, dz) <= r * r
 

@@ -14,7 +14,7 @@ table, ``F`` float64) and the workspace as one (``W`` float64), every field of e
 in `layout` (`INT`, `FLT`, `WORK`); one step is one call of `step`'s entry points (a batch:
 `batch`, `lanes`). Each stage takes the views it needs by slot (`layout.view_i1` ...: no copy).
 The stages' parts live by concept: `bounds` (rows and their tests), `walk` (the walk down the
-tree), `culling` (the tests among subtrees, the hash grid, the sweep, the filter), `coherence` (the
+tree), `culling` (the tests among subtrees, the sweep, the filter), `coherence` (the
 body pairs kept between calls) and `keys` (pair keys and their sort); this module holds the stages.
 
 One step, for one world (`_world`):
@@ -25,13 +25,11 @@ One step, for one world (`_world`):
    capsule, merged into its parent's): the tree is a one-level bounding hierarchy, never boxes of boxes;
 3. every body pair exactly once, at its lowest common ancestor ``n``: body ``n`` against its own
    subtree (one walk over its descendants; under the parent rule a direct child's subtree AABB
-   culls but the child is not paired), and each pair of ``n``'s child
-   subtrees: all pairs for a few children, sweep-and-prune on one axis from ``SAP_MIN``, a hash
-   grid from ``GRID_MIN`` children when their widths along the sweep axis sum to more than
-   ``GRID_SWEEP`` times its extent (a filled volume, as free bodies in a box: far fewer tests than
-   the sweep; bodies spread over a floor sweep faster); a subtree whose AABB misses is skipped whole
-   (``q = end[q]``). A small branching subtree (a robot, a hand: ``flat_root``) instead tests
-   its statically passing body pairs, bit masks made at set-up, a vectorised row at a time.
+   culls but the child is not paired), and each pair of ``n``'s child subtrees: all pairs for a
+   few children, sweep-and-prune on one axis from ``SAP_MIN``; a subtree whose AABB misses is
+   skipped whole (``q = end[q]``). A small branching subtree (a robot, a hand: ``flat_root``)
+   instead tests its statically passing body pairs, bit masks made at set-up, a vectorised row at
+   a time.
    Up to ``MASK_MAX`` (64) positions (a robot, a hand, a small scene) there is no tree at all:
    every body pair that passes the static filter is a bit of a mask made at set-up, and each
    body's row of AABB tests runs over the boxes' columns, a vector compare per 8 partners
@@ -250,7 +248,7 @@ def _body_pairs(I, W, sap, bp, stats, info, cl, coherent):
         return m
     saabb = view_f2(I, W, W_SAABB)
     _sweep(saabb, view_i1(I, I, I_PARENT_POS), L)  # 2. subtree AABBs
-    m = _walk(I, W, sap, bp, stats, baabb, saabb, view_f2(I, W, W_BAABB_T), True)  # 3. down the tree, 4a. filter
+    m = _walk(I, W, sap, bp, stats, baabb, saabb, view_f2(I, W, W_BAABB_T))  # 3. down the tree, 4a. filter
     if m < 0:
         info[3] = -m
         return -1

@@ -94,7 +94,7 @@ def _kept_pairs(I, W, sap, bp, stats, info, cl, baabb):
                     for x in range(L):
                         fat_t[i, x] = fat_b[x, i]
             _sweep(fat_s, view_i1(I, I, I_PARENT_POS), L)
-            n = _walk(I, W, sap, bp, stats, fat_b, fat_s, fat_t, False)
+            n = _walk(I, W, sap, bp, stats, fat_b, fat_s, fat_t)
             if n < 0:
                 info[3] = -n
                 cs[COH_SCORE] = score - 1.0  # the caller grows bp and reruns: one rebuild

@@ -1,9 +1,8 @@
 """Culling of the per-step broad phase: which body pairs' AABBs may overlap.
 
 The walk (`walk._traverse`) finds every body pair once at its lowest common ancestor with the tests
-here: a body against its own subtree (`_body_walk`), pairs of child subtrees (`_subtree_pair`), a hash
-grid (`_grid_pairs`) among many children, and the rows of small branching subtrees' static bit masks
-(`_row_hits`). A subtree whose AABB misses is skipped whole. `_sweep` makes the subtree AABBs in one
+here: a body against its own subtree (`_body_walk`), pairs of child subtrees (`_subtree_pair`), and
+the rows of small branching subtrees' static bit masks (`_row_hits`). A subtree whose AABB misses is skipped whole. `_sweep` makes the subtree AABBs in one
 reverse pass; `_filter` is the static filter of the pairs found (the kernel form of
 `collide.broadphase.tables.StaticFilter.bodies`); `_scan` and `_scan_masks` test a kept list or the
 static masks of a small model.
@@ -17,13 +16,7 @@ import numpy as np
 
 from ._ptr import NO_NRT, f64_ptr, view_of
 from ._simd import LANES as LANES8, box_row8
-from .bounds import _sphere_hit
-from .layout import ST_BODY_AABB, ST_BODY_SPHERE, ST_SUBTREE
-
-# Forward neighbour cells (lexicographically after (0, 0, 0)): each pair of adjacent cells once.
-_FWD = np.array([(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
-                 if (dx, dy, dz) > (0, 0, 0)], np.int64)
-
+from .layout import ST_BODY_AABB, ST_SUBTREE
 
 @nb.njit(cache=True, inline="always")
 def _row_hits(bt_at, stride, base, a, keep):
@@ -151,197 +144,6 @@ def _subtree_pair(A, B, end, baabb, saabb, has_bounds, bp, nb_, stats, lst):
     return nb_
 
 
-@nb.njit(cache=True, inline="always")
-def _grid_extents(off, kc, children, saabb):
-    # Each child's largest extent (-1: no bounds in its subtree), their sum and count.
-    ext = np.empty(kc)
-    total = 0.0
-    nvalid = 0
-    for i in range(kc):
-        c = children[off + i]
-        if saabb[c, 0] > saabb[c, 3]:
-            ext[i] = -1.0  # no bounds in this subtree
-            continue
-        e = max(saabb[c, 3] - saabb[c, 0], saabb[c, 4] - saabb[c, 1], saabb[c, 5] - saabb[c, 2])
-        ext[i] = e
-        total += e
-        nvalid += 1
-    return ext, total, nvalid
-
-
-@nb.njit(cache=True, inline="always")
-def _grid_cell(n, ext, kc, total, nvalid, saabb):
-    # The oversized children's limit (four times the mean extent) and the cell: at least every
-    # other child's extent.
-    lim = 4.0 * total / nvalid
-    h = 0.0
-    for i in range(kc):
-        if ext[i] <= lim and ext[i] > h:
-            h = ext[i]
-    scale = 0.0
-    for d in range(6):
-        scale += abs(saabb[n, d])
-    span = max(saabb[n, 3] - saabb[n, 0], saabb[n, 4] - saabb[n, 1], saabb[n, 5] - saabb[n, 2])
-    # The slack (1e-9 of a cell) must dwarf the rounding of (lo - origin) / h, ~1e-16 of the cell
-    # index: at most 1e6 cells per axis keeps it so (a coarser grid is still correct).
-    h = max(h * (1.0 + 1e-9), 1e-6 * span, 1e-12 * scale, 1e-300)
-    return lim, h
-
-
-@nb.njit(cache=True, inline="always")
-def _grid_fill(off, kc, children, saabb, bw, ext, lim, h, ox, oy, oz, T):
-    # Cells as one int64 key (21 bits per axis: at most 1e6 cells per axis, see h above), counting
-    # sort by hash slot, then everything a query reads copied contiguously in slot order.
-    key = np.empty(kc, np.int64)
-    slot = np.empty(kc, np.int64)
-    cnt = np.zeros(T + 1, np.int64)
-    for i in range(kc):
-        if ext[i] < 0.0 or ext[i] > lim:
-            slot[i] = -1
-            continue
-        c = children[off + i]
-        cx = np.int64((saabb[c, 0] - ox) / h)
-        cy = np.int64((saabb[c, 1] - oy) / h)
-        cz = np.int64((saabb[c, 2] - oz) / h)
-        key[i] = (cx << 42) | (cy << 21) | cz
-        sl = ((cx * 73856093) ^ (cy * 19349663) ^ (cz * 83492791)) & (T - 1)
-        slot[i] = sl
-        cnt[sl + 1] += 1
-    for t in range(T):
-        cnt[t + 1] += cnt[t]
-    m = cnt[T]
-    skey = np.empty(m, np.int64)
-    sbox = np.empty((m, 10))  # AABB, then a leaf body's sphere (centre, radius)
-    schild = np.empty(m, np.int64)
-    fill = cnt[:T].copy()
-    for i in range(kc):
-        sl = slot[i]
-        if sl >= 0:
-            u = fill[sl]
-            fill[sl] += 1
-            c = children[off + i]
-            skey[u] = key[i]
-            schild[u] = c
-            for d in range(6):
-                sbox[u, d] = saabb[c, d]
-            for d in range(4):
-                sbox[u, 6 + d] = bw[c, 15 + d]
-    return skey, sbox, schild, cnt, m
-
-
-@nb.njit(cache=True, inline="always")
-def _grid_query(skey, sbox, schild, cnt, m, T, h, ox, oy, oz, end, baabb, saabb, has_bounds, bp, nb_, stats, lst,
-                use_sph):
-    # Each child against the entries of its own cell after it and of its 13 forward neighbours.
-    ntest = 0
-    nsph = 0
-    cap = bp.shape[0]
-    for u in range(m):
-        ci = schild[u]
-        k0 = skey[u]
-        cx = k0 >> 42
-        cy = (k0 >> 21) & 0x1FFFFF
-        cz = k0 & 0x1FFFFF
-        lo0 = sbox[u, 0]
-        lo1 = sbox[u, 1]
-        lo2 = sbox[u, 2]
-        hi0 = sbox[u, 3]
-        hi1 = sbox[u, 4]
-        hi2 = sbox[u, 5]
-        leaf_i = end[ci] == ci + 1
-        # Cells of the max corner: a box in the next cell along +x can only overlap this one if
-        # this box reaches that cell (the cell index is monotone in the coordinate, so this is
-        # exact under rounding); most boxes do not, and then 9 of the 13 neighbours are skipped.
-        hx = np.int64((hi0 - ox) / h)
-        hy = np.int64((hi1 - oy) / h)
-        hz = np.int64((hi2 - oz) / h)
-        for f in range(-1, 13):
-            if f < 0:
-                nx, ny, nz = cx, cy, cz
-            else:
-                nx = cx + _FWD[f, 0]
-                ny = cy + _FWD[f, 1]
-                nz = cz + _FWD[f, 2]
-                if nx < 0 or ny < 0 or nz < 0:
-                    continue
-                if (nx > hx) or (ny > cy and ny > hy) or (nz > cz and nz > hz):
-                    continue
-            nkey = (nx << 42) | (ny << 21) | nz
-            sl = ((nx * 73856093) ^ (ny * 19349663) ^ (nz * 83492791)) & (T - 1)
-            # Own cell: the entries after u (each pair once). Another cell hashed to the same slot
-            # fails the key test, folded into the hit like the boxes' (no branch on it).
-            for v in range(u + 1 if f < 0 else cnt[sl], cnt[sl + 1]):
-                ntest += 1
-                sph = _sphere_hit(sbox, u, 0.0, sbox, v, 0.0, 6)  # before the AABB: no branch around it
-                hit = ((skey[v] == nkey) & (sbox[v, 0] <= hi0) & (lo0 <= sbox[v, 3]) & (sbox[v, 1] <= hi1)
-                       & (lo1 <= sbox[v, 4]) & (sbox[v, 2] <= hi2) & (lo2 <= sbox[v, 5]))
-                cj = schild[v]
-                if leaf_i and end[cj] == cj + 1:
-                    # Two bodies (a leaf in the grid has bounds): their sphere test too, on the
-                    # contiguous copies (the same arithmetic as _sphere_hit; ~x marks the pair as
-                    # tested), both written without a branch on the outcome (see _subtree_pair:
-                    # fewer mispredictions on a scene of many free hulls).
-                    nsph += 1
-                    if nb_ < cap:
-                        bp[nb_, 0] = ~ci
-                        bp[nb_, 1] = cj
-                    nb_ += np.int64((sph | (not use_sph)) & hit)
-                elif hit:
-                    nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
-    stats[ST_SUBTREE] += ntest
-    stats[ST_BODY_SPHERE] += nsph
-    return nb_
-
-
-@nb.njit(cache=True, inline="always")
-def _grid_oversized(off, kc, children, ext, lim, end, baabb, saabb, has_bounds, bp, nb_, stats, lst):
-    # the oversized children against every child
-    for i in range(kc):
-        if ext[i] <= lim:
-            continue
-        ci = children[off + i]
-        for j in range(kc):
-            if j == i or ext[j] < 0.0 or (ext[j] > lim and j < i):
-                continue
-            cj = children[off + j]
-            stats[ST_SUBTREE] += 1
-            if ((saabb[ci, 0] <= saabb[cj, 3]) & (saabb[cj, 0] <= saabb[ci, 3]) & (saabb[ci, 1] <= saabb[cj, 4])
-                    & (saabb[cj, 1] <= saabb[ci, 4]) & (saabb[ci, 2] <= saabb[cj, 5]) & (saabb[cj, 2] <= saabb[ci, 5])):
-                nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
-    return nb_
-
-
-@nb.njit(cache=True, _nrt=True)  # allocates: counted (see NO_NRT; a callee takes its caller's flag)
-def _grid_pairs(n, off, kc, children, saabb, end, baabb, has_bounds, bw, bp, nb_, stats, lst, use_sph):
-    """Pairs of overlapping child subtrees of a wide node through a uniform hash grid.
-
-    A sweep on one axis tests O(k^(5/3)) pairs when k children fill a volume (a scene of free
-    bodies); a grid whose cell is at least every child's extent finds overlaps in O(k): each child
-    sits in the cell of its AABB's min corner, and two overlapping AABBs have min corners at most
-    one cell apart per axis, so a child's own cell and its 13 forward neighbours cover every pair
-    exactly once. Children much larger than the mean (over four times) would inflate the cell;
-    they are tested against every child instead. Without ``use_sph`` (a walk over fat boxes, see ``FAT_GROW``), two
-    leaf bodies are paired on their boxes alone: the spheres in ``bw`` are the exact ones.
-    """
-    ext, total, nvalid = _grid_extents(off, kc, children, saabb)
-    if nvalid < 2:
-        return nb_
-    lim, h = _grid_cell(n, ext, kc, total, nvalid, saabb)
-    ox = saabb[n, 0]
-    oy = saabb[n, 1]
-    oz = saabb[n, 2]
-    T = 16
-    while T < 2 * nvalid:
-        T *= 2
-    skey, sbox, schild, cnt, m = _grid_fill(off, kc, children, saabb, bw, ext, lim, h, ox, oy, oz, T)
-    nb_ = _grid_query(skey, sbox, schild, cnt, m, T, h, ox, oy, oz, end, baabb, saabb, has_bounds, bp, nb_, stats, lst,
-                      use_sph)
-    return _grid_oversized(off, kc, children, ext, lim, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
-
-
-    return nb_
-
-
 # ------------------------------------------------------------------------------- one world
 
 @nb.njit(**NO_NRT)
@@ -381,8 +183,6 @@ def _filter(bp, nbp, contype, conaffinity, weld, parent_pos, filter_parent, ex_s
     for t in range(nbp):
         x = bp[t, 0]
         y = bp[t, 1]
-        if x < 0:
-            x = ~x  # the grid's sphere test mark: redone below with the OBB test, at no cost
         if y < 0:
             y = ~y  # a flat root's pair: the static filter passed at set-up
         else:
@@ -402,7 +202,7 @@ def _filter(bp, nbp, contype, conaffinity, weld, parent_pos, filter_parent, ex_s
         # scattered static geoms: single < 0, see BroadPhase) passes every body-level test; its
         # pairs go straight to its geoms' AABBs.
         # Lower position first: the OBB test is not bitwise symmetric in its two boxes, and the
-        # batch's lanes test each pair in this order (a sweep or the grid may hand it reversed).
+        # batch's lanes test each pair in this order (a sweep may hand it reversed).
         x, y = min(x, y), max(x, y)
         bp[m, 0] = x
         bp[m, 1] = ~y if (single[x] < 0 or single[y] < 0) else y

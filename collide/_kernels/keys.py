@@ -126,7 +126,7 @@ def _sort_run(keys, lo, hi, S, G, tmp, cnt):
     # Sort keys[lo:hi]: nothing if sorted; insertion sort when it is a few ascending runs (linear
     # on nearly sorted keys, no set-up), within a budget of moves; else, or past the budget, two
     # stable counting passes (second id, then first id: an LSD radix sort on G bins, ~2 G + 4 m
-    # whatever the order). A sweep or a grid over many siblings shuffles the keys (cube_3x3x3: 85
+    # whatever the order). A sweep over many siblings shuffles the keys (cube_3x3x3: 85
     # keys in 49 runs), and a few runs can still hide long moves, where insertion sort alone was
     # quadratic.
     m = hi - lo

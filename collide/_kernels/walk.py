@@ -3,8 +3,8 @@ lowest common ancestor (`_traverse`), then the static filter (`_walk`).
 
 At each position ``n``: a flat root's statically passing pairs from bit masks (`culling._row_hits`),
 body ``n`` against its descendants, then pairs of ``n``'s child subtrees: all pairs for a few
-children, sweep-and-prune on one axis from ``SAP_MIN``, a hash grid from ``GRID_MIN`` children that
-fill a volume (`culling._grid_pairs`). The tests among subtrees are `culling`'s. `_traverse` stays one
+children, sweep-and-prune on one axis from ``SAP_MIN`` (any number of children). The tests among
+subtrees are `culling`'s. `_traverse` stays one
 function, its parts written out: split into inlined helpers, each helper's array arguments cost
 reference-count calls per node in this reference-counted function (measured: a long chain's walk
 slower, beyond run-to-run noise).
@@ -16,25 +16,22 @@ import numba as nb
 from numba.cpython.unsafe.numbers import trailing_zeros
 import numpy as np
 
-from .culling import _body_walk, _filter, _grid_pairs, _push, _row_hits, _subtree_pair
+from .culling import _body_walk, _filter, _push, _row_hits, _subtree_pair
 from .layout import (H_FP, H_L, I_CHILD_START, I_CHILDREN, I_CONAFFINITY, I_CONTYPE, I_END, I_EX_OTHER, I_EX_START,
                      I_FLAT_MASK, I_FLAT_N, I_FLAT_ROOT, I_HAS_BOUNDS, I_NCHILD, I_PARENT_POS, I_SINGLE, I_WELD,
-                     ST_BODY_AABB, ST_SUBTREE, W_BW, view_f2, view_i1)
+                     ST_BODY_AABB, ST_SUBTREE, view_i1)
 
-SAP_MIN = 8  # a node with more children than this sorts them (sweep-and-prune) ...
-GRID_MIN = 64  # ... or, with more than this, hashes them into a uniform grid
-GRID_SWEEP = 8.0  # ... when the children's widths along the sweep axis sum to more than this x its extent
+SAP_MIN = 8  # a node with more children than this sorts them (sweep-and-prune)
 FLAT_DESC = 16  # a body with at most this many descendants tests them all flat, else walks
 
 
 @nb.njit(cache=True, _nrt=True)  # allocates: counted (see NO_NRT; a callee takes its caller's flag)
-def _traverse(L, end, nchild, child_start, children, has_bounds, baabb, saabb, bw, sap, bp, stats, filter_parent,
-              baabb_t, flat_root, flat_n, flat_mask, use_sph):
+def _traverse(L, end, nchild, child_start, children, has_bounds, baabb, saabb, sap, bp, stats, filter_parent,
+              baabb_t, flat_root, flat_n, flat_mask):
     """Candidate body pairs (world AABBs overlap) into ``bp``; returns their count (may exceed cap).
 
     ``sap`` (`sap_state`): the sweep orders of the children lists, then scratch for `_subtree_pair`.
-    ``baabb``, ``saabb``, ``baabb_t``: the exact boxes, or the fat ones with ``use_sph`` false (see
-    `_grid_pairs`).
+    ``baabb``, ``saabb``, ``baabb_t``: the exact boxes, or the fat ones (`coherence`).
     """
     nb_ = 0
     lst = sap[L - 1:]
@@ -121,23 +118,6 @@ def _traverse(L, end, nchild, child_start, children, has_bounds, baabb, saabb, b
             if e > best:
                 best = e
                 ax = d
-        if kc > GRID_MIN:
-            # Grid or sweep: k children of mean width w on an axis of extent E give the sweep
-            # ~k^2 w / E interval tests, the grid ~k cell probes of a few tests each. A scene
-            # filling a volume (free bodies in a box) goes to the grid; bodies spread over a floor
-            # (objects, robots, stones) overlap little along the sweep axis and the sweep, with
-            # its persistent order and no set-up, wins (humanoid100, stonehenge). Up to GRID_MIN
-            # children the sweep wins even in a filled volume (64 free hulls, cube_3x3x3's 26
-            # cubelets); with a few hundred the grid does.
-            sumw = 0.0
-            for i in range(kc):
-                c = children[off + i]
-                w = saabb[c, 3 + ax] - saabb[c, ax]
-                if w > 0.0:
-                    sumw += w
-            if sumw > GRID_SWEEP * best:
-                nb_ = _grid_pairs(n, off, kc, children, saabb, end, baabb, has_bounds, bw, bp, nb_, stats, lst, use_sph)
-                continue
         swaps = 0
         limit = 16 * kc + 64
         for i in range(1, kc):
@@ -192,15 +172,14 @@ def _traverse(L, end, nchild, child_start, children, has_bounds, baabb, saabb, b
 
 
 @nb.njit(cache=True, inline="always")
-def _walk(I, W, sap, bp, stats, boxes, sboxes, cols, exact):
+def _walk(I, W, sap, bp, stats, boxes, sboxes, cols):
     # The tree walk over the given boxes (the exact AABBs, or the fat ones; ``cols``: their columns),
     # then the static filter: the body pairs into bp, their count; when bp is too short, minus the
     # count needed.
     L = I[H_L]
     nbp = _traverse(L, view_i1(I, I, I_END), view_i1(I, I, I_NCHILD), view_i1(I, I, I_CHILD_START),
-                    view_i1(I, I, I_CHILDREN), view_i1(I, I, I_HAS_BOUNDS), boxes, sboxes, view_f2(I, W, W_BW), sap, bp,
-                    stats, I[H_FP] != 0, cols, view_i1(I, I, I_FLAT_ROOT), view_i1(I, I, I_FLAT_N),
-                    view_i1(I, I, I_FLAT_MASK), exact)
+                    view_i1(I, I, I_CHILDREN), view_i1(I, I, I_HAS_BOUNDS), boxes, sboxes, sap, bp, stats,
+                    I[H_FP] != 0, cols, view_i1(I, I, I_FLAT_ROOT), view_i1(I, I, I_FLAT_N), view_i1(I, I, I_FLAT_MASK))
     if nbp > bp.shape[0]:
         return -nbp
     return _filter(bp, nbp, view_i1(I, I, I_CONTYPE), view_i1(I, I, I_CONAFFINITY), view_i1(I, I, I_WELD),

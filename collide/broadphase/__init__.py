@@ -84,7 +84,7 @@ class BroadPhase(SweptCalls):
     ----------
     stats : dict of str to int
         After a call: bounds tests done at each level (``subtree_tests``: AABB tests of tree
-        culling, sweep-and-prune and the grid, where two leaf bodies' test is their body test;
+        culling and sweep-and-prune, where two leaf bodies' test is their body test;
         ``body_aabb_tests``: body against a non-leaf body in deeper subtrees, and, up to 64
         positions, where no tree is walked, every body pair that passes the static filter and has a
         geom pair whose masks match (explicit pairs aside); ``body_sphere_tests``,
@@ -93,7 +93,7 @@ class BroadPhase(SweptCalls):
         over worlds after `pairs_batch`. ``pairs`` is always the sum of the worlds' counts; the
         test counters are those of the path the batch took: small models go through a kernel that
         tests 8 worlds at once (``collide._kernels.lanes``). It counts per world too, but it culls
-        differently (each body against the subtrees after it, no sweep or grid, the static pair
+        differently (each body against the subtrees after it, no sweep, the static pair
         list instead of the parent rule and masks), so its test counts differ from the
         single-world counts summed. ``reused``: 1 when the call took its body pairs from the list
         kept by earlier calls (``coherent``; ``body_aabb_tests`` then counts that list's tests).
