@@ -22,7 +22,6 @@ from .layout import (H_FP, H_L, I_CHILD_START, I_CHILDREN, I_CONAFFINITY, I_CONT
                      ST_BODY_AABB, ST_SUBTREE, view_i1)
 
 SAP_MIN = 8  # a node with more children than this sorts them (sweep-and-prune)
-FLAT_DESC = 16  # a body with at most this many descendants tests them all flat, else walks
 
 
 @nb.njit(cache=True, _nrt=True)  # allocates: counted (see NO_NRT; a callee takes its caller's flag)
@@ -69,26 +68,7 @@ def _traverse(L, end, nchild, child_start, children, has_bounds, baabb, saabb, s
             # skipping a missed subtree whole. Under the parent rule a direct child is a parent
             # pair, never reported: its subtree AABB still culls, its body is not paired.
             skip = filter_parent and n != 0
-            if end[n] - n - 1 > FLAT_DESC or nchild[n] < 2:
-                nb_ = _body_walk(n, n + 1, end[n], skip, end, baabb, saabb, has_bounds, bp, nb_, stats)
-            else:
-                # A small branching subtree: every descendant's body AABB against n's, flat,
-                # independent tests (no subtree AABB steering a walk: fewer tests than the walk's
-                # two per inner body, and no branch on their outcomes). Below a single child (a
-                # chain) the walk stops after a few links, the flat loop would test them all. A body without bounds has
-                # an empty AABB: never a hit.
-                nxt = n + 1  # the next direct child
-                cap = bp.shape[0]
-                for q in range(n + 1, end[n]):
-                    top = q == nxt
-                    nxt = end[q] if top else nxt
-                    if nb_ < cap:
-                        bp[nb_, 0] = n
-                        bp[nb_, 1] = q
-                    nb_ += np.int64((baabb[n, 0] <= baabb[q, 3]) & (baabb[q, 0] <= baabb[n, 3])
-                                    & (baabb[n, 1] <= baabb[q, 4]) & (baabb[q, 1] <= baabb[n, 4])
-                                    & (baabb[n, 2] <= baabb[q, 5]) & (baabb[q, 2] <= baabb[n, 5]) & ~(top & skip))
-                stats[ST_BODY_AABB] += end[n] - n - 1
+            nb_ = _body_walk(n, n + 1, end[n], skip, end, baabb, saabb, has_bounds, bp, nb_, stats)
         kc = nchild[n]
         if kc < 2:
             continue
