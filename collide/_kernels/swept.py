@@ -31,6 +31,12 @@ with it when its swept sphere or its swept box reaches it at either end; a plane
 (rare: a tilting floor) pairs with every geom the filter lets it (the half-space's own sweep is not
 convex). Explicit pairs: the continuous sphere test with the pair's margins (planes as above).
 
+Each geom's places at s = 1 are kept (the workspace's Y_POSE, Y_END) for the next call: in a
+simulation loop each step starts where the last ended, and a body whose start pose is bitwise the
+kept end pose takes its geoms' kept places instead of placing them again; a body whose two poses
+are bitwise equal places once (`_start_source`). A place depends on nothing but the pose's bits and
+the model's rows, so neither changes an answer.
+
 So the output contains every pair a single step (`broadphase._world`) reports at any ``s`` of
 the motion (its tests are the sphere, the OBBs and the AABBs; each swept test here is implied by
 the single step's at that ``s``), and every pair whose geoms touch during the step.
@@ -51,9 +57,10 @@ import numpy as np
 
 from .bounds import (ORTHO_TOL, SLACK_POS, SLACK_REL, _bounds_ok, _plane_hit, _pose_ok, _row_of, _world_aabb,
                      _world_row, capsule_half, dot3, explicit_pair, plane_world)
-from .keys import _emit
+from ._ptr import NO_NRT, f64_ptr, i32_ptr, i64_ptr, view_of
+from .keys import _emit, _sort_keys, scratch_size
 from .layout import (F_GCAP, F_GLOCAL, F_GMARGIN, F_GPLANE, F_PAIR_M, I_GEOM_BID, I_PAIR_G, I_PGEOMS, I_PLANES,
-                     Layout, Tables, view_f1, view_f2, view_i1, view_i2)
+                     Layout, Tables, address, view_f1, view_f2, view_i1, view_i2)
 
 # Lowering of cos θ (see the module docstring): 2 x 9 entries x ORTHO_TOL, doubled.
 COS_SLACK = 4e-5
@@ -65,24 +72,56 @@ XTAB = Layout(SWEPT, "X", np.int64)  # static, made once (`collide.broadphase.sw
 X_ALLOW = XTAB.field("allow", "G, NW")  # bit h of allow[g, w]: the pair (g, 64 w + h) passes the static filter
 XWORK = Layout(SWEPT, "XW", np.int64)  # a caller's int64 workspace
 XW_ORDER = XWORK.field("order", "max(Gs, 1)")  # solid geoms by their swept boxes' low ends, kept between calls
-XW_STATE = XWORK.field("state", "2")  # the sweep axis, and 1 once the order is set
+XW_STATE = XWORK.field("state", "3")  # the sweep axis; 1 once the order is set; 1 while Y_POSE, Y_END hold an end
 YWORK = Layout(SWEPT, "Y", np.float64)  # a caller's float64 workspace
-Y_BODY = YWORK.field("body", "NB, 4")  # per body: k = θ² / 8, 1.0 when the pose changed, min(θ, 2), |t1 - t0|
+# per body: k = θ² / 8, 1.0 when the pose changed, min(θ, 2), |t1 - t0|, where its start places come from
+Y_BODY = YWORK.field("body", "NB, 5")
 Y_BOX = YWORK.field("box", "G, 6")  # swept AABB (lo, hi) of each solid geom
 Y_SPH = YWORK.field("sph", "G, 9")  # sphere centre at s = 0 (3) and s = 1 (3), radius, centre deviation, reach δ
 Y_ROW = YWORK.field("row", "G, ROW")  # world bounds rows at s = 1
 Y_ROW0 = YWORK.field("row0", "1, ROW")  # scratch row (s = 0)
 Y_TMP = YWORK.field("tmp", "4, 6")  # scratch boxes: the OBB's at s = 0, 1, the capsule's at s = 0, 1
 Y_PLANE = YWORK.field("plane", "max(Q, 1), 4")  # a fixed plane's world (n, e); e = nan: its body moved
+# The last call's end (see `_start_source`): each body's end pose (position, rotation row-major)
+# and each solid geom's boxes at it (its OBB's, its capsule's); its sphere's centre is sph[g, 3:6].
+Y_POSE = YWORK.field("pose", "NB, 12")
+Y_END = YWORK.field("end", "G, 12")
 H_G, H_GS, H_NB, H_Q, H_S = range(5)  # X's header: the counts, and S of the pair keys (`keys.key_shift`)
 
 BAD_POSE = -1  # returned as BAD_POSE - (2 b + t): body b's pose at t (0: start, 1: end) refused
+BAD_SHAPE = -(1 << 62)  # `swept_call`: a pose array of another shape than (NB, 3), (NB, 3, 3)
+# Where a body's places at s = 0 come from (Y_BODY column 4): placed, the last call's end places
+# (its start pose is bitwise the last call's end pose), or its own end places (at rest: both poses
+# bitwise equal).
+SRC_PLACE, SRC_KEPT, SRC_REST = 0.0, 1.0, 2.0
 
 
 @nb.njit(cache=True, inline="always")
-def _body_motion(pos0, rot0, pos1, rot1, body):
-    # Per body: k = θ² / 8 (θ the angle of R1 R0ᵀ), moved flag; returns -1 or 2 b + t of a bad pose.
-    for b in range(pos0.shape[0]):
+def _bits(arr, n):
+    # The C-contiguous float64 array arr as n int64 (its bits: a bitwise comparison, where ==
+    # would take -0.0 for 0.0)
+    return view_of(i64_ptr(np.int64(arr.ctypes.data)), n)
+
+
+@nb.njit(cache=True, inline="always")
+def _same_bits(a, i, b, j, n):
+    # a[i:i + n] and b[j:j + n] hold the same bits (no early exit: a short pass without a branch)
+    same = True
+    for t in range(n):
+        same &= a[i + t] == b[j + t]
+    return same
+
+
+@nb.njit(cache=True, inline="always")
+def _body_motion(pos0, rot0, pos1, rot1, body, kept_pose, kept):
+    # Per body: k = θ² / 8 (θ the angle of R1 R0ᵀ), moved flag, min(θ, 2), |t1 - t0| and where its
+    # start places come from (`_start_source`); returns -1 or 2 b + t of a bad pose.
+    NB = pos0.shape[0]
+    p0 = _bits(pos0, 3 * NB)
+    r0 = _bits(rot0, 9 * NB)
+    p1 = _bits(pos1, 3 * NB)
+    r1 = _bits(rot1, 9 * NB)
+    for b in range(NB):
         for t in range(2):
             r = rot0 if t == 0 else rot1
             p = pos0 if t == 0 else pos1
@@ -108,7 +147,22 @@ def _body_motion(pos0, rot0, pos1, rot1, body):
         # review of issue 44)
         body[b, 2] = 0.0 if same else min(th, 2.0) * (1.0 + 2.0 * ORTHO_TOL)
         body[b, 3] = 0.0 if same else _norm3(pos1[b, 0] - pos0[b, 0], pos1[b, 1] - pos0[b, 1], pos1[b, 2] - pos0[b, 2])
+        body[b, 4] = _start_source(p0, r0, p1, r1, kept_pose, kept, b)
     return -1
+
+
+@nb.njit(cache=True, inline="always")
+def _start_source(p0, r0, p1, r1, kept_pose, kept, b):
+    # Where body b's places at s = 0 come from. A place is a function of the pose's bits and the
+    # model's static rows alone (the same code at both ends): at a start pose bitwise equal to the
+    # end pose, or to the last call's end pose (a simulation loop: each step starts where the last
+    # ended), the places already made are the ones placing would make, so the answer is the same
+    # bit for bit. kept_pose: the last call's end poses (int64 bits, 12 a body), valid when kept.
+    if _same_bits(p0, 3 * b, p1, 3 * b, 3) and _same_bits(r0, 9 * b, r1, 9 * b, 9):
+        return SRC_REST
+    if kept and _same_bits(p0, 3 * b, kept_pose, 12 * b, 3) and _same_bits(r0, 9 * b, kept_pose, 12 * b + 3, 9):
+        return SRC_KEPT
+    return SRC_PLACE
 
 
 @nb.njit(cache=True, inline="always")
@@ -117,10 +171,19 @@ def _norm3(a, b, c):
 
 
 @nb.njit(cache=True, inline="always")
-def _geom_sweep(g, b, pos0, rot0, pos1, rot1, glocal, gcap, m, body, box, sph, row0, row, tmp):
+def _geom_sweep(g, b, pos0, rot0, pos1, rot1, glocal, gcap, m, body, box, sph, row0, row, tmp, ends):
     # box[g] = the swept AABB of geom g (margin m) on body b (its motion in body[b]); sph[g] its
-    # sphere and reach; row[g] its world row at s = 1.
-    for t in range(2):
+    # sphere and reach; row[g] its world row at s = 1; ends[g] its boxes at s = 1 (kept for the
+    # next call, `_start_source`).
+    src = body[b, 4]
+    if src == SRC_KEPT:  # the last call's end places (read before this call's end overwrites them)
+        for i in range(6):
+            tmp[0, i] = ends[g, i]
+            tmp[2, i] = ends[g, 6 + i]
+        sph[g, 0] = sph[g, 3]
+        sph[g, 1] = sph[g, 4]
+        sph[g, 2] = sph[g, 5]
+    for t in range(0 if src == SRC_PLACE else 1, 2):
         r = rot0 if t == 0 else rot1
         p = pos0 if t == 0 else pos1
         w = _world_row(r, p, b, glocal, g, row0, 0) if t == 0 else _world_row(r, p, b, glocal, g, row, g)
@@ -141,6 +204,16 @@ def _geom_sweep(g, b, pos0, rot0, pos1, rot1, glocal, gcap, m, body, box, sph, r
         sph[g, 3 * t] = w[15]
         sph[g, 3 * t + 1] = w[16]
         sph[g, 3 * t + 2] = w[17]
+    if src == SRC_REST:  # both poses the same bits: the same places
+        for i in range(6):
+            tmp[0, i] = tmp[1, i]
+            tmp[2, i] = tmp[3, i]
+        sph[g, 0] = sph[g, 3]
+        sph[g, 1] = sph[g, 4]
+        sph[g, 2] = sph[g, 5]
+    for i in range(6):
+        ends[g, i] = tmp[1, i]
+        ends[g, 6 + i] = tmp[3, i]
     c = _norm3(glocal[g, 0], glocal[g, 1], glocal[g, 2])
     # the farthest point of the box and of the capsule from the body's origin: the box's cut to
     # the capsule's holds the geom, so the larger of the two reaches covers every point of it
@@ -236,20 +309,17 @@ def _sort_order(order, box, n, axis):
         order[j + 1] = g
 
 
-@nb.njit(cache=True)
-def swept_world(pos0, rot0, pos1, rot1, I, F, X, XW, Y, keys, out):
-    """One world's swept pairs as sorted keys ``g1 << S | g2`` in ``keys``, and as ``(g1, g2)`` rows
-    in ``out`` (an int32 ``(n, 2)`` view of ``keys``' memory, or an empty array: keys only); returns
-    their count (which may exceed ``keys``' length: then only the first were written, and the caller
-    grows the buffer and calls again), or ``BAD_POSE - (2 b + t)`` for body b's refused pose at end
-    t.
-
-    ``I``, ``F``: the broad phase's model (`layout.MODEL`); ``X``: `XTAB` (its counts at 0..3);
-    ``XW``, ``Y``: workspaces of `XWORK` and `YWORK`, owned by one caller at a time.
-    """
+@nb.njit(cache=True, inline="always")
+def _swept(pos0, rot0, pos1, rot1, I, F, X, XW, Y, keys, scr):
+    # One world's swept pairs as keys ``g1 << S | g2`` in ``keys``, sorted when they fit (``scr``:
+    # `keys.scratch_size` int64); returns their count (which may exceed ``keys``' length: then only
+    # the first were written), or ``BAD_POSE - (2 b + t)``. See `swept_world`.
     Gs = X[H_GS]
     body = view_f2(X, Y, Y_BODY)
-    bad = _body_motion(pos0, rot0, pos1, rot1, body)
+    state = view_i1(X, XW, XW_STATE)
+    NB = pos0.shape[0]
+    kept_pose = view_of(i64_ptr(address(X, Y, Y_POSE)), 12 * NB)
+    bad = _body_motion(pos0, rot0, pos1, rot1, body, kept_pose, state[2] == 1)
     if bad >= 0:
         return BAD_POSE - bad
     glocal = view_f2(I, F, F_GLOCAL)
@@ -263,20 +333,22 @@ def swept_world(pos0, rot0, pos1, rot1, I, F, X, XW, Y, keys, out):
     pair_g = view_i2(I, I, I_PAIR_G)
     allow = view_i2(X, X, X_ALLOW)
     order = view_i1(X, XW, XW_ORDER)
-    state = view_i1(X, XW, XW_STATE)
     box = view_f2(X, Y, Y_BOX)
     sph = view_f2(X, Y, Y_SPH)
     row = view_f2(X, Y, Y_ROW)
     row0 = view_f2(X, Y, Y_ROW0)
     tmp = view_f2(X, Y, Y_TMP)
     plw = view_f2(X, Y, Y_PLANE)
+    ends = view_f2(X, Y, Y_END)
     S = X[H_S]
-    # 1. every solid geom's swept box and sphere; the spread of their centres per axis
+    # 1. every solid geom's swept box and sphere; the spread of their centres per axis. The kept
+    # end (Y_POSE, Y_END) is not whole while this runs: marked invalid until it is again
+    state[2] = 0
     m0 = m1 = m2 = q0 = q1 = q2 = 0.0
     for ii in range(Gs):
         g = solid[ii]
         b = geom_bid[g]
-        _geom_sweep(g, b, pos0, rot0, pos1, rot1, glocal, gcap, gmargin[g], body, box, sph, row0, row, tmp)
+        _geom_sweep(g, b, pos0, rot0, pos1, rot1, glocal, gcap, gmargin[g], body, box, sph, row0, row, tmp, ends)
         c0 = box[g, 0] + box[g, 3]
         c1 = box[g, 1] + box[g, 4]
         c2 = box[g, 2] + box[g, 5]
@@ -286,6 +358,14 @@ def swept_world(pos0, rot0, pos1, rot1, I, F, X, XW, Y, keys, out):
         q0 += c0 * c0
         q1 += c1 * c1
         q2 += c2 * c2
+    p1 = _bits(pos1, 3 * NB)
+    r1 = _bits(rot1, 9 * NB)
+    for b in range(NB):
+        for i in range(3):
+            kept_pose[12 * b + i] = p1[3 * b + i]
+        for i in range(9):
+            kept_pose[12 * b + 3 + i] = r1[9 * b + i]
+    state[2] = 1
     # 2. the sweep axis: the widest spread of centres; kept unless another is 1.5x as wide (each
     # change costs the sort a full pass)
     if state[1] == 0:
@@ -320,6 +400,7 @@ def swept_world(pos0, rot0, pos1, rot1, I, F, X, XW, Y, keys, out):
                         and _bounds_ok(_row_of(row, a), gmargin[a] + sph[a, 8], _row_of(row, b),
                                        gmargin[b] + sph[b, 8])):
                     k = _emit(keys, k, a, b, S)
+    k4 = min(k, keys.shape[0])  # the sweep's keys end here (`keys._sort_keys` sorts the two runs apart)
     # 3. planes: fixed ones as half-spaces, moving ones against every geom the filter lets them
     for qi in range(planes.shape[0]):
         q = planes[qi]
@@ -369,21 +450,104 @@ def swept_world(pos0, rot0, pos1, rot1, I, F, X, XW, Y, keys, out):
                                   _row_of(row, g2), m2 + _pair_reach(sph, g2, m2, gmargin[g2], body[geom_bid[g2], 2])))
         if hit:
             k = _emit(keys, k, g1, g2, S)
-    n = min(k, keys.shape[0])
-    keys[:n].sort()
+    if k <= keys.shape[0]:
+        _sort_keys(keys, k, k4, S, X[H_G], scr)
+    return k
+
+
+@nb.njit(cache=True)
+def swept_world(pos0, rot0, pos1, rot1, I, F, X, XW, Y, keys, scr, out):
+    """One world's swept pairs as sorted keys ``g1 << S | g2`` in ``keys``, and as ``(g1, g2)`` rows
+    in ``out`` (an int32 ``(n, 2)`` view of ``keys``' memory, or an empty array: keys only); returns
+    their count (which may exceed ``keys``' length: then only the first were written, and the caller
+    grows the buffer and calls again), or ``BAD_POSE - (2 b + t)`` for body b's refused pose at end
+    t.
+
+    ``I``, ``F``: the broad phase's model (`layout.MODEL`); ``X``: `XTAB` (its counts at 0..3);
+    ``XW``, ``Y``: workspaces of `XWORK` and `YWORK`, owned by one caller at a time (they keep the
+    last call's end between calls, `_start_source`); ``scr``: `keys.scratch_size` int64 for
+    ``keys``. The pose arrays: C-contiguous float64 of shapes (NB, 3), (NB, 3, 3).
+    """
+    k = _swept(pos0, rot0, pos1, rot1, I, F, X, XW, Y, keys, scr)
+    _rows(keys, k, X[H_S], out)
+    return k
+
+
+@nb.njit(cache=True, inline="always")
+def _rows(keys, k, S, out):
+    # The first min(k, len(keys)) keys as (g1, g2) rows into out (keys' own memory, or empty: none)
     if out.shape[0] > 0:
+        n = min(k, keys.shape[0])
         mask = (np.int64(1) << S) - 1
         for i in range(n):
             key = keys[i]  # read before out[i] (the same 8 bytes) is written
             out[i, 0] = np.int32(key >> S)
             out[i, 1] = np.int32(key & mask)
+
+
+# `swept_call`'s context: the addresses and lengths of one caller's buffers (see `_ptr`, and
+# `step.context` for the single step's): the model (I, F), the static table X, the workspaces XW,
+# Y, the keys and their sort scratch. The owner keeps every buffer alive while the context holds it.
+(SC_I, SC_NI, SC_F, SC_NF, SC_X, SC_NX, SC_XW, SC_NXW, SC_Y, SC_NY, SC_KEYS, SC_NKEYS, SC_SCR, SC_NSCR) = range(14)
+NSCTX = 14
+
+
+def context(I, F, X, XW, Y, keys, scr, out=None) -> np.ndarray:
+    """The context of these buffers (into ``out`` when given); each must be C-contiguous of the
+    kernel's dtype, ``scr`` at least ``keys.scratch_size(G, keys.size)`` long."""
+    ctx = np.zeros(NSCTX, np.int64) if out is None else out
+    for arr, dt in ((I, np.int64), (F, np.float64), (X, np.int64), (XW, np.int64), (Y, np.float64),
+                    (keys, np.int64), (scr, np.int64)):
+        if arr.dtype != dt or not arr.flags.c_contiguous:
+            raise ValueError("swept context: buffers must be C-contiguous arrays of the kernel's dtypes")
+    if scr.size < scratch_size(int(X[H_G]), keys.size):
+        raise ValueError("swept context: the sort scratch is shorter than scratch_size(G, keys)")
+    ctx[:] = (I.ctypes.data, I.size, F.ctypes.data, F.size, X.ctypes.data, X.size, XW.ctypes.data, XW.size,
+              Y.ctypes.data, Y.size, keys.ctypes.data, keys.size, scr.ctypes.data, scr.size)
+    return ctx
+
+
+def _swept_call(pos0, rot0, pos1, rot1, ctx):
+    """`swept_world` on the buffers of the context ``ctx`` (`context`), the rows written over the
+    keys' memory; `BAD_SHAPE` for a pose array of another shape. Compiled for one signature
+    (`swept_call`): five arguments where `swept_world` takes twelve (a numba call pays for each
+    array), and no reference counting (views of pointers carry none)."""
+    X = view_of(i64_ptr(ctx[SC_X]), ctx[SC_NX])
+    NB = X[H_NB]
+    if (pos0.shape[0] != NB or pos0.shape[1] != 3 or rot0.shape[0] != NB or rot0.shape[1] != 3
+            or rot0.shape[2] != 3 or pos1.shape[0] != NB or pos1.shape[1] != 3 or rot1.shape[0] != NB
+            or rot1.shape[1] != 3 or rot1.shape[2] != 3):
+        return BAD_SHAPE
+    I = view_of(i64_ptr(ctx[SC_I]), ctx[SC_NI])
+    F = view_of(f64_ptr(ctx[SC_F]), ctx[SC_NF])
+    XW = view_of(i64_ptr(ctx[SC_XW]), ctx[SC_NXW])
+    Y = view_of(f64_ptr(ctx[SC_Y]), ctx[SC_NY])
+    keys = view_of(i64_ptr(ctx[SC_KEYS]), ctx[SC_NKEYS])
+    scr = view_of(i64_ptr(ctx[SC_SCR]), ctx[SC_NSCR])
+    k = _swept(pos0, rot0, pos1, rot1, I, F, X, XW, Y, keys, scr)
+    _rows(keys, k, X[H_S], view_of(i32_ptr(ctx[SC_KEYS]), (ctx[SC_NKEYS], 2)))
     return k
 
 
+# One signature: any other argument type (float32, a strided view, a list) makes the dispatcher
+# raise TypeError instead of compiling a new specialisation (the caller then checks and converts).
+SWEPT_SIGNATURE = ("int64(float64[:, ::1], float64[:, :, ::1], float64[:, ::1], float64[:, :, ::1], "
+                   "int64[::1])")
+_call_dispatcher = None
+
+
+def swept_call():
+    """The compiled `_swept_call` (``SWEPT_SIGNATURE`` only; from numba's cache after the first run)."""
+    global _call_dispatcher
+    if _call_dispatcher is None:
+        _call_dispatcher = nb.njit(SWEPT_SIGNATURE, **NO_NRT)(_swept_call)
+    return _call_dispatcher
+
+
 @nb.njit(cache=True, parallel=True)
-def swept_batch(pos0, rot0, pos1, rot1, I, F, X, XWs, Ys, scratch, counts, offsets, out):
+def swept_batch(pos0, rot0, pos1, rot1, I, F, X, XWs, Ys, scratch, scrs, counts, offsets, out):
     """The worlds of a batch, threads over them (``T = XWs.shape[0]`` workers, worker t owning
-    ``XWs[t]``, ``Ys[t]``, ``scratch[t]``). With ``out`` empty: ``counts[w]`` = `swept_world`'s
+    ``XWs[t]``, ``Ys[t]``, ``scratch[t]`` and its sort scratch ``scrs[t]``). With ``out`` empty: ``counts[w]`` = `swept_world`'s
     return for world w (a count, or a refused pose), keys written nowhere. Else each world's
     sorted keys (``counts[w]`` of them, at most ``scratch``' width) into
     ``out[offsets[w]:offsets[w] + counts[w]]``."""
@@ -395,9 +559,10 @@ def swept_batch(pos0, rot0, pos1, rot1, I, F, X, XWs, Ys, scratch, counts, offse
         for w in range(t, B, T):
             if not write:
                 counts[w] = swept_world(pos0[w], rot0[w], pos1[w], rot1[w], I, F, X, XWs[t], Ys[t], scratch[t, :0],
-                                        none)
+                                        scrs[t], none)
             elif counts[w] > 0:
-                n = swept_world(pos0[w], rot0[w], pos1[w], rot1[w], I, F, X, XWs[t], Ys[t], scratch[t], none)
+                n = swept_world(pos0[w], rot0[w], pos1[w], rot1[w], I, F, X, XWs[t], Ys[t], scratch[t], scrs[t],
+                                none)
                 o = offsets[w]
                 for i in range(n):
                     out[o + i] = scratch[t, i]

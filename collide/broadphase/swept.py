@@ -71,12 +71,17 @@ class SweptPairs:
         self._I, self._F = bp._I, bp._F
         self._XW = np.zeros(_ks.XWORK.size(d), np.int64)
         self._Y = np.zeros(_ks.YWORK.size(d))
+        self._ctx = np.zeros(_ks.NSCTX, np.int64)
         self._set_keys(4 * G + 64)
         self._check = bp._check
+        self._call = _ks.swept_call()
 
     def _set_keys(self, n: int) -> None:
+        # The kernel reaches the buffers through self._ctx (addresses): replace one only here.
         self._keys = np.empty(n, np.int64)
+        self._scr = np.empty(_keys.scratch_size(self.dims["G"], n), np.int64)
         self._out = self._keys.view(np.int32).reshape(-1, 2)  # the kernel turns the keys into rows in place
+        _ks.context(self._I, self._F, self._X, self._XW, self._Y, self._keys, self._scr, out=self._ctx)
 
     def _pairs_of(self, keys: np.ndarray) -> np.ndarray:
         S = self.key_shift
@@ -106,16 +111,23 @@ class SweptPairs:
 
     def pairs(self, pos0, rot0, pos1, rot1) -> np.ndarray:
         """See `BroadPhase.pairs_swept` (the caller holds the lock)."""
-        pos0, rot0 = self._check_end(pos0, rot0, (), 0)
-        pos1, rot1 = self._check_end(pos1, rot1, (), 1)
+        # The kernel checks the shapes; its dispatcher takes only C-contiguous writable float64
+        # arrays and raises TypeError for anything else: then the arrays are checked and converted.
+        try:
+            k = self._call(pos0, rot0, pos1, rot1, self._ctx)
+        except TypeError:
+            k = _ks.BAD_SHAPE
+        if k == _ks.BAD_SHAPE:
+            pos0, rot0 = self._check_end(pos0, rot0, (), 0)
+            pos1, rot1 = self._check_end(pos1, rot1, (), 1)
+            k = self._call(pos0, rot0, pos1, rot1, self._ctx)
         while True:
-            k = _ks.swept_world(pos0, rot0, pos1, rot1, self._I, self._F, self._X, self._XW, self._Y, self._keys,
-                                self._out)
             if k < 0:
                 self._refuse(k, pos0, rot0, pos1, rot1)
             if k <= len(self._keys):
                 return self._out[:k].copy()
             self._set_keys(2 * k)
+            k = self._call(pos0, rot0, pos1, rot1, self._ctx)
 
     def pairs_batch(self, pos0, rot0, pos1, rot1) -> np.ndarray:
         """See `BroadPhase.pairs_swept_batch`."""
@@ -134,8 +146,9 @@ class SweptPairs:
         Ys = np.zeros((T, self._Y.size))
         counts = np.zeros(B, np.int64)
         none = np.zeros(0, np.int64)
+        G = self.dims["G"]
         _ks.swept_batch(pos0, rot0, pos1, rot1, self._I, self._F, self._X, XWs, Ys, np.zeros((T, 1), np.int64),
-                        counts, none, none)
+                        np.empty((T, _keys.scratch_size(G, 0)), np.int64), counts, none, none)
         bad = np.flatnonzero(counts < 0)
         if len(bad):
             w = int(bad[0])
@@ -144,8 +157,9 @@ class SweptPairs:
         keys = np.empty(max(1, int(offsets[-1])), np.int64)
         if offsets[-1]:
             XWs[:] = 0
-            _ks.swept_batch(pos0, rot0, pos1, rot1, self._I, self._F, self._X, XWs, Ys,
-                            np.empty((T, max(1, int(counts.max()))), np.int64), counts, offsets, keys)
+            n = max(1, int(counts.max()))
+            _ks.swept_batch(pos0, rot0, pos1, rot1, self._I, self._F, self._X, XWs, Ys, np.empty((T, n), np.int64),
+                            np.empty((T, _keys.scratch_size(G, n)), np.int64), counts, offsets, keys)
         out = np.empty((int(offsets[-1]), 3), np.int32)
         out[:, 0] = np.repeat(np.arange(B, dtype=np.int32), counts)
         out[:, 1:] = self._pairs_of(keys[:offsets[-1]])

@@ -1,0 +1,195 @@
+"""The swept broad phase's kept end (`collide._kernels.swept._start_source`): a call whose start
+poses are bitwise the last call's end poses takes that call's end places instead of placing again,
+and a body whose two poses are bitwise equal places once. Neither may change an answer: every call
+here equals the same call on a fresh broad phase (nothing kept), array for array."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+import collide
+from collide import testing
+from collide._kernels import swept as _ks
+from collide.testing.swept import brute_force_swept_pairs
+
+
+def _scenes():
+    return [
+        testing.chain(12, seed=1, planes=1),
+        testing.branching_tree(30, seed=2, planes=1),
+        testing.many_robots(4, links=5, seed=3, planes=1),
+        testing.free_hulls(16, seed=4, filters=True, planes=1),
+    ]
+
+
+def _path(scene, rng, n, size=0.05):
+    # n + 1 poses of a motion in small random steps (a simulation loop's), the world fixed
+    L = scene.articulation.body_count
+    p, r = scene.poses(rng)
+    from scipy.spatial.transform import Rotation
+    out = [(p.copy(), r.copy())]
+    for _ in range(n):
+        turn = Rotation.from_rotvec(rng.uniform(-size, size, (L, 3))).as_matrix()
+        r = np.einsum("lij,ljk->lik", turn, r)
+        p = p + rng.uniform(-size, size, (L, 3))
+        r[0], p[0] = out[0][1][0], out[0][0][0]
+        out.append((p.copy(), r.copy()))
+    return out
+
+
+def _fresh(art, p0, r0, p1, r1):
+    return collide.BroadPhase(art).pairs_swept(p0, r0, p1, r1)
+
+
+def _sources(bp):
+    # Y_BODY's column 4 after the last call: where each body's start places came from
+    sp = bp._swept_pairs()
+    NB = sp.dims["NB"]
+    off = _ks.YWORK.offset(sp.dims, "body")
+    return sp._Y[off:off + 5 * NB].reshape(NB, 5)[:, 4].copy()
+
+
+def _assert_same(a, b, where):
+    assert a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b), where
+
+
+def test_a_chain_of_calls_equals_fresh_calls():
+    rng = np.random.default_rng(1)
+    found = kept = 0
+    for scene in _scenes():
+        a = scene.articulation
+        bp = collide.BroadPhase(a)
+        path = _path(scene, rng, 8)
+        for i in range(1, len(path)):
+            (p0, r0), (p1, r1) = path[i - 1], path[i]
+            got = bp.pairs_swept(p0.copy(), r0.copy(), p1, r1)  # other arrays, the same bits
+            _assert_same(got, _fresh(a, p0, r0, p1, r1), (scene.name, i))
+            src = _sources(bp)
+            kept += int(np.sum(src == _ks.SRC_KEPT))
+            if i > 1:
+                assert np.all(src[1:] == _ks.SRC_KEPT), scene.name  # every moving body took the kept end
+            found += len(got)
+    assert found > 50 and kept > 50  # real pairs, and the kept end was used
+
+
+def test_arrays_modified_in_place_between_calls():
+    # The caller's arrays are reused and rewritten: the kept end is compared by value, not by
+    # identity, so a changed start is placed again.
+    rng = np.random.default_rng(2)
+    found = placed = 0
+    for scene in _scenes():
+        a = scene.articulation
+        bp = collide.BroadPhase(a)
+        path = _path(scene, rng, 6, size=0.2)
+        P0, R0 = path[0][0].copy(), path[0][1].copy()
+        P1, R1 = path[1][0].copy(), path[1][1].copy()
+        for i in range(2, len(path)):
+            got = bp.pairs_swept(P0, R0, P1, R1)
+            _assert_same(got, _fresh(a, P0, R0, P1, R1), (scene.name, i))
+            found += len(got)
+            # the start array now holds the last end, nudged by one ulp in one body's position
+            P0[:], R0[:] = P1, R1
+            P0[2, 0] = np.nextafter(P0[2, 0], np.inf)
+            P1[:], R1[:] = path[i]
+            got = bp.pairs_swept(P0, R0, P1, R1)
+            _assert_same(got, _fresh(a, P0, R0, P1, R1), (scene.name, i, "nudged"))
+            assert _sources(bp)[2] == _ks.SRC_PLACE
+            placed += 1
+            P0[:], R0[:] = P1, R1
+            P1[:], R1[:] = path[min(i + 1, len(path) - 1)]
+    assert found > 20 and placed > 0
+
+
+def test_alternating_motions_and_a_negative_zero():
+    # Two interleaved loops on one broad phase: each call's start is the other loop's end, never
+    # the last call's (nothing kept may be taken), then back to a chain.
+    rng = np.random.default_rng(3)
+    for scene in _scenes():
+        a = scene.articulation
+        bp = collide.BroadPhase(a)
+        pa, pb = _path(scene, rng, 5), _path(scene, rng, 5)
+        for i in range(1, 6):
+            for path in (pa, pb):
+                got = bp.pairs_swept(*path[i - 1], *path[i])
+                _assert_same(got, _fresh(a, *path[i - 1], *path[i]), (scene.name, i))
+                assert not np.any(_sources(bp) == _ks.SRC_KEPT)
+    # -0.0 equals 0.0 but is another pose's bits: not taken as the kept end
+    scene = _scenes()[0]
+    a = scene.articulation
+    bp = collide.BroadPhase(a)
+    path = _path(scene, rng, 2)
+    p1 = path[1][0].copy()
+    p1[3, 1] = 0.0
+    bp.pairs_swept(*path[0], p1, path[1][1])
+    p0 = p1.copy()
+    p0[3, 1] = -0.0
+    got = bp.pairs_swept(p0, path[1][1], *path[2])
+    src = _sources(bp)
+    assert src[3] == _ks.SRC_PLACE and src[4] == _ks.SRC_KEPT
+    _assert_same(got, _fresh(a, p0, path[1][1], *path[2]), "negative zero")
+
+
+def test_a_refused_call_a_grown_buffer_and_a_copy_keep_the_answers():
+    rng = np.random.default_rng(4)
+    scene = _scenes()[2]
+    a = scene.articulation
+    bp = collide.BroadPhase(a)
+    path = _path(scene, rng, 6, size=0.3)
+    bp.pairs_swept(*path[0], *path[1])
+    bad = path[2][0].copy()
+    bad[3, 0] = np.nan
+    with pytest.raises(ValueError, match="end pose"):
+        bp.pairs_swept(*path[1], bad, path[2][1])
+    got = bp.pairs_swept(*path[1], *path[2])  # the kept end is still the first call's
+    _assert_same(got, _fresh(a, *path[1], *path[2]), "after a refusal")
+    assert np.all(_sources(bp)[1:] == _ks.SRC_KEPT)
+    sp = bp._swept_pairs()
+    sp._set_keys(1)  # the next call overflows its keys, grows them and runs again
+    got = bp.pairs_swept(*path[2], *path[3])
+    assert len(got) > 1
+    _assert_same(got, _fresh(a, *path[2], *path[3]), "grown")
+    twin = copy.copy(bp)  # rebuilt from the articulation: nothing kept
+    for i in range(4, 7):
+        got, got2 = bp.pairs_swept(*path[i - 1], *path[i]), twin.pairs_swept(*path[i - 1], *path[i])
+        _assert_same(got, got2, ("copy", i))
+        _assert_same(got, _fresh(a, *path[i - 1], *path[i]), ("copy", i))
+
+
+def test_batch_of_a_chain_equals_single_calls():
+    # Worlds whose starts are other worlds' ends, as a batch of consecutive steps: a worker's
+    # kept end may be taken from world to world only where the bits agree.
+    rng = np.random.default_rng(5)
+    for scene in _scenes():
+        a = scene.articulation
+        bp = collide.BroadPhase(a)
+        path = _path(scene, rng, 9)
+        P = np.array([p for p, _ in path])
+        R = np.array([r for _, r in path])
+        out = bp.pairs_swept_batch(P[:-1], R[:-1], P[1:], R[1:])
+        for w in range(len(path) - 1):
+            _assert_same(out[out[:, 0] == w, 1:], _fresh(a, P[w], R[w], P[w + 1], R[w + 1]), (scene.name, w))
+        assert len(out) > 0
+
+
+def test_bodies_at_rest_place_once_and_match_the_twin():
+    rng = np.random.default_rng(6)
+    found = rest = 0
+    for scene in _scenes():
+        a = scene.articulation
+        bp = collide.BroadPhase(a)
+        path = _path(scene, rng, 1, size=0.3)
+        (p0, r0), (p1, r1) = path
+        still = rng.random(len(p0)) < 0.5
+        p1[still], r1[still] = p0[still], r0[still]
+        got = bp.pairs_swept(p0, r0, p1, r1)
+        assert np.all(_sources(bp)[still] == _ks.SRC_REST)
+        rest += int(still.sum())
+        sure = {tuple(map(int, x)) for x in brute_force_swept_pairs(a, p0, r0, p1, r1, tol=-1e-9)}
+        maybe = {tuple(map(int, x)) for x in brute_force_swept_pairs(a, p0, r0, p1, r1, tol=1e-9)}
+        fast = {tuple(map(int, x)) for x in got}
+        assert sure <= fast <= maybe, scene.name
+        found += len(fast)
+    assert found > 20 and rest > 10
