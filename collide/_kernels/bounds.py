@@ -391,7 +391,7 @@ def _plane_hit_local(n0, n1, n2, lim, scale, Lr, g, mg):
     # n . p: a multi-geom body's geoms need their world AABBs only (their corner test), not their
     # sphere and box moved into the world.
     # Both tests always, no branch on the sphere's outcome (a misprediction costs more than the
-    # box's dozen flops; see _subtree_pair).
+    # box's dozen flops; see `culling`).
     sc = dot3(n0, n1, n2, Lr[g, 15], Lr[g, 16], Lr[g, 17])
     r = Lr[g, 18] + mg
     c = dot3(n0, n1, n2, Lr[g, 0], Lr[g, 1], Lr[g, 2])

@@ -394,7 +394,7 @@ def _plane_pairs(body_pos, body_rot, I, F, W, sap, keys, k, stats, stamp):
         k1 = 1 if n1 > 0 else 4
         k2 = 2 if n2 > 0 else 5
         # Flat and branch-free over the bodies: a walk down the tree branching on each outcome
-        # costs a misprediction per test in a simulation loop (see _subtree_pair).
+        # costs a misprediction per test in a simulation loop (see `culling`).
         m = 0
         for x in range(L):
             lst[m] = x

@@ -2,10 +2,15 @@
 
 The walk (`walk._traverse`) finds every body pair once at its lowest common ancestor with the tests
 here: a body against its own subtree (`_body_walk`), pairs of child subtrees (`_subtree_pair`), and
-the rows of small branching subtrees' static bit masks (`_row_hits`). A subtree whose AABB misses is skipped whole. `_sweep` makes the subtree AABBs in one
-reverse pass; `_filter` is the static filter of the pairs found (the kernel form of
-`collide.broadphase.tables.StaticFilter.bodies`); `_scan` and `_scan_masks` test a kept list or the
-static masks of a small model.
+the rows of small branching subtrees' static bit masks (`_row_hits`). A subtree whose AABB misses is
+skipped whole. `_sweep` makes the subtree AABBs in one reverse pass; `_filter` is the static filter
+of the pairs found (the kernel form of `collide.broadphase.tables.StaticFilter.bodies`); `_scan` and
+`_scan_masks` test a kept list or the static masks of a small model.
+
+Where a loop tests pairs one after another, the pair is written and the count advanced by the
+outcome, without a branch on it: in a simulation loop the outcome of each test is data that the
+branch predictor, retrained by the engine's own code between steps, cannot foresee, and each
+misprediction flushes the pipeline.
 """
 
 from __future__ import annotations
@@ -85,62 +90,25 @@ def _body_walk(a, q, stop, skip_child, end, baabb, saabb, has_bounds, bp, nb_, s
 
 
 MASK_MAX = 64  # up to this many positions, the body pairs come from static bit masks (`_scan_masks`), no tree
-FLAT_MAX = 4096  # _subtree_pair: at most this many body x body tests flat, else the walk
 
 
 @nb.njit(**NO_NRT)
-def _subtree_pair(A, B, end, baabb, saabb, has_bounds, bp, nb_, stats, lst):
-    """Every body of subtree A against every body of subtree B (disjoint subtrees whose AABBs meet).
-
-    Flat and branch-free: the bodies of A whose AABB meets B's subtree AABB, those of B meeting
-    A's (``lst``: int64 scratch of at least ``end[A] - A + end[B] - B``), then all pairs of the
-    two lists. In a simulation loop the outcome of each test is data that the branch predictor,
-    retrained by the engine between steps, cannot foresee: a walk that branches on it costs a
-    misprediction per test (after `mj_step` on 22 humanoids the listed child pairs took less time
-    than the walk). Past ``FLAT_MAX`` pair tests (two big subtrees deep in each other) the walk,
-    whose culling then pays, runs instead.
-    """
+def _subtree_pair(A, B, end, baabb, saabb, has_bounds, bp, nb_, stats):
+    """Every body of subtree A against every body of subtree B (disjoint subtrees whose AABBs
+    meet): down A, skipping a subtree whose AABB misses B's whole, each body with bounds walks B
+    (`_body_walk`)."""
     ea = end[A]
     eb = end[B]
-    if ea == A + 1 and eb == B + 1:  # two leaves: their subtree AABBs were just tested
-        stats[ST_BODY_AABB] += 1
-        return _push(bp, nb_, A, B) if has_bounds[A] and has_bounds[B] else nb_
-    na = 0
-    for a in range(A, ea):
-        lst[na] = a
-        na += np.int64((baabb[a, 0] <= saabb[B, 3]) & (saabb[B, 0] <= baabb[a, 3]) & (baabb[a, 1] <= saabb[B, 4])
-                       & (saabb[B, 1] <= baabb[a, 4]) & (baabb[a, 2] <= saabb[B, 5]) & (saabb[B, 2] <= baabb[a, 5]))
-    nbl = 0
-    for b in range(B, eb):
-        lst[na + nbl] = b
-        nbl += np.int64((baabb[b, 0] <= saabb[A, 3]) & (saabb[A, 0] <= baabb[b, 3]) & (baabb[b, 1] <= saabb[A, 4])
-                        & (saabb[A, 1] <= baabb[b, 4]) & (baabb[b, 2] <= saabb[A, 5]) & (saabb[A, 2] <= baabb[b, 5]))
-    stats[ST_SUBTREE] += ea - A + eb - B
-    if na * nbl > FLAT_MAX:
-        a = A
-        while a < ea:
-            stats[ST_SUBTREE] += 1
-            if ((saabb[a, 0] <= saabb[B, 3]) & (saabb[B, 0] <= saabb[a, 3]) & (saabb[a, 1] <= saabb[B, 4])
-                    & (saabb[B, 1] <= saabb[a, 4]) & (saabb[a, 2] <= saabb[B, 5]) & (saabb[B, 2] <= saabb[a, 5])):
-                if has_bounds[a]:
-                    nb_ = _body_walk(a, B, eb, False, end, baabb, saabb, has_bounds, bp, nb_, stats)
-                a += 1
-            else:
-                a = end[a]
-        return nb_
-    # Bodies without bounds have an empty AABB (lo > hi): never in a list.
-    cap = bp.shape[0]
-    for i in range(na):
-        a = lst[i]
-        for j in range(na, na + nbl):
-            b = lst[j]
-            if nb_ < cap:
-                bp[nb_, 0] = a
-                bp[nb_, 1] = b
-            nb_ += np.int64((baabb[a, 0] <= baabb[b, 3]) & (baabb[b, 0] <= baabb[a, 3]) & (baabb[a, 1] <= baabb[b, 4])
-                            & (baabb[b, 1] <= baabb[a, 4]) & (baabb[a, 2] <= baabb[b, 5])
-                            & (baabb[b, 2] <= baabb[a, 5]))
-    stats[ST_BODY_AABB] += na * nbl
+    a = A
+    while a < ea:
+        stats[ST_SUBTREE] += 1
+        if ((saabb[a, 0] <= saabb[B, 3]) & (saabb[B, 0] <= saabb[a, 3]) & (saabb[a, 1] <= saabb[B, 4])
+                & (saabb[B, 1] <= saabb[a, 4]) & (saabb[a, 2] <= saabb[B, 5]) & (saabb[B, 2] <= saabb[a, 5])):
+            if has_bounds[a]:
+                nb_ = _body_walk(a, B, eb, False, end, baabb, saabb, has_bounds, bp, nb_, stats)
+            a += 1
+        else:
+            a = end[a]
     return nb_
 
 
@@ -256,5 +224,6 @@ def _scan_masks(smask, L, baabb_t, single, bp):
 
 def sap_state(children: np.ndarray) -> np.ndarray:
     """The traversal's int64 state for ``L`` positions (``children``: ``L - 1`` ids): the children
-    lists in their initial sweep order, then ``L`` of scratch (`_subtree_pair`)."""
+    lists in their initial sweep order, then ``L`` of scratch (the planes' candidate positions,
+    `broadphase._plane_pairs`)."""
     return np.concatenate([children, np.zeros(len(children) + 1, np.int64)]).astype(np.int64)

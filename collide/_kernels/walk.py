@@ -29,11 +29,10 @@ def _traverse(L, end, nchild, child_start, children, has_bounds, baabb, saabb, s
               baabb_t, flat_root, flat_n, flat_mask):
     """Candidate body pairs (world AABBs overlap) into ``bp``; returns their count (may exceed cap).
 
-    ``sap`` (`sap_state`): the sweep orders of the children lists, then scratch for `_subtree_pair`.
+    ``sap`` (`sap_state`): the sweep orders of the children lists (then scratch, not used here).
     ``baabb``, ``saabb``, ``baabb_t``: the exact boxes, or the fat ones (`coherence`).
     """
     nb_ = 0
-    lst = sap[L - 1:]
     cap = bp.shape[0]
     skip_to = 0  # the end of the last flat subtree
     bt_at = np.int64(baabb_t.ctypes.data)
@@ -86,7 +85,7 @@ def _traverse(L, end, nchild, child_start, children, has_bounds, baabb, saabb, s
                             if has_bounds[ci] and has_bounds[cj]:
                                 nb_ = _push(bp, nb_, ci, cj)
                         else:
-                            nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
+                            nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats)
             continue
         # Sweep and prune on the axis of the node's largest extent. The order persists between
         # calls (sap holds it), so insertion sort is ~linear under small motion; a big reshuffle
@@ -140,13 +139,13 @@ def _traverse(L, end, nchild, child_start, children, has_bounds, baabb, saabb, s
                        & (saabb[cj, 1] <= hi1) & (lo2 <= saabb[cj, 5]) & (saabb[cj, 2] <= hi2))
                 if leaf_i and end[cj] == cj + 1:
                     # Two bodies, the common case of a wide node: no branch on the outcome (see
-                    # _subtree_pair); a body without bounds has an empty AABB, never a hit.
+                    # `culling`); a body without bounds has an empty AABB, never a hit.
                     if nb_ < cap:
                         bp[nb_, 0] = ci
                         bp[nb_, 1] = cj
                     nb_ += np.int64(hit)
                 elif hit:
-                    nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats, lst)
+                    nb_ = _subtree_pair(ci, cj, end, baabb, saabb, has_bounds, bp, nb_, stats)
             stats[ST_SUBTREE] += ntest
     return nb_
 
