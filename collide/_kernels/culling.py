@@ -117,16 +117,9 @@ def _subtree_pair(A, B, end, baabb, saabb, has_bounds, bp, nb_, stats):
 @nb.njit(**NO_NRT)
 def _sweep(saabb, parent_pos, L):
     """Subtree AABBs: one reverse sweep over the positions, children before parents, each row of
-    ``saabb`` started as its body's AABB.
-
-    The box merged last is carried in registers when the next position is its parent (always,
-    down a chain): through memory, each merge waits for the previous one's store. On the 64-link
-    chain the gain was within this machine's run-to-run noise. Same min and max, same order: the
-    same bits.
-    """
+    ``saabb`` started as its body's AABB and merged into its parent's row."""
     for x in range(L - 1, 0, -1):
-        if x == L - 1 or parent_pos[x + 1] != x:  # else saabb[x] was merged last: a0..a5 hold it
-            a0, a1, a2, a3, a4, a5 = saabb[x, 0], saabb[x, 1], saabb[x, 2], saabb[x, 3], saabb[x, 4], saabb[x, 5]
+        a0, a1, a2, a3, a4, a5 = saabb[x, 0], saabb[x, 1], saabb[x, 2], saabb[x, 3], saabb[x, 4], saabb[x, 5]
         q = parent_pos[x]
         a0 = min(saabb[q, 0], a0)
         a1 = min(saabb[q, 1], a1)
