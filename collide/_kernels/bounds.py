@@ -237,7 +237,7 @@ def _bounds_ok(ra, ma, rb, mb):
     vectorises, and the vector forms are this source replayed (`pair_bits` here, `lanes.bounds8`):
     written with ``&`` and ``^ True`` (not ``not``) for that. An axis separates only when
     ``|t| > r`` holds: a NaN projection (inf - inf at coordinates near the float range) separates
-    nothing. `_sphere_hit` is its first test alone, the cheap cull before it."""
+    nothing. `_sphere_hit` is its first test alone (the explicit pairs' cull, `_explicit_hit`)."""
     (A0, A1, A2, A3, A4, A5, A6, A7, A8, A9, A10, A11, A12, A13, A14, A15, A16, A17, A18) = ra
     (B0, B1, B2, B3, B4, B5, B6, B7, B8, B9, B10, B11, B12, B13, B14, B15, B16, B17, B18) = rb
     dx = A15 - B15

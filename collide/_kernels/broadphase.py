@@ -65,7 +65,7 @@ import numpy as np
 
 from ._ptr import NO_NRT, f64_ptr, view_of
 from .bounds import (BIG, MAX_POSITION, PAIR_LANES, SLACK_POS, _aabb_hit, _bounds_ok, _explicit_hit, _geom_rows,
-                     _place, _plane_hit, _plane_hit_local, _plane_world, _pose_ok, _row_of, _sphere_hit, dot3,
+                     _place, _plane_hit, _plane_hit_local, _plane_world, _pose_ok, _row_of, dot3,
                      pair_bits)
 from .coherence import NO_LIST, _kept_pairs
 from .culling import MASK_MAX, _scan_masks, _sweep
@@ -259,8 +259,8 @@ def _body_pairs(I, W, sap, bp, stats, info, cl, coherent):
 def _geom_pairs(body_pos, body_rot, I, F, W, bp, m, keys, stats, stamp):
     # Stage 4b: the body pairs bp[:m] -> sphere and OBB tests of the body bounds, 64 pairs at a
     # time, four a vector (`pair_bits`), into a bit mask (a loose pair, ~y, passes) -> the geom
-    # pairs of each pair that hit, tested on the geoms' own bounds (AABB, sphere, then `_bounds_ok`)
-    # unless both bodies hold one geom. Keys into keys[:k] (counted beyond); returns k.
+    # pairs of each pair that hit, tested on the geoms' own bounds (AABB, then `_bounds_ok`: sphere
+    # and OBB) unless both bodies hold one geom. Keys into keys[:k] (counted beyond); returns k.
     S = I[H_KS]
     single = view_i1(I, I, I_SINGLE)
     pairflag = view_i1(I, I, I_PAIRFLAG)
@@ -340,9 +340,7 @@ def _geom_pairs(body_pos, body_rot, I, F, W, bp, m, keys, stats, stamp):
                         stats[ST_GEOM_AABB] += 1
                         if not _aabb_hit(baabb if sx else gaabb, a, baabb if sy else gaabb, b):
                             continue
-                        stats[ST_GEOM_SPHERE] += 1
-                        if not _sphere_hit(A, a, ma, B, b, mb):
-                            continue
+                        stats[ST_GEOM_SPHERE] += 1  # `_bounds_ok` tests the spheres first
                         stats[ST_GEOM_OBB] += 1
                         if not _bounds_ok(_row_of(A, a), ma, _row_of(B, b), mb):
                             continue
