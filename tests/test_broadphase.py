@@ -1705,49 +1705,6 @@ def test_lane_bounds_as_vectors_are_the_scalar_test_bit_for_bit():
 
 
 @numba.njit  # not cached, as above
-def _pair_bits_both(bw, bp, out):
-    # the mask of each run of 64 pairs, through `pair_bits` (four pairs a call) and its loop twin
-    wa = np.int64(bw.ctypes.data)
-    pa = np.int64(bp.ctypes.data)
-    m = bp.shape[0]
-    for c0 in range(0, m, 64):
-        cnt = min(64, m - c0)
-        h = np.uint64(0)
-        for j in range(0, cnt, _bounds.PAIR_LANES):
-            h |= _bounds.pair_bits(wa, pa, c0 + j, min(_bounds.PAIR_LANES, cnt - j)) << np.uint64(j)
-        out[c0 // 64, 0] = h
-        out[c0 // 64, 1] = _bounds._pairs_mask(bw, bp, c0, cnt)
-
-
-def test_pair_bits_are_the_scalar_test_bit_for_bit():
-    # `pair_bits` replays `_bounds_ok` on four gathered pairs at a time: pair by pair the outcome of
-    # the loop it replaced, for runs of every length mod 4 and 64 (the lanes past the run test its
-    # first pair again and must be dropped), second bodies marked ~y, NaN, inf and huge coordinates.
-    rng = np.random.default_rng(5)
-    L = 60
-    bw = np.empty((L, _layout.ROW))
-    bw[:, 3:12] = random_rotation(rng, L).reshape(L, 9)
-    bw[:, 0:3] = rng.normal(size=(L, 3)) * 0.6
-    bw[:, 12:15] = rng.uniform(0.0, 1.0, (L, 3))
-    bw[:, 15:18] = bw[:, 0:3] + rng.normal(size=(L, 3)) * 0.1
-    bw[:, 18] = rng.uniform(0.0, 1.5, L)
-    bw[7, 0] = np.nan
-    bw[11, 5] = np.inf
-    bw[13, 16] = 1e300
-    total = 0
-    for m in (1, 2, 3, 4, 5, 63, 64, 65, 130, 999):
-        bp = rng.integers(0, L, (m, 2))
-        bp[::4, 1] = bp[::4, 0]  # a body and itself meet: the first pair of every four hits
-        mark = rng.random(m) < 0.3
-        bp[mark, 1] = ~bp[mark, 1]
-        out = np.zeros(((m + 63) // 64, 2), np.uint64)
-        _pair_bits_both(bw, bp, out)
-        assert np.array_equal(out[:, 0], out[:, 1]), m
-        total += sum(bin(int(v)).count("1") for v in out[:, 0])
-    assert 0.3 * 1274 < total < 0.9 * 1274  # both outcomes, many times (1274 pairs in all)
-
-
-@numba.njit  # not cached, as above
 def _lane_places_both(ps, src, cap, gp, m, rows, boxes, planes, want_rows, want_boxes, want_planes):
     # Case k: the lanes' vector forms (`lane_tests.place8`, `lane_tests.plane8`) on the poses ps[k] (12, LANES),
     # and the per-world kernel's scalar functions lane by lane.

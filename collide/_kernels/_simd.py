@@ -123,9 +123,8 @@ _V = ir.VectorType(ir.DoubleType(), LANES)
 
 
 class _Vec:
-    """An LLVM ``<LANES x double>`` value (or of another width: `gather_rows` gives four lanes) with
-    Python's arithmetic operators, so that the scalar helpers' source (`_py`) builds vector IR when
-    given these."""
+    """An LLVM ``<LANES x double>`` value with Python's arithmetic operators, so that the scalar
+    helpers' source (`_py`) builds vector IR when given these."""
 
     __slots__ = ("b", "v")
 
@@ -133,7 +132,7 @@ class _Vec:
         self.b, self.v = b, v
 
     def _of(self, x):
-        t = self.v.type  # <LANES x double>, or another width (`gather_rows`)
+        t = self.v.type  # <LANES x double>
         return x.v if isinstance(x, _Vec) else ir.Constant(t, [float(x)] * t.count)
 
     def __add__(self, x):
@@ -316,37 +315,3 @@ def box_row8(typingctx, pt, stride, q, l0, l1, l2, h0, h1, h2):
         return builder.zext(builder.bitcast(m, ir.IntType(LANES)), i64)
 
     return sig, codegen
-
-
-# ------------------------------------------------------------------------------- rows by index
-
-def gather_rows(builder, base, idx, width, n):
-    """Fields 0..n-1 of the rows ``idx`` (int64 values, one a lane) of the ``(m, width)`` float64
-    array at address ``base`` (int64), as n `_Vec` of ``len(idx)`` lanes: field k of row idx[l] in
-    lane l, by gather instructions (``llvm.masked.gather``, all lanes on; a target without them
-    gets scalar loads). Nothing past a row's field n - 1 is read.
-
-    Four lanes in the per-world kernel, not `LANES`: a simulation loop calls it once a step, after
-    the engine's own code, and there eight lanes lost to four (and did not beat the loop they
-    replaced), though hot (one pose again and again) eight were the fastest. Eight lanes kept to
-    256-bit registers, and eight rows loaded whole and transposed in registers, lost too (copies
-    interleaved in one loop, Intel Xeon, cube_3x3x3 and stonehenge)."""
-    lanes = len(idx)
-    i64 = ir.IntType(64)
-    vi = ir.VectorType(i64, lanes)
-    vd = ir.VectorType(ir.DoubleType(), lanes)
-    vp = ir.VectorType(ir.DoubleType().as_pointer(), lanes)
-    a = ir.Constant(vi, ir.Undefined)
-    for l, i in enumerate(idx):
-        a = builder.insert_element(a, builder.add(base, builder.mul(i, ir.Constant(i64, 8 * width))),
-                                   ir.Constant(ir.IntType(32), l))
-    fn = cgutils.get_or_insert_function(
-        builder.module, ir.FunctionType(vd, [vp, ir.IntType(32), ir.VectorType(ir.IntType(1), lanes), vd]),
-        f"llvm.masked.gather.v{lanes}f64.v{lanes}p0")
-    on = ir.Constant(ir.VectorType(ir.IntType(1), lanes), [1] * lanes)
-    out = []
-    for k in range(n):
-        p = builder.inttoptr(builder.add(a, ir.Constant(vi, [8 * k] * lanes)), vp)
-        out.append(_Vec(builder, builder.call(fn, [p, ir.Constant(ir.IntType(32), 8), on,
-                                                   ir.Constant(vd, ir.Undefined)])))
-    return out

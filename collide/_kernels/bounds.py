@@ -3,7 +3,7 @@
 A bounds row (`layout.ROW` float64) is a body's or geom's OBB and sphere; each also has a capsule. Here:
 a row moved to the world by a pose (`_world_row`; `_pose_row` is the arithmetic the lanes replay), its
 world AABB (the OBB's cut to its capsule's), the pose check, the one sphere + separating-axis test
-(`_bounds_ok`, whose source the vector forms `pair_bits` and `lanes.bounds8` replay), planes as
+(`_bounds_ok`, whose source the lanes' vector form `lane_tests.bounds8` replays), planes as
 half-spaces, a multi-geom body's geom rows, and the explicit pairs' test. Every comparison carries a
 conservative slack: rounding never separates touching bounds.
 """
@@ -11,14 +11,10 @@ conservative slack: rounding never separates touching bounds.
 from __future__ import annotations
 
 import numba as nb
-from llvmlite import ir
-from numba.core import types
-from numba.extending import intrinsic
 import numpy as np
 
 from ._quat import fmuladd
-from ._simd import _py, gather_rows
-from .layout import ROW, ST_GEOM_OBB, ST_GEOM_SPHERE, ST_PLANE
+from .layout import ST_GEOM_OBB, ST_GEOM_SPHERE, ST_PLANE
 
 BIG = 1e300  # empty AABB: lo = BIG, hi = -BIG (finite, so n . lo never meets inf - inf)
 ORTHO_TOL = 1e-6  # max |R^T R - I| accepted for a body rotation (articulation.POSE_ORTHO_TOL: bounds carry the slack)
@@ -234,8 +230,8 @@ def _bounds_ok(ra, ma, rb, mb):
     bounds rows ``ra``, ``rb`` (19-tuples: a `ROW` each) inflated by ``ma``, ``mb``.
 
     Every axis is evaluated and the outcomes combined without a branch, so that a loop over pairs
-    vectorises, and the vector forms are this source replayed (`pair_bits` here, `lanes.bounds8`):
-    written with ``&`` and ``^ True`` (not ``not``) for that. An axis separates only when
+    vectorises, and the lanes' vector form is this source replayed (`lane_tests.bounds8`): written
+    with ``&`` and ``^ True`` (not ``not``) for that. An axis separates only when
     ``|t| > r`` holds: a NaN projection (inf - inf at coordinates near the float range) separates
     nothing. `_sphere_hit` is its first test alone (the explicit pairs' cull, `_explicit_hit`)."""
     (A0, A1, A2, A3, A4, A5, A6, A7, A8, A9, A10, A11, A12, A13, A14, A15, A16, A17, A18) = ra
@@ -328,11 +324,7 @@ def bounds_mask(A, a, ma, B, b, mb, n):
 @nb.njit(cache=True, inline="always")
 def _pairs_mask(bw, bp, c0, n):
     """Bit l set when the body rows of pair ``bp[c0 + l]`` overlap (`_bounds_ok`, no inflation:
-    the rows carry it), n <= 64; a marked second body (``~y``) is read as ``y``. The kernel runs
-    its vector form, `pair_bits`, four pairs a call; this loop is its twin in the tests.
-
-    Its rows are read where they are, into vectors (scalar loads and inserts on AMD Zen 3,
-    four-lane gathers on the Intel Xeon): copying them into columns first made the stage slower."""
+    the rows carry it), n <= 64; a marked second body (``~y``) is read as ``y``."""
     m = np.uint64(0)
     for l in range(n):
         x = bp[c0 + l, 0]
@@ -341,46 +333,6 @@ def _pairs_mask(bw, bp, c0, n):
         ok = _bounds_ok(_row_of(bw, x), 0.0, _row_of(bw, y), 0.0)
         m |= np.uint64(ok) << np.uint64(l)
     return m
-
-
-PAIR_LANES = 4  # pairs a call of `pair_bits` (see `_simd.gather_rows`: not LANES8)
-
-
-@intrinsic
-def pair_bits(typingctx, pw, pp, c, n):
-    """`_pairs_mask` of the ``n`` (1..PAIR_LANES) pairs from row ``c`` of the ``(m, 2)`` int64 pair
-    array at address ``pp`` (a second body marked ``~y`` read as ``y``), over the ``(L, ROW)`` rows at
-    address ``pw``: `_bounds_ok`'s source replayed on ``<PAIR_LANES x double>`` vectors (`_simd._py`:
-    the same operations in the same order, the same bits), the rows' fields gathered
-    (`_simd.gather_rows`), the outcome one vector compare's mask. A lane past ``n`` tests pair ``c``
-    again and its bit is dropped: no row past the pairs is read.
-
-    The loop over the pairs it replaces (`_pairs_mask`, now the tests' twin) built its mask with a
-    shift and an or a pair: slower in a simulation loop on scenes of many body pairs (cube_3x3x3,
-    stonehenge), even on the robots with a few (Intel Xeon)."""
-    if not all(a == types.int64 for a in (pw, pp, c, n)):
-        return None
-    sig = types.uint64(pw, pp, c, n)
-
-    def codegen(context, builder, signature, args):
-        aw, ap, cc, nn = args
-        i64 = ir.IntType(64)
-        pi = builder.inttoptr(ap, i64.as_pointer())
-        xs, ys = [], []
-        for l in range(PAIR_LANES):
-            j = builder.add(cc, builder.select(builder.icmp_signed("<", ir.Constant(i64, l), nn),
-                                               ir.Constant(i64, l), ir.Constant(i64, 0)))
-            x = builder.load(builder.gep(pi, [builder.mul(j, ir.Constant(i64, 2))]), align=8)
-            y = builder.load(builder.gep(pi, [builder.add(builder.mul(j, ir.Constant(i64, 2)), ir.Constant(i64, 1))]),
-                             align=8)
-            xs.append(x)
-            ys.append(builder.xor(y, builder.ashr(y, ir.Constant(i64, 63))))  # ~y -> y
-        ok = _py(_bounds_ok)(tuple(gather_rows(builder, aw, xs, ROW, ROW)), 0.0,
-                             tuple(gather_rows(builder, aw, ys, ROW, ROW)), 0.0)
-        keep = builder.sub(builder.shl(ir.Constant(i64, 1), nn), ir.Constant(i64, 1))
-        return builder.and_(ok.bits(), keep)
-
-    return sig, codegen
 
 
 @nb.njit(cache=True, inline="always")

@@ -43,7 +43,7 @@ One step, for one world (`_world`):
    out);
 4. body pair -> static filter -> sphere and OBB separating-axis tests (15 axes, Ericson 2005,
    *Real-Time Collision Detection* §4.4.1), 64 body pairs at a time with every axis evaluated
-   (`pair_bits`: four pairs a vector, the rows gathered where they lie) ->
+   (`_pairs_mask`) ->
    geom pairs, the same tests one by one on the geoms' bounds;
 Steps 2-3 and the static filter are skipped while the body pairs kept from earlier calls stand:
 with frame coherence (single-world calls), each body's AABB is checked against its fat box and,
@@ -64,9 +64,8 @@ from numba.cpython.unsafe.numbers import trailing_zeros
 import numpy as np
 
 from ._ptr import NO_NRT, f64_ptr, view_of
-from .bounds import (BIG, MAX_POSITION, PAIR_LANES, SLACK_POS, _aabb_hit, _bounds_ok, _explicit_hit, _geom_rows,
-                     _place, _plane_hit, _plane_hit_local, _plane_world, _pose_ok, _row_of, dot3,
-                     pair_bits)
+from .bounds import (BIG, MAX_POSITION, SLACK_POS, _aabb_hit, _bounds_ok, _explicit_hit, _geom_rows, _pairs_mask,
+                     _place, _plane_hit, _plane_hit_local, _plane_world, _pose_ok, _row_of, dot3)
 from .coherence import NO_LIST, _kept_pairs
 from .culling import MASK_MAX, _scan_masks, _sweep
 from .keys import _emit, _in_sorted, _pair_key, _sort_keys, key_shift
@@ -258,7 +257,7 @@ def _body_pairs(I, W, sap, bp, stats, info, cl, coherent):
 @nb.njit(cache=True, inline="always")
 def _geom_pairs(body_pos, body_rot, I, F, W, bp, m, keys, stats, stamp):
     # Stage 4b: the body pairs bp[:m] -> sphere and OBB tests of the body bounds, 64 pairs at a
-    # time, four a vector (`pair_bits`), into a bit mask (a loose pair, ~y, passes) -> the geom
+    # time into a bit mask (`_pairs_mask`; a loose pair, ~y, passes) -> the geom
     # pairs of each pair that hit, tested on the geoms' own bounds (AABB, then `_bounds_ok`: sphere
     # and OBB) unless both bodies hold one geom. Keys into keys[:k] (counted beyond); returns k.
     S = I[H_KS]
@@ -280,16 +279,12 @@ def _geom_pairs(body_pos, body_rot, I, F, W, bp, m, keys, stats, stamp):
     gstamp = view_f1(I, W, W_GSTAMP)
     check_pairs = pair_keys.shape[0] > 0
     k = 0
-    bw_at = np.int64(bw.ctypes.data)
-    bp_at = np.int64(bp.ctypes.data)
     for c0 in range(0, m, 64):
         cnt = min(64, m - c0)
         force = np.uint64(0)
         for i in range(cnt):
             force |= np.uint64(bp[c0 + i, 1] < 0) << np.uint64(i)
-        hits = force
-        for j in range(0, cnt, PAIR_LANES):
-            hits |= pair_bits(bw_at, bp_at, c0 + j, min(PAIR_LANES, cnt - j)) << np.uint64(j)
+        hits = force | _pairs_mask(bw, bp, c0, cnt)
         nl = 0
         f = force
         while f != 0:
