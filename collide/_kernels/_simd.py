@@ -19,8 +19,7 @@ vector form, the same operations in the same order (the same bits). What breaks 
   kernel compiles);
 - the intrinsics take raw addresses of ``(k, LANES)`` float64 blocks and check nothing: a wrong
   address or row count reads or writes the neighbouring block, or freed memory; loads and stores
-  assume 8-byte alignment. `box_row8` reads ``LANES - 1`` float64 past a column, which must exist
-  (a `layout` field's ``slack``);
+  assume 8-byte alignment;
 - ``LANES`` is the width of every block, defined here only: `layout`, `lanes` and `kinematics`
   take it from here.
 """
@@ -286,32 +285,3 @@ def _vcall(builder, name, x):
     t = x.type
     fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(t, [t]), f"{name}.v{t.count}f64")
     return builder.call(fn, [x])
-
-
-@intrinsic
-def box_row8(typingctx, pt, stride, q, l0, l1, l2, h0, h1, h2):
-    """Bit j set when the AABB ``(l, h)`` meets the AABB of column ``q + j`` (j < LANES) of the
-    ``(6, stride)`` float64 block at address ``pt`` (rows lo x, y, z, hi x, y, z: boxes as
-    columns): one vector compare per row. Reads ``LANES - 1`` float64 past column ``q`` of each
-    row: the caller keeps that memory readable and ignores the bits of columns it does not own."""
-    if not (all(a == types.int64 for a in (pt, stride, q))
-            and all(s == types.float64 for s in (l0, l1, l2, h0, h1, h2))):
-        return None
-    sig = types.uint64(pt, stride, q, l0, l1, l2, h0, h1, h2)
-
-    def codegen(context, builder, signature, args):
-        pa, st, qq = args[:3]
-        lo, hi = args[3:6], args[6:9]
-        i64 = ir.IntType(64)
-        base = builder.inttoptr(pa, ir.DoubleType().as_pointer())
-        m = None
-        for k in range(6):
-            at = builder.gep(base, [builder.add(builder.mul(st, ir.Constant(i64, k)), qq)])
-            col = builder.load(builder.bitcast(at, _V.as_pointer()), align=8)
-            # lo_a <= hi_q on rows 3..5, lo_q <= hi_a on rows 0..2
-            c = (builder.fcmp_ordered("<=", _splat(builder, lo[k - 3]).v, col) if k >= 3
-                 else builder.fcmp_ordered("<=", col, _splat(builder, hi[k]).v))
-            m = c if m is None else builder.and_(m, c)
-        return builder.zext(builder.bitcast(m, ir.IntType(LANES)), i64)
-
-    return sig, codegen

@@ -28,13 +28,12 @@ One step, for one world (`_world`):
    culls but the child is not paired), and each pair of ``n``'s child subtrees: all pairs for a
    few children, sweep-and-prune on one axis from ``SAP_MIN``; a subtree whose AABB misses is
    skipped whole (``q = end[q]``). A small branching subtree (a robot, a hand: ``flat_root``)
-   instead tests its statically passing body pairs, bit masks made at set-up, a vectorised row at
-   a time.
+   instead tests its statically passing body pairs, bit masks made at set-up, a row at a time.
    Up to ``MASK_MAX`` (64) positions (a robot, a hand, a small scene) there is no tree at all:
    every body pair that passes the static filter is a bit of a mask made at set-up, and each
-   body's row of AABB tests runs over the boxes' columns, a vector compare per 8 partners
-   (`_scan_masks`; in a simulation loop it took less time than the walk on the small MuJoCo
-   models, about the same on wonik_allegro).
+   body's row of AABB tests runs over the boxes' columns into a bit mask (`_scan_masks`; in a
+   simulation loop it took less time than the walk on the small MuJoCo models, about the same on
+   wonik_allegro).
    Tests whose outcome is data keep no branch on it where they can (the pair is written, the
    count advanced by the outcome): in a simulation loop the engine retrains the branch predictor
    between steps, and every misprediction flushes the pipeline. Surviving body pairs go to a

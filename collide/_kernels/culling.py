@@ -20,7 +20,6 @@ from numba.cpython.unsafe.numbers import leading_zeros, trailing_zeros
 import numpy as np
 
 from ._ptr import NO_NRT, f64_ptr, view_of
-from ._simd import LANES as LANES8, box_row8
 from .layout import ST_BODY_AABB, ST_SUBTREE
 
 @nb.njit(cache=True, inline="always")
@@ -28,11 +27,8 @@ def _row_hits(bt_at, stride, base, a, keep):
     # The bits i of keep (the pair of column a and column base + i) whose boxes meet, the boxes the
     # columns of the (6, stride) array at address bt_at (lo x, y, z, hi x, y, z). Only the span of
     # keep's bits is tested (pairs are stored once, a < q: a row tests its later partners only),
-    # LANES8 at a time in one vector compare
-    # (`_simd.box_row8`; as a loop over the columns the compiler built the mask with a shift and an
-    # or per column). Its reads past the span (at most LANES8 - 1 columns past the last, into what
-    # follows the array in W: plw and tmp after baabb_t, the coherence state after fat_t) give bits
-    # that keep drops. Scalars in (a pointer view inside): no reference counting in `_traverse`.
+    # a column at a time; the span's columns are the array's (its last bit is a partner). Scalars
+    # in (a pointer view inside): no reference counting in `_traverse`.
     bt = view_of(f64_ptr(bt_at), (6, stride))
     l0 = bt[0, a]
     l1 = bt[1, a]
@@ -44,8 +40,10 @@ def _row_hits(bt_at, stride, base, a, keep):
     i = np.int64(trailing_zeros(keep))
     stop = 64 - np.int64(leading_zeros(keep))
     while i < stop:
-        hits |= box_row8(bt_at, stride, base + i, l0, l1, l2, h0, h1, h2) << np.uint64(i)
-        i += LANES8
+        c = base + i
+        hits |= np.uint64((bt[0, c] <= h0) & (bt[1, c] <= h1) & (bt[2, c] <= h2) & (l0 <= bt[3, c])
+                          & (l1 <= bt[4, c]) & (l2 <= bt[5, c])) << np.uint64(i)
+        i += 1
     return hits & keep
 
 
@@ -191,11 +189,10 @@ def _scan(cl, n, baabb, bp):
 def _scan_masks(smask, L, baabb_t, single, bp):
     # Up to MASK_MAX positions, the body pairs passing the static filter whose AABBs meet (the tree
     # walk and the filter of a small model, `_world`): bit y of smask[x] (`pack`) is the pair (x, y),
-    # x < y; each row's box is tested against its partners' columns of the (6, L) boxes baabb_t,
-    # LANES8 a vector compare (`_simd.box_row8`, as the flat roots' rows in `_traverse`), the pairs
-    # that meet go into bp in (x, y) order (counted past its end, not written), y marked ~y when
-    # loose (a multi-geom body's, ``single < 0``, as `_filter` writes it). Reads past column L - 1
-    # (at most LANES8 - 1 float64, into plw and tmp after baabb_t in W) give bits the mask drops.
+    # x < y; each row's box is tested against its partners' columns of the (6, L) boxes baabb_t
+    # (`_row_hits`, as the flat roots' rows in `_traverse`), the pairs that meet go into bp in
+    # (x, y) order (counted past its end, not written), y marked ~y when loose (a multi-geom
+    # body's, ``single < 0``, as `_filter` writes it).
     bt_at = np.int64(baabb_t.ctypes.data)
     cap = bp.shape[0]
     m = 0

@@ -14,9 +14,7 @@ name and a shape in the model's counts (``"L + 1"``, ``"Q, L"``). From that one 
 - a kernel takes a view of a field by its slot (``view_i1(I, I, ORDER)``, ``view_f2(I, W, BW)``):
   its offset and shape are read from that table, never computed.
 
-Adding a field is one line in its layout; its order there is its order in the buffer. A field may
-ask for ``slack``: that many items after it that a vector load may read (past the last column of
-a transposed block) must exist in the buffer, whatever follows it.
+Adding a field is one line in its layout; its order there is its order in the buffer.
 """
 
 from __future__ import annotations
@@ -101,21 +99,21 @@ class Layout:
         self.name = name
         self.dtype = np.dtype(dtype)
         self.align = align
-        self.fields: list[tuple[str, tuple[str, ...], int]] = []
+        self.fields: list[tuple[str, tuple[str, ...]]] = []
         self.slots: list[int] = []
 
-    def field(self, name: str, shape: str, slack: int = 0) -> int:
+    def field(self, name: str, shape: str) -> int:
         """Declare the next field; returns its slot (a module constant the kernels index with).
 
         ``shape``: comma-separated expressions in the counts (`Layout.spans`' ``dims``), e.g.
-        ``"L - 1"`` or ``"max(Q, 1), 4"``. ``slack``: items past its end a kernel may read.
+        ``"L - 1"`` or ``"max(Q, 1), 4"``.
         """
         if any(f[0] == name for f in self.fields):
             raise ValueError(f"{self.name}: field {name!r} declared twice")
         parts = _split(shape)
         if not 1 <= len(parts) <= MAX_DIMS:
             raise ValueError(f"{self.name}.{name}: 1 to {MAX_DIMS} dimensions")
-        self.fields.append((name, parts, slack))
+        self.fields.append((name, parts))
         slot = self.tables.slots
         self.tables.slots += 1
         self.slots.append(slot)
@@ -126,7 +124,7 @@ class Layout:
         env = {"max": max, "min": min, **CONSTANTS, **dims}
         off = self.tables.start if self.carrier else 0
         out = []
-        for name, parts, slack in self.fields:
+        for name, parts in self.fields:
             try:
                 shape = tuple(int(eval(p, {"__builtins__": {}}, env)) for p in parts)  # our own declarations
             except NameError as exc:
@@ -138,16 +136,14 @@ class Layout:
         return out
 
     def size(self, dims: dict) -> int:
-        """Length of the buffer for ``dims``: every field, the slack they ask for, the alignment."""
+        """Length of the buffer for ``dims``: every field, then the alignment."""
         spans = self.spans(dims)
         end = spans[-1][0] + int(np.prod(spans[-1][1])) if spans else 0
-        for (off, shape), (_, _, slack) in zip(spans, self.fields):
-            end = max(end, off + int(np.prod(shape)) + slack)
         return -(-end // self.align) * self.align
 
     def offset(self, dims: dict, name: str) -> int:
         """Offset of field ``name`` for ``dims``."""
-        for (fname, _, _), (off, _) in zip(self.fields, self.spans(dims)):
+        for (fname, _), (off, _) in zip(self.fields, self.spans(dims)):
             if fname == name:
                 return off
         raise KeyError(name)
@@ -155,7 +151,7 @@ class Layout:
     def view(self, carrier: np.ndarray, buf: np.ndarray, name: str) -> np.ndarray:
         """Field ``name`` of ``buf`` as a numpy view, read through the table in ``carrier`` (as the
         kernels read it): for tests and set-up code."""
-        for (fname, parts, _), slot in zip(self.fields, self.slots):
+        for (fname, parts), slot in zip(self.fields, self.slots):
             if fname == name:
                 t = TABLE + SLOT * slot
                 off = int(carrier[t])
@@ -178,7 +174,7 @@ class Layout:
                 raise ValueError(f"{self.name}: header of {head.size} counts, {self.tables.header} declared")
             out[:head.size] = head
             out[TABLE:self.tables.start] = self.tables.table(dims)
-        for (name, _, _), (off, shape) in zip(self.fields, self.spans(dims)):
+        for (name, _), (off, shape) in zip(self.fields, self.spans(dims)):
             a = np.asarray(arrays[name])
             n = int(np.prod(shape))
             if a.shape != shape and not (a.ndim <= 1 and a.size == n):
@@ -320,15 +316,14 @@ W_BW = WORK.field("bw", "L, ROW")  # world rows by position
 W_GW = WORK.field("gw", "G, ROW")  # world rows by geom (multi-geom bodies, on first use)
 W_BAABB = WORK.field("baabb", "L, 6")  # world AABBs by position: lo, hi
 W_SAABB = WORK.field("saabb", "L, 6")  # subtree AABBs
-# baabb's columns, for the row tests (`_simd.box_row8` reads up to LANES - 1 past a column's end)
-W_BAABB_T = WORK.field("baabb_t", "6, L", slack=LANES - 1)
+W_BAABB_T = WORK.field("baabb_t", "6, L")  # baabb's columns, for the row tests (`culling._row_hits`)
 W_PLW = WORK.field("plw", "max(Q, 1), 4")  # world planes
 W_TMP = WORK.field("tmp", "2, ROW")  # two scratch rows (explicit pairs)
 W_GAABB = WORK.field("gaabb", "G, 6")  # world AABBs by geom
 W_GSTAMP = WORK.field("gstamp", "L + 1")  # call on which a position's geom rows were made; [L]: the call counter
 W_FAT_B = WORK.field("fat_b", "L, 6")  # frame coherence (`FAT_GROW`): fat boxes
 W_FAT_S = WORK.field("fat_s", "L, 6")  # their subtree boxes
-W_FAT_T = WORK.field("fat_t", "6, L", slack=LANES - 1)  # fat_b's columns
+W_FAT_T = WORK.field("fat_t", "6, L")  # fat_b's columns
 W_COH = WORK.field("coh", "N_COH")  # coherence state (COH_VALID ...)
 
 LANE_WORK = Layout(MODEL, "LW", np.float64, align=LANES)  # a batch worker's lanes (`lanes._group`)

@@ -44,8 +44,8 @@ def _traverse(L, end, nchild, child_start, children, has_bounds, baabb, saabb, s
             # A small subtree (a robot, a hand): its body pairs that pass the static filter, as a
             # bit mask per body made at set-up (bit i of flat_mask[a]: the pair (a, n + i)). Each
             # row of AABB tests, a against every body of the subtree, runs over baabb's columns
-            # (baabb_t) in vector compares, into a bit mask; the static one keeps the pairs to
-            # push. No walk, no sibling pairs, no call (faster than the pair tests one by one).
+            # (baabb_t) into a bit mask; the static one keeps the pairs to push. No walk, no
+            # sibling pairs, no call.
             for a in range(n, end[n]):
                 keep = np.uint64(flat_mask[a])
                 if keep == 0:

@@ -73,7 +73,7 @@ class BroadPhase(SweptCalls):
         culled down the tree again. False: every call culls down the tree. `pairs_batch` never
         keeps a list (its worlds are unrelated). A model of at most 64 positions (bodies, and the
         world's geoms when it has several) has no tree to cull: every statically allowed body pair
-        is a bit of a mask made at set-up, and a call tests them all, a vector compare per eight
+        is a bit of a mask made at set-up, and a call tests them all, a row of AABB tests per body
         (cheaper there than keeping a list); ``coherent`` changes nothing.
     batch_path : {"auto", "lanes", "worlds"}, default "auto"
         How batches run (`batch_path`, the property): ``"auto"`` takes the lanes where the model
