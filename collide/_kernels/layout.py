@@ -72,7 +72,7 @@ class Tables:
         """The field table ``(SLOT * slots,)`` int64 of every layout of the group for ``dims``."""
         out = np.ones(SLOT * self.slots, np.int64)
         for lay in self.layouts:
-            for (name, _, _), slot, (off, shape) in zip(lay.fields, lay.slots, lay.spans(dims)):
+            for (name, _), slot, (off, shape) in zip(lay.fields, lay.slots, lay.spans(dims)):
                 out[SLOT * slot] = off
                 out[SLOT * slot + 1:SLOT * slot + 1 + len(shape)] = shape
         return out
