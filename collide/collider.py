@@ -59,8 +59,9 @@ class CheckResult:
     skipped : (B,) bool
         A pair with a height field or SDF geom (no narrow phase: `collide.Contacts.skipped`)
         was left undecided, and no active contact was found elsewhere: ``in_collision`` may be
-        False where MuJoCo would make a contact (and such pairs are left out of
-        ``min_distance``). Reported, never dropped silently.
+        False where MuJoCo would make a contact. With ``distance=True`` also wherever such a
+        pair is among the filtered pairs, in collision or not: ``min_distance`` leaves them out.
+        Reported, never dropped silently.
     """
 
     in_collision: np.ndarray
@@ -74,6 +75,7 @@ class CheckResult:
 
 def _names_to_ids(model, spec, what: str, count: int) -> np.ndarray:
     # One group of geoms or bodies: ids or names, checked, as an (n,) int64 array.
+    arg = "geoms" if what == "geom" else "bodies"  # the argument's name, for the messages
     if isinstance(spec, (str, bytes)) or np.isscalar(spec):
         spec = [spec]
     ids = []
@@ -82,15 +84,15 @@ def _names_to_ids(model, spec, what: str, count: int) -> np.ndarray:
             try:
                 ids.append(int(getattr(model, what)(x).id))
             except KeyError:
-                raise ValueError(f"{what}s: no {what} named {x!r}") from None
+                raise ValueError(f"{arg}: no {what} named {x!r}") from None
         elif isinstance(x, (int, np.integer)) and not isinstance(x, (bool, np.bool_)):
             if not 0 <= int(x) < count:
-                raise ValueError(f"{what}s: {what} id {int(x)} is out of range [0, {count})")
+                raise ValueError(f"{arg}: {what} id {int(x)} is out of range [0, {count})")
             ids.append(int(x))
         else:
-            raise ValueError(f"{what}s: expected {what} ids or names, got {x!r}")
+            raise ValueError(f"{arg}: expected {what} ids or names, got {x!r}")
     if not ids:
-        raise ValueError(f"{what}s: an empty group")
+        raise ValueError(f"{arg}: an empty group")
     return np.asarray(ids, dtype=np.int64)
 
 
@@ -240,7 +242,13 @@ class Collider:
         self._views = None  # its geom_xpos, geom_xmat as (G, 3), (G, 3, 3) views
         self._subset_spec = (geoms, bodies)
         self._subset_mode, self._subset_label = _subset(model, geoms, bodies)
-        self._check_setup = None  # check_batch's model arrays, made at its first call
+        # check_batch's model arrays: the kinematic tree's float arrays are views of the model's,
+        # as the batch broad phase's are (`collide.mujoco.kinematic_tree`): a body pose or qpos0
+        # changed in place reaches both alike, as it reaches mj_kinematics (a copy here once let
+        # the narrow phase decide the broad phase's pairs at the old poses); the geom frames are
+        # read here, once, as the broad phase and the geom table read the geometry
+        self._check_setup = None
+        self._geom_setup = (np.ascontiguousarray(model.geom_bodyid, dtype=np.int64),) + _geom_frames(model)
         self._distance_pairs = None  # check_batch's filtered pairs (distance=True), likewise
         self._setup_lock = threading.Lock()
 
@@ -319,21 +327,12 @@ class Collider:
     # ------------------------------------------------------------------------------------------
 
     def _setup_check(self) -> tuple:
-        # The model arrays check_worlds reads, copied once (the Collider reads its model once).
+        # The model arrays check_worlds reads (see __init__), the tree made at the first call.
         setup = self._check_setup
         if setup is None:
-            m = self.model
+            from .mujoco import kinematic_tree
 
-            def c(x, dt=np.float64, shape=None):
-                a = np.array(x, dtype=dt)
-                return np.ascontiguousarray(a if shape is None else a.reshape(shape))
-
-            kin = (c(m.qpos0), c(m.body_parentid, np.int32), c(m.body_pos, shape=(-1, 3)),
-                   c(m.body_quat, shape=(-1, 4)), c(m.body_jntadr, np.int32), c(m.body_jntnum, np.int32),
-                   c(m.jnt_type, np.int32), c(m.jnt_qposadr, np.int32), c(m.jnt_pos, shape=(-1, 3)),
-                   c(m.jnt_axis, shape=(-1, 3)))
-            gpos, gquat = _geom_frames(m)
-            setup = self._check_setup = kin + (c(m.geom_bodyid, np.int64), gpos, gquat)
+            setup = self._check_setup = kinematic_tree(self.model).arrays + self._geom_setup
         return setup
 
     def _filtered(self) -> np.ndarray:
@@ -365,9 +364,13 @@ class Collider:
         nq = int(self.model.nq)
         _reject_complex(qpos, "qpos")
         try:
-            q = np.ascontiguousarray(qpos, dtype=np.float64)
+            q = np.asarray(qpos)
+            if q.dtype.kind not in "bUS":
+                q = np.ascontiguousarray(q, dtype=np.float64)
         except (TypeError, ValueError) as exc:
             raise ValueError(f"qpos: cannot be read as a float64 array ({exc})") from None
+        if q.dtype.kind in "bUS":  # numpy would read True as 1.0 and "0.5" as 0.5: a mistake here
+            raise ValueError(f"qpos: expected numbers, got dtype {q.dtype}")
         if q.ndim != 2 or q.shape[1] != nq:
             raise ValueError(f"qpos: expected shape (B, {nq}) (one configuration a row, nq = {nq}), got {q.shape}")
         finite = np.isfinite(q).all(axis=1)
@@ -416,6 +419,8 @@ class Collider:
         if not isinstance(distance, (bool, np.bool_)):
             raise ValueError(f"distance: expected True or False, got {distance!r}")
         try:
+            if isinstance(distmax, (bool, np.bool_, str, bytes)):
+                raise TypeError
             distmax = float(distmax)
         except (TypeError, ValueError):
             raise ValueError(f"distmax: expected a number, got {distmax!r}") from None

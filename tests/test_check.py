@@ -405,7 +405,7 @@ def test_bad_qpos_names_the_configuration():
     except ValueError as exc:
         assert "configuration 1" in str(exc)
     for arg, match in [(q[:, :5], r"expected shape \(B, 14\)"), (q[0], "expected shape"),
-                       ([["a"] * 14], "float64"), (q + 1j, "complex")]:
+                       ([["a"] * 14], "expected numbers"), ([[None, "a"] * 7], "float64"), (q + 1j, "complex")]:
         with pytest.raises(ValueError, match=match):
             col.check_batch(arg)
     with pytest.raises(ValueError, match="distmax"):
@@ -434,3 +434,56 @@ def test_disabled_contacts_and_any_layout_of_qpos():
     assert np.array_equal(col.check_batch(q.tolist()).in_collision, ref)
     assert np.array_equal(col.check_batch(np.round(q).astype(np.int64)).in_collision,
                           col.check_batch(np.round(q)).in_collision)
+
+
+def test_a_model_changed_in_place_after_use_is_read_as_the_broad_phase_reads_it():
+    # Found by an attack: check_batch copied the model's body poses at its first call while the
+    # batch broad phase reads them live (views, as mj_kinematics does), so after a body was moved
+    # in place the broad phase's pairs were decided at the old poses: free where MuJoCo, pairs_batch
+    # and contacts all said in collision. Now both read the model as it is now.
+    model = _model('<body name="A"><freejoint/><geom type="sphere" size="0.5"/></body>'
+                   '<body name="B" pos="1 0 0"><joint type="slide" axis="1 0 0"/><geom type="sphere" size="0.4"/></body>')
+    col = cm.Collider(model)
+    q = np.tile(model.qpos0, (3, 1))
+    q[:, 7] = [0.0, 0.2, 0.5]
+    first = col.check_batch(q, distance=True)
+    assert not first.in_collision.any() and np.allclose(first.min_distance, [0.1, 0.3, 0.6])
+    data = mujoco.MjData(model)
+    for pos, qpos0 in [(0.5, 0.0), (0.5, 0.3), (3.0, 0.0)]:
+        model.body_pos[2, 0] = pos
+        model.qpos0[7] = qpos0  # a slide's displacement is qpos - qpos0
+        r = col.check_batch(q, distance=True)
+        mj, _ = mujoco_active(model, data, q)
+        assert np.array_equal(r.in_collision, mj), (pos, qpos0)
+        assert np.allclose(r.min_distance, pos - 0.9 + q[:, 7] - qpos0, atol=1e-12), (pos, qpos0)
+    assert mj.sum() == 0 and r.closest.tolist() == [[0, 1]] * 3
+
+
+def test_arguments_a_mistake_would_give_are_refused():
+    # Found by attacks: a boolean qpos (True read as 1.0), a qpos of numeric strings, a boolean or
+    # string distmax were taken silently; an error about bodies= named the argument "bodys".
+    model = _two_spheres(0, 0, 0, 0)
+    col = cm.Collider(model)
+    q = np.tile(model.qpos0, (4, 1))
+    q[:, 7] += [-0.3, 0.0, 0.3, 1.0]
+    ref = col.check_batch(q, distance=True)
+    assert ref.in_collision.tolist() == [True, False, False, False]
+    for bad in (q.astype(bool), q.astype(str), q.astype(bytes), q.astype(bool).tolist()):
+        with pytest.raises(ValueError, match="qpos: expected numbers, got dtype"):
+            col.check_batch(bad)
+    for dm in (True, np.True_, "1", b"1", "x", np.array([0.5]), 1j):
+        with pytest.raises(ValueError, match="distmax: expected a number"):
+            col.check_batch(q, distance=True, distmax=dm)
+    for kw, match in [(dict(bodies=[3]), r"^bodies: body id 3 is out of range \[0, 3\)"),
+                      (dict(bodies=["x"]), "^bodies: no body named 'x'"), (dict(bodies=[]), "^bodies: an empty"),
+                      (dict(bodies=[True]), "^bodies: expected body ids"), (dict(geoms=[-1]), "^geoms: geom id -1"),
+                      (dict(geoms=np.array([True, False])), "^geoms: expected geom ids")]:
+        with pytest.raises(ValueError, match=match):
+            cm.Collider(model, **kw)
+    # what is accepted: any real dtype and layout, distmax of any real type, a negative one
+    for good in (q.astype(np.float32), np.asfortranarray(q), np.repeat(q, 2, axis=0)[::2], q.astype(object)):
+        r = col.check_batch(good, distance=True)
+        assert np.array_equal(r.in_collision, ref.in_collision) and np.allclose(r.min_distance, ref.min_distance)
+    r = col.check_batch(q, distance=True, distmax=np.float32(-0.1))
+    assert np.allclose(r.min_distance, [-0.3, np.inf, np.inf, np.inf]) and r.closest.tolist()[1] == [-1, -1]
+    assert np.array_equal(col.check_batch(q, distance=True).min_distance, ref.min_distance)  # still works
