@@ -193,3 +193,31 @@ def test_bodies_at_rest_place_once_and_match_the_twin():
         assert sure <= fast <= maybe, scene.name
         found += len(fast)
     assert found > 20 and rest > 10
+
+
+def test_the_grouped_sweep_equals_one_group(monkeypatch):
+    # The sweep by groups (`broadphase.swept.sweep_groups`: each robot of a crowd a group) finds the
+    # pairs of a single sweep over every geom, exactly.
+    from collide.broadphase import swept as _bs
+    rng = np.random.default_rng(7)
+    found = cross = 0
+    for scene in (testing.many_robots(6, links=5, seed=8, planes=1), testing.many_robots(3, links=8, seed=9)):
+        a = scene.articulation
+        grouped = collide.BroadPhase(a)
+        assert grouped._swept_pairs().dims["R"] > 1
+        monkeypatch.setattr(_bs, "_GROUP_MIN", 10 ** 9)
+        one = collide.BroadPhase(a)
+        assert one._swept_pairs().dims["R"] == 1
+        monkeypatch.undo()
+        sp = grouped._swept_pairs()
+        off = _ks.XTAB.offset(sp.dims, "group")
+        group = sp._X[off:off + sp.dims["G"]]
+        for size in (0.05, 0.5, 2.0):
+            path = _path(scene, rng, 4, size=size)
+            for i in range(1, len(path)):
+                got = grouped.pairs_swept(*path[i - 1], *path[i])
+                _assert_same(got, one.pairs_swept(*path[i - 1], *path[i]), (scene.name, size, i))
+                found += len(got)
+                solid = ~a.geom_is_plane[got[:, 0]] & ~a.geom_is_plane[got[:, 1]]
+                cross += int(np.sum(solid & (group[got[:, 0]] != group[got[:, 1]])))
+    assert found > 100 and cross > 10  # pairs within robots and across them

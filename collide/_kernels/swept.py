@@ -66,12 +66,20 @@ from .layout import (F_GCAP, F_GLOCAL, F_GMARGIN, F_GPLANE, F_PAIR_M, I_GEOM_BID
 COS_SLACK = 4e-5
 
 # ---------------------------------------------------------------------------- the declarations
-# Counts: G geoms, Gs solid geoms, NB bodies, Q planes, NW = ceil(G / 64) words a bit row.
+# Counts: G geoms, Gs solid geoms, NB bodies, Q planes, NW = ceil(G / 64) words a bit row, R >= 1
+# groups of the sweep.
 SWEPT = Tables("X", header=5)
 XTAB = Layout(SWEPT, "X", np.int64)  # static, made once (`collide.broadphase.swept`)
 X_ALLOW = XTAB.field("allow", "G, NW")  # bit h of allow[g, w]: the pair (g, 64 w + h) passes the static filter
+# The sweep's groups (`_sweep_pairs`; R of them, each a set of solid geoms): a solid geom's group, and
+# each group's span of the members list (its size, made once)
+X_GROUP = XTAB.field("group", "G")
+X_GSTART = XTAB.field("gstart", "R + 1")
 XWORK = Layout(SWEPT, "XW", np.int64)  # a caller's int64 workspace
 XW_ORDER = XWORK.field("order", "max(Gs, 1)")  # solid geoms by their swept boxes' low ends, kept between calls
+XW_GORDER = XWORK.field("gorder", "R")  # the groups by their boxes' low ends, kept between calls
+XW_GMEM = XWORK.field("gmem", "max(Gs, 1)")  # the members of each group (X_GSTART's spans) in sweep order
+XW_FILL = XWORK.field("fill", "R")  # scratch: each group's next free member slot
 XW_STATE = XWORK.field("state", "3")  # the sweep axis; 1 once the order is set; 1 while Y_POSE, Y_END hold an end
 YWORK = Layout(SWEPT, "Y", np.float64)  # a caller's float64 workspace
 # per body: k = θ² / 8, 1.0 when the pose changed, min(θ, 2), |t1 - t0|, where its start places come from
@@ -81,6 +89,7 @@ Y_SPH = YWORK.field("sph", "G, 9")  # sphere centre at s = 0 (3) and s = 1 (3), 
 Y_ROW = YWORK.field("row", "G, ROW")  # world bounds rows at s = 1
 Y_ROW0 = YWORK.field("row0", "1, ROW")  # scratch row (s = 0)
 Y_TMP = YWORK.field("tmp", "4, 6")  # scratch boxes: the OBB's at s = 0, 1, the capsule's at s = 0, 1
+Y_GBOX = YWORK.field("gbox", "R, 6")  # the AABB of each group's members' swept boxes
 Y_PLANE = YWORK.field("plane", "max(Q, 1), 4")  # a fixed plane's world (n, e); e = nan: its body moved
 # The last call's end (see `_start_source`): each body's end pose (position, rotation row-major)
 # and each solid geom's boxes at it (its OBB's, its capsule's); its sphere's centre is sph[g, 3:6].
@@ -310,6 +319,103 @@ def _sort_order(order, box, n, axis):
 
 
 @nb.njit(cache=True, inline="always")
+def _pair_hit(box, a, b, a1, a2, allow, sph, gmargin, row):
+    # Geoms a, b whose swept boxes overlap on the sweep axis: the other two axes, the static
+    # filter, the continuous sphere test and the end rows' tests grown by the reaches
+    return (((box[a, a1] <= box[b, 3 + a1]) & (box[b, a1] <= box[a, 3 + a1]) & (box[a, a2] <= box[b, 3 + a2])
+             & (box[b, a2] <= box[a, 3 + a2]))
+            and _allowed(allow, a, b) and _spheres_meet(sph, a, gmargin[a], b, gmargin[b])
+            and _bounds_ok(_row_of(row, a), gmargin[a] + sph[a, 8], _row_of(row, b), gmargin[b] + sph[b, 8]))
+
+
+@nb.njit(cache=True, inline="always")
+def _sweep_pairs(order, box, Gs, axis, X, XW, Y, allow, sph, gmargin, row, keys, S):
+    # The solid geom pairs whose swept boxes overlap and that pass `_pair_hit`, as keys from 0 on;
+    # returns their count. order: the solid geoms sorted by box[., axis].
+    #
+    # By groups (`collide.broadphase.swept.sweep_groups`: the subtrees of the world's children, as
+    # the robots of a crowd), each a box around its members' boxes: a sweep within each group, and
+    # one across each two groups whose boxes overlap (a pair across groups overlaps only if its
+    # groups' boxes do). So a crowd spread along the sweep axis costs its neighbours' overlaps, not
+    # the overlaps of every robot in the same row. Each overlapping pair is met exactly once.
+    group = view_i1(X, X, X_GROUP)
+    gstart = view_i1(X, X, X_GSTART)
+    gorder = view_i1(X, XW, XW_GORDER)
+    gmem = view_i1(X, XW, XW_GMEM)
+    fill = view_i1(X, XW, XW_FILL)
+    gbox = view_f2(X, Y, Y_GBOX)
+    R = gorder.shape[0]
+    a1 = (axis + 1) % 3
+    a2 = (axis + 2) % 3
+    for r in range(R):
+        fill[r] = gstart[r]
+        for i in range(3):
+            gbox[r, i] = np.inf
+            gbox[r, 3 + i] = -np.inf
+    for ii in range(Gs):  # each group's members in sweep order, and its box
+        g = order[ii]
+        r = group[g]
+        gmem[fill[r]] = g
+        fill[r] += 1
+        for i in range(3):
+            gbox[r, i] = min(gbox[r, i], box[g, i])
+            gbox[r, 3 + i] = max(gbox[r, 3 + i], box[g, 3 + i])
+    k = 0
+    for r in range(R):  # within each group
+        e = gstart[r + 1]
+        for ii in range(gstart[r], e):
+            a = gmem[ii]
+            hi = box[a, 3 + axis]
+            for jj in range(ii + 1, e):
+                b = gmem[jj]
+                if box[b, axis] > hi:
+                    break
+                if _pair_hit(box, a, b, a1, a2, allow, sph, gmargin, row):
+                    k = _emit(keys, k, a, b, S)
+    if R < 2:
+        return k
+    _sort_order(gorder, gbox, R, axis)
+    for ii in range(R):  # across each two groups whose boxes overlap
+        p = gorder[ii]
+        hi = gbox[p, 3 + axis]
+        for jj in range(ii + 1, R):
+            q = gorder[jj]
+            if gbox[q, axis] > hi:
+                break
+            if not ((gbox[p, a1] <= gbox[q, 3 + a1]) & (gbox[q, a1] <= gbox[p, 3 + a1])
+                    & (gbox[p, a2] <= gbox[q, 3 + a2]) & (gbox[q, a2] <= gbox[p, 3 + a2])):
+                continue
+            # the two sorted member lists merged: each member meets the other list's members
+            # from where its own low end falls up to its high end
+            i = gstart[p]
+            ie = gstart[p + 1]
+            j = gstart[q]
+            je = gstart[q + 1]
+            while i < ie and j < je:
+                a = gmem[i]
+                b = gmem[j]
+                if box[a, axis] <= box[b, axis]:
+                    hi2 = box[a, 3 + axis]
+                    for jj2 in range(j, je):
+                        c = gmem[jj2]
+                        if box[c, axis] > hi2:
+                            break
+                        if _pair_hit(box, a, c, a1, a2, allow, sph, gmargin, row):
+                            k = _emit(keys, k, a, c, S)
+                    i += 1
+                else:
+                    hi2 = box[b, 3 + axis]
+                    for ii2 in range(i, ie):
+                        c = gmem[ii2]
+                        if box[c, axis] > hi2:
+                            break
+                        if _pair_hit(box, c, b, a1, a2, allow, sph, gmargin, row):
+                            k = _emit(keys, k, c, b, S)
+                    j += 1
+    return k
+
+
+@nb.njit(cache=True, inline="always")
 def _swept(pos0, rot0, pos1, rot1, I, F, X, XW, Y, keys, scr):
     # One world's swept pairs as keys ``g1 << S | g2`` in ``keys``, sorted when they fit (``scr``:
     # `keys.scratch_size` int64); returns their count (which may exceed ``keys``' length: then only
@@ -371,6 +477,9 @@ def _swept(pos0, rot0, pos1, rot1, I, F, X, XW, Y, keys, scr):
     if state[1] == 0:
         for ii in range(Gs):
             order[ii] = solid[ii]
+        gorder = view_i1(X, XW, XW_GORDER)
+        for r in range(gorder.shape[0]):
+            gorder[r] = r
         state[1] = 1
     n = max(Gs, 1)
     v0 = q0 - m0 * m0 / n
@@ -384,22 +493,7 @@ def _swept(pos0, rot0, pos1, rot1, I, F, X, XW, Y, keys, scr):
         axis = best
         state[0] = axis
     _sort_order(order, box, Gs, axis)
-    a1 = (axis + 1) % 3
-    a2 = (axis + 2) % 3
-    k = 0
-    for ii in range(Gs):
-        a = order[ii]
-        hi = box[a, 3 + axis]
-        for jj in range(ii + 1, Gs):
-            b = order[jj]
-            if box[b, axis] > hi:
-                break
-            if ((box[a, a1] <= box[b, 3 + a1]) & (box[b, a1] <= box[a, 3 + a1]) & (box[a, a2] <= box[b, 3 + a2])
-                    & (box[b, a2] <= box[a, 3 + a2])):
-                if (_allowed(allow, a, b) and _spheres_meet(sph, a, gmargin[a], b, gmargin[b])
-                        and _bounds_ok(_row_of(row, a), gmargin[a] + sph[a, 8], _row_of(row, b),
-                                       gmargin[b] + sph[b, 8])):
-                    k = _emit(keys, k, a, b, S)
+    k = _sweep_pairs(order, box, Gs, axis, X, XW, Y, allow, sph, gmargin, row, keys, S)
     k4 = min(k, keys.shape[0])  # the sweep's keys end here (`keys._sort_keys` sorts the two runs apart)
     # 3. planes: fixed ones as half-spaces, moving ones against every geom the filter lets them
     for qi in range(planes.shape[0]):

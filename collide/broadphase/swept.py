@@ -18,6 +18,8 @@ __all__ = ["SweptCalls", "SweptPairs"]
 
 # Rows of the static filter's geom pairs examined at once while the bit matrix is made (memory).
 _BLOCK = 256
+# The fewest solid geoms a sweep group holds on average (`sweep_groups`)
+_GROUP_MIN = 4
 
 
 def allow_bits(filt: _tables.StaticFilter, gstart: np.ndarray, pgeoms: np.ndarray, planes: np.ndarray,
@@ -49,6 +51,36 @@ def allow_bits(filt: _tables.StaticFilter, gstart: np.ndarray, pgeoms: np.ndarra
     return bits.view(np.int64)
 
 
+def sweep_groups(body_parent: np.ndarray, geom_body: np.ndarray, pgeoms: np.ndarray, G: int):
+    """The groups of the swept kernel's sweep (`_kernels.swept._sweep_pairs`): the solid geoms
+    ``pgeoms`` by the subtree of the world's child they hang from (a robot of a crowd; the world's
+    own geoms one more group), or all in one group where the groups would hold fewer than
+    ``_GROUP_MIN`` geoms on average (free bodies: a group each would only add work).
+
+    Returns
+    -------
+    group : (G,) int64
+        A solid geom's group (0 for the others).
+    gstart : (R + 1,) int64
+        Group r's members are ``gstart[r]:gstart[r + 1]`` of a list of the solid geoms by group.
+    """
+    L = len(body_parent)
+    root = np.arange(L)
+    for b in range(L):
+        r = b
+        while r != 0 and body_parent[r] != 0:
+            r = body_parent[r]
+        root[b] = r
+    group = np.zeros(G, np.int64)
+    roots, inverse = np.unique(root[geom_body[pgeoms]], return_inverse=True)
+    if len(roots) > 1 and len(pgeoms) >= _GROUP_MIN * len(roots):
+        group[pgeoms] = inverse
+        counts = np.bincount(inverse, minlength=len(roots))
+    else:
+        counts = np.array([len(pgeoms)])
+    return group, np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+
+
 class SweptPairs:
     """The swept pairs of one `BroadPhase`'s model: its tables and one world's workspace.
 
@@ -63,11 +95,14 @@ class SweptPairs:
         dims, fields, filt = _tables.model_tables(a)
         G, NB = a.geom_count, a.body_count
         planes = fields["planes"]
-        self.dims = {"G": G, "Gs": len(fields["pgeoms"]), "NB": NB, "Q": len(planes), "NW": max(1, -(-G // 64))}
+        group, gstart = sweep_groups(np.asarray(a.body_parent), np.asarray(a.geom_body), fields["pgeoms"], G)
+        self.dims = {"G": G, "Gs": len(fields["pgeoms"]), "NB": NB, "Q": len(planes), "NW": max(1, -(-G // 64)),
+                     "R": len(gstart) - 1}
         self.key_shift = _keys.key_shift(G)
         allow = allow_bits(filt, fields["gstart"], fields["pgeoms"], planes, fields["plane_ok"], G)
         d = self.dims
-        self._X = _ks.XTAB.pack(d, header=(G, d["Gs"], NB, d["Q"], self.key_shift), allow=allow)
+        self._X = _ks.XTAB.pack(d, header=(G, d["Gs"], NB, d["Q"], self.key_shift), allow=allow,
+                                group=group, gstart=gstart)
         self._I, self._F = bp._I, bp._F
         self._XW = np.zeros(_ks.XWORK.size(d), np.int64)
         self._Y = np.zeros(_ks.YWORK.size(d))
