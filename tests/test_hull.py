@@ -122,7 +122,7 @@ def test_intersect_hulls_far_from_origin_and_flat_is_conservative():
 
     rng = np.random.default_rng(7)
     checked = 0
-    for i in range(60):
+    for i in range(30):
         s = 10 ** rng.uniform(-6, 6)
         off = rng.normal(size=3) * 10 ** rng.uniform(0, 7)
         a = rng.normal(size=(20, 3)) * s + off
@@ -141,7 +141,7 @@ def test_intersect_hulls_far_from_origin_and_flat_is_conservative():
         dirs /= np.linalg.norm(dirs, axis=1)[:, None]
         assert np.all((samples @ dirs.T).max(axis=0) <= (out @ dirs.T).max(axis=0) + tol), i
         checked += 1
-    assert checked >= 30
+    assert checked >= 15
 
 
 def test_clip_hull_touching_and_disjoint():
