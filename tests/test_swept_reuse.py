@@ -143,6 +143,8 @@ def test_a_refused_call_a_grown_buffer_and_a_copy_keep_the_answers():
     bad[3, 0] = np.nan
     with pytest.raises(ValueError, match="end pose"):
         bp.pairs_swept(*path[1], bad, path[2][1])
+    with pytest.raises(ValueError, match="start pose"):  # at rest: named as the start
+        bp.pairs_swept(bad, path[2][1], bad, path[2][1])
     got = bp.pairs_swept(*path[1], *path[2])  # the kept end is still the first call's
     _assert_same(got, _fresh(a, *path[1], *path[2]), "after a refusal")
     assert np.all(_sources(bp)[1:] == _ks.SRC_KEPT)
@@ -151,6 +153,13 @@ def test_a_refused_call_a_grown_buffer_and_a_copy_keep_the_answers():
     got = bp.pairs_swept(*path[2], *path[3])
     assert len(got) > 1
     _assert_same(got, _fresh(a, *path[2], *path[3]), "grown")
+    kept = [(bp.pairs_swept(*path[i - 1], *path[i]), i) for i in range(1, 7)]
+    sp._new_arena(5)  # a small arena: full after a call or two, then new ones
+    kept += [(bp.pairs_swept(*path[i - 1], *path[i]), i) for i in range(1, 7)]
+    for got, i in kept:  # every result handed out is still its call's (rows are never rewritten)
+        _assert_same(got, _fresh(a, *path[i - 1], *path[i]), ("kept", i))
+    kept[0][0][:] = -1  # the caller's own rows
+    _assert_same(bp.pairs_swept(*path[0], *path[1]), _fresh(a, *path[0], *path[1]), "after a write")
     twin = copy.copy(bp)  # rebuilt from the articulation: nothing kept
     for i in range(4, 7):
         got, got2 = bp.pairs_swept(*path[i - 1], *path[i]), twin.pairs_swept(*path[i - 1], *path[i])

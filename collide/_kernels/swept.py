@@ -131,7 +131,11 @@ def _body_motion(pos0, rot0, pos1, rot1, body, kept_pose, kept):
     p1 = _bits(pos1, 3 * NB)
     r1 = _bits(rot1, 9 * NB)
     for b in range(NB):
-        for t in range(2):
+        src = _start_source(p0, r0, p1, r1, kept_pose, kept, b)
+        body[b, 4] = src
+        # each pose checked once: a kept start passed as the last call's end; a start at rest is
+        # the end (checked as the start, so that a bad one is named as such)
+        for t in range(1 if src == SRC_KEPT else 0, 1 if src == SRC_REST else 2):
             r = rot0 if t == 0 else rot1
             p = pos0 if t == 0 else pos1
             if not _pose_ok(r[b, 0, 0], r[b, 0, 1], r[b, 0, 2], r[b, 1, 0], r[b, 1, 1], r[b, 1, 2], r[b, 2, 0],
@@ -156,7 +160,6 @@ def _body_motion(pos0, rot0, pos1, rot1, body, kept_pose, kept):
         # review of issue 44)
         body[b, 2] = 0.0 if same else min(th, 2.0) * (1.0 + 2.0 * ORTHO_TOL)
         body[b, 3] = 0.0 if same else _norm3(pos1[b, 0] - pos0[b, 0], pos1[b, 1] - pos0[b, 1], pos1[b, 2] - pos0[b, 2])
-        body[b, 4] = _start_source(p0, r0, p1, r1, kept_pose, kept, b)
     return -1
 
 
@@ -581,9 +584,12 @@ def _rows(keys, k, S, out):
 
 # `swept_call`'s context: the addresses and lengths of one caller's buffers (see `_ptr`, and
 # `step.context` for the single step's): the model (I, F), the static table X, the workspaces XW,
-# Y, the keys and their sort scratch. The owner keeps every buffer alive while the context holds it.
-(SC_I, SC_NI, SC_F, SC_NF, SC_X, SC_NX, SC_XW, SC_NXW, SC_Y, SC_NY, SC_KEYS, SC_NKEYS, SC_SCR, SC_NSCR) = range(14)
-NSCTX = 14
+# Y, the keys and their sort scratch; and an output arena of SC_NOUT (K, 2) int32 rows filled
+# from SC_OFF on (`_swept_call`; `context` leaves these three). The owner keeps every buffer alive
+# while the context holds it.
+(SC_I, SC_NI, SC_F, SC_NF, SC_X, SC_NX, SC_XW, SC_NXW, SC_Y, SC_NY, SC_KEYS, SC_NKEYS, SC_SCR, SC_NSCR, SC_OUT,
+ SC_NOUT, SC_OFF) = range(17)
+NSCTX = 17
 
 
 def context(I, F, X, XW, Y, keys, scr, out=None) -> np.ndarray:
@@ -596,16 +602,17 @@ def context(I, F, X, XW, Y, keys, scr, out=None) -> np.ndarray:
             raise ValueError("swept context: buffers must be C-contiguous arrays of the kernel's dtypes")
     if scr.size < scratch_size(int(X[H_G]), keys.size):
         raise ValueError("swept context: the sort scratch is shorter than scratch_size(G, keys)")
-    ctx[:] = (I.ctypes.data, I.size, F.ctypes.data, F.size, X.ctypes.data, X.size, XW.ctypes.data, XW.size,
-              Y.ctypes.data, Y.size, keys.ctypes.data, keys.size, scr.ctypes.data, scr.size)
+    ctx[:SC_OUT] = (I.ctypes.data, I.size, F.ctypes.data, F.size, X.ctypes.data, X.size, XW.ctypes.data, XW.size,
+                    Y.ctypes.data, Y.size, keys.ctypes.data, keys.size, scr.ctypes.data, scr.size)
     return ctx
 
 
 def _swept_call(pos0, rot0, pos1, rot1, ctx):
-    """`swept_world` on the buffers of the context ``ctx`` (`context`), the rows written over the
-    keys' memory; `BAD_SHAPE` for a pose array of another shape. Compiled for one signature
-    (`swept_call`): five arguments where `swept_world` takes twelve (a numba call pays for each
-    array), and no reference counting (views of pointers carry none)."""
+    """`swept_world` on the buffers of the context ``ctx`` (`context`); `BAD_SHAPE` for a pose
+    array of another shape. The K rows go to the output arena at ``ctx[SC_OFF]``, which then
+    advances by K; where it has no room left, over the keys' own memory (``ctx[SC_OFF]`` stays).
+    Compiled for one signature (`swept_call`): five arguments where `swept_world` takes twelve (a
+    numba call pays for each array), and no reference counting (views of pointers carry none)."""
     X = view_of(i64_ptr(ctx[SC_X]), ctx[SC_NX])
     NB = X[H_NB]
     if (pos0.shape[0] != NB or pos0.shape[1] != 3 or rot0.shape[0] != NB or rot0.shape[1] != 3
@@ -619,7 +626,22 @@ def _swept_call(pos0, rot0, pos1, rot1, ctx):
     keys = view_of(i64_ptr(ctx[SC_KEYS]), ctx[SC_NKEYS])
     scr = view_of(i64_ptr(ctx[SC_SCR]), ctx[SC_NSCR])
     k = _swept(pos0, rot0, pos1, rot1, I, F, X, XW, Y, keys, scr)
-    _rows(keys, k, X[H_S], view_of(i32_ptr(ctx[SC_KEYS]), (ctx[SC_NKEYS], 2)))
+    if k < 0 or k > keys.shape[0]:
+        return k
+    off = ctx[SC_OFF]
+    if off + k <= ctx[SC_NOUT]:
+        # Rows handed out are never written again (the owner starts a new arena when this one is
+        # full): the caller needs no copy
+        S = X[H_S]
+        mask = (np.int64(1) << S) - 1
+        out = view_of(i32_ptr(ctx[SC_OUT] + 8 * off), (k, 2))
+        for i in range(k):
+            key = keys[i]
+            out[i, 0] = np.int32(key >> S)
+            out[i, 1] = np.int32(key & mask)
+        ctx[SC_OFF] = off + k
+    else:
+        _rows(keys, k, X[H_S], view_of(i32_ptr(ctx[SC_KEYS]), (ctx[SC_NKEYS], 2)))
     return k
 
 

@@ -18,6 +18,8 @@ __all__ = ["SweptCalls", "SweptPairs"]
 
 # Rows of the static filter's geom pairs examined at once while the bit matrix is made (memory).
 _BLOCK = 256
+# Rows of a new output arena (`SweptPairs._new_arena`)
+_ARENA_ROWS = 4096
 # The fewest solid geoms a sweep group holds on average (`sweep_groups`)
 _GROUP_MIN = 4
 
@@ -108,8 +110,19 @@ class SweptPairs:
         self._Y = np.zeros(_ks.YWORK.size(d))
         self._ctx = np.zeros(_ks.NSCTX, np.int64)
         self._set_keys(4 * G + 64)
+        self._new_arena(_ARENA_ROWS)
         self._check = bp._check
         self._call = _ks.swept_call()
+
+    def _new_arena(self, rows: int) -> None:
+        # The (rows, 2) int32 output arena: each call's rows are written by the kernel into the next
+        # free rows and handed out as a view. Rows are never written twice; a full arena is left
+        # to the views that hold it (freed with the last of them) and a new one started.
+        self._arena = np.empty((rows, 2), np.int32)
+        self._arena_used = 0
+        self._ctx[_ks.SC_OUT] = self._arena.ctypes.data
+        self._ctx[_ks.SC_NOUT] = rows
+        self._ctx[_ks.SC_OFF] = 0
 
     def _set_keys(self, n: int) -> None:
         # The kernel reaches the buffers through self._ctx (addresses): replace one only here.
@@ -160,7 +173,14 @@ class SweptPairs:
             if k < 0:
                 self._refuse(k, pos0, rot0, pos1, rot1)
             if k <= len(self._keys):
-                return self._out[:k].copy()
+                o = self._arena_used
+                e = o + k
+                if e <= len(self._arena):  # the kernel wrote them there and advanced ctx[SC_OFF]
+                    self._arena_used = e
+                    return self._arena[o:e]
+                out = self._out[:k].copy()  # written over the keys: a new arena for the next calls
+                self._new_arena(max(_ARENA_ROWS, 4 * k))
+                return out
             self._set_keys(2 * k)
             k = self._call(pos0, rot0, pos1, rot1, self._ctx)
 
@@ -230,7 +250,9 @@ class SweptCalls:
         pairs : (K, 2) int32
             Lower id first, rows sorted; the same static filter as `pairs`. They contain every
             pair `pairs` reports at any time of the motion, hence every pair whose geoms touch
-            during the step. A plane whose body moves pairs with every geom its filter lets
+            during the step. A view of rows that this broad phase never writes again (later calls
+            fill other rows), so it may be kept and modified; its ``base`` is a larger arena,
+            freed with the last view that holds it. A plane whose body moves pairs with every geom its filter lets
             through (a fixed plane is tested as a half-space). See `collide._kernels.swept`.
 
         Raises
