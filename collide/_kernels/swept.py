@@ -80,7 +80,8 @@ XW_ORDER = XWORK.field("order", "max(Gs, 1)")  # solid geoms by their swept boxe
 XW_GORDER = XWORK.field("gorder", "R")  # the groups by their boxes' low ends, kept between calls
 XW_GMEM = XWORK.field("gmem", "max(Gs, 1)")  # the members of each group (X_GSTART's spans) in sweep order
 XW_FILL = XWORK.field("fill", "R")  # scratch: each group's next free member slot
-XW_STATE = XWORK.field("state", "3")  # the sweep axis; 1 once the order is set; 1 while Y_POSE, Y_END hold an end
+# the sweep axis; 1 once the order is set; 1 while Y_POSE, Y_END hold an end; 1 once Y_GSTAT is made
+XW_STATE = XWORK.field("state", "4")
 YWORK = Layout(SWEPT, "Y", np.float64)  # a caller's float64 workspace
 # per body: k = θ² / 8, 1.0 when the pose changed, min(θ, 2), |t1 - t0|, where its start places come from
 Y_BODY = YWORK.field("body", "NB, 5")
@@ -95,6 +96,7 @@ Y_PLANE = YWORK.field("plane", "max(Q, 1), 4")  # a fixed plane's world (n, e); 
 # and each solid geom's boxes at it (its OBB's, its capsule's); its sphere's centre is sph[g, 3:6].
 Y_POSE = YWORK.field("pose", "NB, 12")
 Y_END = YWORK.field("end", "G, 12")
+Y_GSTAT = YWORK.field("gstat", "G, 2")  # per solid geom, made on a workspace's first call (`_geom_statics`)
 H_G, H_GS, H_NB, H_Q, H_S = range(5)  # X's header: the counts, and S of the pair keys (`keys.key_shift`)
 
 BAD_POSE = -1  # returned as BAD_POSE - (2 b + t): body b's pose at t (0: start, 1: end) refused
@@ -183,7 +185,19 @@ def _norm3(a, b, c):
 
 
 @nb.njit(cache=True, inline="always")
-def _geom_sweep(g, b, pos0, rot0, pos1, rot1, glocal, gcap, m, body, box, sph, row0, row, tmp, ends):
+def _geom_statics(g, glocal, gcap, gmargin, gstat):
+    # gstat[g] = (ρ, |sphere centre|): the farthest point of the box and of the capsule (inflated by
+    # the margin) from the body's origin, the box's cut to the capsule's holds the geom, so the
+    # larger of the two reaches covers every point of it; and its sphere centre's distance from it
+    m = gmargin[g]
+    c = _norm3(glocal[g, 0], glocal[g, 1], glocal[g, 2])
+    gstat[g, 0] = max(c + _norm3(glocal[g, 12] + m, glocal[g, 13] + m, glocal[g, 14] + m),
+                      c + _norm3(gcap[g, 0], gcap[g, 1], gcap[g, 2]) + gcap[g, 3] + m)
+    gstat[g, 1] = _norm3(glocal[g, 15], glocal[g, 16], glocal[g, 17])
+
+
+@nb.njit(cache=True, inline="always")
+def _geom_sweep(g, b, pos0, rot0, pos1, rot1, glocal, gcap, m, body, box, sph, row0, row, tmp, ends, gstat):
     # box[g] = the swept AABB of geom g (margin m) on body b (its motion in body[b]); sph[g] its
     # sphere and reach; row[g] its world row at s = 1; ends[g] its boxes at s = 1 (kept for the
     # next call, `_start_source`).
@@ -226,11 +240,7 @@ def _geom_sweep(g, b, pos0, rot0, pos1, rot1, glocal, gcap, m, body, box, sph, r
     for i in range(6):
         ends[g, i] = tmp[1, i]
         ends[g, 6 + i] = tmp[3, i]
-    c = _norm3(glocal[g, 0], glocal[g, 1], glocal[g, 2])
-    # the farthest point of the box and of the capsule from the body's origin: the box's cut to
-    # the capsule's holds the geom, so the larger of the two reaches covers every point of it
-    rho = max(c + _norm3(glocal[g, 12] + m, glocal[g, 13] + m, glocal[g, 14] + m),
-              c + _norm3(gcap[g, 0], gcap[g, 1], gcap[g, 2]) + gcap[g, 3] + m)
+    rho = gstat[g, 0]
     d = rho * body[b, 0] * (1.0 + SLACK_REL)
     # the reach δ: every point x of the volumes stays within |(R(s) - R1) x| + |t(s) - t1| <=
     # |x| min(θ, 2) + |t1 - t0| of its place at s = 1 (a chord of the turn, at most the arc)
@@ -242,7 +252,7 @@ def _geom_sweep(g, b, pos0, rot0, pos1, rot1, glocal, gcap, m, body, box, sph, r
         box[g, i] = max(lo, max(tmp[1, i], tmp[3, i]) - reach)
         box[g, 3 + i] = min(hi, min(tmp[1, 3 + i], tmp[3, 3 + i]) + reach)
     sph[g, 6] = glocal[g, 18]
-    sph[g, 7] = _norm3(glocal[g, 15], glocal[g, 16], glocal[g, 17]) * body[b, 0]
+    sph[g, 7] = gstat[g, 1] * body[b, 0]
     sph[g, 8] = reach
 
 
@@ -449,6 +459,11 @@ def _swept(pos0, rot0, pos1, rot1, I, F, X, XW, Y, keys, scr):
     tmp = view_f2(X, Y, Y_TMP)
     plw = view_f2(X, Y, Y_PLANE)
     ends = view_f2(X, Y, Y_END)
+    gstat = view_f2(X, Y, Y_GSTAT)
+    if state[3] == 0:
+        for ii in range(Gs):
+            _geom_statics(solid[ii], glocal, gcap, gmargin, gstat)
+        state[3] = 1
     S = X[H_S]
     # 1. every solid geom's swept box and sphere; the spread of their centres per axis. The kept
     # end (Y_POSE, Y_END) is not whole while this runs: marked invalid until it is again
@@ -457,7 +472,8 @@ def _swept(pos0, rot0, pos1, rot1, I, F, X, XW, Y, keys, scr):
     for ii in range(Gs):
         g = solid[ii]
         b = geom_bid[g]
-        _geom_sweep(g, b, pos0, rot0, pos1, rot1, glocal, gcap, gmargin[g], body, box, sph, row0, row, tmp, ends)
+        _geom_sweep(g, b, pos0, rot0, pos1, rot1, glocal, gcap, gmargin[g], body, box, sph, row0, row, tmp, ends,
+                    gstat)
         c0 = box[g, 0] + box[g, 3]
         c1 = box[g, 1] + box[g, 4]
         c2 = box[g, 2] + box[g, 5]
