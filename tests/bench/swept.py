@@ -6,6 +6,9 @@ Per scene in ../shared/models: the model is simulated with random controls (held
 `collide.mujoco.compare` does); every step, on the body poses before and after it (``xpos``,
 ``xmat``), we time `collide.BroadPhase.pairs` at the step's end and `BroadPhase.pairs_swept` over
 the step (the same instance, arrays passed in: like for like), alternating which goes first.
+The calls follow a simulation loop: each step's start arrays are the previous step's end arrays
+(so `pairs_swept` takes the places it kept at the last call's end and places each geom once a
+step; see `collide._kernels.swept._start_source`).
 Medians over the steps; the ratio is swept over single. Candidates per step (mean) for both, and
 the fraction of steps whose swept pairs held a pair that neither end's single step had (a pair
 that could only meet in between). A second pass with every control at its range's end and a 10x
@@ -105,6 +108,8 @@ def main() -> None:
           f"per scene; MuJoCo {mujoco.__version__}")
     print(f"# machine: {os.cpu_count()} cores, Python {platform.python_version()}, {_cpu()}; "
           f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; load average at start {load:.1f}")
+    print("# calls as in a simulation loop: each step's start arrays are the last step's end arrays (pairs_swept "
+          "takes its kept end places)")
     print("# both through collide.BroadPhase with the pose arrays passed in (no bind); medians over the steps; "
           "between: fraction of steps with a swept pair neither end's single step had; resets: steps after which "
           "MuJoCo reset an unstable state (left out)")
