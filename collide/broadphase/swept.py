@@ -18,6 +18,7 @@ __all__ = ["SweptCalls", "SweptPairs"]
 
 # Rows of the static filter's geom pairs examined at once while the bit matrix is made (memory).
 _BLOCK = 256
+_BAD_SHAPE = _ks.BAD_SHAPE
 # Rows of a new output arena (`SweptPairs._new_arena`)
 _ARENA_ROWS = 4096
 # The fewest solid geoms a sweep group holds on average (`sweep_groups`)
@@ -67,12 +68,14 @@ def sweep_groups(body_parent: np.ndarray, geom_body: np.ndarray, pgeoms: np.ndar
         Group r's members are ``gstart[r]:gstart[r + 1]`` of a list of the solid geoms by group.
     """
     L = len(body_parent)
-    root = np.arange(L)
-    for b in range(L):
-        r = b
-        while r != 0 and body_parent[r] != 0:
-            r = body_parent[r]
-        root[b] = r
+    # each body's ancestor among the world's children (the world its own): pointer jumping, a
+    # fixed point after log2(depth) rounds
+    root = np.where((np.arange(L) == 0) | (body_parent == 0), np.arange(L), body_parent)
+    while True:
+        up = root[root]
+        if np.array_equal(up, root):
+            break
+        root = up
     group = np.zeros(G, np.int64)
     roots, inverse = np.unique(root[geom_body[pgeoms]], return_inverse=True)
     if len(roots) > 1 and len(pgeoms) >= _GROUP_MIN * len(roots):
@@ -119,6 +122,7 @@ class SweptPairs:
         # free rows and handed out as a view. Rows are never written twice; a full arena is left
         # to the views that hold it (freed with the last of them) and a new one started.
         self._arena = np.empty((rows, 2), np.int32)
+        self._arena_rows = rows
         self._arena_used = 0
         self._ctx[_ks.SC_OUT] = self._arena.ctypes.data
         self._ctx[_ks.SC_NOUT] = rows
@@ -127,6 +131,7 @@ class SweptPairs:
     def _set_keys(self, n: int) -> None:
         # The kernel reaches the buffers through self._ctx (addresses): replace one only here.
         self._keys = np.empty(n, np.int64)
+        self._nkeys = n
         self._scr = np.empty(_keys.scratch_size(self.dims["G"], n), np.int64)
         self._out = self._keys.view(np.int32).reshape(-1, 2)  # the kernel turns the keys into rows in place
         _ks.context(self._I, self._F, self._X, self._XW, self._Y, self._keys, self._scr, out=self._ctx)
@@ -164,8 +169,14 @@ class SweptPairs:
         try:
             k = self._call(pos0, rot0, pos1, rot1, self._ctx)
         except TypeError:
-            k = _ks.BAD_SHAPE
-        if k == _ks.BAD_SHAPE:
+            k = _BAD_SHAPE
+        if 0 <= k <= self._nkeys:  # (a longer answer did not fit the keys: grown and run again below)
+            o = self._arena_used
+            e = o + k
+            if e <= self._arena_rows:  # the kernel wrote them there and advanced ctx[SC_OFF]
+                self._arena_used = e
+                return self._arena[o:e]
+        if k == _BAD_SHAPE:
             pos0, rot0 = self._check_end(pos0, rot0, (), 0)
             pos1, rot1 = self._check_end(pos1, rot1, (), 1)
             k = self._call(pos0, rot0, pos1, rot1, self._ctx)
@@ -175,7 +186,7 @@ class SweptPairs:
             if k <= len(self._keys):
                 o = self._arena_used
                 e = o + k
-                if e <= len(self._arena):  # the kernel wrote them there and advanced ctx[SC_OFF]
+                if e <= self._arena_rows:
                     self._arena_used = e
                     return self._arena[o:e]
                 out = self._out[:k].copy()  # written over the keys: a new arena for the next calls
@@ -260,8 +271,15 @@ class SweptCalls:
         ValueError
             As `pairs`, naming the pose (``start`` or ``end``) and the body.
         """
-        with self._lock:
-            return self._swept_pairs().pairs(body_pos0, body_rot0, body_pos1, body_rot1)
+        lock = self._lock  # (the lock and the first-use check written out: a call a step)
+        lock.acquire()
+        try:
+            sp = self.__dict__.get("_swept")
+            if sp is None:
+                sp = self._swept_pairs()
+            return sp.pairs(body_pos0, body_rot0, body_pos1, body_rot1)
+        finally:
+            lock.release()
 
     def pairs_swept_batch(self, body_pos0: np.ndarray, body_rot0: np.ndarray, body_pos1: np.ndarray,
                           body_rot1: np.ndarray) -> np.ndarray:
