@@ -9,8 +9,9 @@ early takes more), for each configuration:
    needed, a geom's world pose, as ``mj_kinematics`` places it (``mj_local2Global``: position
    ``xpos + xmat @ geom_pos``, rotation from the quaternion product ``xquat * geom_quat``);
 2. ``in_collision``: over the configuration's candidate pairs (a broad phase's rows), the
-   deepest contact MuJoCo would make for the pair, by the same rules as
-   `collide._kernels.manifold.collide_pairs` (`deepest_contact`); the first pair whose deepest
+   deepest contact MuJoCo would make for the pair (`deepest_contact`: the margins and the plane,
+   bounding and box-box branches are `collide._kernels.manifold`'s own, `pair_margins` and
+   `plane_box_contacts`, which `collide_pairs` calls too); the first pair whose deepest
    contact is active (``dist < margin``, not in the gap: MuJoCo's ``exclude == 0``) ends the
    configuration's search (an early exit);
 3. with distances asked: the signed distance of the closest pair of a static list of filtered
@@ -35,9 +36,8 @@ from ._threads import fetch_add, set_chunksize
 from .gjk import OVERLAP, SEPARATED, gjk
 from .kinematics import _kinematics_world
 from .support import POINTS
-from .manifold import (BOX_WS, MAX_PER_PAIR, OUT_DISTANCE, OUT_SIZE, PLANE, SKIPPED, T_BOX, T_MESH,
-                       _finite_pose, _shape, box_box, pair_distance, pair_signed_distance, plane_convex,
-                       plane_mesh)
+from .manifold import (BOX_WS, CONVEX_PAIR, MAX_PER_PAIR, OUT_DISTANCE, OUT_SIZE, PLANE, SKIPPED, _finite_pose,
+                       _pair_rows, _shape, pair_distance, pair_margins, pair_signed_distance, plane_box_contacts)
 
 # `deepest_contact`'s answers.
 NO_CONTACT, ACTIVE, IN_GAP, NOT_COLLIDED = 0, 1, 2, 3
@@ -78,15 +78,13 @@ def geom_pose(g, body_pos, body_rot, body_quat, geom_body, geom_pos, geom_quat, 
 
 
 @nb.njit(cache=True)
-def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, pts_num, nbr_start,
-                    nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, rbound, size, geom_margin, geom_gap,
-                    pair_key, pair_margin, pair_gap, override, o_margin, gtype, half, hv_adr, hv_num, hv, f_adr,
-                    f_num, f_normal, f_offset, f_vadr, f_vnum, f_vidx, cand, dep, sel, res, bnrm, bws, pcand, pdep,
-                    out, d0, gws, g4, hints):
+def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_margin, geom_gap, pair_key, pair_margin,
+                    pair_gap, override, o_margin, gtype, half, shapes, faces, scratch, out, d0, gws, g4, hints):
     """Whether MuJoCo would make an active contact for the pair ``(g1, g2)`` at these poses.
 
-    The pair's contacts are those of `collide._kernels.manifold.collide_pairs` (same branches,
-    same functions, same thresholds); only their deepest ``dist`` is kept, which is all that
+    The pair's contacts are those of `collide._kernels.manifold.collide_pairs`: the same
+    margins (`pair_margins`) and, up to two convex geoms, the same code (`plane_box_contacts`:
+    planes, the bounding tests, box-box); only their deepest ``dist`` is kept, which is all that
     decides whether a contact is active: a face manifold's deepest point is the pair's exact
     distance (`polytope_contacts` sets it so), so the manifold is not built. Two convex geoms
     (not two boxes) are first decided by GJK alone, on its certified bounds: cores that GJK
@@ -103,9 +101,12 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, kind, prm, pts, pts_ad
         Geom ids, ``g1 < g2``; their poses must be in ``xpos``, ``xmat`` and finite.
     xpos : (G, 3) float64
     xmat : (G, 3, 3) float64
-    cls ... f_vidx
+    cls ... half
         The per-geom tables, as `collide._kernels.manifold.collide_pairs` takes them.
-    cand, dep, sel, res, bnrm, bws, pcand, pdep, out, d0, gws, g4, hints
+    shapes, faces, scratch : tuple
+        The support and face tables and the plane and box scratch, in the tuples
+        `collide._kernels.manifold.plane_box_contacts` takes (made once per worker).
+    out, d0, gws, g4, hints
         Scratch (`check_worlds` sizes them; ``gws (4, 4, 3)``, ``g4 (2, 4)`` and ``hints (2,) int64``
         GJK's).
 
@@ -122,86 +123,51 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, kind, prm, pts, pts_ad
     if c1 == PLANE and c2 == PLANE:
         return NO_CONTACT
     G = cls.shape[0]
-    P = pair_key.shape[0]
-    key = min(g1, g2) * G + max(g1, g2)
-    j = np.searchsorted(pair_key, key) if P > 0 else 0
-    explicit = j < P and pair_key[j] == key
-    nent = 1
-    if explicit:
-        while j + nent < P and pair_key[j + nent] == key:
-            nent += 1
+    j, nent, explicit = _pair_rows(pair_key, min(g1, g2) * G + max(g1, g2))
+    kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num = shapes
+    res = scratch[3]
     found = NO_CONTACT
     for e in range(nent):
-        if explicit:
-            margin = pair_margin[j + e]
-            gap = pair_gap[j + e]
-        else:
-            margin = geom_margin[g1] + geom_margin[g2]
-            gap = geom_gap[g1] + geom_gap[g2]
-        if override:
-            margin = o_margin
-        thr = margin + gap
+        margin, thr = pair_margins(g1, g2, j + e, explicit, geom_margin, geom_gap, pair_margin, pair_gap, override,
+                                   o_margin)
+        m = plane_box_contacts(g1, g2, thr, xpos, xmat, cls, rule, below, rbound, gtype, half, shapes, faces, scratch)
         d = np.inf
-        if c1 == PLANE or c2 == PLANE:
-            gp = g1 if c1 == PLANE else g2
-            gc = g2 if c1 == PLANE else g1
-            n = xmat[gp, :, 2].copy()
-            p0 = xpos[gp]
-            cd = n[0] * (xpos[gc, 0] - p0[0]) + n[1] * (xpos[gc, 1] - p0[1]) + n[2] * (xpos[gc, 2] - p0[2])
-            if cd - rbound[gc] > thr:
-                continue
-            if gtype[gc] == T_MESH and hv_num[gc] > 0:
-                a = hv_adr[gc]
-                m = plane_mesh(hv[a:a + hv_num[gc]], f_adr[gc], f_num[gc], f_normal, f_vadr, f_vnum, f_vidx,
-                               xmat[gc], xpos[gc], n, p0, thr, pcand, pdep, sel, res)
-            else:
-                sc = _shape(gc, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
-                            nbr_adr, nbr_num, xpos, xmat)
-                m = plane_convex(rule[gc], below[gc], sc, n, p0, thr, cand, dep, sel, res)
+        if m != CONVEX_PAIR:
             for i in range(m):
                 d = min(d, res[i, 0])
         else:
-            cc = math.sqrt((xpos[g2, 0] - xpos[g1, 0]) ** 2 + (xpos[g2, 1] - xpos[g1, 1]) ** 2
-                           + (xpos[g2, 2] - xpos[g1, 2]) ** 2)
-            if cc - rbound[g1] - rbound[g2] > thr:
-                continue
-            if gtype[g1] == T_BOX and gtype[g2] == T_BOX:
-                m = box_box(xpos[g1], xmat[g1], half[g1], xpos[g2], xmat[g2], half[g2], thr, res, bnrm, bws)
-                for i in range(m):
-                    d = min(d, res[i, 0])
-            else:
-                s1 = _shape(g1, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
-                            nbr_adr, nbr_num, xpos, xmat)
-                s2 = _shape(g2, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
-                            nbr_adr, nbr_num, xpos, xmat)
-                tol = 1e-12 * (size[g1] + size[g2])
-                r = prm[g1, 3] + prm[g2, 3]
-                if kind[g1] == POINTS and kind[g2] == POINTS and pts_num[g1] <= 2 and pts_num[g2] <= 2:
-                    # spheres and capsules: pair_distance's closed form (no iteration) decides
-                    pair_distance(s1, s2, tol, d0, -1, -1, 128, out)
-                    d = out[OUT_DISTANCE]
-                    if d <= thr:
-                        if d < margin:
-                            return ACTIVE
-                        found = IN_GAP
-                    continue
-                hints[0] = -1
-                hints[1] = -1
-                gws[:] = 0.0  # a fresh simplex, as pair_distance starts from
-                g4[:] = 0.0
-                st, nsx, lower, scale, iters = gjk(s1, s2, d0, hints, tol, 128, gws[0], gws[1], gws[2], g4[0],
-                                                   gws[3, 0], g4[1], gws[3, 1], gws[3, 2])
-                if st == OVERLAP:
-                    return ACTIVE  # cores within tol of touching: d <= tol - r
-                if st == SEPARATED:
-                    if lower - r > thr:
-                        continue  # certainly no contact
-                    v = gws[3, 0]
-                    upper = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])  # |v|: a point of A - B
-                    if upper - r < margin and upper - r <= thr:
-                        return ACTIVE
+            s1 = _shape(g1, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
+                        nbr_adr, nbr_num, xpos, xmat)
+            s2 = _shape(g2, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
+                        nbr_adr, nbr_num, xpos, xmat)
+            tol = 1e-12 * (size[g1] + size[g2])
+            r = prm[g1, 3] + prm[g2, 3]
+            if kind[g1] == POINTS and kind[g2] == POINTS and pts_num[g1] <= 2 and pts_num[g2] <= 2:
+                # spheres and capsules: pair_distance's closed form (no iteration) decides
                 pair_distance(s1, s2, tol, d0, -1, -1, 128, out)
                 d = out[OUT_DISTANCE]
+                if d <= thr:
+                    if d < margin:
+                        return ACTIVE
+                    found = IN_GAP
+                continue
+            hints[0] = -1
+            hints[1] = -1
+            gws[:] = 0.0  # a fresh simplex, as pair_distance starts from
+            g4[:] = 0.0
+            st, nsx, lower, scale, iters = gjk(s1, s2, d0, hints, tol, 128, gws[0], gws[1], gws[2], g4[0],
+                                               gws[3, 0], g4[1], gws[3, 1], gws[3, 2])
+            if st == OVERLAP:
+                return ACTIVE  # cores within tol of touching: d <= tol - r
+            if st == SEPARATED:
+                if lower - r > thr:
+                    continue  # certainly no contact
+                v = gws[3, 0]
+                upper = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])  # |v|: a point of A - B
+                if upper - r < margin and upper - r <= thr:
+                    return ACTIVE
+            pair_distance(s1, s2, tol, d0, -1, -1, 128, out)
+            d = out[OUT_DISTANCE]
         if d <= thr:  # a contact is made (collide_pairs' rule) ...
             if d < margin:  # ... and active: MuJoCo's exclude == 0
                 return ACTIVE
@@ -305,6 +271,9 @@ def check_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, bod
         g4 = np.zeros((2, 4))  # GJK's lam, dirn
         hints = np.empty(2, np.int64)
         lb = np.empty(P if want_distance else 0)
+        shapes = (kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num)
+        faces = (hv_adr, hv_num, hv, f_adr, f_num, f_normal, f_vadr, f_vnum, f_vidx)
+        scratch = (cand, dep, sel, res, bnrm, bws, pcand, pdep)
         while True:
             c = fetch_add(addr, 1)
             if c >= chunks:
@@ -328,12 +297,9 @@ def check_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, bod
                                 err = ERR_POSE + 8 * g
                     if err != 0:
                         break
-                    a = deepest_contact(g1, g2, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, pts_num,
-                                        nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, rbound,
-                                        size, geom_margin, geom_gap, pair_key, pair_margin, pair_gap, override,
-                                        o_margin, gtype, half, hv_adr, hv_num, hv, f_adr, f_num, f_normal,
-                                        f_offset, f_vadr, f_vnum, f_vidx, cand, dep, sel, res, bnrm, bws, pcand,
-                                        pdep, out, d0, gws, g4, hints)
+                    a = deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_margin, geom_gap,
+                                        pair_key, pair_margin, pair_gap, override, o_margin, gtype, half, shapes,
+                                        faces, scratch, out, d0, gws, g4, hints)
                     if a == ACTIVE:
                         hit = True
                         break  # the early exit: one active contact decides

@@ -25,8 +25,10 @@ Per pair, with ``thr`` the pair's contact distance (MuJoCo's ``margin + gap``):
 A contact's ``pos`` is midway between the two surfaces and its ``normal`` points from the pair's
 first geom to its second, as MuJoCo places them (``mjContact.pos``, ``frame[:3]``).
 
-This module is the pair dispatch (`collide_pairs`, `pair_signed_distance`); the routines live by
-concept, each importing only downward:
+This module is the pair dispatch (`collide_pairs`, `pair_signed_distance`), and the one home of
+MuJoCo's rule for a pair's margins (`pair_margins`) and of its branches up to two convex geoms
+(`plane_box_contacts`), which `collide._kernels.check.deepest_contact` shares; the routines live
+by concept, each importing only downward:
 
 * `collide._kernels.plane`: a plane against a convex geom (`plane_convex`, `plane_mesh`) and
   the four-point reduction (`reduce_four`);
@@ -56,7 +58,8 @@ from .support import support
 # importers of `collide._kernels.manifold` still read here.
 __all__ = [
     "CONVEX", "ERR_POSE", "MAX_PER_PAIR", "PLANE", "SKIPPED", "T_BOX", "T_CAPSULE", "T_CYLINDER", "T_ELLIPSOID",
-    "T_HFIELD", "T_MESH", "T_PLANE", "T_SPHERE", "collide_pairs", "pair_signed_distance",
+    "T_HFIELD", "T_MESH", "T_PLANE", "T_SPHERE", "CONVEX_PAIR", "collide_pairs", "pair_margins",
+    "pair_signed_distance", "plane_box_contacts",
     # re-exported
     "BOX_MAX", "BOX_WS", "EDGE_TOL", "FACE_TOL", "OUT_DISTANCE", "OUT_NORMAL", "OUT_POINT_A", "OUT_POINT_B",
     "OUT_SIZE", "PLANE_FACE_TOL", "RULE_CYLINDER", "RULE_POINTS", "RULE_SUPPORT", "RULE_VERTICES",
@@ -156,7 +159,7 @@ def _scratch(pts_num, f_vnum):
             pa, pb, nv, out, d0)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _pair_rows(pair_key, key):
     # The explicit pairs of the geom pair ``key`` (``lo * G + hi``): their first row in the sorted
     # ``pair_key``, how many, and whether there is one (else one entry, the geoms' own margins).
@@ -168,6 +171,102 @@ def _pair_rows(pair_key, key):
         while j + nent < P and pair_key[j + nent] == key:
             nent += 1
     return j, nent, explicit
+
+
+@njit(cache=True, inline="always")
+def pair_margins(g1, g2, row, explicit, geom_margin, geom_gap, pair_margin, pair_gap, override, o_margin):
+    """The margin and the contact distance (``margin + gap``) of one collision of a geom pair.
+
+    MuJoCo's rule: an explicit ``<pair>``'s own (``row`` of the sorted explicit pairs, from
+    `_pair_rows`), else the sums of the two geoms'; ``mjENBL_OVERRIDE`` replaces every margin
+    by ``o_margin``, the gaps stay.
+    """
+    if explicit:
+        margin = pair_margin[row]
+        gap = pair_gap[row]
+    else:
+        margin = geom_margin[g1] + geom_margin[g2]
+        gap = geom_gap[g1] + geom_gap[g2]
+    if override:
+        margin = o_margin
+    return margin, margin + gap
+
+
+# `plane_box_contacts`' answer for two convex geoms (not two boxes) within reach of each other:
+# the caller's narrow phase decides them (`collide_pairs`: the signed distance and a manifold;
+# `collide._kernels.check.deepest_contact`: GJK's bounds first, only the deepest distance).
+CONVEX_PAIR = -1
+
+
+@njit(cache=True, inline="always")
+def plane_box_contacts(g1, g2, thr, xpos, xmat, cls, rule, below, rbound, gtype, half, shapes, faces, scratch):
+    """The contacts of a geom pair (not two planes, no skipped class) up to the convex narrow phase.
+
+    The one home of MuJoCo's dispatch (module docstring) that `collide_pairs` and
+    `collide._kernels.check.deepest_contact` share: a plane against a convex geom (a bounding
+    test on the plane's equation, then `plane_mesh` for a mesh with a hull, `plane_convex`
+    otherwise); two convex geoms: a bounding-ball test, then two boxes by `box_box`. Inlined
+    (numba's IR): the tables come in three tuples, since a call of more than 30 arguments
+    compiles to a ``*args`` call, which numba does not inline, and a call per pair would cost
+    the batch checks the passing of some 40 arrays.
+
+    Parameters
+    ----------
+    g1, g2 : int
+        Geom ids, finite poses.
+    thr : float
+        The pair's contact distance (`pair_margins`).
+    xpos ... half
+        As `collide_pairs` takes them.
+    shapes : tuple
+        ``(kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
+        nbr_adr, nbr_num)``, as `collide_pairs` takes them.
+    faces : tuple
+        ``(hv_adr, hv_num, hv, f_adr, f_num, f_normal, f_vadr, f_vnum, f_vidx)``, likewise.
+    scratch : tuple
+        ``(cand, dep, sel, res, nrm, bws, pcand, pdep)``: `collide_pairs`' scratch (`_scratch`),
+        ``nrm (3,)`` its ``bnrm``.
+
+    Returns
+    -------
+    int
+        ``m >= 0``: the pair's contacts, ``res[:m]`` ``(dist, pos x, y, z)``, their normal in
+        ``nrm`` (from ``g1`` to ``g2``), none where the bounding test leaves the pair out; or
+        `CONVEX_PAIR`: two convex geoms, not two boxes, within reach (the caller decides).
+    """
+    kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num = shapes
+    hv_adr, hv_num, hv, f_adr, f_num, f_normal, f_vadr, f_vnum, f_vidx = faces
+    cand, dep, sel, res, nrm, bws, pcand, pdep = scratch
+    c1 = cls[g1]
+    if c1 == PLANE or cls[g2] == PLANE:
+        gp = g1 if c1 == PLANE else g2
+        gc = g2 if c1 == PLANE else g1
+        for q in range(3):
+            nrm[q] = xmat[gp, q, 2]
+        p0 = xpos[gp]
+        cd = nrm[0] * (xpos[gc, 0] - p0[0]) + nrm[1] * (xpos[gc, 1] - p0[1]) + nrm[2] * (xpos[gc, 2] - p0[2])
+        if cd - rbound[gc] > thr:
+            return 0
+        if gtype[gc] == T_MESH and hv_num[gc] > 0:
+            a = hv_adr[gc]
+            m = plane_mesh(hv[a:a + hv_num[gc]], f_adr[gc], f_num[gc], f_normal, f_vadr, f_vnum, f_vidx,
+                           xmat[gc], xpos[gc], nrm, p0, thr, pcand, pdep, sel, res)
+        else:
+            sc = _shape(gc, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr,
+                        nbr_num, xpos, xmat)
+            m = plane_convex(rule[gc], below[gc], sc, nrm, p0, thr, cand, dep, sel, res)
+        if c1 != PLANE:  # the normal from the first geom to the second
+            for q in range(3):
+                nrm[q] = -nrm[q]
+        return m
+    cc = math.sqrt((xpos[g2, 0] - xpos[g1, 0]) ** 2 + (xpos[g2, 1] - xpos[g1, 1]) ** 2
+                   + (xpos[g2, 2] - xpos[g1, 2]) ** 2)
+    if cc - rbound[g1] - rbound[g2] > thr:
+        return 0
+    if gtype[g1] == T_BOX and gtype[g2] == T_BOX:
+        # MuJoCo's box-box: separating axes and a clipped face (up to 8 contacts)
+        return box_box(xpos[g1], xmat[g1], half[g1], xpos[g2], xmat[g2], half[g2], thr, res, nrm, bws)
+    return CONVEX_PAIR
 
 
 @njit(cache=True)
@@ -235,6 +334,9 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
     G = cls.shape[0]
     (cand, dep, sel, res, bnrm, bws, seg, pcand, pdep, face1, face2, poly, tmp, cand1, cand2, cnrm1, cnrm2, pa, pb,
      nv, out, d0) = _scratch(pts_num, f_vnum)
+    shapes = (kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num)
+    faces = (hv_adr, hv_num, hv, f_adr, f_num, f_normal, f_vadr, f_vnum, f_vidx)
+    scratch = (cand, dep, sel, res, bnrm, bws, pcand, pdep)
     k = 0
     for p in range(pairs.shape[0]):
         g1 = pairs[p, 0]
@@ -255,52 +357,19 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
         # listed in several <pair>s is collided once for each, with its own (as MuJoCo does)
         j, nent, explicit = _pair_rows(pair_key, min(g1, g2) * G + max(g1, g2))
         for e in range(nent):
-            if explicit:
-                margin = pair_margin[j + e]
-                gap = pair_gap[j + e]
-            else:
-                margin = geom_margin[g1] + geom_margin[g2]
-                gap = geom_gap[g1] + geom_gap[g2]
-            if override:
-                margin = o_margin
-            thr = margin + gap
-            if c1 == PLANE or c2 == PLANE:
-                gp = g1 if c1 == PLANE else g2
-                gc = g2 if c1 == PLANE else g1
-                sg = 1.0 if c1 == PLANE else -1.0  # the normal from the first geom to the second
-                n = xmat[gp, :, 2].copy()
-                p0 = xpos[gp]
-                cd = n[0] * (xpos[gc, 0] - p0[0]) + n[1] * (xpos[gc, 1] - p0[1]) + n[2] * (xpos[gc, 2] - p0[2])
-                if cd - rbound[gc] > thr:
-                    continue
-                if gtype[gc] == T_MESH and hv_num[gc] > 0:
-                    a = hv_adr[gc]
-                    m = plane_mesh(hv[a:a + hv_num[gc]], f_adr[gc], f_num[gc], f_normal, f_vadr, f_vnum, f_vidx,
-                                   xmat[gc], xpos[gc], n, p0, thr, pcand, pdep, sel, res)
-                else:
-                    sc = _shape(gc, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
-                                nbr_adr, nbr_num, xpos, xmat)
-                    m = plane_convex(rule[gc], below[gc], sc, n, p0, thr, cand, dep, sel, res)
-                for i in range(m):
-                    _emit(k, g1, g2, res[i, 0], res[i, 1], res[i, 2], res[i, 3], sg * n[0], sg * n[1], sg * n[2],
-                          margin, out_geom, out_dist, out_pos, out_normal, out_margin)
-                    k += 1
-                continue
-            # two convex geoms: a bounding-sphere test, then the signed distance
-            cc = math.sqrt((xpos[g2, 0] - xpos[g1, 0]) ** 2 + (xpos[g2, 1] - xpos[g1, 1]) ** 2
-                           + (xpos[g2, 2] - xpos[g1, 2]) ** 2)
-            if cc - rbound[g1] - rbound[g2] > thr:
-                continue
-            t1 = gtype[g1]
-            t2 = gtype[g2]
-            if t1 == T_BOX and t2 == T_BOX:
-                # MuJoCo's box-box: separating axes and a clipped face (up to 8 contacts)
-                m = box_box(xpos[g1], xmat[g1], half[g1], xpos[g2], xmat[g2], half[g2], thr, res, bnrm, bws)
+            margin, thr = pair_margins(g1, g2, j + e, explicit, geom_margin, geom_gap, pair_margin, pair_gap,
+                                       override, o_margin)
+            m = plane_box_contacts(g1, g2, thr, xpos, xmat, cls, rule, below, rbound, gtype, half, shapes, faces,
+                                   scratch)
+            if m != CONVEX_PAIR:
                 for i in range(m):
                     _emit(k, g1, g2, res[i, 0], res[i, 1], res[i, 2], res[i, 3], bnrm[0], bnrm[1], bnrm[2], margin,
                           out_geom, out_dist, out_pos, out_normal, out_margin)
                     k += 1
                 continue
+            # two convex geoms, not two boxes, within reach: the signed distance
+            t1 = gtype[g1]
+            t2 = gtype[g2]
             s1 = _shape(g1, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
                         nbr_adr, nbr_num, xpos, xmat)
             s2 = _shape(g2, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
