@@ -4,10 +4,9 @@ lowest common ancestor (`_traverse`), then the static filter (`_walk`).
 At each position ``n``: a flat root's statically passing pairs from bit masks (`culling._row_hits`),
 body ``n`` against its descendants, then pairs of ``n``'s child subtrees: all pairs for a few
 children, sweep-and-prune on one axis from ``SAP_MIN`` (any number of children). The tests among
-subtrees are `culling`'s. `_traverse` stays one
-function, its parts written out: split into inlined helpers, each helper's array arguments cost
-reference-count calls per node in this reference-counted function (measured: a long chain's walk
-slower, beyond run-to-run noise).
+subtrees are `culling`'s. `_traverse` stays one function, its parts written out: split into inlined
+helpers, each helper's array arguments cost reference-count calls per node in this
+reference-counted function (measured: a long chain's walk slower, beyond run-to-run noise).
 """
 
 from __future__ import annotations
