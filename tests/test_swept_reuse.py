@@ -230,3 +230,40 @@ def test_the_grouped_sweep_equals_one_group(monkeypatch):
                 solid = ~a.geom_is_plane[got[:, 0]] & ~a.geom_is_plane[got[:, 1]]
                 cross += int(np.sum(solid & (group[got[:, 0]] != group[got[:, 1]])))
     assert found > 100 and cross > 10  # pairs within robots and across them
+
+
+def test_the_mujoco_adapter_in_a_loop_of_two_mjdata():
+    # collide.mujoco's pairs_swept keeps the views of the last two MjData it checked: a loop that
+    # copies each step's start into one MjData and steps another gets the answers of the arrays.
+    mujoco = pytest.importorskip("mujoco")
+    from pathlib import Path
+    path = Path(__file__).resolve().parents[1] / ".." / "shared" / "models" / "shadow_hand" / "scene.xml"
+    if not path.is_file():
+        pytest.skip(f"{path} absent (see the README's 'Test models')")
+    import collide.mujoco as cm
+    model = mujoco.MjModel.from_xml_path(str(path))
+    col = cm.BroadPhase(model)
+    data, before = mujoco.MjData(model), mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    rng = np.random.default_rng(10)
+    lo, hi = model.actuator_ctrlrange.T
+    found = 0
+    for step in range(60):
+        if step % 10 == 0:
+            data.ctrl[:] = rng.uniform(lo, hi)
+        mujoco.mj_copyData(before, model, data)
+        mujoco.mj_step(model, data)
+        got = col.pairs_swept(before, data)
+        want = _fresh(col.articulation, before.xpos.copy(), before.xmat.reshape(-1, 3, 3).copy(), data.xpos.copy(),
+                      data.xmat.reshape(-1, 3, 3).copy())
+        want = want[~(col._no_function[want[:, 0]] & col._no_function[want[:, 1]])] if col._no_function is not None \
+            else want
+        _assert_same(np.asarray(got), want, step)
+        found += len(got)
+    assert found > 0
+    other = mujoco.MjData(mujoco.MjModel.from_xml_string("<mujoco><worldbody/></mujoco>"))
+    with pytest.raises(ValueError, match="^data1: made for a model with"):
+        col.pairs_swept(before, other)
+    with pytest.raises(ValueError, match="data0: expected a mujoco.MjData"):
+        col.pairs_swept(before.xpos, data)
+    _assert_same(np.asarray(col.pairs_swept(before, data)), np.asarray(col.pairs_swept(before, data)), "again")

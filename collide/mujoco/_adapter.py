@@ -52,6 +52,7 @@ class BroadPhase:
         self._disabled = _contacts_disabled(model)
         self._views_of = _NOT_BOUND  # the MjData whose arrays are bound (none yet; None is not an MjData)
         self._views = None
+        self._swept_views = []  # pairs_swept: (data, xpos, xmat as (nbody, 3, 3)) of the last MjData checked there
         self._tree = (None, None)  # (MjModel, its kinematic_tree): pairs_batch's, see there
         # MuJoCo has no collision function for plane-hfield and hfield-hfield (mjCOLLISIONFUNC
         # is NULL there): such pairs never make contacts and are removed after the kernel.
@@ -241,16 +242,12 @@ class BroadPhase:
         pairs : (K, 2) int32
             Geom ids, lower first, rows sorted.
         """
-        for name, d in (("data0", data0), ("data1", data1)):
-            try:
-                self._check_data(d)
-            except ValueError as exc:  # name the argument
-                raise ValueError(name + str(exc)[len("data"):]) from None
+        p0, r0 = self._swept_arrays(data0, "data0")
+        p1, r1 = self._swept_arrays(data1, "data1")
         if self._disabled:
             return self._empty2
         try:
-            out = self.broadphase.pairs_swept(data0.xpos, data0.xmat.reshape(-1, 3, 3), data1.xpos,
-                                              data1.xmat.reshape(-1, 3, 3))
+            out = self.broadphase.pairs_swept(p0, r0, p1, r1)
         except ValueError as exc:
             for name, d in (("data0", data0), ("data1", data1)):
                 if not np.any(d.xmat):
@@ -260,6 +257,22 @@ class BroadPhase:
         if self._no_function is not None and len(out):
             out = out[~(self._no_function[out[:, 0]] & self._no_function[out[:, 1]])]
         return out
+
+    def _swept_arrays(self, data, name: str):
+        # ``xpos`` and ``xmat`` (as (nbody, 3, 3)) of an MjData of this model, named ``name`` in an
+        # error. The bindings build new views at every attribute access and an MjData's arrays never
+        # move: the views of the last two MjData checked here are kept with them (a loop passes
+        # the same two, or its step's start as a new copy each time: then this checks as before).
+        for item in self._swept_views:
+            if item[0] is data:
+                return item[1], item[2]
+        try:
+            self._check_data(data)
+        except ValueError as exc:  # name the argument
+            raise ValueError(name + str(exc)[len("data"):]) from None
+        item = (data, data.xpos, data.xmat.reshape(-1, 3, 3))
+        self._swept_views = [item] + self._swept_views[:1]
+        return item[1], item[2]
 
     def kinematics_batch(self, model: mujoco.MjModel, qpos: np.ndarray):
         """Body poses of each configuration (see the module function `kinematics_batch`)."""
