@@ -42,12 +42,12 @@ import gc
 import platform
 import sys
 import time
-from pathlib import Path
 
 import mujoco
 import numpy as np
 
 from collide import Articulation, BroadPhase, PointCloud, testing
+from _machine import cpu as _cpu  # noqa: E402 (tests/bench is the script's folder)
 
 try:
     from collide.mujoco import mujoco_timer, timer_clock
@@ -64,13 +64,6 @@ except ImportError:  # pragma: no cover
     coal = None
 
 BROAD = int(mujoco.mjtTimer.mjTIMER_COL_BROAD)
-
-
-def _cpu() -> str:
-    for line in Path("/proc/cpuinfo").read_text().splitlines():
-        if line.startswith("model name"):
-            return line.split(":", 1)[1].strip()
-    return platform.processor() or "unknown cpu"
 
 
 def _quat(R: np.ndarray) -> np.ndarray:

@@ -17,7 +17,6 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -28,21 +27,11 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
 import collide.mujoco as cm  # noqa: E402
+from _machine import cpu as _cpu  # noqa: E402 (tests/bench is the script's folder)
 
 MODELS = Path(__file__).resolve().parents[2] / ".." / "shared" / "models"
 BROAD = int(mujoco.mjtTimer.mjTIMER_COL_BROAD)
 NARROW = int(mujoco.mjtTimer.mjTIMER_COL_NARROW)
-
-
-def _cpu() -> str:
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
-        for line in out.splitlines():
-            if line.startswith("Model name"):
-                return line.split(":", 1)[1].strip()
-    except (OSError, subprocess.CalledProcessError):
-        pass
-    return platform.processor() or "unknown cpu"
 
 
 def _per_call(timer, d0: float, n0: int) -> float:

@@ -9,7 +9,6 @@ sample misses (both small at this density). Time: median of 5 calls, CPU time of
 """
 
 import math
-import subprocess
 import time
 
 import numpy as np
@@ -18,14 +17,7 @@ from scipy.spatial.transform import Rotation
 
 import collide
 from collide import PointCloud, deformations, shapes, testing
-
-
-def _cpu() -> str:
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True).stdout
-        return next(line.split(":", 1)[1].strip() for line in out.splitlines() if line.startswith("Model name"))
-    except Exception:  # noqa: BLE001 - report what is known
-        return "unknown"
+from _machine import cpu as _cpu  # noqa: E402 (tests/bench is the script's folder)
 
 
 def _median_time(fn, reps=5):

@@ -24,7 +24,6 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import subprocess
 import sys
 import time
 
@@ -35,6 +34,7 @@ import collide
 from collide._kernels import distance as kd
 from collide.support import SupportData, support_data
 from collide.testing.surfaces import random_rotation
+from _machine import cpu as _cpu  # noqa: E402 (tests/bench is the script's folder)
 
 PAIRS = 40
 SIZES = (100, 300, 1000)
@@ -64,17 +64,6 @@ def _mesh(rng, n):
     d = rng.normal(size=(n, 3))
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     return d * rng.uniform(0.5, 1.0, 3)  # all on an ellipsoid: every point a hull vertex
-
-
-def _cpu() -> str:
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True).stdout
-        for line in out.splitlines():
-            if line.startswith("Model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
 
 
 def _coal_shape(coal, pts):

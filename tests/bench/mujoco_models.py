@@ -58,18 +58,9 @@ import numba  # noqa: E402
 import numpy as np  # noqa: E402
 
 import collide.mujoco as cm  # noqa: E402
+from _machine import cpu as _cpu  # noqa: E402 (tests/bench is the script's folder)
 
 MODELS = Path(__file__).resolve().parents[2] / ".." / "shared" / "models"
-
-
-def _cpu() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown cpu"
 
 
 @numba.njit("int64(int64)", cache=True)

@@ -22,8 +22,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import platform
-import subprocess
 import sys
 import tempfile
 import time
@@ -37,17 +35,7 @@ import rerun  # noqa: E402
 
 import collide.mujoco as cm  # noqa: E402
 from collide.rerun_log import record_compare  # noqa: E402
-
-
-def _cpu() -> str:
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
-        for line in out.splitlines():
-            if line.startswith("Model name"):
-                return line.split(":", 1)[1].strip()
-    except (OSError, subprocess.CalledProcessError):
-        pass
-    return platform.processor() or "unknown cpu"
+from _machine import cpu as _cpu  # noqa: E402 (tests/bench is the script's folder)
 
 
 def own_loop(model, path: Path, steps: int, seed: int = 0, hold: int = 100) -> dict:
