@@ -371,6 +371,9 @@ class Collider:
             raise ValueError(f"qpos: cannot be read as a float64 array ({exc})") from None
         if q.dtype.kind in "bUS":  # numpy would read True as 1.0 and "0.5" as 0.5: a mistake here
             raise ValueError(f"qpos: expected numbers, got dtype {q.dtype}")
+        if not q.flags.writeable:
+            # a read-only array is another numba type: the kernels would compile again for it
+            q = q.copy()
         if q.ndim != 2 or q.shape[1] != nq:
             raise ValueError(f"qpos: expected shape (B, {nq}) (one configuration a row, nq = {nq}), got {q.shape}")
         finite = np.isfinite(q).all(axis=1)

@@ -487,3 +487,21 @@ def test_arguments_a_mistake_would_give_are_refused():
     r = col.check_batch(q, distance=True, distmax=np.float32(-0.1))
     assert np.allclose(r.min_distance, [-0.3, np.inf, np.inf, np.inf]) and r.closest.tolist()[1] == [-1, -1]
     assert np.array_equal(col.check_batch(q, distance=True).min_distance, ref.min_distance)  # still works
+
+
+def test_a_read_only_qpos_is_no_new_kernel():
+    # Found by an attack: a read-only qpos (a memory map, an array a library froze) reached the
+    # kernels as a numba type of its own, compiling check_worlds and the batch broad phase again
+    # (about a minute, once per process without a cache). Now copied: the same kernels, the same answers.
+    model = _two_spheres(0, 0, 0, 0)
+    col = cm.Collider(model)
+    q = np.tile(model.qpos0, (5, 1))
+    q[:, 7] += [-0.3, -0.1, 0.0, 0.2, 0.7]
+    ref = col.check_batch(q, distance=True)
+    before = len(kc.check_worlds.signatures)
+    frozen = q.copy()
+    frozen.setflags(write=False)
+    r = col.check_batch(frozen, distance=True)
+    assert len(kc.check_worlds.signatures) == before
+    assert ref.in_collision.tolist() == [True, True, False, False, False]
+    assert np.array_equal(r.in_collision, ref.in_collision) and np.array_equal(r.min_distance, ref.min_distance)
