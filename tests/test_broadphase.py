@@ -1773,3 +1773,120 @@ def test_pointer_views_are_the_buffers_c_order():
     assert f[n - 1, 2] == -1.0
     assert got == (f[1, 2] + f[n - 1, 0] + i[n - 1] + j[1, n - 1, 1] + n + j.strides[0] + f[1:, 1].sum()
                    + i[n - 2] * 1000)
+
+
+# ------------------------------------------------- issue 42: scenes of the removed mechanisms' paths
+# The hash grid, FLAT_DESC, FLAT_MAX's lists, box_row8 and pair_bits are gone (issue 42): the scenes
+# that took them now take the sweep, the walk and the scalar row loops; each against the twin.
+
+def _star(n, under, rng, size=0.1):
+    # n balls of radius ``size``, children of the world (under=0) or of body 1, a child of the world
+    parent = np.r_[0, 0, np.ones(n, int)] if under else np.r_[0, np.zeros(n, int)]
+    L = len(parent)
+    return Articulation(parent, np.arange(1, L), [PointCloud([[0, 0, 0], [size, 0, 0]], size) for _ in range(L - 1)])
+
+
+def _both_equal_twin(a, poses):
+    # pairs() with and without coherence against the twin, in order (coherence keeps its list between
+    # the poses); returns the pairs seen.
+    bps = (BroadPhase(a), BroadPhase(a, coherent=False))
+    total = 0
+    for pos, rot in poses:
+        ref = testing.brute_force_bound_pairs(a, pos, rot)
+        for bp in bps:
+            assert np.array_equal(bp.pairs(pos, rot), ref)
+        total += len(ref)
+    return total
+
+
+@pytest.mark.parametrize("under", [0, 1], ids=["under_world", "under_a_body"])
+def test_300_children_spread_clustered_and_at_one_point_equal_twin(under):
+    # One node of 300 children (a filled volume was the grid's, now the sweep's at any count): spread,
+    # in five clusters, moved a little, and all at one point (every interval overlaps on every axis,
+    # the sweep tests all pairs). Under a body, its walk culls by the children it may not pair.
+    rng = np.random.default_rng(420)
+    n = 300
+    a = _star(n, under, rng)
+    L = a.body_count
+    nchild = _field(BroadPhase(a), "nchild")
+    assert nchild.max() == n > _cull.MASK_MAX
+    poses = []
+    base = rng.uniform(-1, 1, (L, 3))
+    for mode in ("spread", "moved", "clusters", "point"):
+        rot = random_rotation(rng, L)
+        if mode == "moved":
+            pos = base + rng.normal(0, 0.05, (L, 3))
+        elif mode == "clusters":
+            pos = rng.uniform(-1, 1, (5, 3))[rng.integers(0, 5, L)] + rng.normal(0, 0.1, (L, 3))
+        elif mode == "point":
+            pos = np.tile([0.3, -0.2, 0.1], (L, 1))
+        else:
+            pos = base
+        pos[0], rot[0] = 0.0, EYE
+        poses.append((pos, rot))
+    assert _both_equal_twin(a, poses) > n * (n - 1) // 2  # the point alone gives every pair
+
+
+def test_deep_subtrees_and_a_coiled_chain_equal_twin():
+    # Two random trees of 200 bodies under one body, thrown into one box: most pairs across them
+    # are found deep in both (once the flat lists' past FLAT_MAX), and a 300-link chain coiled in a
+    # box: each link against its descendants (the walk; FLAT_DESC's flat loop is gone).
+    rng = np.random.default_rng(421)
+    n = 200
+    parent = [0, 0]
+    for blk in range(2):
+        base = 2 + blk * n
+        parent += [1] + [base + int(rng.integers(0, i)) for i in range(1, n)]
+    parent = np.array(parent)
+    L = len(parent)
+    a = Articulation(parent, np.arange(2, L), [PointCloud([[0, 0, 0], [0.1, 0, 0]], 0.04)] * (L - 2))
+    poses = []
+    for ext in (0.6, 1.5):
+        pos = rng.uniform(-ext, ext, (L, 3))
+        rot = random_rotation(rng, L)
+        pos[:2], rot[:2] = 0.0, EYE
+        poses.append((pos, rot))
+    assert _both_equal_twin(a, poses) > 300
+
+    n = 300
+    a = Articulation(np.r_[0, 0, np.arange(1, n)], np.arange(1, n + 1), [PointCloud([[0, 0, 0], [0.1, 0, 0]], 0.04)] * n)
+    poses = [(np.r_[np.zeros((1, 3)), rng.uniform(-0.5, 0.5, (n, 3))], np.r_[EYE[None], random_rotation(rng, n)])
+             for _ in range(2)]
+    assert _both_equal_twin(a, poses) > 300
+
+
+def test_huge_and_tiny_geoms_under_one_parent_equal_twin():
+    # 200 bodies of sizes 1e-4 to 50 (capsules and hulls) under one body with a chain inside, at three
+    # scales of spread: the sweep's intervals from a point to the whole scene.
+    rng = np.random.default_rng(422)
+    n = 200
+    clouds = []
+    for i in range(n):
+        s = (1e-4, 1e-2, 1.0, 50.0)[i % 4]
+        clouds.append(PointCloud([[0, 0, 0], [s, 0, 0]], 0.3 * s) if i % 3 else testing.random_hull(rng, s))
+    parent = np.r_[0, 0, np.ones(n - 1, int)]
+    parent[50:80] = np.arange(49, 79)
+    a = Articulation(parent, np.arange(1, n + 1), clouds)
+    poses = [(np.r_[np.zeros((1, 3)), rng.uniform(-e, e, (n, 3))], np.r_[EYE[None], random_rotation(rng, n)])
+             for e in (1e-2, 1.0, 30.0)]
+    assert _both_equal_twin(a, poses) > 3 * n
+
+
+@pytest.mark.parametrize("n", [40, 64])
+def test_mask_rows_reach_the_last_position(n):
+    # Up to 64 positions the pairs come from the static masks' rows (`culling._row_hits`), which
+    # read a row's partners' columns up to its last one: all bodies at one point (every bit of
+    # every row a hit, the last position's column included), single worlds and both batch paths.
+    rng = np.random.default_rng(423)
+    a = _star(n - 1, 0, rng)
+    assert BroadPhase(a).position_count == n <= _cull.MASK_MAX
+    pos = np.tile([0.3, -0.2, 0.1], (n, 1))
+    pos[0] = 0.0
+    rot = random_rotation(rng, n)
+    rot[0] = EYE
+    assert _both_equal_twin(a, [(pos, rot)]) == (n - 1) * (n - 2) // 2
+    ref = testing.brute_force_bound_pairs(a, pos, rot)
+    assert ref[:, 1].max() == n - 2  # the last body's geom
+    for path in ("lanes", "worlds"):
+        got = BroadPhase(a, batch_path=path).pairs_batch(pos[None], rot[None])
+        assert np.array_equal(got[:, 1:], ref)
