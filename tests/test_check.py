@@ -505,3 +505,57 @@ def test_a_read_only_qpos_is_no_new_kernel():
     assert len(kc.check_worlds.signatures) == before
     assert ref.in_collision.tolist() == [True, True, False, False, False]
     assert np.array_equal(r.in_collision, ref.in_collision) and np.array_equal(r.min_distance, ref.min_distance)
+
+
+def _many_features_model() -> mujoco.MjModel:
+    # Free, ball and limited hinge joints; a sphere, cylinder, ellipsoid, capsule and boxes; geom
+    # margins and gaps; one geom pair in two <pair>s (each its own margin and gap) and two more
+    # pairs; an <exclude>; contype/conaffinity that never match; a plane on a static body and one
+    # on a mocap body (both later in the geom order than the geoms they meet); a mocap box.
+    return _model(
+        '<geom name="floor" type="plane" size="3 3 .1" pos="0 0 -0.5"/>'
+        '<body name="mc" mocap="true" pos="0.3 0.3 0.2"><geom type="box" size=".1 .2 .1"/></body>'
+        '<body name="f1" pos="0 0 0.3"><freejoint/><geom name="cyl" type="cylinder" size=".15 .2" margin=".02" gap=".01"/>'
+        '<body name="b2" pos="0 0 .4"><joint type="ball"/><geom name="ell" type="ellipsoid" size=".2 .1 .15" pos=".1 0 0"/>'
+        '<body name="b3" pos=".3 0 0"><joint type="hinge" axis="0 1 0" range="-1 1" limited="true"/>'
+        '<geom name="cap" type="capsule" fromto=".1 0 0 .4 0 0" size=".05"/></body></body></body>'
+        '<body name="st" pos="0.8 0 0" euler="0 -60 0"><geom type="plane" size=".5 .5 .1"/></body>'
+        '<body name="mc2" mocap="true" pos="-0.8 0 0" euler="0 60 0"><geom type="plane" size=".5 .5 .1"/></body>'
+        '<body name="f2" pos=".4 0 .3"><freejoint/><geom name="bx" type="box" size=".1 .15 .2" margin=".05" gap=".03"/></body>'
+        '<body name="f3" pos="-.4 0 .3"><freejoint/><geom name="sp" type="sphere" size=".12" contype="2" conaffinity="2"/>'
+        '</body><body name="f4" pos="0 .4 .3"><freejoint/><geom name="bx2" type="box" size=".1 .1 .1"/></body>',
+        '<contact><pair geom1="sp" geom2="cyl" margin=".04" gap=".02"/><pair geom1="sp" geom2="cyl" margin="0.1"/>'
+        '<pair geom1="ell" geom2="cap"/><exclude body1="f2" body2="f4"/><pair geom1="bx" geom2="bx2" margin="0.01"/>'
+        '</contact>')
+
+
+def test_a_model_of_many_features_every_entry_point_agrees():
+    # check_batch against MuJoCo and the distance twin, and the broad phase's entry points
+    # (pairs, pairs_batch, pairs_swept at a standstill) holding every pair MuJoCo made a contact for.
+    model = _many_features_model()
+    data = mujoco.MjData(model)
+    rng = np.random.default_rng(43)
+    q = testing.random_configurations(model, 150, rng, outside=0.3)
+    for j in np.flatnonzero(model.jnt_type == 0):  # free bodies anywhere in a box about the others
+        a = model.jnt_qposadr[j]
+        q[:, a:a + 3] = rng.uniform((-0.7, -0.7, -0.6), (0.7, 0.7, 0.7), (len(q), 3))
+    col = cm.Collider(model)
+    res = col.check_batch(q, distance=True, distmax=50.0)
+    mj, _ = mujoco_active(model, data, q)
+    assert np.array_equal(res.in_collision, mj) and 0 < mj.sum() < len(q)
+    assert np.array_equal(col.check_batch(q).in_collision, mj)
+    pairs = testing.all_filtered_pairs(col.broadphase.articulation)
+    rows = col.broadphase.pairs_batch(model, q)
+    made = 0
+    for i, x in enumerate(q):
+        data.qpos[:] = x
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_collision(model, data)
+        con = {(int(min(c.geom)), int(max(c.geom))) for c in data.contact[:data.ncon]}
+        made += len(con)
+        assert con <= {tuple(p) for p in col.pairs(data).tolist()}, i
+        assert con <= {tuple(r[1:]) for r in rows[rows[:, 0] == i].tolist()}, i
+        assert con <= {tuple(p) for p in col.pairs_swept(data, data).tolist()}, i
+        d, _ = testing.brute_force_min_distance(col.table, pairs, data.geom_xpos, data.geom_xmat, 50.0)
+        assert abs(res.min_distance[i] - d) <= DIST_TOL, i
+    assert made > len(q)
