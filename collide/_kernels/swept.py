@@ -24,7 +24,8 @@ margins exactly as a single step inflates them):
   tighter than the spheres' two swept capsules).
 
 Pairs: the solid geoms are swept and pruned along one axis (an insertion sort of an order kept
-between calls: a step moves little), each overlap tested on the other two axes, the static filter
+between calls: a step moves little; by groups, the robots of a crowd, `_sweep_pairs`), each
+overlap tested on the other two axes, the static filter
 (a bit matrix made once from `broadphase.tables.StaticFilter`, the filter's one home) and the
 continuous sphere test. A plane on a body that did not move is a fixed half-space: a geom pairs
 with it when its swept sphere or its swept box reaches it at either end; a plane whose body moved
