@@ -559,3 +559,31 @@ def test_a_model_of_many_features_every_entry_point_agrees():
         d, _ = testing.brute_force_min_distance(col.table, pairs, data.geom_xpos, data.geom_xmat, 50.0)
         assert abs(res.min_distance[i] - d) <= DIST_TOL, i
     assert made > len(q)
+
+
+def test_threads_on_one_collider_give_the_same_answers():
+    # Three Python threads calling check_batch on the same Collider at once (the broad phase takes
+    # turns on its lock, each call has its own kernel scratch), with and without distances.
+    model = cm.default_scene(seed=3, objects=12)
+    q = testing.random_configurations(model, 1500, np.random.default_rng(2), outside=0.1)
+    col = cm.Collider(model)
+    ref = col.check_batch(q, distance=True)
+    assert 0 < ref.in_collision.sum() < len(q)
+    out, errors = {}, []
+
+    def work(k):
+        try:
+            out[k] = [col.check_batch(q, distance=bool((j + k) % 2)) for j in range(3)]
+        except Exception as exc:  # noqa: BLE001 (reported below, in the main thread)
+            errors.append(exc)
+
+    ts = [threading.Thread(target=work, args=(k,)) for k in range(3)]
+    for t in ts:
+        t.start()
+    for t in ts:
+        t.join()
+    assert not errors and len(out) == 3
+    for runs in out.values():
+        for r in runs:
+            assert np.array_equal(r.in_collision, ref.in_collision)
+            assert r.min_distance is None or np.array_equal(r.min_distance, ref.min_distance)
