@@ -27,7 +27,6 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -40,22 +39,12 @@ import numpy as np  # noqa: E402
 
 import collide.mujoco as cm  # noqa: E402
 from collide import testing  # noqa: E402
+from _machine import cpu as _cpu  # noqa: E402 (tests/bench is the script's folder)
 
 MODELS = Path(__file__).resolve().parents[2] / ".." / "shared" / "models"
 BROAD = int(mujoco.mjtTimer.mjTIMER_COL_BROAD)
 NARROW = int(mujoco.mjtTimer.mjTIMER_COL_NARROW)
 DEFAULT_SCENES = ["franka_emika_panda", "shadow_hand", "unitree_h1", "humanoid", "22_humanoids"]
-
-
-def _cpu() -> str:
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
-        for line in out.splitlines():
-            if line.startswith("Model name"):
-                return line.split(":", 1)[1].strip()
-    except (OSError, subprocess.CalledProcessError):
-        pass
-    return platform.processor() or "unknown cpu"
 
 
 def _best(f, reps: int) -> float:

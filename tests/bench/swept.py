@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -32,19 +31,9 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
 import collide.mujoco as cm  # noqa: E402
+from _machine import cpu as _cpu  # noqa: E402 (tests/bench is the script's folder)
 
 MODELS = Path(__file__).resolve().parents[2] / ".." / "shared" / "models"
-
-
-def _cpu() -> str:
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
-        for line in out.splitlines():
-            if line.startswith("Model name"):
-                return line.split(":", 1)[1].strip()
-    except (OSError, subprocess.CalledProcessError):
-        pass
-    return platform.processor() or "unknown cpu"
 
 
 def bench_scene(path: Path, steps: int, fast: bool, seed: int = 0) -> dict:
