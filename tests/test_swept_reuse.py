@@ -267,3 +267,86 @@ def test_the_mujoco_adapter_in_a_loop_of_two_mjdata():
     with pytest.raises(ValueError, match="data0: expected a mujoco.MjData"):
         col.pairs_swept(before.xpos, data)
     _assert_same(np.asarray(col.pairs_swept(before, data)), np.asarray(col.pairs_swept(before, data)), "again")
+
+
+def _twin_holds(art, got, p0, r0, p1, r1, where):
+    # every pair the twin finds with room to spare is ours, ours are within its rounding's reach,
+    # and no pair twice (the grouped sweep meets each overlapping pair once)
+    sure = {tuple(x) for x in brute_force_swept_pairs(art, p0, r0, p1, r1, -1e-9).tolist()}
+    maybe = {tuple(x) for x in brute_force_swept_pairs(art, p0, r0, p1, r1, 1e-9).tolist()}
+    ours = {tuple(x) for x in got.tolist()}
+    assert len(ours) == len(got) and sure <= ours <= maybe, where
+    return len(sure)
+
+
+def test_crowd_placements_of_the_grouped_sweep_against_the_twin():
+    # Issue 44 attacks on the grouped sweep: the robots (one group each) all at one point (groups
+    # inside each other, equal boxes), in a row a robot's size apart, half of them in a cluster
+    # inside the spread, and one robot 1e5 away that sweeps across the crowd in one step; a chain
+    # of calls (the kept end taken), each answer against the twin.
+    rng = np.random.default_rng(44)
+    scene = testing.many_robots(16, links=4, seed=16, planes=1)
+    art = scene.articulation
+    parent = np.asarray(art.body_parent)
+    root = np.arange(len(parent))
+    for b in range(1, len(parent)):
+        root[b] = b if parent[b] == 0 else root[parent[b]]
+    robots = np.unique(root[1:])
+    of = np.searchsorted(robots, root)
+    moving = (root > 0)[:, None]
+    bp = collide.BroadPhase(art)
+    assert bp._swept_pairs().dims["R"] == len(robots)  # a group a robot
+    found = 0
+    last = None
+    for trial in range(6):
+        p, r = scene.poses(rng)
+        off = -p[robots]
+        if trial % 4 == 0:
+            pass  # all at one point
+        elif trial % 4 == 1:
+            off[:, 0] += np.arange(len(robots)) * 0.5
+        elif trial % 4 == 2:
+            off[len(robots) // 2:] = 0.0
+        else:
+            off[:] = 0.0
+            off[0] = [1e5, 0.0, 0.0]
+        p = p + off[of] * moving
+        step = rng.normal(0.0, 0.3, (len(robots), 3))
+        if trial % 4 == 3:
+            step[0] = [-1e5, 0.0, 0.0]
+        p1 = p + step[of] * moving
+        start = (p, r) if last is None else last
+        for q0, s0, q1, s1 in (start + (p, r), (p, r, p1, r), (p1, r, p1, r)):
+            found += _twin_holds(art, bp.pairs_swept(q0, s0, q1, s1), q0, s0, q1, s1, trial)
+        last = (p1, r)
+    assert found > 1000
+
+
+def test_argument_forms_in_a_chain():
+    # Big-endian, Fortran-ordered, read-only, broadcast and float32 arrays (converted on the
+    # checked path) between calls of a chain: each answer is a fresh call's on float64 copies,
+    # and the chain's kept end stays right.
+    rng = np.random.default_rng(45)
+    scene = _scenes()[1]
+    a = scene.articulation
+    bp = collide.BroadPhase(a)
+    path = _path(scene, rng, 6, size=0.2)
+
+    def ro(x):
+        x = x.copy()
+        x.flags.writeable = False
+        return x
+
+    forms = [lambda x: x.astype(">f8"), np.asfortranarray, ro, lambda x: np.broadcast_to(x, x.shape),
+             lambda x: x.astype(np.float32)]
+    found = 0
+    for i in range(1, len(path)):
+        (p0, r0), (p1, r1) = path[i - 1], path[i]
+        f = forms[i % len(forms)]
+        args = (f(p0), f(r0), f(p1), f(r1))
+        plain = tuple(np.array(x, np.float64) for x in args)
+        got = bp.pairs_swept(*args)
+        _assert_same(got, _fresh(a, *plain), i)
+        _assert_same(bp.pairs_swept(p0, r0, p1, r1), _fresh(a, p0, r0, p1, r1), (i, "plain"))
+        found += len(got)
+    assert found > 20
