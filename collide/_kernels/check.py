@@ -36,8 +36,9 @@ from ._threads import fetch_add, set_chunksize
 from .gjk import OVERLAP, SEPARATED, gjk
 from .kinematics import _kinematics_world
 from .support import POINTS
-from .manifold import (BOX_WS, CONVEX_PAIR, MAX_PER_PAIR, OUT_DISTANCE, OUT_SIZE, PLANE, SKIPPED, _finite_pose,
-                       _pair_rows, _shape, pair_distance, pair_margins, pair_signed_distance, plane_box_contacts)
+from .manifold import (BOX_WS, CONTACT_TOL, CONVEX_PAIR, MAX_PER_PAIR, OUT_DISTANCE, OUT_SIZE, PLANE, SKIPPED,
+                       _finite_pose, _pair_rows, _shape, pair_distance, pair_margins, pair_signed_distance,
+                       plane_box_contacts)
 
 # `deepest_contact`'s answers.
 NO_CONTACT, ACTIVE, IN_GAP, NOT_COLLIDED = 0, 1, 2, 3
@@ -88,12 +89,13 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_mar
     decides whether a contact is active: a face manifold's deepest point is the pair's exact
     distance (`polytope_contacts` sets it so), so the manifold is not built. Two convex geoms
     (not two boxes) are first decided by GJK alone, on its certified bounds: cores that GJK
-    finds overlapping within its tolerance (``1e-12`` of the two sizes, as
-    `collide._kernels.distance.pair_distance` uses) make an active contact (no EPA: the depth is
-    not needed), a lower bound beyond the contact distance none, an upper bound below the margin
-    an active one; only a pair within the tolerance of a threshold, or a stalled GJK, runs the
-    full signed distance. So a pair touching within that tolerance may count as active where
-    `collide_pairs` finds it ``1e-12`` of the sizes apart: the tolerance of the answer.
+    finds overlapping within its tolerance (`collide._kernels.manifold.CONTACT_TOL` of the two
+    sizes, as `collide_pairs` gives `collide._kernels.distance.pair_distance`) make an active
+    contact (no EPA: the depth is not needed), a lower bound beyond the contact distance none,
+    an upper bound below the margin an active one; only a pair within the tolerance of a
+    threshold, or a stalled GJK, runs the full signed distance. So a pair touching within that
+    tolerance may count as active where `collide_pairs` finds it ``CONTACT_TOL`` of the sizes
+    apart: the tolerance of the answer.
 
     Parameters
     ----------
@@ -140,7 +142,7 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_mar
                         nbr_adr, nbr_num, xpos, xmat)
             s2 = _shape(g2, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
                         nbr_adr, nbr_num, xpos, xmat)
-            tol = 1e-12 * (size[g1] + size[g2])
+            tol = CONTACT_TOL * (size[g1] + size[g2])
             r = prm[g1, 3] + prm[g2, 3]
             if kind[g1] == POINTS and kind[g2] == POINTS and pts_num[g1] <= 2 and pts_num[g2] <= 2:
                 # spheres and capsules: pair_distance's closed form (no iteration) decides

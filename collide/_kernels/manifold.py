@@ -73,6 +73,14 @@ PLANE, CONVEX, SKIPPED = 0, 1, 2
 # Most contacts per pair: a box-box face manifold's (MuJoCo 4 keeps every clipped corner).
 MAX_PER_PAIR = BOX_MAX
 
+# Convergence tolerance of a contact's signed distance (GJK/EPA in `pair_distance`), relative to
+# the two geoms' sizes (``CONTACT_TOL * (size[g1] + size[g2])``). Issue 46 asks contacts to agree
+# with MuJoCo within its ``ccd_tolerance`` (1e-6 by default) and, for polytopes and primitive pairs,
+# within 1e-9 of the size: 1e-9 meets both, and EPA stops sooner on penetrating pairs than at a
+# tighter one. `collide._kernels.check.deepest_contact` uses it too, so that ``check_batch``'s
+# ``in_collision`` is `collide_pairs`' answer. (`pair_signed_distance`, a distance query, keeps 1e-12.)
+CONTACT_TOL = 1e-9
+
 # MuJoCo's geom types (mjtGeom), as `collide.contacts` passes them in ``gtype``.
 T_PLANE, T_HFIELD, T_SPHERE, T_CAPSULE, T_ELLIPSOID, T_CYLINDER, T_BOX, T_MESH = range(8)
 
@@ -374,7 +382,7 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
                         nbr_adr, nbr_num, xpos, xmat)
             s2 = _shape(g2, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
                         nbr_adr, nbr_num, xpos, xmat)
-            pair_distance(s1, s2, 1e-12 * (size[g1] + size[g2]), d0, -1, -1, 128, out)
+            pair_distance(s1, s2, CONTACT_TOL * (size[g1] + size[g2]), d0, -1, -1, 128, out)
             d = out[OUT_DISTANCE]
             if d > thr:
                 continue
