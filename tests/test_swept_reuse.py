@@ -1,4 +1,4 @@
-"""The swept broad phase's kept end (`collide._kernels.swept._start_source`): a call whose start
+"""The swept broad phase's kept end (`collide._kernels.swept_motion._start_source`): a call whose start
 poses are bitwise the last call's end poses takes that call's end places instead of placing again,
 and a body whose two poses are bitwise equal places once. Neither may change an answer: every call
 here equals the same call on a fresh broad phase (nothing kept), array for array."""
@@ -13,6 +13,7 @@ import pytest
 import collide
 from collide import testing
 from collide._kernels import swept as _ks
+from collide._kernels import swept_motion as _km
 from collide.testing.swept import brute_force_swept_pairs
 
 
@@ -68,9 +69,9 @@ def test_a_chain_of_calls_equals_fresh_calls():
             got = bp.pairs_swept(p0.copy(), r0.copy(), p1, r1)  # other arrays, the same bits
             _assert_same(got, _fresh(a, p0, r0, p1, r1), (scene.name, i))
             src = _sources(bp)
-            kept += int(np.sum(src == _ks.SRC_KEPT))
+            kept += int(np.sum(src == _km.SRC_KEPT))
             if i > 1:
-                assert np.all(src[1:] == _ks.SRC_KEPT), scene.name  # every moving body took the kept end
+                assert np.all(src[1:] == _km.SRC_KEPT), scene.name  # every moving body took the kept end
             found += len(got)
     assert found > 50 and kept > 50  # real pairs, and the kept end was used
 
@@ -96,7 +97,7 @@ def test_arrays_modified_in_place_between_calls():
             P1[:], R1[:] = path[i]
             got = bp.pairs_swept(P0, R0, P1, R1)
             _assert_same(got, _fresh(a, P0, R0, P1, R1), (scene.name, i, "nudged"))
-            assert _sources(bp)[2] == _ks.SRC_PLACE
+            assert _sources(bp)[2] == _km.SRC_PLACE
             placed += 1
             P0[:], R0[:] = P1, R1
             P1[:], R1[:] = path[min(i + 1, len(path) - 1)]
@@ -115,7 +116,7 @@ def test_alternating_motions_and_a_negative_zero():
             for path in (pa, pb):
                 got = bp.pairs_swept(*path[i - 1], *path[i])
                 _assert_same(got, _fresh(a, *path[i - 1], *path[i]), (scene.name, i))
-                assert not np.any(_sources(bp) == _ks.SRC_KEPT)
+                assert not np.any(_sources(bp) == _km.SRC_KEPT)
     # -0.0 equals 0.0 but is another pose's bits: not taken as the kept end
     scene = _scenes()[0]
     a = scene.articulation
@@ -128,7 +129,7 @@ def test_alternating_motions_and_a_negative_zero():
     p0[3, 1] = -0.0
     got = bp.pairs_swept(p0, path[1][1], *path[2])
     src = _sources(bp)
-    assert src[3] == _ks.SRC_PLACE and src[4] == _ks.SRC_KEPT
+    assert src[3] == _km.SRC_PLACE and src[4] == _km.SRC_KEPT
     _assert_same(got, _fresh(a, p0, path[1][1], *path[2]), "negative zero")
 
 
@@ -147,7 +148,7 @@ def test_a_refused_call_a_grown_buffer_and_a_copy_keep_the_answers():
         bp.pairs_swept(bad, path[2][1], bad, path[2][1])
     got = bp.pairs_swept(*path[1], *path[2])  # the kept end is still the first call's
     _assert_same(got, _fresh(a, *path[1], *path[2]), "after a refusal")
-    assert np.all(_sources(bp)[1:] == _ks.SRC_KEPT)
+    assert np.all(_sources(bp)[1:] == _km.SRC_KEPT)
     sp = bp._swept_pairs()
     sp._set_keys(1)  # the next call overflows its keys, grows them and runs again
     got = bp.pairs_swept(*path[2], *path[3])
@@ -194,7 +195,7 @@ def test_bodies_at_rest_place_once_and_match_the_twin():
         still = rng.random(len(p0)) < 0.5
         p1[still], r1[still] = p0[still], r0[still]
         got = bp.pairs_swept(p0, r0, p1, r1)
-        assert np.all(_sources(bp)[still] == _ks.SRC_REST)
+        assert np.all(_sources(bp)[still] == _km.SRC_REST)
         rest += int(still.sum())
         sure = {tuple(map(int, x)) for x in brute_force_swept_pairs(a, p0, r0, p1, r1, tol=-1e-9)}
         maybe = {tuple(map(int, x)) for x in brute_force_swept_pairs(a, p0, r0, p1, r1, tol=1e-9)}

@@ -313,7 +313,7 @@ def _row_of(A, a):
 def bounds_mask(A, a, ma, B, b, mb, n):
     """Bit l set when the bounds in column l of ``A[a]`` and ``B[b]`` (``(ROW, n)`` blocks: rows as
     columns, one pair per column, n <= 64), inflated by ``ma``, ``mb``, overlap: `_bounds_ok`. The
-    kernels use its vector form, `lanes.bounds8`; this loop is its twin in the tests."""
+    kernels use its vector form, `lane_tests.bounds8`; this loop is its twin in the tests."""
     m = np.uint64(0)
     for l in range(n):
         ok = _bounds_ok(_row_of_column(A, a, l), ma, _row_of_column(B, b, l), mb)

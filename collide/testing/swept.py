@@ -13,7 +13,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .._kernels.bounds import ORTHO_TOL, SLACK_POS, SLACK_REL
-from .._kernels.swept import COS_SLACK
+from .._kernels.swept_motion import COS_SLACK
 from ..articulation import Articulation
 from .brute import _bounds_test, _check_poses, filter_passing_pairs, world_bounds
 

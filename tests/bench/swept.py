@@ -8,7 +8,7 @@ Per scene in ../shared/models: the model is simulated with random controls (held
 the step (the same instance, arrays passed in: like for like), alternating which goes first.
 The calls follow a simulation loop: each step's start arrays are the previous step's end arrays
 (so `pairs_swept` takes the places it kept at the last call's end and places each geom once a
-step; see `collide._kernels.swept._start_source`).
+step; see `collide._kernels.swept_motion._start_source`).
 Medians over the steps; the ratio is swept over single. Candidates per step (mean) for both, and
 the fraction of steps whose swept pairs held a pair that neither end's single step had (a pair
 that could only meet in between). A second pass with every control at its range's end and a 10x
