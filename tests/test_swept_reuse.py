@@ -15,15 +15,8 @@ from collide import testing
 from collide._kernels import swept as _ks
 from collide._kernels import swept_motion as _km
 from collide.testing.swept import brute_force_swept_pairs
+from test_swept_pairs import _scenes  # the same four scenes as the swept broad phase's own tests
 
-
-def _scenes():
-    return [
-        testing.chain(12, seed=1, planes=1),
-        testing.branching_tree(30, seed=2, planes=1),
-        testing.many_robots(4, links=5, seed=3, planes=1),
-        testing.free_hulls(16, seed=4, filters=True, planes=1),
-    ]
 
 
 def _path(scene, rng, n, size=0.05):
