@@ -232,18 +232,73 @@ class GeomTable:
         self.gtype = np.ascontiguousarray(types, dtype=np.int8)
         self.half = np.ascontiguousarray(np.where((types == BOX)[:, None], sizes, 0.0))
         self.faces = _faces.FaceTable([_polytope(model, g, int(types[g]), sizes[g]) for g in range(G)])
+        self._pack()
         # Per step, `narrow_phase` reuses these (building the tuple costs a Python call).
         self._kargs = self.kernel_args()
         self._any_skipped = bool(np.any(self.cls == _km.SKIPPED))
         self._no_skipped = np.zeros((0, 2), np.int32)
         self._no_skipped.flags.writeable = False
+        self._per_pair = _km.MAX_PER_PAIR * self.pair_mult
+        self._skip = np.empty(0, np.bool_)  # `contacts_of`'s skipped flags where no geom is skipped
+
+    def _pack(self) -> None:
+        # The kernel's tables, one buffer a dtype (`collide._kernels.manifold.collide_packed`: a
+        # call passes a few arrays, not forty); the attributes become views of them (one copy,
+        # which `kernel_args` hands out too), and the kernel's scratch is made here, once.
+        fa = self.faces.kernel_args()
+        slots = {_km.S_PRM: self.prm, _km.S_PTS: self.pts, _km.S_RBOUND: self.rbound, _km.S_SIZE: self.size,
+                 _km.S_GEOM_MARGIN: self.geom_margin, _km.S_GEOM_GAP: self.geom_gap,
+                 _km.S_PAIR_MARGIN: self.pair_margin, _km.S_PAIR_GAP: self.pair_gap, _km.S_HALF: self.half,
+                 _km.S_HV: fa[2], _km.S_F_NORMAL: fa[5], _km.S_F_OFFSET: fa[6],
+                 _km.S_KIND: self.kind, _km.S_PTS_ADR: self.pts_adr, _km.S_PTS_NUM: self.pts_num,
+                 _km.S_NBR_START_ADR: self.nbr_start_adr, _km.S_NBR_START_NUM: self.nbr_start_num,
+                 _km.S_NBR_ADR: self.nbr_adr, _km.S_NBR_NUM: self.nbr_num, _km.S_PAIR_KEY: self.pair_key,
+                 _km.S_HV_ADR: fa[0], _km.S_HV_NUM: fa[1], _km.S_F_ADR: fa[3], _km.S_F_NUM: fa[4],
+                 _km.S_F_VADR: fa[7], _km.S_F_VNUM: fa[8],
+                 _km.S_CLS: self.cls, _km.S_RULE: self.rule, _km.S_BELOW: self.below.view(np.int8),
+                 _km.S_GTYPE: self.gtype,
+                 _km.S_NBR_START: self.nbr_start, _km.S_NBR: self.nbr, _km.S_F_VIDX: fa[9]}
+        buffers = ((np.float64, 0), (np.int64, _km.TI_HEADER), (np.int8, 0), (np.int32, 0))
+        header = np.zeros(_km.TI_HEADER, np.int64)
+        place, total = {}, [start for _, start in buffers]
+        for s, a in slots.items():
+            b = [np.dtype(t) for t, _ in buffers].index(a.dtype)
+            place[s] = (b, total[b])
+            header[2 * s], header[2 * s + 1] = total[b], len(a)
+            total[b] += a.size
+        bufs = [np.zeros(n, t) for (t, _), n in zip(buffers, total)]
+        views = {}
+        for s, a in slots.items():
+            b, o = place[s]
+            v = bufs[b][o:o + a.size].reshape(a.shape)
+            v[...] = a
+            views[s] = v
+        cap, fmax = _km.scratch_caps(views[_km.S_PTS_NUM], views[_km.S_F_VNUM])
+        header[2 * _km.N_SLOTS], header[2 * _km.N_SLOTS + 1] = cap, fmax
+        bufs[1][:_km.TI_HEADER] = header
+        self._tables = tuple(bufs)
+        nf, ni = _km.scratch_sizes(cap, fmax)
+        self._wsf, self._wsi = np.zeros(nf), np.zeros(ni, np.int64)
+        (self.prm, self.pts, self.rbound, self.size, self.geom_margin, self.geom_gap, self.pair_margin,
+         self.pair_gap, self.half) = (views[s] for s in (_km.S_PRM, _km.S_PTS, _km.S_RBOUND, _km.S_SIZE,
+                                                         _km.S_GEOM_MARGIN, _km.S_GEOM_GAP, _km.S_PAIR_MARGIN,
+                                                         _km.S_PAIR_GAP, _km.S_HALF))
+        (self.kind, self.pts_adr, self.pts_num, self.nbr_start_adr, self.nbr_start_num, self.nbr_adr, self.nbr_num,
+         self.pair_key) = (views[s] for s in (_km.S_KIND, _km.S_PTS_ADR, _km.S_PTS_NUM, _km.S_NBR_START_ADR,
+                                              _km.S_NBR_START_NUM, _km.S_NBR_ADR, _km.S_NBR_NUM, _km.S_PAIR_KEY))
+        self.cls, self.rule, self.below, self.gtype = (views[_km.S_CLS], views[_km.S_RULE],
+                                                       views[_km.S_BELOW].view(np.bool_), views[_km.S_GTYPE])
+        self.nbr_start, self.nbr = views[_km.S_NBR_START], views[_km.S_NBR]
+        self._face_args = tuple(views[s] for s in (_km.S_HV_ADR, _km.S_HV_NUM, _km.S_HV, _km.S_F_ADR, _km.S_F_NUM,
+                                                   _km.S_F_NORMAL, _km.S_F_OFFSET, _km.S_F_VADR, _km.S_F_VNUM,
+                                                   _km.S_F_VIDX))
 
     def kernel_args(self) -> tuple:
         """The per-geom arguments of `collide._kernels.manifold.collide_pairs`, in its order."""
         return (self.cls, self.rule, self.below, self.kind, self.prm, self.pts, self.pts_adr, self.pts_num,
                 self.nbr_start, self.nbr_start_adr, self.nbr_start_num, self.nbr, self.nbr_adr, self.nbr_num,
                 self.rbound, self.size, self.geom_margin, self.geom_gap, self.pair_key, self.pair_margin,
-                self.pair_gap, self.override, self.o_margin, self.gtype, self.half) + self.faces.kernel_args()
+                self.pair_gap, self.override, self.o_margin, self.gtype, self.half) + self._face_args
 
     def shape_args(self) -> tuple:
         """The per-geom arguments of `collide._kernels.manifold.pair_signed_distance`, in its order."""
@@ -318,21 +373,26 @@ def contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.
         A non-finite pose of a geom in a pair (naming it): the kernel checks those.
     """
     K = len(pairs)
-    cap = _km.MAX_PER_PAIR * table.pair_mult * K
+    cap = table._per_pair * K
     geom = np.empty((cap, 2), np.int32)
-    dist = np.empty(cap)
-    pos = np.empty((cap, 3))
-    normal = np.empty((cap, 3))
-    margin = np.empty(cap)
-    skipped = np.empty(K, np.bool_)  # the kernel writes every entry
-    n = _km.collide_pairs(pairs, xpos, xmat, *table._kargs, geom, dist, pos, normal, margin, skipped)
+    f = np.empty(8 * cap)  # dist, pos, normal, margin (`collide_packed`)
+    if table._any_skipped:
+        skipped = np.empty(K, np.bool_)  # the kernel writes every entry
+    else:
+        skipped = table._skip
+        if len(skipped) < K:
+            skipped = table._skip = np.empty(2 * K, np.bool_)
+    tf, ti, t8, t32 = table._tables
+    n = _km.collide_packed(pairs, xpos, xmat, tf, ti, t8, t32, table.override, table.o_margin, table._wsf,
+                           table._wsi, geom, f, skipped)
     if n < 0:
         g = (-n - 1) // 8
         raise ValueError(f"geom_xpos/geom_xmat: non-finite pose (NaN or inf) of geom {g}")
     # Built without the frozen dataclass's __init__ (a setattr per field): the same fields.
     c = _new(Contacts)
-    c.__dict__.update(geom=geom[:n], dist=dist[:n], pos=pos[:n], normal=normal[:n], margin=margin[:n],
-                      skipped=pairs[skipped] if table._any_skipped else table._no_skipped)
+    c.__dict__.update(geom=geom[:n], dist=f[:n], pos=f[cap:cap + 3 * n].reshape(n, 3),
+                      normal=f[4 * cap:4 * cap + 3 * n].reshape(n, 3), margin=f[7 * cap:7 * cap + n],
+                      skipped=pairs[skipped[:K]] if table._any_skipped else table._no_skipped)
     return c
 
 

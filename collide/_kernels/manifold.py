@@ -58,7 +58,8 @@ from .support import support
 # importers of `collide._kernels.manifold` still read here.
 __all__ = [
     "CONVEX", "ERR_POSE", "MAX_PER_PAIR", "PLANE", "SKIPPED", "T_BOX", "T_CAPSULE", "T_CYLINDER", "T_ELLIPSOID",
-    "T_HFIELD", "T_MESH", "T_PLANE", "T_SPHERE", "CONVEX_PAIR", "collide_pairs", "pair_margins",
+    "T_HFIELD", "T_MESH", "T_PLANE", "T_SPHERE", "CONVEX_PAIR", "N_SLOTS", "TI_HEADER", "carve_scratch",
+    "collide_packed", "collide_pairs", "pair_margins", "scratch_caps", "scratch_sizes",
     "pair_signed_distance", "plane_box_contacts",
     # re-exported
     "BOX_MAX", "BOX_WS", "EDGE_TOL", "FACE_TOL", "OUT_DISTANCE", "OUT_NORMAL", "OUT_POINT_A", "OUT_POINT_B",
@@ -130,9 +131,72 @@ def _polytope(t):
 
 
 @njit(cache=True)
-def _scratch(pts_num, f_vnum):
-    # `collide_pairs`' scratch, allocated once a call: sized by the most support points of a geom
-    # (plane contacts of a convex geom) and the most vertices of a hull face (clipped faces).
+def scratch_sizes(cap, fmax):
+    """Float64 and int64 entries of `collide_pairs`' scratch (`carve_scratch`), for ``cap`` support
+    points of a geom at most and ``fmax`` vertices of a hull face at most (at least 4)."""
+    nf = (4 * cap + MAX_PER_PAIR * 4 + 3 + BOX_WS + 6 + 3 * 3 * fmax + fmax + 2 * 3 * (2 * fmax + 8) + 2 * 32 * 3
+          + 9 + OUT_SIZE + 3)
+    return nf, 4 + 2 * 32
+
+
+@njit(cache=True)
+def carve_scratch(wsf, wsi, cap, fmax):
+    """`collide_pairs`' scratch as views of two flat workspaces (`scratch_sizes` long at least).
+
+    Returns the tuple ``(cand, dep, sel, res, bnrm, bws, seg, pcand, pdep, face1, face2, poly, tmp,
+    cand1, cand2, cnrm1, cnrm2, pa, pb, nv, out, d0)``; ``sel`` and ``d0`` are zeroed (``d0`` is
+    GJK's cold start, zeros), the rest is written before it is read.
+    """
+    o = 0
+    cand = wsf[o:o + 3 * cap].reshape((cap, 3))
+    o += 3 * cap
+    dep = wsf[o:o + cap]
+    o += cap
+    res = wsf[o:o + 4 * MAX_PER_PAIR].reshape((MAX_PER_PAIR, 4))
+    o += 4 * MAX_PER_PAIR
+    bnrm = wsf[o:o + 3]
+    o += 3
+    bws = wsf[o:o + BOX_WS]
+    o += BOX_WS
+    seg = wsf[o:o + 6].reshape((2, 3))
+    o += 6
+    pcand = wsf[o:o + 3 * fmax].reshape((fmax, 3))
+    o += 3 * fmax
+    pdep = wsf[o:o + fmax]
+    o += fmax
+    face1 = wsf[o:o + 3 * fmax].reshape((fmax, 3))
+    o += 3 * fmax
+    face2 = wsf[o:o + 3 * fmax].reshape((fmax, 3))
+    o += 3 * fmax
+    npoly = 2 * fmax + 8
+    poly = wsf[o:o + 3 * npoly].reshape((npoly, 3))
+    o += 3 * npoly
+    tmp = wsf[o:o + 3 * npoly].reshape((npoly, 3))
+    o += 3 * npoly
+    cnrm1 = wsf[o:o + 96].reshape((32, 3))
+    o += 96
+    cnrm2 = wsf[o:o + 96].reshape((32, 3))
+    o += 96
+    pa = wsf[o:o + 3]
+    pb = wsf[o + 3:o + 6]
+    nv = wsf[o + 6:o + 9]
+    o += 9
+    out = wsf[o:o + OUT_SIZE]
+    o += OUT_SIZE
+    d0 = wsf[o:o + 3]
+    d0[:] = 0.0
+    sel = wsi[0:4]
+    sel[:] = 0
+    cand1 = wsi[4:36]
+    cand2 = wsi[36:68]
+    return (cand, dep, sel, res, bnrm, bws, seg, pcand, pdep, face1, face2, poly, tmp, cand1, cand2, cnrm1, cnrm2,
+            pa, pb, nv, out, d0)
+
+
+@njit(cache=True)
+def scratch_caps(pts_num, f_vnum):
+    """``(cap, fmax)`` of `scratch_sizes`: the most support points of a geom (plane contacts of a
+    convex geom, at least 1) and the most vertices of a hull face (clipped faces, at least 4)."""
     cap = 1
     for g in range(pts_num.shape[0]):
         if pts_num[g] > cap:
@@ -141,30 +205,15 @@ def _scratch(pts_num, f_vnum):
     for f in range(f_vnum.shape[0]):
         if f_vnum[f] > fmax:
             fmax = f_vnum[f]
-    cand = np.empty((cap, 3))
-    dep = np.empty(cap)
-    sel = np.zeros(4, np.int64)
-    res = np.empty((MAX_PER_PAIR, 4))
-    bnrm = np.empty(3)
-    bws = np.empty(BOX_WS)
-    seg = np.empty((2, 3))
-    pcand = np.empty((fmax, 3))
-    pdep = np.empty(fmax)
-    face1 = np.empty((fmax, 3))
-    face2 = np.empty((fmax, 3))
-    poly = np.empty((2 * fmax + 8, 3))
-    tmp = np.empty((2 * fmax + 8, 3))
-    cand1 = np.empty(32, np.int64)
-    cand2 = np.empty(32, np.int64)
-    cnrm1 = np.empty((32, 3))
-    cnrm2 = np.empty((32, 3))
-    pa = np.empty(3)
-    pb = np.empty(3)
-    nv = np.empty(3)
-    out = np.empty(OUT_SIZE)
-    d0 = np.zeros(3)
-    return (cand, dep, sel, res, bnrm, bws, seg, pcand, pdep, face1, face2, poly, tmp, cand1, cand2, cnrm1, cnrm2,
-            pa, pb, nv, out, d0)
+    return cap, fmax
+
+
+@njit(cache=True)
+def _scratch(pts_num, f_vnum):
+    # `collide_pairs`' scratch, allocated once a call (`collide_packed` takes a workspace instead).
+    cap, fmax = scratch_caps(pts_num, f_vnum)
+    nf, ni = scratch_sizes(cap, fmax)
+    return carve_scratch(np.empty(nf), np.empty(ni, np.int64), cap, fmax)
 
 
 @njit(cache=True, inline="always")
@@ -339,11 +388,29 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
     int
         Contacts written; ``-(8 g + ERR_POSE) - 1`` for a non-finite pose of geom ``g``.
     """
+    return _collide(pairs, xpos, xmat, (cls, rule, below, rbound, size, gtype, half),
+                    (kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num),
+                    (geom_margin, geom_gap, pair_key, pair_margin, pair_gap, override, o_margin),
+                    (hv_adr, hv_num, hv, f_adr, f_num, f_normal, f_offset, f_vadr, f_vnum, f_vidx),
+                    _scratch(pts_num, f_vnum), (out_geom, out_dist, out_pos, out_normal, out_margin, skipped))
+
+
+@njit(cache=True)
+def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
+    # `collide_pairs`' body, its tables in tuples (see its docstring): ``gtab`` ``(cls, rule,
+    # below, rbound, size, gtype, half)``, ``shapes`` (`plane_box_contacts`'), ``margins``
+    # ``(geom_margin, geom_gap, pair_key, pair_margin, pair_gap, override, o_margin)``, ``faces``
+    # (`collide.faces.FaceTable.kernel_args`), ``ws`` the scratch (`carve_scratch`), ``outs``
+    # ``(out_geom, out_dist, out_pos, out_normal, out_margin, skipped)``.
+    cls, rule, below, rbound, size, gtype, half = gtab
+    kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num = shapes
+    geom_margin, geom_gap, pair_key, pair_margin, pair_gap, override, o_margin = margins
+    hv_adr, hv_num, hv, f_adr, f_num, f_normal, f_offset, f_vadr, f_vnum, f_vidx = faces
+    out_geom, out_dist, out_pos, out_normal, out_margin, skipped = outs
     G = cls.shape[0]
     (cand, dep, sel, res, bnrm, bws, seg, pcand, pdep, face1, face2, poly, tmp, cand1, cand2, cnrm1, cnrm2, pa, pb,
-     nv, out, d0) = _scratch(pts_num, f_vnum)
-    shapes = (kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num)
-    faces = (hv_adr, hv_num, hv, f_adr, f_num, f_normal, f_vadr, f_vnum, f_vidx)
+     nv, out, d0) = ws
+    pfaces = (hv_adr, hv_num, hv, f_adr, f_num, f_normal, f_vadr, f_vnum, f_vidx)
     scratch = (cand, dep, sel, res, bnrm, bws, pcand, pdep)
     k = 0
     for p in range(pairs.shape[0]):
@@ -367,7 +434,7 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
         for e in range(nent):
             margin, thr = pair_margins(g1, g2, j + e, explicit, geom_margin, geom_gap, pair_margin, pair_gap,
                                        override, o_margin)
-            m = plane_box_contacts(g1, g2, thr, xpos, xmat, cls, rule, below, rbound, gtype, half, shapes, faces,
+            m = plane_box_contacts(g1, g2, thr, xpos, xmat, cls, rule, below, rbound, gtype, half, shapes, pfaces,
                                    scratch)
             if m != CONVEX_PAIR:
                 for i in range(m):
@@ -409,6 +476,81 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
                   margin, out_geom, out_dist, out_pos, out_normal, out_margin)
             k += 1
     return k
+
+
+# Slots of the packed tables of `collide_packed` (`collide.contacts.GeomTable` builds them): one
+# flat buffer a dtype, so that a call passes a few arrays, not forty (numba's dispatch unboxes
+# each argument). Slot ``s`` is rows ``ti[2 s + 1]`` from element ``ti[2 s]`` of its buffer.
+(S_PRM, S_PTS, S_RBOUND, S_SIZE, S_GEOM_MARGIN, S_GEOM_GAP, S_PAIR_MARGIN, S_PAIR_GAP, S_HALF, S_HV, S_F_NORMAL,
+ S_F_OFFSET) = range(12)  # float64: tf
+(S_KIND, S_PTS_ADR, S_PTS_NUM, S_NBR_START_ADR, S_NBR_START_NUM, S_NBR_ADR, S_NBR_NUM, S_PAIR_KEY, S_HV_ADR,
+ S_HV_NUM, S_F_ADR, S_F_NUM, S_F_VADR, S_F_VNUM) = range(12, 26)  # int64: ti
+S_CLS, S_RULE, S_BELOW, S_GTYPE = range(26, 30)  # int8: t8 (``below`` viewed as bool)
+S_NBR_START, S_NBR, S_F_VIDX = range(30, 33)  # int32: t32
+N_SLOTS = 33
+# ti's header: the slots' (offset, rows), then the scratch's ``cap`` and ``fmax`` (`scratch_caps`).
+TI_HEADER = 2 * N_SLOTS + 2
+
+
+@njit(cache=True, inline="always")
+def _slot(buf, ti, s):
+    o = ti[2 * s]
+    return buf[o:o + ti[2 * s + 1]]
+
+
+@njit(cache=True, inline="always")
+def _slot2(buf, ti, s, c):
+    o = ti[2 * s]
+    n = ti[2 * s + 1]
+    return buf[o:o + n * c].reshape((n, c))
+
+
+@njit(cache=True)
+def collide_packed(pairs, xpos, xmat, tf, ti, t8, t32, override, o_margin, wsf, wsi, out_geom, out_f, skipped):
+    """`collide_pairs` on packed tables and a workspace made once (the per-step call).
+
+    Parameters
+    ----------
+    pairs, xpos, xmat
+        As `collide_pairs` takes them.
+    tf : (NF,) float64
+    ti : (NI,) int64
+    t8 : (N8,) int8
+    t32 : (N32,) int32
+        The tables of `collide_pairs`, packed by slot (``S_*``; ``ti`` begins with the header).
+    override : bool
+    o_margin : float
+    wsf : (nf,) float64
+    wsi : (ni,) int64
+        The scratch (`scratch_sizes` of ``ti``'s ``cap``, ``fmax``), overwritten.
+    out_geom : (M, 2) int32
+    out_f : (8 M,) float64
+        ``M`` at least `MAX_PER_PAIR` times the contacts a pair may make times ``K``; receives the
+        contacts, ``out_f`` as ``dist (M,)``, ``pos (M, 3)``, ``normal (M, 3)``, ``margin (M,)``
+        one after another.
+    skipped : (K,) bool
+
+    Returns
+    -------
+    int
+        As `collide_pairs`.
+    """
+    M = out_geom.shape[0]
+    gtab = (_slot(t8, ti, S_CLS), _slot(t8, ti, S_RULE), _slot(t8, ti, S_BELOW).view(np.bool_),
+            _slot(tf, ti, S_RBOUND), _slot(tf, ti, S_SIZE), _slot(t8, ti, S_GTYPE), _slot2(tf, ti, S_HALF, 3))
+    shapes = (_slot(ti, ti, S_KIND), _slot2(tf, ti, S_PRM, 4), _slot2(tf, ti, S_PTS, 3), _slot(ti, ti, S_PTS_ADR),
+              _slot(ti, ti, S_PTS_NUM), _slot(t32, ti, S_NBR_START), _slot(ti, ti, S_NBR_START_ADR),
+              _slot(ti, ti, S_NBR_START_NUM), _slot(t32, ti, S_NBR), _slot(ti, ti, S_NBR_ADR),
+              _slot(ti, ti, S_NBR_NUM))
+    margins = (_slot(tf, ti, S_GEOM_MARGIN), _slot(tf, ti, S_GEOM_GAP), _slot(ti, ti, S_PAIR_KEY),
+               _slot(tf, ti, S_PAIR_MARGIN), _slot(tf, ti, S_PAIR_GAP), override, o_margin)
+    faces = (_slot(ti, ti, S_HV_ADR), _slot(ti, ti, S_HV_NUM), _slot2(tf, ti, S_HV, 3), _slot(ti, ti, S_F_ADR),
+             _slot(ti, ti, S_F_NUM), _slot2(tf, ti, S_F_NORMAL, 3), _slot(tf, ti, S_F_OFFSET),
+             _slot(ti, ti, S_F_VADR), _slot(ti, ti, S_F_VNUM), _slot(t32, ti, S_F_VIDX))
+    ws = carve_scratch(wsf, wsi, ti[2 * N_SLOTS], ti[2 * N_SLOTS + 1])
+    outs = (out_geom, out_f[0:M], out_f[M:4 * M].reshape((M, 3)), out_f[4 * M:7 * M].reshape((M, 3)),
+            out_f[7 * M:8 * M], skipped)
+    return _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs)
 
 
 @njit(cache=True)
