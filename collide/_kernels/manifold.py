@@ -395,7 +395,7 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
                     _scratch(pts_num, f_vnum), (out_geom, out_dist, out_pos, out_normal, out_margin, skipped))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
     # `collide_pairs`' body, its tables in tuples (see its docstring): ``gtab`` ``(cls, rule,
     # below, rbound, size, gtype, half)``, ``shapes`` (`plane_box_contacts`'), ``margins``
