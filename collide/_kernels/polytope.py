@@ -24,6 +24,8 @@ from .faces import clip_faces
 FACE_TOL = 0.996
 EDGE_TOL = 0.0888
 
+_EPS = float(np.finfo(np.float64).eps)
+
 
 @njit(cache=True)
 def _world_face(hv, a, vidx, vadr, vnum, f, rot, pos, out):
@@ -42,7 +44,18 @@ def _touching_faces(g, x, u, xpos, xmat, hv_adr, f_adr, f_num, f_normal, f_offse
     rot = xmat[g]
     k = 0
     best = -2.0
+    # The witness in the geom's frame: a face's plane is tested there (3 products a face, where
+    # the world test takes 15); the faces kept are tested again, as before, in the world.
+    y0, y1, y2 = x[0] - xpos[g, 0], x[1] - xpos[g, 1], x[2] - xpos[g, 2]
+    l0 = rot[0, 0] * y0 + rot[1, 0] * y1 + rot[2, 0] * y2
+    l1 = rot[0, 1] * y0 + rot[1, 1] * y1 + rot[2, 1] * y2
+    l2 = rot[0, 2] * y0 + rot[1, 2] * y1 + rot[2, 2] * y2
+    # the two forms round differently, by a few ulps of the coordinates: a looser prefilter
+    loose = 2.0 * tol + 64.0 * _EPS * (abs(x[0]) + abs(x[1]) + abs(x[2]) + abs(xpos[g, 0]) + abs(xpos[g, 1])
+                                       + abs(xpos[g, 2]))
     for f in range(f_adr[g], f_adr[g] + f_num[g]):
+        if abs(f_normal[f, 0] * l0 + f_normal[f, 1] * l1 + f_normal[f, 2] * l2 - f_offset[f]) > loose:
+            continue
         nw0 = rot[0, 0] * f_normal[f, 0] + rot[0, 1] * f_normal[f, 1] + rot[0, 2] * f_normal[f, 2]
         nw1 = rot[1, 0] * f_normal[f, 0] + rot[1, 1] * f_normal[f, 1] + rot[1, 2] * f_normal[f, 2]
         nw2 = rot[2, 0] * f_normal[f, 0] + rot[2, 1] * f_normal[f, 1] + rot[2, 2] * f_normal[f, 2]
