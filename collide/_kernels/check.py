@@ -30,6 +30,9 @@ import math
 
 import numba as nb
 import numpy as np
+from numba.core import cgutils, types
+from numba.extending import intrinsic
+from numba.np.arrayobj import make_array, populate_array
 
 from ._quat import _qmat, _qmul
 from ._threads import fetch_add, set_chunksize
@@ -49,6 +52,31 @@ ERR_POSE = 1
 # Subset modes (`collide.collider.Collider`'s ``geoms`` / ``bodies``): every pair; pairs inside
 # group 1; pairs with one geom in group 1 and the other in group 2.
 SUBSET_ALL, SUBSET_ONE, SUBSET_TWO = 0, 1, 2
+
+
+@intrinsic
+def _borrow(typingctx, arr):
+    """The array ``arr`` again, its reference count left behind (no meminfo): a borrowed view.
+
+    Every array value numba copies or drops costs an atomic increment and decrement of its
+    allocation's counter; the per-pair code passes some forty table arrays around (tuples,
+    inlined helpers, the shape views of `collide._kernels.manifold._shape`), and the workers'
+    threads share those counters, so each core takes the other's cache line on every pair. A
+    borrowed view carries a null record, which the runtime skips (the approach of
+    `collide._kernels._ptr.view_of`). It must not outlive ``arr``: `check_worlds` borrows its own
+    arguments, which the caller holds for the call.
+    """
+    if not isinstance(arr, types.Array):
+        return None
+
+    def codegen(context, builder, signature, args):
+        src = make_array(arr)(context, builder, value=args[0])
+        out = make_array(arr)(context, builder)
+        populate_array(out, data=src.data, shape=cgutils.unpack_tuple(builder, src.shape),
+                       strides=cgutils.unpack_tuple(builder, src.strides), itemsize=src.itemsize, meminfo=None)
+        return out._getvalue()
+
+    return arr(arr), codegen
 
 
 @nb.njit(cache=True, inline="always")
@@ -273,35 +301,49 @@ def check_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, bod
         g4 = np.zeros((2, 4))  # GJK's lam, dirn
         hints = np.empty(2, np.int64)
         lb = np.empty(P if want_distance else 0)
-        shapes = (kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num)
-        faces = (hv_adr, hv_num, hv, f_adr, f_num, f_normal, f_vadr, f_vnum, f_vidx)
+        # the shared tables borrowed (`_borrow`): no counter the two threads take turns on
+        cls_, rule_, below_, rbound_, size_ = _borrow(cls), _borrow(rule), _borrow(below), _borrow(rbound), _borrow(size)
+        gmargin, ggap, pkey = _borrow(geom_margin), _borrow(geom_gap), _borrow(pair_key)
+        pmargin, pgap, gtype_, half_ = _borrow(pair_margin), _borrow(pair_gap), _borrow(gtype), _borrow(half)
+        kind_, prm_, pts_, pts_num_ = _borrow(kind), _borrow(prm), _borrow(pts), _borrow(pts_num)
+        shapes = (kind_, prm_, pts_, _borrow(pts_adr), pts_num_, _borrow(nbr_start), _borrow(nbr_start_adr),
+                  _borrow(nbr_start_num), _borrow(nbr), _borrow(nbr_adr), _borrow(nbr_num))
+        faces = (_borrow(hv_adr), _borrow(hv_num), _borrow(hv), _borrow(f_adr), _borrow(f_num), _borrow(f_normal),
+                 _borrow(f_vadr), _borrow(f_vnum), _borrow(f_vidx))
+        geom_body_, geom_pos_, geom_quat_ = _borrow(geom_body), _borrow(geom_pos), _borrow(geom_quat)
+        rows_, row_start_, label_, dpairs_ = _borrow(rows), _borrow(row_start), _borrow(label), _borrow(dpairs)
+        qpos_, qpos0_, parent_, bpos0, bquat0 = _borrow(qpos), _borrow(qpos0), _borrow(body_parent), _borrow(body_pos), \
+            _borrow(body_quat)
+        jntadr, jntnum, jtype, jqadr = _borrow(body_jntadr), _borrow(body_jntnum), _borrow(jnt_type), \
+            _borrow(jnt_qposadr)
+        jpos, jaxis = _borrow(jnt_pos), _borrow(jnt_axis)
         scratch = (cand, dep, sel, res, bnrm, bws, pcand, pdep)
         while True:
             c = fetch_add(addr, 1)
             if c >= chunks:
                 break
             for w in range((B * c) // chunks, (B * (c + 1)) // chunks):
-                _kinematics_world(qpos[w], qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum,
-                                  jnt_type, jnt_qposadr, jnt_pos, jnt_axis, bpos, brot, bquat, sc)
+                _kinematics_world(qpos_[w], qpos0_, parent_, bpos0, bquat0, jntadr, jntnum, jtype, jqadr, jpos, jaxis,
+                                  bpos, brot, bquat, sc)
                 hit = False
                 skipped = False
                 err = 0
-                for r in range(row_start[w], row_start[w + 1]):
-                    g1 = rows[r, 1]
-                    g2 = rows[r, 2]
-                    if not in_subset(mode, label, g1, g2):
+                for r in range(row_start_[w], row_start_[w + 1]):
+                    g1 = rows_[r, 1]
+                    g2 = rows_[r, 2]
+                    if not in_subset(mode, label_, g1, g2):
                         continue
                     for g in (g1, g2):
                         if stamp[g] != w:
-                            geom_pose(g, bpos, brot, bquat, geom_body, geom_pos, geom_quat, xpos, xmat)
+                            geom_pose(g, bpos, brot, bquat, geom_body_, geom_pos_, geom_quat_, xpos, xmat)
                             stamp[g] = w
                             if not _finite_pose(xpos, xmat, g) and err == 0:
                                 err = ERR_POSE + 8 * g
                     if err != 0:
                         break
-                    a = deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_margin, geom_gap,
-                                        pair_key, pair_margin, pair_gap, override, o_margin, gtype, half, shapes,
-                                        faces, scratch, out, d0, gws, g4, hints)
+                    a = deepest_contact(g1, g2, xpos, xmat, cls_, rule_, below_, rbound_, size_, gmargin, ggap, pkey,
+                                        pmargin, pgap, override, o_margin, gtype_, half_, shapes, faces, scratch, out,
+                                        d0, gws, g4, hints)
                     if a == ACTIVE:
                         hit = True
                         break  # the early exit: one active contact decides
@@ -310,9 +352,9 @@ def check_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, bod
                 out_hit[w] = hit
                 out_skipped[w] = skipped and not hit
                 if want_distance and err == 0:
-                    err = _closest(w, dpairs, distmax, bpos, brot, bquat, geom_body, geom_pos, geom_quat, xpos,
-                                   xmat, stamp, lb, cls, kind, prm, pts, pts_adr, pts_num, nbr_start,
-                                   nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, rbound, size, out7,
+                    err = _closest(w, dpairs_, distmax, bpos, brot, bquat, geom_body_, geom_pos_, geom_quat_, xpos,
+                                   xmat, stamp, lb, cls_, kind_, prm_, pts_, shapes[3], pts_num_, shapes[5],
+                                   shapes[6], shapes[7], shapes[8], shapes[9], shapes[10], rbound_, size_, out7,
                                    out_dist, out_closest, out_skipped)
                 out_err[w] = err
     set_chunksize(chunksize)
