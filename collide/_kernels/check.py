@@ -323,16 +323,19 @@ def check_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, bod
             if c >= chunks:
                 break
             for w in range((B * c) // chunks, (B * (c + 1)) // chunks):
-                _kinematics_world(qpos_[w], qpos0_, parent_, bpos0, bquat0, jntadr, jntnum, jtype, jqadr, jpos, jaxis,
-                                  bpos, brot, bquat, sc)
                 hit = False
                 skipped = False
                 err = 0
+                posed = False  # body poses only for a configuration with a pair to decide
                 for r in range(row_start_[w], row_start_[w + 1]):
                     g1 = rows_[r, 1]
                     g2 = rows_[r, 2]
                     if not in_subset(mode, label_, g1, g2):
                         continue
+                    if not posed:
+                        _kinematics_world(qpos_[w], qpos0_, parent_, bpos0, bquat0, jntadr, jntnum, jtype, jqadr, jpos,
+                                          jaxis, bpos, brot, bquat, sc)
+                        posed = True
                     for g in (g1, g2):
                         if stamp[g] != w:
                             geom_pose(g, bpos, brot, bquat, geom_body_, geom_pos_, geom_quat_, xpos, xmat)
@@ -352,6 +355,9 @@ def check_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, bod
                 out_hit[w] = hit
                 out_skipped[w] = skipped and not hit
                 if want_distance and err == 0:
+                    if not posed:
+                        _kinematics_world(qpos_[w], qpos0_, parent_, bpos0, bquat0, jntadr, jntnum, jtype, jqadr, jpos,
+                                          jaxis, bpos, brot, bquat, sc)
                     err = _closest(w, dpairs_, distmax, bpos, brot, bquat, geom_body_, geom_pos_, geom_quat_, xpos,
                                    xmat, stamp, lb, cls_, kind_, prm_, pts_, shapes[3], pts_num_, shapes[5],
                                    shapes[6], shapes[7], shapes[8], shapes[9], shapes[10], rbound_, size_, out7,
