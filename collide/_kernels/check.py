@@ -106,7 +106,7 @@ def geom_pose(g, body_pos, body_rot, body_quat, geom_body, geom_pos, geom_quat, 
     xmat[g, 2, 0], xmat[g, 2, 1], xmat[g, 2, 2] = m[6], m[7], m[8]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_margin, geom_gap, pair_key, pair_margin,
                     pair_gap, override, o_margin, gtype, half, shapes, faces, scratch, out, d0, gws, g4, hints):
     """Whether MuJoCo would make an active contact for the pair ``(g1, g2)`` at these poses.
