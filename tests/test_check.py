@@ -33,6 +33,7 @@ import collide.mujoco as cm
 from collide import collider as ccol
 from collide import testing
 from collide._kernels import check as kc
+from collide._kernels import manifold as km
 from contact_check import MODELS, contact_distance, oracle, pair_tolerance
 
 SCENES = sorted(p.name for p in MODELS.iterdir() if (p / "scene.xml").is_file()) if MODELS.is_dir() else []
@@ -587,3 +588,64 @@ def test_threads_on_one_collider_give_the_same_answers():
         for r in runs:
             assert np.array_equal(r.in_collision, ref.in_collision)
             assert r.min_distance is None or np.array_equal(r.min_distance, ref.min_distance)
+
+
+@numba.njit(cache=False)
+def _axis_and_distance(xp, xm, rows, thr, cls, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr,
+                       nbr_start_num, nbr, nbr_adr, nbr_num, size):
+    # Per row (world, g1, g2): whether check._apart_on_axis puts the pair beyond thr, and the
+    # pair's signed distance (manifold.pair_signed_distance), at the poses xp[w], xm[w].
+    K = rows.shape[0]
+    apart = np.zeros(K, np.bool_)
+    dist = np.full(K, np.nan)
+    pa = np.empty(3)
+    pb = np.empty(3)
+    out = np.empty(7)
+    for k in range(K):
+        w, g1, g2 = rows[k, 0], rows[k, 1], rows[k, 2]
+        if cls[g1] == km.PLANE or cls[g2] == km.PLANE or cls[g1] == km.SKIPPED or cls[g2] == km.SKIPPED:
+            continue
+        xpos, xmat = xp[w], xm[w]
+        s1 = km._shape(g1, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr,
+                       nbr_num, xpos, xmat)
+        s2 = km._shape(g2, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr,
+                       nbr_num, xpos, xmat)
+        apart[k] = kc._apart_on_axis(s1, s2, xpos, g1, g2, prm[g1, 3] + prm[g2, 3], thr, pa, pb)
+        if km.pair_signed_distance(g1, g2, xpos, xmat, cls, kind, prm, pts, pts_adr, pts_num, nbr_start,
+                                   nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, size, out) == 0:
+            dist[k] = out[0]
+    return apart, dist
+
+
+@pytest.mark.skipif(not {"franka_emika_panda", "shadow_hand"} <= set(SCENES), reason=NO_MODELS)
+@pytest.mark.parametrize("scene", ["franka_emika_panda", "shadow_hand"])
+def test_the_axis_rejection_never_rejects_a_pair_within_reach(scene):
+    # deepest_contact's test before GJK (check._apart_on_axis) is conservative: a pair it puts
+    # beyond thr is farther than thr by the pair's signed distance, on the broad phase's
+    # candidates of random configurations (meshes, boxes, cylinders, capsules), at thresholds
+    # from zero to past the rejected pairs' distances (the boundary where rounding would show).
+    model = _load(scene)
+    data = mujoco.MjData(model)
+    rng = np.random.default_rng(5)
+    q = testing.random_configurations(model, 200, rng)
+    col = cm.Collider(model)
+    rows = np.ascontiguousarray(col.broadphase.pairs_batch(model, q), dtype=np.int32).reshape(-1, 3)
+    G = model.ngeom
+    xp = np.empty((len(q), G, 3))
+    xm = np.empty((len(q), G, 3, 3))
+    for i, x in enumerate(q):
+        data.qpos[:] = x
+        mujoco.mj_kinematics(model, data)
+        xp[i] = data.geom_xpos
+        xm[i] = data.geom_xmat.reshape(G, 3, 3)
+    t = col.table._kargs
+    size = t[15]
+    tol = 1e-9 * (size[rows[:, 1]] + size[rows[:, 2]])
+    rejected = kept = 0
+    for thr in (0.0, 1e-3, 0.01, 0.05):
+        apart, dist = _axis_and_distance(xp, xm, rows, thr, t[0], *t[3:14], size)
+        ok = np.isfinite(dist)
+        assert not np.any(apart & ok & (dist <= thr - tol)), "a pair within reach rejected"
+        rejected += int(np.count_nonzero(apart & ok))
+        kept += int(np.count_nonzero(~apart & ok))
+    assert rejected > 50 and kept > 50  # the test saw both answers

@@ -36,12 +36,15 @@ from numba.np.arrayobj import make_array, populate_array
 
 from ._quat import _qmat, _qmul
 from ._threads import fetch_add, set_chunksize
+from .distance import ROUNDING
 from .gjk import OVERLAP, SEPARATED, gjk
 from .kinematics import _kinematics_world
-from .support import POINTS
+from .support import POINTS, support
 from .manifold import (BOX_WS, CONTACT_TOL, CONVEX_PAIR, MAX_PER_PAIR, OUT_DISTANCE, OUT_SIZE, PLANE, SKIPPED,
                        _finite_pose, _pair_rows, _shape, pair_distance, pair_margins, pair_signed_distance,
                        plane_box_contacts)
+
+_EPS = float(np.finfo(np.float64).eps)
 
 # `deepest_contact`'s answers.
 NO_CONTACT, ACTIVE, IN_GAP, NOT_COLLIDED = 0, 1, 2, 3
@@ -104,6 +107,27 @@ def geom_pose(g, body_pos, body_rot, body_quat, geom_body, geom_pos, geom_quat, 
     xmat[g, 0, 0], xmat[g, 0, 1], xmat[g, 0, 2] = m[0], m[1], m[2]
     xmat[g, 1, 0], xmat[g, 1, 1], xmat[g, 1, 2] = m[3], m[4], m[5]
     xmat[g, 2, 0], xmat[g, 2, 1], xmat[g, 2, 2] = m[6], m[7], m[8]
+
+
+@nb.njit(cache=True, inline="always")
+def _apart_on_axis(s1, s2, xpos, g1, g2, r, thr, pa, pb):
+    # Whether the axis through the two geoms' origins separates them by more than thr: with u the
+    # unit axis, min over B of u.b - max over A of u.a (two support points, `support`) is a lower
+    # bound of the cores' distance (a separating axis: the first lower bound GJK computes, from
+    # the same direction), so a pair it puts beyond thr + r makes no contact. Less a rounding
+    # allowance (`collide._kernels.distance.ROUNDING` ulps of the largest coordinate): never true
+    # for a pair within reach.
+    d0 = xpos[g2, 0] - xpos[g1, 0]
+    d1 = xpos[g2, 1] - xpos[g1, 1]
+    d2 = xpos[g2, 2] - xpos[g1, 2]
+    ln = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    if not ln > 0.0:
+        return False
+    support(s1, d0, d1, d2, -1, pa)
+    support(s2, -d0, -d1, -d2, -1, pb)
+    sep = ((pb[0] - pa[0]) * d0 + (pb[1] - pa[1]) * d1 + (pb[2] - pa[2]) * d2) / ln
+    scale = max(abs(pa[0]), abs(pa[1]), abs(pa[2]), abs(pb[0]), abs(pb[1]), abs(pb[2]))
+    return sep - ROUNDING * _EPS * (scale + r) - r > thr
 
 
 @nb.njit(cache=True, inline="always")
@@ -181,6 +205,8 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_mar
                         return ACTIVE
                     found = IN_GAP
                 continue
+            if _apart_on_axis(s1, s2, xpos, g1, g2, r, thr, gws[3, 1], gws[3, 2]):
+                continue  # certainly no contact, before GJK
             hints[0] = -1
             hints[1] = -1
             gws[:] = 0.0  # a fresh simplex, as pair_distance starts from
