@@ -157,6 +157,13 @@ class GeomTable:
         Half sizes of the boxes (zeros for other geoms).
     faces : collide.faces.FaceTable
         Hull faces of the boxes and meshes (face contacts, `collide._kernels.faces`).
+
+    Notes
+    -----
+    The per-geom and support arrays above and the face arrays `kernel_args` hands out are views
+    of four packed buffers, one a dtype (`collide._kernels.manifold.collide_packed` takes those,
+    not forty arrays); the kernel's scratch is made here, once (`contacts_of` runs the kernel
+    with the GIL held, so calls on one table never share it at once).
     """
 
     def __init__(self, model):
