@@ -65,10 +65,11 @@ class Distance:
         return self.upper - self.lower
 
 
+# numba compiles `checked_distance` once per combination of its arrays' writeable flags (a full
+# GJK + EPA each time): the poses and the warm direction reach it writable, always (these two
+# are read by the kernel only), and `SupportData.points` read-only, always.
 _EYE = np.eye(3)
-_EYE.setflags(write=False)
 _ZERO = np.zeros(3)
-_ZERO.setflags(write=False)
 
 
 def _pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -79,10 +80,11 @@ def _pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
         r, t = pose
         if (type(r) is np.ndarray and type(t) is np.ndarray and r.dtype == np.float64
                 and t.dtype == np.float64 and r.shape == (3, 3) and t.shape == (3,)
-                and r.flags.c_contiguous and t.flags.c_contiguous):
+                and r.flags.c_contiguous and t.flags.c_contiguous and r.flags.writeable
+                and t.flags.writeable):
             return r, t  # the common case, without copies
     rot, pos = as_affine(pose, name=name)
-    return np.ascontiguousarray(rot), np.ascontiguousarray(pos)
+    return np.array(rot, dtype=np.float64, order="C"), np.array(pos, dtype=np.float64, order="C")
 
 
 def _raise(err: int, name: str, rot: np.ndarray, pos: np.ndarray, size: float) -> None:
@@ -147,10 +149,10 @@ def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = 1e
     if warm is None:
         d0 = _ZERO
     elif isinstance(warm, Distance):
-        d0 = warm.normal
+        d0 = warm.normal if warm.normal.flags.writeable else np.array(warm.normal)
         hint_a, hint_b = warm.hints
     else:
-        d0 = as_array(warm, "warm", (3,))
+        d0 = np.array(as_array(warm, "warm", (3,)))  # a writable copy (one signature)
     if not (type(tolerance) is float and 0.0 < tolerance < 1.0):
         tolerance = as_positive(tolerance, "tolerance")
     if not (type(max_iterations) is int and 4 <= max_iterations <= 100_000):

@@ -62,6 +62,14 @@ class SupportData:
     nbr: np.ndarray
     size: float
 
+    def __post_init__(self):
+        # `points` read-only, always (a view; the caller's array keeps its flags): numba compiles
+        # a kernel once per combination of writeable flags (`collide.signed_distance`).
+        if self.points.flags.writeable:
+            view = self.points.view()
+            view.flags.writeable = False
+            object.__setattr__(self, "points", view)
+
     def posed(self, rot: np.ndarray, pos: np.ndarray) -> tuple:
         """The kernels' shape tuple ``(kind, prm, pts, nbr_start, nbr, rot, pos)``.
 
