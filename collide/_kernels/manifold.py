@@ -46,6 +46,9 @@ import math
 
 import numpy as np
 from numba import njit
+from numba.core import cgutils, types
+from numba.extending import intrinsic
+from numba.np.arrayobj import make_array, populate_array
 
 from .distance import OUT_DISTANCE, OUT_NORMAL, OUT_POINT_A, OUT_POINT_B, OUT_SIZE, pair_distance
 from .faces import BOX_MAX, BOX_WS, box_box, clip_faces
@@ -492,6 +495,31 @@ N_SLOTS = 33
 TI_HEADER = 2 * N_SLOTS + 2
 
 
+@intrinsic
+def borrow(typingctx, arr):
+    """The array ``arr`` again without its reference count (no meminfo): a borrowed view.
+
+    Every array value numba copies or drops costs an increment and a decrement of its
+    allocation's counter (calls into its runtime, atomic); the narrow phase's per-pair code
+    passes some fifty views of the packed tables around (tuples, inlined helpers, the shape views
+    of `_shape`). A view of a borrowed array carries a null record, which the runtime skips (the
+    approach of `collide._kernels._ptr.view_of` and `collide._kernels.check._borrow`). It must
+    not outlive ``arr``: `collide_packed` borrows its own arguments, which its caller holds for
+    the call.
+    """
+    if not isinstance(arr, types.Array):
+        return None
+
+    def codegen(context, builder, signature, args):
+        src = make_array(arr)(context, builder, value=args[0])
+        out = make_array(arr)(context, builder)
+        populate_array(out, data=src.data, shape=cgutils.unpack_tuple(builder, src.shape),
+                       strides=cgutils.unpack_tuple(builder, src.strides), itemsize=src.itemsize, meminfo=None)
+        return out._getvalue()
+
+    return arr(arr), codegen
+
+
 @njit(cache=True, inline="always")
 def _slot(buf, ti, s):
     o = ti[2 * s]
@@ -536,6 +564,10 @@ def collide_packed(pairs, xpos, xmat, tf, ti, t8, t32, override, o_margin, wsf, 
         As `collide_pairs`.
     """
     M = out_geom.shape[0]
+    # every array borrowed (`borrow`): the caller holds them for the call
+    pairs, xpos, xmat, tf, ti, t8, t32 = borrow(pairs), borrow(xpos), borrow(xmat), borrow(tf), borrow(ti), \
+        borrow(t8), borrow(t32)
+    wsf, wsi, out_geom, out_f, skipped = borrow(wsf), borrow(wsi), borrow(out_geom), borrow(out_f), borrow(skipped)
     gtab = (_slot(t8, ti, S_CLS), _slot(t8, ti, S_RULE), _slot(t8, ti, S_BELOW).view(np.bool_),
             _slot(tf, ti, S_RBOUND), _slot(tf, ti, S_SIZE), _slot(t8, ti, S_GTYPE), _slot2(tf, ti, S_HALF, 3))
     shapes = (_slot(ti, ti, S_KIND), _slot2(tf, ti, S_PRM, 4), _slot2(tf, ti, S_PTS, 3), _slot(ti, ti, S_PTS_ADR),
