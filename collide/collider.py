@@ -47,7 +47,7 @@ class CheckResult:
         ``exclude == 0``) between a pair of checked geoms, with its filters, margins, gaps,
         excludes and explicit ``<pair>`` s; a contact only in the gap does not count. Decided as
         `Collider.contacts` decides, up to a tolerance: two convex geoms whose cores GJK finds
-        within ``1e-12`` of their sizes of touching count as active
+        within ``collide._kernels.manifold.CONTACT_TOL`` of their sizes of touching count as active
         (`collide._kernels.check.deepest_contact`).
     min_distance : (B,) float64 or None
         With ``distance=True``: the signed distance of the closest checked geom pair that

@@ -140,7 +140,8 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_mar
     planes, the bounding tests, box-box); only their deepest ``dist`` is kept, which is all that
     decides whether a contact is active: a face manifold's deepest point is the pair's exact
     distance (`polytope_contacts` sets it so), so the manifold is not built. Two convex geoms
-    (not two boxes) are first decided by GJK alone, on its certified bounds: cores that GJK
+    (not two boxes) that the axis through their origins separates beyond the contact distance
+    (`_apart_on_axis`) make no contact; the others are first decided by GJK alone, on its certified bounds: cores that GJK
     finds overlapping within its tolerance (`collide._kernels.manifold.CONTACT_TOL` of the two
     sizes, as `collide_pairs` gives `collide._kernels.distance.pair_distance`) make an active
     contact (no EPA: the depth is not needed), a lower bound beyond the contact distance none,
