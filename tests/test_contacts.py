@@ -215,7 +215,9 @@ def test_margins_scene_agrees():
 @pytest.mark.parametrize("scene", SCENES)
 def test_shared_models_agree(scene):
     model = mujoco.MjModel.from_xml_path(str(MODELS / scene / "scene.xml"))
-    t = run_scene(model, STEPS, seed=0)
+    # Eight oracle calls per kind of disagreement and scene (anybotics_anymal_c's cylinder pairs
+    # spent eighty, most of the suite's oracle time, at the default twenty).
+    t = run_scene(model, STEPS, seed=0, oracle_budget=8)
     _assert_agrees(t, scene)
     if t.mj_pairs == 0:
         # an arm alone on a table may touch nothing in these steps: then nothing of ours either

@@ -33,7 +33,10 @@ def _batch_world(w, pos_w, rot_w, I, F, W, sap, bp, kp, cap, off, scr, stats, in
     start = off if off < cap else cap
     keys = view_of(i64_ptr(kp + 8 * start), cap - start)
     info[0] = OK
-    kw = _world(pos_w, rot_w, I, F, W, sap, bp, keys, scr, stats, info, bp, False)
+    # No coherence between a batch's worlds: a False known only at run time, as `_step`'s flag is.
+    # A literal False would make numba compile `_world` a second time, for ``Literal[bool](False)``.
+    no_coherence = info[0] != OK
+    kw = _world(pos_w, rot_w, I, F, W, sap, bp, keys, scr, stats, info, bp, no_coherence)
     world_count[w] = kw
     if kw < 0:
         for i in range(4):
