@@ -356,6 +356,9 @@ def narrow_phase(table: GeomTable, pairs, geom_xpos, geom_xmat) -> Contacts:
     if len(P) and (P.min() < 0 or P.max() >= table.ngeom or np.any(P[:, 0] >= P[:, 1])):
         raise ValueError(f"pairs: geom ids must be in [0, {table.ngeom}) with the lower id first")
     xpos, xmat = _poses(table, geom_xpos, geom_xmat)
+    if P.flags.writeable:  # read-only as the broad phase's pairs are: one compiled `collide_packed`
+        P = P.view()
+        P.flags.writeable = False
     return contacts_of(table, P, xpos, xmat)
 
 

@@ -111,3 +111,28 @@ def view_of(typingctx, ptr, shape):
         return ary._getvalue()
 
     return sig, codegen
+
+
+@intrinsic
+def borrow(typingctx, arr):
+    """The array ``arr`` again without its reference count (no meminfo): a borrowed view.
+
+    Every array value numba copies or drops costs an atomic increment and decrement of its
+    allocation's counter (calls into its runtime); per-pair code that passes tens of table views
+    around (tuples, inlined helpers) pays it on each, and threads sharing the tables take turns
+    on the counters' cache lines. A view of a borrowed array carries a null record, which the
+    runtime skips (as `view_of`'s views do). It must not outlive ``arr``: a kernel borrows its
+    own arguments, which its caller holds for the call (`collide._kernels.manifold.collide_packed`,
+    `collide._kernels.check.check_worlds`).
+    """
+    if not isinstance(arr, types.Array):
+        return None
+
+    def codegen(context, builder, signature, args):
+        src = make_array(arr)(context, builder, value=args[0])
+        out = make_array(arr)(context, builder)
+        populate_array(out, data=src.data, shape=cgutils.unpack_tuple(builder, src.shape),
+                       strides=cgutils.unpack_tuple(builder, src.strides), itemsize=src.itemsize, meminfo=None)
+        return out._getvalue()
+
+    return arr(arr), codegen

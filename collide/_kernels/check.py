@@ -30,10 +30,8 @@ import math
 
 import numba as nb
 import numpy as np
-from numba.core import cgutils, types
-from numba.extending import intrinsic
-from numba.np.arrayobj import make_array, populate_array
 
+from ._ptr import borrow
 from ._quat import _qmat, _qmul
 from ._threads import fetch_add, set_chunksize
 from .distance import ROUNDING
@@ -56,30 +54,6 @@ ERR_POSE = 1
 # group 1; pairs with one geom in group 1 and the other in group 2.
 SUBSET_ALL, SUBSET_ONE, SUBSET_TWO = 0, 1, 2
 
-
-@intrinsic
-def _borrow(typingctx, arr):
-    """The array ``arr`` again, its reference count left behind (no meminfo): a borrowed view.
-
-    Every array value numba copies or drops costs an atomic increment and decrement of its
-    allocation's counter; the per-pair code passes some forty table arrays around (tuples,
-    inlined helpers, the shape views of `collide._kernels.manifold._shape`), and the workers'
-    threads share those counters, so each core takes the other's cache line on every pair. A
-    borrowed view carries a null record, which the runtime skips (the approach of
-    `collide._kernels._ptr.view_of`). It must not outlive ``arr``: `check_worlds` borrows its own
-    arguments, which the caller holds for the call.
-    """
-    if not isinstance(arr, types.Array):
-        return None
-
-    def codegen(context, builder, signature, args):
-        src = make_array(arr)(context, builder, value=args[0])
-        out = make_array(arr)(context, builder)
-        populate_array(out, data=src.data, shape=cgutils.unpack_tuple(builder, src.shape),
-                       strides=cgutils.unpack_tuple(builder, src.strides), itemsize=src.itemsize, meminfo=None)
-        return out._getvalue()
-
-    return arr(arr), codegen
 
 
 @nb.njit(cache=True, inline="always")
@@ -328,22 +302,22 @@ def check_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, bod
         g4 = np.zeros((2, 4))  # GJK's lam, dirn
         hints = np.empty(2, np.int64)
         lb = np.empty(P if want_distance else 0)
-        # the shared tables borrowed (`_borrow`): no counter the two threads take turns on
-        cls_, rule_, below_, rbound_, size_ = _borrow(cls), _borrow(rule), _borrow(below), _borrow(rbound), _borrow(size)
-        gmargin, ggap, pkey = _borrow(geom_margin), _borrow(geom_gap), _borrow(pair_key)
-        pmargin, pgap, gtype_, half_ = _borrow(pair_margin), _borrow(pair_gap), _borrow(gtype), _borrow(half)
-        kind_, prm_, pts_, pts_num_ = _borrow(kind), _borrow(prm), _borrow(pts), _borrow(pts_num)
-        shapes = (kind_, prm_, pts_, _borrow(pts_adr), pts_num_, _borrow(nbr_start), _borrow(nbr_start_adr),
-                  _borrow(nbr_start_num), _borrow(nbr), _borrow(nbr_adr), _borrow(nbr_num))
-        faces = (_borrow(hv_adr), _borrow(hv_num), _borrow(hv), _borrow(f_adr), _borrow(f_num), _borrow(f_normal),
-                 _borrow(f_vadr), _borrow(f_vnum), _borrow(f_vidx))
-        geom_body_, geom_pos_, geom_quat_ = _borrow(geom_body), _borrow(geom_pos), _borrow(geom_quat)
-        rows_, row_start_, label_, dpairs_ = _borrow(rows), _borrow(row_start), _borrow(label), _borrow(dpairs)
-        qpos_, qpos0_, parent_, bpos0, bquat0 = _borrow(qpos), _borrow(qpos0), _borrow(body_parent), _borrow(body_pos), \
-            _borrow(body_quat)
-        jntadr, jntnum, jtype, jqadr = _borrow(body_jntadr), _borrow(body_jntnum), _borrow(jnt_type), \
-            _borrow(jnt_qposadr)
-        jpos, jaxis = _borrow(jnt_pos), _borrow(jnt_axis)
+        # the shared tables borrowed (`borrow`): no counter the two threads take turns on
+        cls_, rule_, below_, rbound_, size_ = borrow(cls), borrow(rule), borrow(below), borrow(rbound), borrow(size)
+        gmargin, ggap, pkey = borrow(geom_margin), borrow(geom_gap), borrow(pair_key)
+        pmargin, pgap, gtype_, half_ = borrow(pair_margin), borrow(pair_gap), borrow(gtype), borrow(half)
+        kind_, prm_, pts_, pts_num_ = borrow(kind), borrow(prm), borrow(pts), borrow(pts_num)
+        shapes = (kind_, prm_, pts_, borrow(pts_adr), pts_num_, borrow(nbr_start), borrow(nbr_start_adr),
+                  borrow(nbr_start_num), borrow(nbr), borrow(nbr_adr), borrow(nbr_num))
+        faces = (borrow(hv_adr), borrow(hv_num), borrow(hv), borrow(f_adr), borrow(f_num), borrow(f_normal),
+                 borrow(f_vadr), borrow(f_vnum), borrow(f_vidx))
+        geom_body_, geom_pos_, geom_quat_ = borrow(geom_body), borrow(geom_pos), borrow(geom_quat)
+        rows_, row_start_, label_, dpairs_ = borrow(rows), borrow(row_start), borrow(label), borrow(dpairs)
+        qpos_, qpos0_, parent_, bpos0, bquat0 = borrow(qpos), borrow(qpos0), borrow(body_parent), borrow(body_pos), \
+            borrow(body_quat)
+        jntadr, jntnum, jtype, jqadr = borrow(body_jntadr), borrow(body_jntnum), borrow(jnt_type), \
+            borrow(jnt_qposadr)
+        jpos, jaxis = borrow(jnt_pos), borrow(jnt_axis)
         scratch = (cand, dep, sel, res, bnrm, bws, pcand, pdep)
         while True:
             c = fetch_add(addr, 1)

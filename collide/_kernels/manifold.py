@@ -46,10 +46,8 @@ import math
 
 import numpy as np
 from numba import njit
-from numba.core import cgutils, types
-from numba.extending import intrinsic
-from numba.np.arrayobj import make_array, populate_array
 
+from ._ptr import borrow
 from .distance import OUT_DISTANCE, OUT_NORMAL, OUT_POINT_A, OUT_POINT_B, OUT_SIZE, pair_distance
 from .faces import BOX_MAX, BOX_WS, box_box, clip_faces
 from .plane import (PLANE_FACE_TOL, RULE_CYLINDER, RULE_POINTS, RULE_SUPPORT, RULE_VERTICES, _plane_cylinder,
@@ -494,30 +492,6 @@ N_SLOTS = 33
 # ti's header: the slots' (offset, rows), then the scratch's ``cap`` and ``fmax`` (`scratch_caps`).
 TI_HEADER = 2 * N_SLOTS + 2
 
-
-@intrinsic
-def borrow(typingctx, arr):
-    """The array ``arr`` again without its reference count (no meminfo): a borrowed view.
-
-    Every array value numba copies or drops costs an increment and a decrement of its
-    allocation's counter (calls into its runtime, atomic); the narrow phase's per-pair code
-    passes some fifty views of the packed tables around (tuples, inlined helpers, the shape views
-    of `_shape`). A view of a borrowed array carries a null record, which the runtime skips (the
-    approach of `collide._kernels._ptr.view_of` and `collide._kernels.check._borrow`). It must
-    not outlive ``arr``: `collide_packed` borrows its own arguments, which its caller holds for
-    the call.
-    """
-    if not isinstance(arr, types.Array):
-        return None
-
-    def codegen(context, builder, signature, args):
-        src = make_array(arr)(context, builder, value=args[0])
-        out = make_array(arr)(context, builder)
-        populate_array(out, data=src.data, shape=cgutils.unpack_tuple(builder, src.shape),
-                       strides=cgutils.unpack_tuple(builder, src.strides), itemsize=src.itemsize, meminfo=None)
-        return out._getvalue()
-
-    return arr(arr), codegen
 
 
 @njit(cache=True, inline="always")
