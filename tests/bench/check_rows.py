@@ -19,10 +19,10 @@ from pathlib import Path
 import collide.mujoco as cm
 from collide import testing
 from collide._kernels import check as kc
-from collide._kernels.check import *
+from collide._kernels.check import ACTIVE, deepest_contact
 from collide._kernels._clock import now_us
-from collide._kernels.manifold import (BOX_WS, CONTACT_TOL, CONVEX_PAIR, MAX_PER_PAIR, OUT_DISTANCE, OUT_SIZE, PLANE, SKIPPED,
-                       _finite_pose, _pair_rows, _shape, pair_distance, pair_margins, plane_box_contacts)
+from collide._kernels.manifold import (BOX_WS, CONTACT_TOL, CONVEX_PAIR, MAX_PER_PAIR, OUT_SIZE, _pair_rows, _shape,
+                                       pair_margins, plane_box_contacts)
 from collide._kernels.gjk import OVERLAP, SEPARATED, gjk
 from collide._kernels.support import POINTS
 import math
