@@ -30,18 +30,11 @@ import numpy as np  # noqa: E402
 import collide.mujoco as cm  # noqa: E402
 from collide import testing  # noqa: E402
 from collide._kernels import check as _kc  # noqa: E402
+from check_batch import _best  # noqa: E402 (tests/bench is the script's folder)
 
 MODELS = Path(__file__).resolve().parents[2] / ".." / "shared" / "models"
 DEFAULT = ["franka_emika_panda", "shadow_hand", "unitree_h1", "humanoid", "22_humanoids"]
 
-
-def _best(f, reps):
-    best = np.inf
-    for _ in range(reps):
-        t0 = time.perf_counter()
-        f()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def _kernel(col, q, rows, distance=False):
