@@ -180,7 +180,8 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_mar
                         return ACTIVE
                     found = IN_GAP
                 continue
-            if _apart_on_axis(s1, s2, xpos, g1, g2, r, thr, gws[3, 1], gws[3, 2]):
+            # beyond thr + tol: cores GJK would find within tol of touching (OVERLAP, active) never rejected here
+            if _apart_on_axis(s1, s2, xpos, g1, g2, r, thr + tol, gws[3, 1], gws[3, 2]):
                 continue  # certainly no contact, before GJK
             hints[0] = -1
             hints[1] = -1
