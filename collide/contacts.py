@@ -163,7 +163,12 @@ class GeomTable:
     The per-geom and support arrays above and the face arrays `kernel_args` hands out are views
     of four packed buffers, one a dtype (`collide._kernels.manifold.collide_packed` takes those,
     not forty arrays); the kernel's scratch is made here, once (`contacts_of` runs the kernel
-    with the GIL held, so calls on one table never share it at once).
+    with the GIL held, so calls on one table never share it at once). Copies and unpickled tables
+    rebind their views to their own buffers.
+
+    Everything is read from the model once, margins and gaps included (copies, not views of the
+    model's arrays): a model edited after the table was made is not seen, as the broad phase
+    reads the geometry once too. Build a new table (or `collide.mujoco.Collider`) after editing.
     """
 
     def __init__(self, model):
@@ -231,8 +236,8 @@ class GeomTable:
         self.pair_key = np.ascontiguousarray(key[order])
         self.pair_margin = np.ascontiguousarray(np.asarray(model.pair_margin, dtype=np.float64)[order])
         self.pair_gap = np.ascontiguousarray(np.asarray(model.pair_gap, dtype=np.float64)[order])
-        self.override = bool(int(model.opt.enableflags) & ENBL_OVERRIDE)
-        self.o_margin = float(model.opt.o_margin)
+        self._override = bool(int(model.opt.enableflags) & ENBL_OVERRIDE)
+        self._o_margin = float(model.opt.o_margin)
         # The most <pair>s naming one geom pair (MuJoCo collides each: contacts per pair multiply).
         self.pair_mult = int(np.max(np.unique(key, return_counts=True)[1])) if len(key) else 1
         # Face contacts (collide._kernels.faces): MuJoCo's types, box half sizes, hull faces.
@@ -240,8 +245,6 @@ class GeomTable:
         self.half = np.ascontiguousarray(np.where((types == BOX)[:, None], sizes, 0.0))
         self.faces = _faces.FaceTable([_polytope(model, g, int(types[g]), sizes[g]) for g in range(G)])
         self._pack()
-        # Per step, `narrow_phase` reuses these (building the tuple costs a Python call).
-        self._kargs = self.kernel_args()
         self._any_skipped = bool(np.any(self.cls == _km.SKIPPED))
         self._no_skipped = np.zeros((0, 2), np.int32)
         self._no_skipped.flags.writeable = False
@@ -250,8 +253,8 @@ class GeomTable:
 
     def _pack(self) -> None:
         # The kernel's tables, one buffer a dtype (`collide._kernels.manifold.collide_packed`: a
-        # call passes a few arrays, not forty); the attributes become views of them (one copy,
-        # which `kernel_args` hands out too), and the kernel's scratch is made here, once.
+        # call passes a few arrays, not forty); the attributes become views of them (`_bind`: one
+        # copy, which `kernel_args` hands out too), and the kernel's scratch is made here, once.
         fa = self.faces.kernel_args()
         slots = {_km.S_PRM: self.prm, _km.S_PTS: self.pts, _km.S_RBOUND: self.rbound, _km.S_SIZE: self.size,
                  _km.S_GEOM_MARGIN: self.geom_margin, _km.S_GEOM_GAP: self.geom_gap,
@@ -265,40 +268,66 @@ class GeomTable:
                  _km.S_CLS: self.cls, _km.S_RULE: self.rule, _km.S_BELOW: self.below.view(np.int8),
                  _km.S_GTYPE: self.gtype,
                  _km.S_NBR_START: self.nbr_start, _km.S_NBR: self.nbr, _km.S_F_VIDX: fa[9]}
-        buffers = ((np.float64, 0), (np.int64, _km.TI_HEADER), (np.int8, 0), (np.int32, 0))
         header = np.zeros(_km.TI_HEADER, np.int64)
-        place, total = {}, [start for _, start in buffers]
+        total = [0, _km.TI_HEADER, 0, 0]  # ti begins with the header
         for s, a in slots.items():
-            b = [np.dtype(t) for t, _ in buffers].index(a.dtype)
-            place[s] = (b, total[b])
+            b = _km.SLOT_BUFFER[s]
+            if a.dtype != _km.BUFFER_DTYPES[b] or a.shape[1:] != ((_km.SLOT_COLS[s],) if _km.SLOT_COLS[s] > 1 else ()):
+                raise AssertionError(f"slot {s}: {a.dtype} {a.shape} does not fit its buffer")  # a bug, not input
             header[2 * s], header[2 * s + 1] = total[b], len(a)
             total[b] += a.size
-        bufs = [np.zeros(n, t) for (t, _), n in zip(buffers, total)]
-        views = {}
-        for s, a in slots.items():
-            b, o = place[s]
-            v = bufs[b][o:o + a.size].reshape(a.shape)
-            v[...] = a
-            views[s] = v
-        cap, fmax = _km.scratch_caps(views[_km.S_PTS_NUM], views[_km.S_F_VNUM])
-        header[2 * _km.N_SLOTS], header[2 * _km.N_SLOTS + 1] = cap, fmax
+        bufs = [np.zeros(n, t) for t, n in zip(_km.BUFFER_DTYPES, total)]
         bufs[1][:_km.TI_HEADER] = header
         self._tables = tuple(bufs)
+        for s, v in self._views().items():
+            v[...] = slots[s]
+        cap, fmax = _km.scratch_caps(slots[_km.S_PTS_NUM], slots[_km.S_F_VNUM])
+        bufs[1][2 * _km.N_SLOTS], bufs[1][2 * _km.N_SLOTS + 1] = cap, fmax
         nf, ni = _km.scratch_sizes(cap, fmax)
         self._wsf, self._wsi = np.zeros(nf), np.zeros(ni, np.int64)
-        (self.prm, self.pts, self.rbound, self.size, self.geom_margin, self.geom_gap, self.pair_margin,
-         self.pair_gap, self.half) = (views[s] for s in (_km.S_PRM, _km.S_PTS, _km.S_RBOUND, _km.S_SIZE,
-                                                         _km.S_GEOM_MARGIN, _km.S_GEOM_GAP, _km.S_PAIR_MARGIN,
-                                                         _km.S_PAIR_GAP, _km.S_HALF))
-        (self.kind, self.pts_adr, self.pts_num, self.nbr_start_adr, self.nbr_start_num, self.nbr_adr, self.nbr_num,
-         self.pair_key) = (views[s] for s in (_km.S_KIND, _km.S_PTS_ADR, _km.S_PTS_NUM, _km.S_NBR_START_ADR,
-                                              _km.S_NBR_START_NUM, _km.S_NBR_ADR, _km.S_NBR_NUM, _km.S_PAIR_KEY))
-        self.cls, self.rule, self.below, self.gtype = (views[_km.S_CLS], views[_km.S_RULE],
-                                                       views[_km.S_BELOW].view(np.bool_), views[_km.S_GTYPE])
-        self.nbr_start, self.nbr = views[_km.S_NBR_START], views[_km.S_NBR]
+        self._bind()
+
+    def _views(self) -> dict:
+        # Each slot's view of the packed buffers, by the header in ``_tables[1]``.
+        ti = self._tables[1]
+        views = {}
+        for s in range(_km.N_SLOTS):
+            o, n, c = int(ti[2 * s]), int(ti[2 * s + 1]), _km.SLOT_COLS[s]
+            v = self._tables[_km.SLOT_BUFFER[s]][o:o + n * c]
+            views[s] = v.reshape(n, c) if c > 1 else v
+        return views
+
+    def _bind(self) -> None:
+        # The attributes, `kernel_args` and ``_kargs`` as views of the packed buffers (after
+        # `_pack`, and after a copy or unpickling, which copy the buffers and the views apart).
+        views = self._views()
+        for name, s in _SLOT_ATTR.items():
+            setattr(self, name, views[s])
+        self.below = views[_km.S_BELOW].view(np.bool_)
         self._face_args = tuple(views[s] for s in (_km.S_HV_ADR, _km.S_HV_NUM, _km.S_HV, _km.S_F_ADR, _km.S_F_NUM,
                                                    _km.S_F_NORMAL, _km.S_F_OFFSET, _km.S_F_VADR, _km.S_F_VNUM,
                                                    _km.S_F_VIDX))
+        # Per step, `collide.mujoco.Collider.check_batch` reuses these (building the tuple costs a call).
+        self._kargs = self.kernel_args()
+
+    def __getstate__(self) -> dict:
+        # The packed buffers and the scalars; the views are rebound on the copy (`__setstate__`).
+        views = set(_SLOT_ATTR) | {"below", "_face_args", "_kargs"}
+        return {k: v for k, v in self.__dict__.items() if k not in views}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._bind()
+
+    @property
+    def override(self) -> bool:
+        """Whether ``mjENBL_OVERRIDE`` was set (read once from ``model.opt.enableflags``)."""
+        return self._override
+
+    @property
+    def o_margin(self) -> float:
+        """``model.opt.o_margin``, read once."""
+        return self._o_margin
 
     def kernel_args(self) -> tuple:
         """The per-geom arguments of `collide._kernels.manifold.collide_pairs`, in its order."""
@@ -385,7 +414,7 @@ def contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.
     K = len(pairs)
     cap = table._per_pair * K
     geom = np.empty((cap, 2), np.int32)
-    f = np.empty(8 * cap)  # dist, pos, normal, margin (`collide_packed`)
+    f = np.empty(_km.F_END * cap)  # dist, pos, normal, margin (`collide_packed`'s ``F_*`` layout)
     if table._any_skipped:
         skipped = np.empty(K, np.bool_)  # the kernel writes every entry
     else:
@@ -400,13 +429,23 @@ def contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.
         raise ValueError(f"geom_xpos/geom_xmat: non-finite pose (NaN or inf) of geom {g}")
     # Built without the frozen dataclass's __init__ (a setattr per field): the same fields.
     c = _new(Contacts)
-    c.__dict__.update(geom=geom[:n], dist=f[:n], pos=f[cap:cap + 3 * n].reshape(n, 3),
-                      normal=f[4 * cap:4 * cap + 3 * n].reshape(n, 3), margin=f[7 * cap:7 * cap + n],
+    d, p, m, q = _km.F_DIST * cap, _km.F_POS * cap, _km.F_NORMAL * cap, _km.F_MARGIN * cap
+    c.__dict__.update(geom=geom[:n], dist=f[d:d + n], pos=f[p:p + 3 * n].reshape(n, 3),
+                      normal=f[m:m + 3 * n].reshape(n, 3), margin=f[q:q + n],
                       skipped=pairs[skipped[:K]] if table._any_skipped else table._no_skipped)
     return c
 
 
 _new = object.__new__
+
+# `GeomTable`'s attributes that are slots (``below`` is ``S_BELOW`` viewed as bool; the face slots
+# are `GeomTable.faces`' arrays, handed to the kernel in ``_face_args``).
+_SLOT_ATTR = {"prm": _km.S_PRM, "pts": _km.S_PTS, "rbound": _km.S_RBOUND, "size": _km.S_SIZE,
+              "geom_margin": _km.S_GEOM_MARGIN, "geom_gap": _km.S_GEOM_GAP, "pair_margin": _km.S_PAIR_MARGIN,
+              "pair_gap": _km.S_PAIR_GAP, "half": _km.S_HALF, "kind": _km.S_KIND, "pts_adr": _km.S_PTS_ADR,
+              "pts_num": _km.S_PTS_NUM, "nbr_start_adr": _km.S_NBR_START_ADR, "nbr_start_num": _km.S_NBR_START_NUM,
+              "nbr_adr": _km.S_NBR_ADR, "nbr_num": _km.S_NBR_NUM, "pair_key": _km.S_PAIR_KEY, "cls": _km.S_CLS,
+              "rule": _km.S_RULE, "gtype": _km.S_GTYPE, "nbr_start": _km.S_NBR_START, "nbr": _km.S_NBR}
 
 
 def geom_distance(table: GeomTable, g1: int, g2: int, geom_xpos, geom_xmat, distmax: float) -> tuple[float, np.ndarray]:

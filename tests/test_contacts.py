@@ -307,3 +307,40 @@ def test_pairs_are_the_broad_phases():
     # every contact's pair is a broad-phase pair
     keys = {tuple(p) for p in col.pairs(data).tolist()}
     assert all(tuple(g) in keys for g in c.geom.tolist())
+
+
+def test_table_copies_own_their_buffers():
+    """A copied or unpickled GeomTable: its attributes and kernel arguments are views of its own
+    packed buffers (the kernel reads those), so an in-place edit of one reaches both of its
+    paths (`contacts_of` and `check_batch`'s arguments) and never the original."""
+    import copy
+    import pickle
+
+    model = cm.default_scene(seed=2, objects=12)
+    data = mujoco.MjData(model)
+    for _ in range(50):
+        mujoco.mj_step(model, data)
+    col = cm.Collider(model)
+    pairs = col.pairs(data)
+    xmat = data.geom_xmat.reshape(-1, 3, 3)
+    before = cc.narrow_phase(col.table, pairs, data.geom_xpos, xmat)
+    assert len(before) > 0
+    for t in (copy.copy(col.table), copy.deepcopy(col.table), pickle.loads(pickle.dumps(col.table))):
+        if t.__dict__.get("_tables") is col.table._tables:
+            t = copy.deepcopy(t)  # copy.copy shares the buffers by design; the rest own theirs
+        for name, a in [("geom_margin", t.geom_margin), ("prm", t.prm), ("cls", t.cls), ("below", t.below)] + [(f"kargs[{i}]", a) for i, a in enumerate(t._kargs)
+                                           if isinstance(a, np.ndarray)]:
+            if a.size == 0:
+                continue  # an empty slot shares no memory with anything
+            assert any(np.shares_memory(a, b) for b in t._tables), f"{name} is not a view of the packed buffers"
+            assert not any(np.shares_memory(a, b) for b in col.table._tables), f"{name} shares the original's"
+        c = cc.narrow_phase(t, pairs, data.geom_xpos, xmat)
+        assert np.array_equal(c.geom, before.geom) and np.array_equal(c.dist, before.dist)
+        t.geom_margin[:] = 0.5  # every pair within reach makes contacts now, in the copy only
+        assert len(cc.narrow_phase(t, pairs, data.geom_xpos, xmat)) > len(before)
+        assert t._kargs[16] is t.geom_margin or np.shares_memory(t._kargs[16], t.geom_margin)
+        assert len(cc.narrow_phase(col.table, pairs, data.geom_xpos, xmat)) == len(before)
+    with pytest.raises(AttributeError):
+        col.table.override = True  # read once from the model: both paths read the same value
+    with pytest.raises(AttributeError):
+        col.table.o_margin = 1.0

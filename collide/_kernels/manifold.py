@@ -59,7 +59,8 @@ from .support import support
 # importers of `collide._kernels.manifold` still read here.
 __all__ = [
     "CONVEX", "ERR_POSE", "MAX_PER_PAIR", "PLANE", "SKIPPED", "T_BOX", "T_CAPSULE", "T_CYLINDER", "T_ELLIPSOID",
-    "T_HFIELD", "T_MESH", "T_PLANE", "T_SPHERE", "CONVEX_PAIR", "N_SLOTS", "TI_HEADER", "carve_scratch",
+    "T_HFIELD", "T_MESH", "T_PLANE", "T_SPHERE", "CONVEX_PAIR", "F_DIST", "F_END", "F_MARGIN", "F_NORMAL",
+    "F_POS", "N_SLOTS", "SLOT_BUFFER", "SLOT_COLS", "BUFFER_DTYPES", "TI_HEADER", "carve_scratch",
     "collide_packed", "collide_pairs", "pair_margins", "scratch_caps", "scratch_sizes",
     "pair_signed_distance", "plane_box_contacts",
     # re-exported
@@ -131,13 +132,31 @@ def _polytope(t):
     return t == T_BOX or t == T_MESH
 
 
+@njit(cache=True, inline="always")
+def _scratch_lengths(cap, fmax):
+    # The float64 fields of `carve_scratch`, in order: their lengths (the one place the layout is
+    # counted; `scratch_sizes` sums them, `carve_scratch` walks them). ``poly``/``tmp`` hold a
+    # face clipped by another: at most ``2 fmax + 8`` vertices.
+    npoly = 2 * fmax + 8
+    return (3 * cap, cap, 4 * MAX_PER_PAIR, 3, BOX_WS, 6, 3 * fmax, fmax, 3 * fmax, 3 * fmax, 3 * npoly,
+            3 * npoly, 3 * 32, 3 * 32, 3, 3, 3, OUT_SIZE, 3)
+
+
+# The int64 fields of `carve_scratch`: ``sel`` (4), ``cand1`` and ``cand2`` (32 each).
+_SCRATCH_INT = (4, 32, 32)
+
+
 @njit(cache=True)
 def scratch_sizes(cap, fmax):
     """Float64 and int64 entries of `collide_pairs`' scratch (`carve_scratch`), for ``cap`` support
     points of a geom at most and ``fmax`` vertices of a hull face at most (at least 4)."""
-    nf = (4 * cap + MAX_PER_PAIR * 4 + 3 + BOX_WS + 6 + 3 * 3 * fmax + fmax + 2 * 3 * (2 * fmax + 8) + 2 * 32 * 3
-          + 9 + OUT_SIZE + 3)
-    return nf, 4 + 2 * 32
+    nf = 0
+    for n in _scratch_lengths(cap, fmax):
+        nf += n
+    ni = 0
+    for n in _SCRATCH_INT:
+        ni += n
+    return nf, ni
 
 
 @njit(cache=True)
@@ -148,48 +167,52 @@ def carve_scratch(wsf, wsi, cap, fmax):
     cand1, cand2, cnrm1, cnrm2, pa, pb, nv, out, d0)``; ``sel`` and ``d0`` are zeroed (``d0`` is
     GJK's cold start, zeros), the rest is written before it is read.
     """
+    (n_cand, n_dep, n_res, n_bnrm, n_bws, n_seg, n_pcand, n_pdep, n_face1, n_face2, n_poly, n_tmp, n_cnrm1,
+     n_cnrm2, n_pa, n_pb, n_nv, n_out, n_d0) = _scratch_lengths(cap, fmax)
     o = 0
-    cand = wsf[o:o + 3 * cap].reshape((cap, 3))
-    o += 3 * cap
-    dep = wsf[o:o + cap]
-    o += cap
-    res = wsf[o:o + 4 * MAX_PER_PAIR].reshape((MAX_PER_PAIR, 4))
-    o += 4 * MAX_PER_PAIR
-    bnrm = wsf[o:o + 3]
-    o += 3
-    bws = wsf[o:o + BOX_WS]
-    o += BOX_WS
-    seg = wsf[o:o + 6].reshape((2, 3))
-    o += 6
-    pcand = wsf[o:o + 3 * fmax].reshape((fmax, 3))
-    o += 3 * fmax
-    pdep = wsf[o:o + fmax]
-    o += fmax
-    face1 = wsf[o:o + 3 * fmax].reshape((fmax, 3))
-    o += 3 * fmax
-    face2 = wsf[o:o + 3 * fmax].reshape((fmax, 3))
-    o += 3 * fmax
-    npoly = 2 * fmax + 8
-    poly = wsf[o:o + 3 * npoly].reshape((npoly, 3))
-    o += 3 * npoly
-    tmp = wsf[o:o + 3 * npoly].reshape((npoly, 3))
-    o += 3 * npoly
-    cnrm1 = wsf[o:o + 96].reshape((32, 3))
-    o += 96
-    cnrm2 = wsf[o:o + 96].reshape((32, 3))
-    o += 96
-    pa = wsf[o:o + 3]
-    pb = wsf[o + 3:o + 6]
-    nv = wsf[o + 6:o + 9]
-    o += 9
-    out = wsf[o:o + OUT_SIZE]
-    o += OUT_SIZE
-    d0 = wsf[o:o + 3]
+    cand = wsf[o:o + n_cand].reshape((n_cand // 3, 3))
+    o += n_cand
+    dep = wsf[o:o + n_dep]
+    o += n_dep
+    res = wsf[o:o + n_res].reshape((n_res // 4, 4))
+    o += n_res
+    bnrm = wsf[o:o + n_bnrm]
+    o += n_bnrm
+    bws = wsf[o:o + n_bws]
+    o += n_bws
+    seg = wsf[o:o + n_seg].reshape((2, 3))
+    o += n_seg
+    pcand = wsf[o:o + n_pcand].reshape((n_pcand // 3, 3))
+    o += n_pcand
+    pdep = wsf[o:o + n_pdep]
+    o += n_pdep
+    face1 = wsf[o:o + n_face1].reshape((n_face1 // 3, 3))
+    o += n_face1
+    face2 = wsf[o:o + n_face2].reshape((n_face2 // 3, 3))
+    o += n_face2
+    poly = wsf[o:o + n_poly].reshape((n_poly // 3, 3))
+    o += n_poly
+    tmp = wsf[o:o + n_tmp].reshape((n_tmp // 3, 3))
+    o += n_tmp
+    cnrm1 = wsf[o:o + n_cnrm1].reshape((n_cnrm1 // 3, 3))
+    o += n_cnrm1
+    cnrm2 = wsf[o:o + n_cnrm2].reshape((n_cnrm2 // 3, 3))
+    o += n_cnrm2
+    pa = wsf[o:o + n_pa]
+    o += n_pa
+    pb = wsf[o:o + n_pb]
+    o += n_pb
+    nv = wsf[o:o + n_nv]
+    o += n_nv
+    out = wsf[o:o + n_out]
+    o += n_out
+    d0 = wsf[o:o + n_d0]
     d0[:] = 0.0
-    sel = wsi[0:4]
+    n_sel, n_cand1, n_cand2 = _SCRATCH_INT
+    sel = wsi[0:n_sel]
     sel[:] = 0
-    cand1 = wsi[4:36]
-    cand2 = wsi[36:68]
+    cand1 = wsi[n_sel:n_sel + n_cand1]
+    cand2 = wsi[n_sel + n_cand1:n_sel + n_cand1 + n_cand2]
     return (cand, dep, sel, res, bnrm, bws, seg, pcand, pdep, face1, face2, poly, tmp, cand1, cand2, cnrm1, cnrm2,
             pa, pb, nv, out, d0)
 
@@ -491,6 +514,15 @@ S_NBR_START, S_NBR, S_F_VIDX = range(30, 33)  # int32: t32
 N_SLOTS = 33
 # ti's header: the slots' (offset, rows), then the scratch's ``cap`` and ``fmax`` (`scratch_caps`).
 TI_HEADER = 2 * N_SLOTS + 2
+# Each slot's buffer (0: tf, 1: ti, 2: t8, 3: t32) and the buffers' dtypes, in `collide_packed`'s order.
+SLOT_BUFFER = tuple(0 if s <= S_F_OFFSET else 1 if s <= S_F_VNUM else 2 if s <= S_GTYPE else 3 for s in range(N_SLOTS))
+BUFFER_DTYPES = (np.dtype(np.float64), np.dtype(np.int64), np.dtype(np.int8), np.dtype(np.int32))
+# Columns of each slot's rows (1: a flat array; ``prm`` (G, 4), points and face vertices (N, 3), ...).
+SLOT_COLS = tuple(4 if s == S_PRM else 3 if s in (S_PTS, S_HALF, S_HV, S_F_NORMAL) else 1 for s in range(N_SLOTS))
+
+# `collide_packed`'s float output ``out_f`` for ``M`` contacts at most: field ``F_X`` begins at
+# ``F_X * M`` (``dist (M,)``, ``pos (M, 3)``, ``normal (M, 3)``, ``margin (M,)``); ``F_END * M`` long.
+F_DIST, F_POS, F_NORMAL, F_MARGIN, F_END = 0, 1, 4, 7, 8
 
 
 
@@ -501,9 +533,10 @@ def _slot(buf, ti, s):
 
 
 @njit(cache=True, inline="always")
-def _slot2(buf, ti, s, c):
+def _slot2(buf, ti, s):
     o = ti[2 * s]
     n = ti[2 * s + 1]
+    c = SLOT_COLS[s]
     return buf[o:o + n * c].reshape((n, c))
 
 
@@ -526,10 +559,10 @@ def collide_packed(pairs, xpos, xmat, tf, ti, t8, t32, override, o_margin, wsf, 
     wsi : (ni,) int64
         The scratch (`scratch_sizes` of ``ti``'s ``cap``, ``fmax``), overwritten.
     out_geom : (M, 2) int32
-    out_f : (8 M,) float64
+    out_f : (F_END M,) float64
         ``M`` at least `MAX_PER_PAIR` times the contacts a pair may make times ``K``; receives the
         contacts, ``out_f`` as ``dist (M,)``, ``pos (M, 3)``, ``normal (M, 3)``, ``margin (M,)``
-        one after another.
+        from ``F_DIST M``, ``F_POS M``, ``F_NORMAL M``, ``F_MARGIN M`` on.
     skipped : (K,) bool
 
     Returns
@@ -543,19 +576,19 @@ def collide_packed(pairs, xpos, xmat, tf, ti, t8, t32, override, o_margin, wsf, 
         borrow(t8), borrow(t32)
     wsf, wsi, out_geom, out_f, skipped = borrow(wsf), borrow(wsi), borrow(out_geom), borrow(out_f), borrow(skipped)
     gtab = (_slot(t8, ti, S_CLS), _slot(t8, ti, S_RULE), _slot(t8, ti, S_BELOW).view(np.bool_),
-            _slot(tf, ti, S_RBOUND), _slot(tf, ti, S_SIZE), _slot(t8, ti, S_GTYPE), _slot2(tf, ti, S_HALF, 3))
-    shapes = (_slot(ti, ti, S_KIND), _slot2(tf, ti, S_PRM, 4), _slot2(tf, ti, S_PTS, 3), _slot(ti, ti, S_PTS_ADR),
+            _slot(tf, ti, S_RBOUND), _slot(tf, ti, S_SIZE), _slot(t8, ti, S_GTYPE), _slot2(tf, ti, S_HALF))
+    shapes = (_slot(ti, ti, S_KIND), _slot2(tf, ti, S_PRM), _slot2(tf, ti, S_PTS), _slot(ti, ti, S_PTS_ADR),
               _slot(ti, ti, S_PTS_NUM), _slot(t32, ti, S_NBR_START), _slot(ti, ti, S_NBR_START_ADR),
               _slot(ti, ti, S_NBR_START_NUM), _slot(t32, ti, S_NBR), _slot(ti, ti, S_NBR_ADR),
               _slot(ti, ti, S_NBR_NUM))
     margins = (_slot(tf, ti, S_GEOM_MARGIN), _slot(tf, ti, S_GEOM_GAP), _slot(ti, ti, S_PAIR_KEY),
                _slot(tf, ti, S_PAIR_MARGIN), _slot(tf, ti, S_PAIR_GAP), override, o_margin)
-    faces = (_slot(ti, ti, S_HV_ADR), _slot(ti, ti, S_HV_NUM), _slot2(tf, ti, S_HV, 3), _slot(ti, ti, S_F_ADR),
-             _slot(ti, ti, S_F_NUM), _slot2(tf, ti, S_F_NORMAL, 3), _slot(tf, ti, S_F_OFFSET),
+    faces = (_slot(ti, ti, S_HV_ADR), _slot(ti, ti, S_HV_NUM), _slot2(tf, ti, S_HV), _slot(ti, ti, S_F_ADR),
+             _slot(ti, ti, S_F_NUM), _slot2(tf, ti, S_F_NORMAL), _slot(tf, ti, S_F_OFFSET),
              _slot(ti, ti, S_F_VADR), _slot(ti, ti, S_F_VNUM), _slot(t32, ti, S_F_VIDX))
     ws = carve_scratch(wsf, wsi, ti[2 * N_SLOTS], ti[2 * N_SLOTS + 1])
-    outs = (out_geom, out_f[0:M], out_f[M:4 * M].reshape((M, 3)), out_f[4 * M:7 * M].reshape((M, 3)),
-            out_f[7 * M:8 * M], skipped)
+    outs = (out_geom, out_f[F_DIST * M:(F_DIST + 1) * M], out_f[F_POS * M:(F_POS + 3) * M].reshape((M, 3)),
+            out_f[F_NORMAL * M:(F_NORMAL + 3) * M].reshape((M, 3)), out_f[F_MARGIN * M:(F_MARGIN + 1) * M], skipped)
     return _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs)
 
 
