@@ -14,8 +14,6 @@ never wrong; ``distance`` is the estimate the witnesses give, inside the bracket
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
 from . import hull as _hull
@@ -28,11 +26,11 @@ __all__ = ["Distance", "ORTHONORMAL_TOL", "distance"]
 # Largest |R^T R - I| entry a pose's rotation may have: float32-rounded rotations (~1e-7) pass, a
 # scaled or sheared matrix does not (the narrow phase takes rigid poses; scale the shape instead).
 ORTHONORMAL_TOL = 1e-6
+_LIMIT = float(_hull.MAX_COORDINATE)
 
 
-@dataclass(frozen=True, eq=False)
 class Distance:
-    """Signed distance of two convex sets, its witnesses and a certified bracket.
+    """Signed distance of two convex sets, its witnesses and a certified bracket (immutable).
 
     Attributes
     ----------
@@ -50,14 +48,71 @@ class Distance:
         Support vertices last used on A and B (hill-climb starts for a warm query).
     """
 
-    distance: float
-    point_a: np.ndarray
-    point_b: np.ndarray
-    normal: np.ndarray
-    lower: float
-    upper: float
-    iterations: int
-    hints: tuple = field(default=(-1, -1), repr=False)
+    # The kernel's output array is the whole state: building a result is one attribute store
+    # (a frozen dataclass's was a setattr per field), and each field is read from it on access.
+    # The vectors are views of it.
+    __slots__ = ("_out",)
+
+    def __init__(self, distance: float, point_a, point_b, normal, lower: float, upper: float,
+                 iterations: int, hints: tuple = (-1, -1)):
+        out = np.zeros(_kd.OUT_SIZE)
+        out[[_kd.OUT_DISTANCE, _kd.OUT_LOWER, _kd.OUT_UPPER, _kd.OUT_ITERATIONS, _kd.OUT_HINT_A, _kd.OUT_HINT_B]] = (
+            distance, lower, upper, iterations, hints[0], hints[1])
+        out[_kd.OUT_POINT_A:_kd.OUT_POINT_A + 3] = point_a
+        out[_kd.OUT_POINT_B:_kd.OUT_POINT_B + 3] = point_b
+        out[_kd.OUT_NORMAL:_kd.OUT_NORMAL + 3] = normal
+        _set(self, "_out", out)
+
+    def __setattr__(self, name, value):
+        raise AttributeError(f"Distance is immutable: cannot set {name!r}")
+
+    def __reduce__(self):
+        return (_from_out, (self._out.copy(),))
+
+    def __repr__(self) -> str:
+        return (f"Distance(distance={self.distance!r}, point_a={self.point_a!r}, point_b={self.point_b!r}, "
+                f"normal={self.normal!r}, lower={self.lower!r}, upper={self.upper!r}, "
+                f"iterations={self.iterations!r})")
+
+    @property
+    def distance(self) -> float:
+        """Signed distance (float)."""
+        return self._out.item(_kd.OUT_DISTANCE)
+
+    @property
+    def lower(self) -> float:
+        """Certified lower bound of the signed distance (float)."""
+        return self._out.item(_kd.OUT_LOWER)
+
+    @property
+    def upper(self) -> float:
+        """Certified upper bound of the signed distance (float)."""
+        return self._out.item(_kd.OUT_UPPER)
+
+    @property
+    def point_a(self) -> np.ndarray:
+        """(3,) float64: the witness point on A, world frame."""
+        return self._out[_kd.OUT_POINT_A:_kd.OUT_POINT_A + 3]
+
+    @property
+    def point_b(self) -> np.ndarray:
+        """(3,) float64: the witness point on B, world frame."""
+        return self._out[_kd.OUT_POINT_B:_kd.OUT_POINT_B + 3]
+
+    @property
+    def normal(self) -> np.ndarray:
+        """(3,) float64: unit direction from A to B."""
+        return self._out[_kd.OUT_NORMAL:_kd.OUT_NORMAL + 3]
+
+    @property
+    def iterations(self) -> int:
+        """GJK iterations plus EPA expansions (int)."""
+        return int(self._out.item(_kd.OUT_ITERATIONS))
+
+    @property
+    def hints(self) -> tuple:
+        """(int, int): the support vertices last used on A and B."""
+        return int(self._out.item(_kd.OUT_HINT_A)), int(self._out.item(_kd.OUT_HINT_B))
 
     @property
     def gap(self) -> float:
@@ -65,30 +120,47 @@ class Distance:
         return self.upper - self.lower
 
 
-# numba compiles `checked_distance` once per combination of its arrays' writeable flags (a full
-# GJK + EPA each time): the poses and the warm direction reach it writable, always (these two
-# are read by the kernel only), and `SupportData.points` read-only, always.
+_set = object.__setattr__
+_new = object.__new__
+
+
+def _from_out(out: np.ndarray) -> Distance:
+    # A Distance on a filled output array (the kernel's, or a pickled one's copy).
+    r = _new(Distance)
+    _set(r, "_out", out)
+    return r
+
+
+# numba compiles a kernel once per combination of its arguments' types, writeable flags and
+# layouts included (a full GJK + EPA each time: tests/bench/compile_log.py). `query` has one
+# signature: every array reaches it float64 (the descriptors int64), C-contiguous, aligned and
+# writable; anything else is copied into that form first (`_pose`), and
+# tests/test_distance_inputs.py checks that no accepted input adds a signature.
 _EYE = np.eye(3)
 _ZERO = np.zeros(3)
+_COLD = np.zeros(_kd.OUT_SIZE)  # a "previous result" with a zero normal: a cold start
+_COLD[[_kd.OUT_HINT_A, _kd.OUT_HINT_B]] = -1.0
+_F64 = np.dtype(np.float64)
+_ND = np.ndarray
 
 
 def _pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
-    # (rotation, translation) as C-contiguous float64 arrays; checked by the kernel (`_raise`).
-    if pose is None:
-        return _EYE, _ZERO
-    if type(pose) is tuple and len(pose) == 2:
-        r, t = pose
-        if (type(r) is np.ndarray and type(t) is np.ndarray and r.dtype == np.float64
-                and t.dtype == np.float64 and r.shape == (3, 3) and t.shape == (3,)
-                and r.flags.c_contiguous and t.flags.c_contiguous and r.flags.writeable
-                and t.flags.writeable):
-            return r, t  # the common case, without copies
-    rot, pos = as_affine(pose, name=name)
+    # Any accepted pose as (rotation, translation) in `query`'s one form (copies), or the
+    # ValueError naming what is wrong with it. Finiteness, rigidity and range are the kernel's
+    # checks (`_raise`).
+    if isinstance(pose, tuple) and len(pose) == 2:
+        rot = as_array(pose[0], f"{name} rotation", (3, 3))
+        pos = as_array(pose[1], f"{name} translation", (3,))
+    else:
+        rot, pos = as_affine(pose, name=name)
     return np.array(rot, dtype=np.float64, order="C"), np.array(pos, dtype=np.float64, order="C")
 
 
 def _raise(err: int, name: str, rot: np.ndarray, pos: np.ndarray, size: float) -> None:
-    # The ValueError of `collide._kernels.distance.pose_error`'s code ``err`` for a pose.
+    # The ValueError of `collide._kernels.distance.query`'s code ``err`` (1-4) for a pose.
+    if err == 4:
+        _pose((rot, pos), name)  # names the wrong shape
+        raise AssertionError("unreachable: a pose of the right shapes")
     if err == 1:
         raise ValueError(f"{name}: non-finite value (NaN or inf) in the rotation or translation")
     if err == 2:
@@ -101,8 +173,40 @@ def _raise(err: int, name: str, rot: np.ndarray, pos: np.ndarray, size: float) -
                      f"{_hull.MAX_COORDINATE:g} (squared distances would overflow float64)")
 
 
-_new = object.__new__
-_OUT_A, _OUT_N = _kd.OUT_POINT_A, _kd.OUT_NORMAL + 3
+# Per shape (keyed by identity, holding the shape so that its id is not reused; shapes are
+# immutable): its SupportData, which owns the arrays, and the descriptor `query` reads them by.
+_CACHE_SIZE = 1024
+_shapes: dict = {}
+
+
+def _described(shape, name: str) -> tuple:
+    # (shape, SupportData, descriptor, size) of a shape, cached.
+    hit = _shapes.get(id(shape))
+    if hit is not None and hit[0] is shape:
+        return hit
+    try:
+        data = support_data(shape)
+    except ValueError as exc:  # an empty cloud, coordinates out of range, an unknown type
+        raise ValueError(f"shape {name}: {str(exc).removeprefix('shape: ')}") from None
+    desc = np.zeros(_kd.DESC_SIZE, np.int64)
+    desc[_kd.DESC_KIND] = data.kind
+    for n_slot, slot, arr, dtype in ((_kd.DESC_NPTS, _kd.DESC_PTS, data.points, _F64),
+                                     (_kd.DESC_NSTART, _kd.DESC_START, data.nbr_start, np.int32),
+                                     (_kd.DESC_NNBR, _kd.DESC_NBR, data.nbr, np.int32),
+                                     (None, _kd.DESC_PRM, data.prm, _F64)):
+        # `query` views each array by its address: it must be C-contiguous of this dtype, and the
+        # entry below holds it (through `data`) for as long as the descriptor lives.
+        want = (4,) if n_slot is None else (len(arr), 3) if slot == _kd.DESC_PTS else (len(arr),)
+        if arr.dtype != dtype or not arr.flags.c_contiguous or arr.shape != want:
+            raise AssertionError(f"SupportData: a {arr.dtype} array of shape {arr.shape}, not C-contiguous {dtype}")
+        if n_slot is not None:
+            desc[n_slot] = len(arr)
+        desc[slot] = arr.ctypes.data
+    entry = (shape, data, desc, data.size)
+    if len(_shapes) >= _CACHE_SIZE:
+        _shapes.pop(next(iter(_shapes)), None)  # the oldest
+    _shapes[id(shape)] = entry
+    return entry
 
 
 def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = 1e-12,
@@ -141,34 +245,41 @@ def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = 1e
     >>> round(r.distance, 12), [round(float(x), 12) + 0.0 for x in r.normal]
     (1.5, [1.0, 0.0, 0.0])
     """
-    da = support_data(a)
-    db = support_data(b)
-    ra, ta = _pose(pose_a, "pose_a")
-    rb, tb = _pose(pose_b, "pose_b")
-    hint_a = hint_b = -1  # cold: the hill-climbs start from the best extreme vertex
+    _, da, desc_a, size_a = _described(a, "a")
+    _, db, desc_b, size_b = _described(b, "b")
+    # The common case without copies or conversions: (rotation, translation) ndarrays in
+    # `query`'s one form (their shapes are the kernel's first check).
+    if pose_a is None:
+        ra, ta = _EYE, _ZERO
+    elif not (type(pose_a) is tuple and len(pose_a) == 2 and type(ra := pose_a[0]) is _ND
+              and type(ta := pose_a[1]) is _ND and ra.dtype is _F64 and ta.dtype is _F64 and ra.ndim == 2
+              and ta.ndim == 1 and ra.flags.carray and ta.flags.carray):
+        ra, ta = _pose(pose_a, "pose_a")
+    if pose_b is None:
+        rb, tb = _EYE, _ZERO
+    elif not (type(pose_b) is tuple and len(pose_b) == 2 and type(rb := pose_b[0]) is _ND
+              and type(tb := pose_b[1]) is _ND and rb.dtype is _F64 and tb.dtype is _F64 and rb.ndim == 2
+              and tb.ndim == 1 and rb.flags.carray and tb.flags.carray):
+        rb, tb = _pose(pose_b, "pose_b")
     if warm is None:
-        d0 = _ZERO
-    elif isinstance(warm, Distance):
-        d0 = warm.normal if warm.normal.flags.writeable else np.array(warm.normal)
-        hint_a, hint_b = warm.hints
+        w = _COLD
+    elif type(warm) is Distance:
+        w = warm._out  # its normal and hints, read by the kernel
     else:
-        d0 = np.array(as_array(warm, "warm", (3,)))  # a writable copy (one signature)
+        w = np.zeros(_kd.OUT_SIZE)
+        w[_kd.OUT_NORMAL:_kd.OUT_NORMAL + 3] = as_array(warm, "warm", (3,))
+        w[_kd.OUT_HINT_A] = w[_kd.OUT_HINT_B] = -1.0
     if not (type(tolerance) is float and 0.0 < tolerance < 1.0):
         tolerance = as_positive(tolerance, "tolerance")
     if not (type(max_iterations) is int and 4 <= max_iterations <= 100_000):
         max_iterations = as_count(max_iterations, "max_iterations", 4, 100_000)
     out = np.empty(_kd.OUT_SIZE)
-    err = _kd.checked_distance(da.posed(ra, ta), db.posed(rb, tb), da.size, db.size, ORTHONORMAL_TOL,
-                               _hull.MAX_COORDINATE, tolerance * (da.size + db.size), d0, hint_a, hint_b,
-                               max_iterations, out)
+    err = _kd.query(desc_a, desc_b, ra, ta, rb, tb, size_a, size_b, ORTHONORMAL_TOL, _LIMIT,
+                    tolerance * (size_a + size_b), w, max_iterations, out)
     if err:
         if err < 10:
-            _raise(err, "pose_a", ra, ta, da.size)
-        _raise(err - 10, "pose_b", rb, tb, db.size)
-    vec = out[_OUT_A:_OUT_N].copy()  # one copy; the fields are its views
-    dist, lower, upper, _, _, _, _, _, _, _, _, _, _, iters, ha, hb = out.tolist()
-    # Built without the frozen dataclass's __init__ (a setattr per field): the same fields.
+            _raise(err, "pose_a", ra, ta, size_a)
+        _raise(err - 10, "pose_b", rb, tb, size_b)
     r = _new(Distance)
-    r.__dict__.update(distance=dist, point_a=vec[0:3], point_b=vec[3:6], normal=vec[6:9], lower=lower,
-                      upper=upper, iterations=int(iters), hints=(int(ha), int(hb)))
+    _set(r, "_out", out)
     return r

@@ -19,6 +19,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ._ptr import f64_ptr, i32_ptr, view_of
 from .epa import DEGENERATE, epa
 from .gjk import _FLOOR, OVERLAP, gjk
 from .support import POINTS
@@ -250,21 +251,79 @@ def pose_error(rot, pos, tol, size, limit):
     return 0
 
 
+# Slots of a shape's descriptor for `query` (an int64 array; `collide.signed_distance` builds it
+# once per shape from its `collide.support.SupportData`): the kind, then the length and address
+# of each array of the shape tuple.
+DESC_KIND, DESC_NPTS, DESC_PTS, DESC_NSTART, DESC_START, DESC_NNBR, DESC_NBR, DESC_PRM = range(8)
+DESC_SIZE = 8
+
+
+@njit(cache=True, inline="always")
+def _described(desc, rot, pos):
+    # The shape tuple of a descriptor at a pose: views of the SupportData's arrays, made from
+    # their addresses (no reference count; the caller holds the arrays for the call).
+    return (desc[DESC_KIND], view_of(f64_ptr(desc[DESC_PRM]), 4),
+            view_of(f64_ptr(desc[DESC_PTS]), (desc[DESC_NPTS], 3)),
+            view_of(i32_ptr(desc[DESC_START]), desc[DESC_NSTART]),
+            view_of(i32_ptr(desc[DESC_NBR]), desc[DESC_NNBR]), rot, pos)
+
+
 @njit(cache=True)
-def checked_distance(sa, sb, size_a, size_b, ortho_tol, limit, tol, d0, hint_a, hint_b, max_iter, out):
-    """`pose_error` on both poses, then `pair_distance`: the public call's one kernel call.
+def query(desc_a, desc_b, rot_a, pos_a, rot_b, pos_b, size_a, size_b, ortho_tol, limit, tol, warm, max_iter, out):
+    """`collide.distance`'s one kernel call: both poses checked, then `pair_distance`.
+
+    numba's dispatch pays for every array argument, and most for tuples of arrays (unboxed
+    element by element; tests/bench/distance.txt), so the shapes come as two small descriptors
+    and their tuples are made here.
+
+    Parameters
+    ----------
+    desc_a, desc_b : (8,) int64
+        Shape descriptors (the ``DESC_*`` slots): kind, and length and address of ``pts``
+        ``(n, 3) float64``, ``nbr_start``, ``nbr`` ``int32`` and ``prm`` ``(4,) float64``, all
+        C-contiguous and alive for the call.
+    rot_a, pos_a, rot_b, pos_b : (3, 3) and (3,) float64, C-contiguous
+        The poses; any other shape is refused (code 4), not read.
+    size_a, size_b : float
+        The shapes' sizes (`collide.support.SupportData.size`).
+    ortho_tol, limit : float
+        `pose_error`'s tolerance and coordinate limit.
+    tol, max_iter, out
+        As in `pair_distance`.
+    warm : (16,) float64
+        A previous ``out`` of the same pair: its normal is the first search direction and its
+        hints the climbs' starts (a warm start); a zero or non-finite normal: a cold start.
 
     Returns
     -------
     int
-        0 (``out`` filled), or ``pose_error``'s code of the first bad pose: ``1..3`` for A,
-        ``11..13`` for B (``out`` untouched).
+        0 (``out`` filled), or the first bad pose's code: ``1..3`` `pose_error`'s, 4 a wrong
+        shape, for A; ``11..14`` for B (``out`` untouched).
     """
-    err = pose_error(sa[5], sa[6], ortho_tol, size_a, limit)
+    if rot_a.shape[0] != 3 or rot_a.shape[1] != 3 or pos_a.shape[0] != 3:
+        return 4
+    err = pose_error(rot_a, pos_a, ortho_tol, size_a, limit)
     if err:
         return err
-    err = pose_error(sb[5], sb[6], ortho_tol, size_b, limit)
+    if rot_b.shape[0] != 3 or rot_b.shape[1] != 3 or pos_b.shape[0] != 3:
+        return 14
+    err = pose_error(rot_b, pos_b, ortho_tol, size_b, limit)
     if err:
         return 10 + err
-    pair_distance(sa, sb, tol, d0, hint_a, hint_b, max_iter, out)
+    hint_a = hint_b = -1
+    d0 = np.zeros(3)
+    if warm.shape[0] == OUT_SIZE:
+        for k in range(3):
+            d0[k] = warm[OUT_NORMAL + k]
+        if not (math.isfinite(d0[0]) and math.isfinite(d0[1]) and math.isfinite(d0[2])):
+            d0[:] = 0.0
+        elif d0[0] != 0.0 or d0[1] != 0.0 or d0[2] != 0.0:
+            # A hint out of range (a hand-built Distance's) makes a cold climb; a float beyond
+            # int64 (or NaN) is not converted at all.
+            if -2.0 < warm[OUT_HINT_A] < 2.0 ** 31:
+                hint_a = int(warm[OUT_HINT_A])
+            if -2.0 < warm[OUT_HINT_B] < 2.0 ** 31:
+                hint_b = int(warm[OUT_HINT_B])
+    pair_distance(_described(desc_a, rot_a, pos_a), _described(desc_b, rot_b, pos_b), tol, d0, hint_a, hint_b,
+                  max_iter, out)
     return 0
