@@ -21,7 +21,7 @@ from numba import njit
 
 from ._ptr import f64_ptr, i32_ptr, view_of
 from .epa import DEGENERATE, epa
-from .gjk import _FLOOR, OVERLAP, gjk
+from .gjk import _FLOOR, OVERLAP, gjk_within
 from .support import POINTS
 
 _EPS = float(np.finfo(np.float64).eps)
@@ -127,6 +127,13 @@ def segment_distance(sa, sb, tol, out):
 
 @njit(cache=True)
 def pair_distance(sa, sb, tol, d0, hint_a, hint_b, max_iter, out):
+    """Signed distance of two posed shapes (core ⊕ ball), its witnesses and a certified bracket:
+    `pair_distance_within` with no cutoff (parameters as there)."""
+    pair_distance_within(sa, sb, tol, math.inf, d0, hint_a, hint_b, max_iter, out)
+
+
+@njit(cache=True)
+def pair_distance_within(sa, sb, tol, cutoff, d0, hint_a, hint_b, max_iter, out):
     """Signed distance of two posed shapes (core ⊕ ball), its witnesses and a certified bracket.
 
     Parameters
@@ -136,6 +143,11 @@ def pair_distance(sa, sb, tol, d0, hint_a, hint_b, max_iter, out):
         ``prm[3]`` is the ball radius.
     tol : float
         Absolute convergence tolerance of GJK and EPA (the bracket's target width).
+    cutoff : float
+        Distances beyond it are not needed (a contact's caller: its contact distance): GJK stops
+        once its certified lower bound exceeds it (`collide._kernels.gjk.gjk_within`), and the
+        distance reported is then only known to exceed ``cutoff`` (``lower <= distance <=
+        upper`` still holds, the bracket wider than ``tol``); ``inf``: the full query.
     d0 : (3,) float64
         First search direction, from A towards B (a warm start: the last normal); zeros for the
         difference of the two positions.
@@ -164,7 +176,9 @@ def pair_distance(sa, sb, tol, d0, hint_a, hint_b, max_iter, out):
     hints = np.empty(2, np.int64)
     hints[0] = hint_a
     hints[1] = hint_b
-    status, n, lower, scale, iters = gjk(sa, sb, d0, hints, tol, max_iter, W, WA, WB, lam, v, dirn, pa, pb)
+    r = sa[1][3] + sb[1][3]
+    status, n, lower, scale, iters = gjk_within(sa, sb, d0, hints, tol, cutoff + r, max_iter, W, WA, WB, lam, v,
+                                                dirn, pa, pb)
     pa[:] = 0.0
     pb[:] = 0.0
     for i in range(n):

@@ -260,6 +260,13 @@ def _direction(W, n, v):
 
 @njit(cache=True)
 def gjk(sa, sb, d0, hints, tol, max_iter, W, WA, WB, lam, v, dirn, pa, pb):
+    """GJK distance of the cores of two posed shapes, with a certified lower bound: `gjk_within`
+    with no cutoff (parameters and returns as there)."""
+    return gjk_within(sa, sb, d0, hints, tol, math.inf, max_iter, W, WA, WB, lam, v, dirn, pa, pb)
+
+
+@njit(cache=True)
+def gjk_within(sa, sb, d0, hints, tol, cutoff, max_iter, W, WA, WB, lam, v, dirn, pa, pb):
     """GJK distance of the cores of two posed shapes, with a certified lower bound.
 
     Parameters
@@ -273,6 +280,11 @@ def gjk(sa, sb, d0, hints, tol, max_iter, W, WA, WB, lam, v, dirn, pa, pb):
     tol : float
         Absolute tolerance: stop when ``|v| - lower <= tol``, or call the sets overlapping when
         ``|v| <= tol``.
+    cutoff : float
+        Stop, `SEPARATED`, as soon as the certified lower bound exceeds it (``inf``: never): a
+        contact's caller needs no distance beyond its contact distance, as MuJoCo's GJK stops at
+        its ``dist_cutoff`` (engine_collision_gjk.c, ``gjk``). The simplex then holds at least
+        one vertex and ``|v| >= lower``, so the distance it reports exceeds ``cutoff`` too.
     max_iter : int
         Iteration cap (the bounds stay valid when it is reached).
     W, WA, WB : (4, 3) float64
@@ -321,6 +333,15 @@ def gjk(sa, sb, d0, hints, tol, max_iter, W, WA, WB, lam, v, dirn, pa, pb):
         w0, w1, w2 = pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]
         dn = math.sqrt(dx * dx + dy * dy + dz * dz)
         lower = max(lower, -(dx * w0 + dy * w1 + dz * w2) / dn)  # sd >= -h_C(d / |d|)
+        if lower > cutoff:
+            status = SEPARATED
+            if n == 0:  # the support alone: a point of C, so |v| >= lower
+                _push(W, WA, WB, 0, pa, pb)
+                n = 1
+                lam[0] = 1.0
+                lam[1] = lam[2] = lam[3] = 0.0
+                v[0], v[1], v[2] = w0, w1, w2
+            break
         if n > 0 and math.sqrt(vv) - lower <= max(tol, _FLOOR * scale):
             status = SEPARATED
             break

@@ -48,7 +48,8 @@ import numpy as np
 from numba import njit
 
 from ._ptr import borrow
-from .distance import OUT_DISTANCE, OUT_NORMAL, OUT_POINT_A, OUT_POINT_B, OUT_SIZE, pair_distance
+from .distance import (OUT_DISTANCE, OUT_NORMAL, OUT_POINT_A, OUT_POINT_B, OUT_SIZE, pair_distance,
+                       pair_distance_within)
 from .faces import BOX_MAX, BOX_WS, box_box, clip_faces
 from .plane import (PLANE_FACE_TOL, RULE_CYLINDER, RULE_POINTS, RULE_SUPPORT, RULE_VERTICES, _plane_cylinder,
                     _support_minus, plane_convex, plane_mesh, reduce_four)
@@ -473,7 +474,10 @@ def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
                         nbr_adr, nbr_num, xpos, xmat)
             s2 = _shape(g2, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
                         nbr_adr, nbr_num, xpos, xmat)
-            pair_distance(s1, s2, CONTACT_TOL * (size[g1] + size[g2]), d0, -1, -1, 128, out)
+            # GJK stops once the pair is certainly beyond its contact distance (by the tolerance:
+            # the converged distance would exceed thr too), as MuJoCo's GJK at its dist_cutoff
+            tol = CONTACT_TOL * (size[g1] + size[g2])
+            pair_distance_within(s1, s2, tol, thr + tol, d0, -1, -1, 128, out)
             d = out[OUT_DISTANCE]
             if d > thr:
                 continue
