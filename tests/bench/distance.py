@@ -5,8 +5,8 @@ meshes whose points are all hull vertices. Per pair, the time of one call (mean 
 the tables give the median over pairs, in microseconds:
 
 - ``collide.distance``: the public call (pose checks, result object included);
-- ``kernel``: `collide._kernels.distance.pair_distance` called from Python on prebuilt shape
-  tuples (numba's dispatch included);
+- ``kernel``: the public call's kernel, `collide._kernels.distance.query`, called from Python
+  on its prebuilt arguments (numba's dispatch and the pose checks included);
 - ``in numba``: the same kernel in a compiled loop (no Python at all), cold (no hint) and warm
   (the previous normal and support vertices, the pose unchanged);
 - ``coal``: ``coal.distance`` on ``coal.Convex`` hulls of the same points (its Python call
@@ -31,6 +31,7 @@ import numpy as np
 from numba import njit
 
 import collide
+from collide import signed_distance as sd
 from collide._kernels import distance as kd
 from collide.support import SupportData, support_data
 from collide.testing.surfaces import random_rotation
@@ -133,7 +134,9 @@ def bench_sizes(rng, lines):
             sa, sb = da.posed(ra, ta), db.posed(rb, tb)
             out = np.empty(kd.OUT_SIZE)
             zero = np.zeros(3)
-            t_kernel = _per_call(lambda: kd.pair_distance(sa, sb, tol, zero, -1, -1, 128, out))
+            ea, eb = sd._described(a, "a"), sd._described(b, "b")
+            t_kernel = _per_call(lambda: kd.query(ea[2], eb[2], ra, ta, rb, tb, ea[3], eb[3], sd.ORTHONORMAL_TOL,
+                                                  sd._LIMIT, tol, sd._COLD, 128, out))
             reps = 2000
             _loop(sa, sb, tol, zero, -1, -1, 1, out)
             t0 = time.perf_counter()
