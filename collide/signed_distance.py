@@ -50,7 +50,8 @@ class Distance:
 
     # The kernel's output array is the whole state: building a result is one attribute store
     # (a frozen dataclass's was a setattr per field), and each field is read from it on access.
-    # The vectors are views of it.
+    # The vectors are views of it. The fields are properties without setters and __slots__
+    # admits no other attribute: assigning to either raises AttributeError.
     __slots__ = ("_out",)
 
     def __init__(self, distance: float, point_a, point_b, normal, lower: float, upper: float,
@@ -61,10 +62,7 @@ class Distance:
         out[_kd.OUT_POINT_A:_kd.OUT_POINT_A + 3] = point_a
         out[_kd.OUT_POINT_B:_kd.OUT_POINT_B + 3] = point_b
         out[_kd.OUT_NORMAL:_kd.OUT_NORMAL + 3] = normal
-        _set(self, "_out", out)
-
-    def __setattr__(self, name, value):
-        raise AttributeError(f"Distance is immutable: cannot set {name!r}")
+        self._out = out
 
     def __reduce__(self):
         return (_from_out, (self._out.copy(),))
@@ -120,14 +118,13 @@ class Distance:
         return self.upper - self.lower
 
 
-_set = object.__setattr__
 _new = object.__new__
 
 
 def _from_out(out: np.ndarray) -> Distance:
-    # A Distance on a filled output array (the kernel's, or a pickled one's copy).
+    # A Distance on a filled output array (a pickled one's copy).
     r = _new(Distance)
-    _set(r, "_out", out)
+    r._out = out
     return r
 
 
@@ -142,6 +139,7 @@ _COLD = np.zeros(_kd.OUT_SIZE)  # a "previous result" with a zero normal: a cold
 _COLD[[_kd.OUT_HINT_A, _kd.OUT_HINT_B]] = -1.0
 _F64 = np.dtype(np.float64)
 _ND = np.ndarray
+_empty, _query, _OUT_SIZE = np.empty, _kd.query, _kd.OUT_SIZE  # bound once: looked up every call
 
 
 def _pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -210,8 +208,11 @@ def _described(shape, name: str) -> tuple:
     return entry
 
 
-def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = 1e-12,
-             max_iterations: int = 128) -> Distance:
+_TOLERANCE, _MAX_ITERATIONS = 1e-12, 128  # the defaults (known valid: not checked again)
+
+
+def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = _TOLERANCE,
+             max_iterations: int = _MAX_ITERATIONS) -> Distance:
     """Signed distance of two convex shapes, with witness points and a certified bracket.
 
     Parameters
@@ -276,17 +277,18 @@ def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = 1e
         w = np.zeros(_kd.OUT_SIZE)
         w[_kd.OUT_NORMAL:_kd.OUT_NORMAL + 3] = as_array(warm, "warm", (3,))
         w[_kd.OUT_HINT_A] = w[_kd.OUT_HINT_B] = -1.0
-    if not (type(tolerance) is float and 0.0 < tolerance < 1.0):
+    if tolerance is not _TOLERANCE and not (type(tolerance) is float and 0.0 < tolerance < 1.0):
         tolerance = as_positive(tolerance, "tolerance")
-    if not (type(max_iterations) is int and 4 <= max_iterations <= 100_000):
+    if max_iterations is not _MAX_ITERATIONS and not (type(max_iterations) is int
+                                                      and 4 <= max_iterations <= 100_000):
         max_iterations = as_count(max_iterations, "max_iterations", 4, 100_000)
-    out = np.empty(_kd.OUT_SIZE)
-    err = _kd.query(desc_a, desc_b, ra, ta, rb, tb, size_a, size_b, ORTHONORMAL_TOL, _LIMIT,
-                    tolerance * (size_a + size_b), w, max_iterations, out)
+    out = _empty(_OUT_SIZE)
+    err = _query(desc_a, desc_b, ra, ta, rb, tb, size_a, size_b, ORTHONORMAL_TOL, _LIMIT,
+                 tolerance * (size_a + size_b), w, max_iterations, out)
     if err:
         if err < 10:
             _raise(err, "pose_a", ra, ta, size_a)
         _raise(err - 10, "pose_b", rb, tb, size_b)
     r = _new(Distance)
-    _set(r, "_out", out)
+    r._out = out
     return r
