@@ -24,6 +24,7 @@ import numpy as np
 
 from . import contacts as _contacts
 from ._kernels import check as _kc
+from ._kernels import check_trees as _kt
 from ._validate import _reject_complex
 
 __all__ = ["CheckResult", "Collider"]
@@ -31,6 +32,13 @@ __all__ = ["CheckResult", "Collider"]
 # Configurations per call of the broad phase and the check kernel: bounds the broad phase's
 # candidate rows held at once (memory), large enough that a call's fixed costs are spread.
 BLOCK = 4096
+# check_batch's early exit by trees (`collide._kernels.check_trees`): used where its pairs are at most
+# TREE_SHARE of the filtered pairs and it decides at least half of the first TREE_SAMPLE
+# configurations; a configuration with a coordinate (or a model with a body offset) beyond TREE_QMAX
+# in magnitude goes the full way (its poses could overflow, which the full path reports).
+TREE_SHARE = 0.5
+TREE_SAMPLE = 256
+TREE_QMAX = 1e6
 
 # MuJoCo's mjtSameFrame (tests/test_check.py checks them against the bindings).
 _SAME_BODY, _SAME_INERTIA, _SAME_BODYROT, _SAME_INERTIAROT = 1, 2, 3, 4
@@ -250,6 +258,7 @@ class Collider:
         self._check_setup = None
         self._geom_setup = (np.ascontiguousarray(model.geom_bodyid, dtype=np.int64),) + _geom_frames(model)
         self._distance_pairs = None  # check_batch's filtered pairs (distance=True), likewise
+        self._tree_pairs = None  # check_batch's early exit by trees (`_trees`), likewise
         self._setup_lock = threading.Lock()
 
     def __repr__(self) -> str:
@@ -359,6 +368,16 @@ class Collider:
                     self._distance_pairs = pairs
         return pairs
 
+    def _trees(self):
+        # check_trees' static arguments (`_tree_pairs`), made once, or False where that early exit
+        # cannot pay: its pairs (inside one tree with joints, or with a static geom) must be at most
+        # TREE_SHARE of the filtered pairs, so that most of the broad phase's work (the pairs between trees) is what a decided configuration
+        # skips. A single robot among obstacles has every pair there and keeps the full path.
+        got = self._tree_pairs
+        if got is None:
+            got = self._tree_pairs = _tree_pairs(self.model, self._filtered())
+        return got
+
     def _qpos(self, qpos) -> np.ndarray:
         # (B, nq) float64, C-contiguous, finite: a ValueError naming the configuration otherwise.
         nq = int(self.model.nq)
@@ -437,16 +456,58 @@ class Collider:
         if B == 0:
             return _result(hit, dist, closest, skipped)
         kin = self._setup_check()
-        dpairs = self._filtered() if distance else np.zeros((0, 2), np.int32)
         workers = max(1, numba.get_num_threads())
         kargs = self.table._kargs
+        rest = None if distance else self._early_trees(q, hit, kin, kargs, workers)
+        if rest is None:
+            self._full(q, None, hit, skipped, dist, closest, distmax, kin, kargs, workers)
+        elif len(rest):  # the configurations the trees left undecided, the full way
+            h = np.zeros(len(rest), np.bool_)
+            k = np.zeros(len(rest), np.bool_)
+            self._full(np.ascontiguousarray(q[rest]), rest, h, k, None, None, distmax, kin, kargs, workers)
+            hit[rest] = h
+            skipped[rest] = k
+        return _result(hit, dist, closest, skipped)
+
+    def _early_trees(self, q, hit, kin, kargs, workers):
+        # The early exit by trees (`_kernels.check_trees`): hit[i] set where it decided
+        # configuration i; returns the indices left to the full path, or None (all of them: the
+        # model's pairs are not worth it, see `_trees`). On a sample first, kept for the rest only
+        # where it decided most of the sample: a decided configuration skips the broad phase, an
+        # undecided one pays the trees' work on top of it.
+        trees = self._trees()
+        if not trees:
+            return None
+        B = len(q)
+        if float(np.abs(self.model.body_pos).max(initial=0.0)) > TREE_QMAX:
+            return None  # poses could overflow: the full path reports what it reports
+        n0 = min(B, TREE_SAMPLE)
+        self._check_trees(q[:n0], trees, kin, kargs, workers, hit[:n0])
+        if 2 * int(np.count_nonzero(hit[:n0])) < n0:
+            return np.concatenate([np.flatnonzero(~hit[:n0]), np.arange(n0, B)])
+        if B > n0:
+            self._check_trees(q[n0:], trees, kin, kargs, workers, hit[n0:])
+        return np.flatnonzero(~hit)
+
+    def _check_trees(self, q, trees, kin, kargs, workers, hit) -> None:
+        chunks = min(len(q), 16 * workers)
+        _kt.check_trees(q, TREE_QMAX, *kin, *trees, chunks, min(workers, chunks), np.zeros(1, np.int64), *kargs, hit)
+
+    def _full(self, q, index, hit, skipped, dist, closest, distmax, kin, kargs, workers) -> None:
+        # The broad phase's candidates, then check_worlds, block by block, into hit, skipped and
+        # (dist is not None: distances asked) dist, closest; q's row i is the caller's
+        # configuration index[i] (None: i), named in an error.
+        distance = dist is not None
+        B = len(q)
+        dpairs = self._filtered() if distance else np.zeros((0, 2), np.int32)
         err = np.zeros(min(B, BLOCK), np.int64)
         scratch_dist = dist if distance else np.empty(0)
         scratch_closest = closest if distance else np.empty((0, 2), np.int32)
+        name = (lambda i: i) if index is None else (lambda i: int(index[i]))
         for s in range(0, B, BLOCK):
             qb = q[s:s + BLOCK]
             nb = len(qb)
-            rows = self._candidates(qb, s)
+            rows = self._candidates(qb, s, name)
             row_start = np.searchsorted(rows[:, 0], np.arange(nb + 1, dtype=np.int32)).astype(np.int64)
             chunks = min(nb, 16 * workers)
             e = err[:nb]
@@ -457,10 +518,9 @@ class Collider:
             if e.any():
                 b = int(np.flatnonzero(e)[0])
                 g = int(e[b] - _kc.ERR_POSE) // 8
-                raise ValueError(f"qpos: configuration {s + b} gives a non-finite pose (NaN or inf) of geom {g}")
-        return _result(hit, dist, closest, skipped)
+                raise ValueError(f"qpos: configuration {name(s + b)} gives a non-finite pose (NaN or inf) of geom {g}")
 
-    def _candidates(self, qb: np.ndarray, first: int) -> np.ndarray:
+    def _candidates(self, qb: np.ndarray, first: int, name=lambda i: i) -> np.ndarray:
         # The batch broad phase's (world, g1, g2) rows of these configurations; a pose it refuses
         # is traced to the configuration (one at a time: only on that error path).
         try:
@@ -470,10 +530,69 @@ class Collider:
                 try:
                     self.broadphase.pairs_batch(self.model, qb[i:i + 1])
                 except ValueError as exc:
-                    raise ValueError(f"qpos: configuration {first + i} gives a pose the broad phase refuses "
+                    raise ValueError(f"qpos: configuration {name(first + i)} gives a pose the broad phase refuses "
                                      f"({exc})") from None
             raise
         return np.ascontiguousarray(rows, dtype=np.int32).reshape(-1, 3)
+
+
+def _tree_pairs(model, pairs: np.ndarray):
+    """`collide._kernels.check_trees`' static arguments, or False where its early exit cannot pay.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+    pairs : (P, 2) int32
+        The filtered geom pairs of the checked subset (`Collider._filtered`).
+
+    Returns
+    -------
+    tuple or False
+        ``(static_span (S, 2) int64, static_geom (Gs,) int32, tree_span (T, 4) int64,
+        tree_geom (Gt,) int32, tree_geom_start (T + 1,) int64, tpairs (K, 2) int32,
+        tpair_start (T + 1,) int64)``: the body spans of the trees without joints and their
+        geoms (with the world body's) in the pairs, the body and joint spans of the trees with
+        joints and their geoms in the pairs, and the pairs inside one of those trees (or with a
+        static geom), grouped by tree. False when fewer than two trees have
+        joints, a tree's bodies or joints are not contiguous, or those pairs are more than
+        `TREE_SHARE` of ``pairs``.
+    """
+    root = np.asarray(model.body_rootid, np.int64)
+    roots = np.unique(root[1:])
+    jnt_body = np.asarray(model.jnt_bodyid, np.int64)
+    static, trees = [], []
+    group = np.full(model.nbody, -1, np.int64)  # a body's tree with joints (-1: none)
+    for r in roots:
+        bodies = np.flatnonzero(root == r)
+        if bodies[0] != r or bodies[-1] - r + 1 != len(bodies):
+            return False
+        lo, hi = int(r), int(r) + len(bodies)
+        joints = np.flatnonzero((jnt_body >= lo) & (jnt_body < hi))
+        if len(joints) == 0:
+            static.append((lo, hi))
+            continue
+        if joints[-1] - joints[0] + 1 != len(joints):
+            return False
+        group[lo:hi] = len(trees)
+        trees.append((lo, hi, int(joints[0]), int(joints[-1]) + 1))
+    if len(trees) < 2 or len(pairs) == 0:
+        return False
+    gt = group[np.asarray(model.geom_bodyid, np.int64)]
+    t1, t2 = gt[pairs[:, 0]], gt[pairs[:, 1]]
+    own = np.where(t1 >= 0, t1, t2)
+    keep = ((t1 == t2) & (t1 >= 0)) | ((t1 < 0) != (t2 < 0))
+    if np.count_nonzero(keep) > TREE_SHARE * len(pairs):
+        return False
+    order = np.argsort(own[keep], kind="stable")
+    tpairs = np.ascontiguousarray(pairs[keep][order], dtype=np.int32)
+    start = np.searchsorted(own[keep][order], np.arange(len(trees) + 1)).astype(np.int64)
+    geoms = np.unique(tpairs)
+    gtree = gt[geoms]
+    tgeom = np.ascontiguousarray(geoms[gtree >= 0][np.argsort(gtree[gtree >= 0], kind="stable")], dtype=np.int32)
+    tgeom_start = np.searchsorted(np.sort(gtree[gtree >= 0]), np.arange(len(trees) + 1)).astype(np.int64)
+    sgeom = np.ascontiguousarray(geoms[gtree < 0], dtype=np.int32)
+    return (np.array(static, np.int64).reshape(-1, 2), sgeom, np.array(trees, np.int64).reshape(-1, 4), tgeom,
+            tgeom_start, tpairs, start)
 
 
 def _result(hit, dist, closest, skipped) -> CheckResult:

@@ -40,7 +40,13 @@ def _half_angles(q, qpos0, jnt_type, jnt_qposadr, sc):
     # a call to libm inside it spilled every live value of the pose chain around the call (all
     # float registers are caller-saved). `_quat._sincos`, not libm: the lanes compute the same bits
     # eight at a time (`_simd_kin.sincos8`), which libm, called one value at a time, cannot.
-    for j in range(jnt_type.shape[0]):
+    _half_angles_span(q, qpos0, jnt_type, jnt_qposadr, sc, 0, jnt_type.shape[0])
+
+
+@nb.njit(cache=True, inline="always")
+def _half_angles_span(q, qpos0, jnt_type, jnt_qposadr, sc, j0, j1):
+    # `_half_angles` of the joints j0 .. j1 - 1 only (one tree's: `check_trees`).
+    for j in range(j0, j1):
         if jnt_type[j] == JNT_HINGE:
             a = jnt_qposadr[j]
             sc[j, 0], sc[j, 1] = _sincos(0.5 * (q[a] - qpos0[a]))
@@ -59,7 +65,17 @@ def _kinematics_world(q, qpos0, body_parent, body_pos, body_quat, body_jntadr, b
         out_pos[0, i] = 0.0
         for j in range(3):
             out_rot[0, i, j] = 1.0 if i == j else 0.0
-    for b in range(1, L):
+    _bodies_span(q, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr, jnt_pos,
+                 jnt_axis, out_pos, out_rot, xquat, sc, 1, L)
+
+
+@nb.njit(cache=True, inline="always")
+def _bodies_span(q, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr, jnt_pos,
+                 jnt_axis, out_pos, out_rot, xquat, sc, lo, hi):
+    # The poses of bodies lo .. hi - 1 (`_kinematics_world`'s walk down the tree), their parents'
+    # already in out_pos, out_rot, xquat and their joints' half angles in sc: a span of whole
+    # trees (MuJoCo numbers a tree's bodies contiguously, parents first) can be posed alone.
+    for b in range(lo, hi):
         ja, jn = body_jntadr[b], body_jntnum[b]
         if jn == 1 and jnt_type[ja] == JNT_FREE:
             a = jnt_qposadr[ja]
