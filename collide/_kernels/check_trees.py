@@ -5,17 +5,18 @@ every configuration is found before the first contact can end the search: on a s
 robots (22 humanoids: 353 bodies, 86,889 filtered geom pairs) the batch broad phase is most of the
 call, though each configuration's first humanoid often collides with itself or the floor.
 
-`check_trees` runs first where only ``in_collision`` is asked: for each configuration, tree by
-tree (a tree: a child of the world body and its descendants, bodies numbered contiguously, parents
+`check_trees` runs first where only ``in_collision`` is asked: for each configuration, tree by tree
+(a tree: a child of the world body and its descendants, bodies numbered contiguously, parents
 first, as MuJoCo orders them), the poses of that tree's bodies alone (`kinematics._bodies_span`),
 then its pairs from a static list (the filtered pairs inside the tree, and those with a geom of the
-world body or of a tree without joints, posed once), each culled by balls about the geoms'
-origins (`check._lower_bound`'s test, squared) and decided by `check.deepest_contact`; the first
-active contact decides the configuration and ends its work. A configuration it leaves undecided (no active contact among those pairs) goes the full way, so the
-answer is the full path's: the static pairs are filtered pairs of the checked subset, the poses
-are bit for bit those of `kinematics._kinematics_world`, and an active contact of a filtered
-pair is one the conservative broad phase hands `check_worlds` too. The cull may err without
-changing an answer: a pair it drops only leaves a configuration to the full path.
+world body or of a tree without joints, posed once), each culled by balls about the geoms' origins
+(`check._lower_bound`'s test, squared) and decided by `check.deepest_contact`; the first active
+contact decides the configuration and ends its work. A configuration it leaves undecided (no active
+contact among those pairs) goes the full way, so the answer is the full path's: the static pairs
+are filtered pairs of the checked subset, the poses are bit for bit those of
+`kinematics._kinematics_world`, and an active contact of a filtered pair is one the conservative
+broad phase hands `check_worlds` too. The cull may err without changing an answer: a pair it drops
+only leaves a configuration to the full path.
 """
 
 from __future__ import annotations
