@@ -14,6 +14,8 @@ never wrong; ``distance`` is the estimate the witnesses give, inside the bracket
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 from . import hull as _hull
@@ -176,6 +178,10 @@ def _raise(err: int, name: str, rot: np.ndarray, pos: np.ndarray, size: float) -
 # the descriptor's address (what `query` takes: an int costs its dispatch less than an array).
 _CACHE_SIZE = 1024
 _shapes: dict = {}
+# Insertions and evictions hold it (hits do not): another thread's insertion between the
+# eviction's ``iter`` and ``next`` raised "dictionary changed size during iteration", and two
+# threads evicting at once let the cache outgrow its bound (tests/test_distance_threads.py).
+_shapes_lock = threading.Lock()
 
 
 def _described(shape, name: str) -> tuple:
@@ -202,9 +208,10 @@ def _described(shape, name: str) -> tuple:
             desc[n_slot] = len(arr)
         desc[slot] = arr.ctypes.data
     entry = (shape, (data, desc), desc.ctypes.data, data.size)  # the arrays held, the address passed
-    if len(_shapes) >= _CACHE_SIZE:
-        _shapes.pop(next(iter(_shapes)), None)  # the oldest
-    _shapes[id(shape)] = entry
+    with _shapes_lock:
+        while len(_shapes) >= _CACHE_SIZE:
+            _shapes.pop(next(iter(_shapes)), None)  # the oldest
+        _shapes[id(shape)] = entry
     return entry
 
 

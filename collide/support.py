@@ -10,6 +10,7 @@ hull's vertex graph (as MuJoCo and coal do for meshes); smaller ones, and flat o
 from __future__ import annotations
 
 import math
+import threading
 from collections import OrderedDict
 from dataclasses import dataclass
 
@@ -30,6 +31,9 @@ CLIMB_MIN = 32
 # Clouds whose data is kept (keyed by identity; PointCloud is immutable).
 _CACHE_SIZE = 1024
 _cache: OrderedDict = OrderedDict()
+# Held by every change to `_cache`: a hit's ``move_to_end`` raised KeyError when another thread
+# evicted the key between its ``get`` and the move (tests/test_distance_threads.py).
+_cache_lock = threading.Lock()
 
 _NO_ADJ = np.zeros(0, np.int32)
 
@@ -132,14 +136,16 @@ def support_data(shape) -> SupportData:
     """
     if isinstance(shape, PointCloud):
         key = id(shape)
-        hit = _cache.get(key)
-        if hit is not None and hit[0] is shape:
-            _cache.move_to_end(key)
-            return hit[1]
+        with _cache_lock:
+            hit = _cache.get(key)
+            if hit is not None and hit[0] is shape:
+                _cache.move_to_end(key)
+                return hit[1]
         data = _cloud_data(shape)
-        _cache[key] = (shape, data)  # the strong reference keeps the id from being reused
-        if len(_cache) > _CACHE_SIZE:
-            _cache.popitem(last=False)
+        with _cache_lock:
+            _cache[key] = (shape, data)  # the strong reference keeps the id from being reused
+            while len(_cache) > _CACHE_SIZE:
+                _cache.popitem(last=False)
         return data
     empty = np.zeros((0, 3))
     if isinstance(shape, Cylinder):
