@@ -246,8 +246,10 @@ class Collider:
         self.broadphase = BroadPhase(model, coherent)
         self.model = model
         self.table = _contacts.GeomTable(model)
-        self._checked = None  # the last MjData checked (an MjData's arrays never move)
-        self._views = None  # its geom_xpos, geom_xmat as (G, 3), (G, 3, 3) views
+        # (the last MjData checked, its geom_xpos, geom_xmat as (G, 3), (G, 3, 3) views): one
+        # tuple in one store, read once, so that a thread never pairs one MjData with another's
+        # views (two stores did: tests/test_collider_threads.py). An MjData's arrays never move.
+        self._posed = (None, None)
         self._subset_spec = (geoms, bodies)
         self._subset_mode, self._subset_label = _subset(model, geoms, bodies)
         # check_batch's model arrays: the kinematic tree's float arrays are views of the model's,
@@ -280,11 +282,12 @@ class Collider:
         # The geom poses of data as the kernel takes them, (G, 3) and (G, 3, 3) views: an MjData's
         # arrays never move, and the bindings build new views at every attribute access, so the
         # last MjData's are kept (checked once).
-        if data is not self._checked:
+        posed = self._posed
+        if posed[0] is not data:
             self.broadphase._check_data(data)
-            self._views = _contacts._poses(self.table, data.geom_xpos, data.geom_xmat)
-            self._checked = data
-        return self._views
+            posed = (data, _contacts._poses(self.table, data.geom_xpos, data.geom_xmat))
+            self._posed = posed
+        return posed[1]
 
     def contacts(self, data) -> _contacts.Contacts:
         """Contacts at the poses of ``data`` (after ``mj_kinematics``, ``mj_forward`` or a step).
@@ -308,7 +311,8 @@ class Collider:
             ``data`` of another model, or a non-finite pose (naming the body or geom).
         """
         pairs = self.broadphase.pairs(data)  # checks data on its first use
-        xpos, xmat = self._poses(data) if data is not self._checked else self._views
+        posed = self._posed
+        xpos, xmat = posed[1] if posed[0] is data else self._poses(data)
         # the broad phase's pairs are int32, C-contiguous, in range, lower first: not checked again
         return _contacts.contacts_of(self.table, pairs, xpos, xmat)
 

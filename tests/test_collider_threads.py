@@ -1,0 +1,77 @@
+"""One `collide.mujoco.Collider`, two threads, two MjData: each thread gets its own data's contacts.
+
+Found by the adversarial review (2026-11-29): ``Collider._poses`` published the last MjData's
+views and the MjData itself in two stores (``_views``, then ``_checked``) and ``contacts`` read
+them separately, so a thread switch between them handed one thread the other MjData's poses.
+CPython's GIL switches threads only at calls and backward jumps, so without a Python-level
+tracer the window is rarely hit; a tracer (a debugger, a line profiler, coverage's Python
+tracer) puts a switch point on every line, which this test installs to make the race frequent.
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+mujoco = pytest.importorskip("mujoco")
+import collide.mujoco as cm  # noqa: E402
+
+XML = ("<mujoco><worldbody><geom type='plane' size='5 5 .1'/>" + "".join(
+    f"<body pos='{0.3 * (i % 3)} {0.3 * (i // 3)} 0.2'><freejoint/><geom type='box' size='.1 .12 .08'/></body>"
+    for i in range(6)) + "</worldbody></mujoco>")
+
+
+def _signature(c) -> tuple:
+    return c.geom.tobytes(), np.round(c.dist, 12).tobytes()
+
+
+def test_two_threads_two_datas_one_collider():
+    m = mujoco.MjModel.from_xml_string(XML)
+    datas = []
+    for s in range(2):
+        d = mujoco.MjData(m)
+        rng = np.random.default_rng(s)
+        for b in range(6):
+            d.qpos[7 * b:7 * b + 3] += rng.normal(size=3) * 0.1
+            q = rng.normal(size=4)
+            d.qpos[7 * b + 3:7 * b + 7] = q / np.linalg.norm(q)
+        mujoco.mj_kinematics(m, d)
+        datas.append(d)
+    ref = [cm.Collider(m).contacts(d) for d in datas]
+    assert min(len(r.dist) for r in ref) > 0  # both scenes have contacts
+    ref = [_signature(r) for r in ref]
+    assert ref[0] != ref[1]  # and different ones: a mix-up shows
+    col = cm.Collider(m)
+    wrong, errors = [0, 0], []
+
+    def worker(k):
+        for _ in range(10000):
+            time.sleep(0)  # hand the GIL over: the other thread's call interleaves with this one's
+            try:
+                c = col.contacts(datas[k])
+            except Exception as exc:  # noqa: BLE001 - any exception is a failure
+                errors.append(repr(exc))
+                continue
+            wrong[k] += _signature(c) != ref[k]
+
+    def tracer(frame, event, arg):  # a switch point on every line of Collider._poses
+        return tracer if frame.f_code.co_name == "_poses" else None
+
+    old = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)
+    threading.settrace(tracer)
+    try:
+        threads = [threading.Thread(target=worker, args=(k,)) for k in range(2)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    finally:
+        threading.settrace(None)
+        sys.setswitchinterval(old)
+    assert errors == []
+    assert wrong == [0, 0]
