@@ -7,14 +7,16 @@ the tables give the median over pairs, in microseconds:
 - ``collide.distance``: the public call (pose checks, result object included);
 - ``kernel``: the public call's kernel, `collide._kernels.distance.query`, called from Python
   on its prebuilt arguments (numba's dispatch and the pose checks included);
-- ``in numba``: the same kernel in a compiled loop (no Python at all), cold (no hint) and warm
-  (the previous normal and support vertices, the pose unchanged);
+- ``in numba``: the distance it computes (`collide._kernels.distance.pair_distance`) in a
+  compiled loop (no Python at all), cold (no hint) and warm (the previous normal and support
+  vertices, the pose unchanged);
 - ``coal``: ``coal.distance`` on ``coal.Convex`` hulls of the same points (its Python call
   and a ``DistanceResult.clear()`` included: a result keeps the minimum over calls, and coal
   returns at once when it is not cleared), at its default GJK tolerance (1e-6) and at 1e-12;
 - ``mj_geomDistance``: MuJoCo's, on a model with the two meshes as mocap geoms.
 
-A second table times the support search policy: scan of every vertex against hill-climbing over
+A line gives each library's call floor (two spheres, closed forms in both), and a second table
+times the support search policy: scan of every vertex against hill-climbing over
 the hull's vertex graph, in the compiled loop, by hull size (where `collide.support.CLIMB_MIN`
 comes from). Run: ``python tests/bench/distance.py [--out tests/bench/distance.txt]``.
 """
@@ -40,6 +42,11 @@ from _machine import cpu as _cpu  # noqa: E402 (tests/bench is the script's fold
 PAIRS = 40
 SIZES = (100, 300, 1000)
 
+# CPU time of this process, not wall time: the machine is shared (2 cores, load 2-6 while the
+# other sessions run), and a process waiting for a core is not charged for the wait. Every column
+# is timed by this clock, in one process, so their ratios compare like with like.
+_clock = time.process_time
+
 
 @njit(cache=True)
 def _loop(sa, sb, tol, d0, hint_a, hint_b, reps, out):
@@ -52,10 +59,10 @@ def _per_call(fn, budget=0.02):
     fn()
     reps = 5
     while True:
-        t = time.perf_counter()
+        t = _clock()
         for _ in range(reps):
             fn()
-        dt = time.perf_counter() - t
+        dt = _clock() - t
         if dt > budget or reps > 1_000_000:
             return dt / reps
         reps *= 4
@@ -139,14 +146,14 @@ def bench_sizes(rng, lines):
                                                   sd._LIMIT, tol, sd._COLD, 128, out))
             reps = 2000
             _loop(sa, sb, tol, zero, -1, -1, 1, out)
-            t0 = time.perf_counter()
+            t0 = _clock()
             _loop(sa, sb, tol, zero, -1, -1, reps, out)
-            t_loop = (time.perf_counter() - t0) / reps
+            t_loop = (_clock() - t0) / reps
             warm_dir = out[kd.OUT_NORMAL:kd.OUT_NORMAL + 3].copy()
             ha, hb = int(out[kd.OUT_HINT_A]), int(out[kd.OUT_HINT_B])
-            t0 = time.perf_counter()
+            t0 = _clock()
             _loop(sa, sb, tol, warm_dir, ha, hb, reps, out)
-            t_warm = (time.perf_counter() - t0) / reps
+            t_warm = (_clock() - t0) / reps
             t_coal = t_coal_tight = np.nan
             err = np.nan
             if coal is not None:
@@ -171,6 +178,27 @@ def bench_sizes(rng, lines):
                      f"{us[4]:>9.2f} {us[5]:>10.2f} {us[6]:>11.2f} {m[0] / m[4]:>9.2f} {worst:>11.1e}")
         lines.append(f"{'':>8} ({PAIRS} pairs, {overlapping} overlapping; |ours-coal| over the separated "
                      "ones, coal at 1e-12)")
+
+
+def bench_floor(lines):
+    # Each library's cost of a call whose geometry costs next to nothing: two spheres (closed
+    # forms in both: our segment distance, coal's sphere-sphere), median of 5 repeats.
+    a = collide.PointCloud([[0.0, 0.0, 0.0]], 0.5)
+    pose = (np.eye(3), np.array([3.0, 0.2, 0.1]))
+    ours = np.median([_per_call(lambda: collide.distance(a, a, None, pose)) for _ in range(5)]) * 1e6
+    theirs = np.nan
+    try:
+        import coal
+        s, ta, tb = coal.Sphere(0.5), coal.Transform3s(), coal.Transform3s()
+        tb.setTranslation(pose[1])
+        req, res = coal.DistanceRequest(), coal.DistanceResult()
+        theirs = np.median([_per_call(lambda: (res.clear(), coal.distance(s, ta, s, tb, req, res)))
+                            for _ in range(5)]) * 1e6
+    except ImportError:
+        pass
+    lines.append("")
+    lines.append(f"Call floor, two spheres (closed forms): collide.distance {ours:.2f} us, "
+                 f"coal.distance {theirs:.2f} us")
 
 
 def bench_policy(rng, lines):
@@ -199,9 +227,9 @@ def bench_policy(rng, lines):
             for name, d in (("scan", scan), ("climb", climb)):
                 sa, sb = d.posed(ra, np.zeros(3)), do.posed(rb, tb)
                 _loop(sa, sb, 1e-12, zero, -1, -1, 1, out)
-                t0 = time.perf_counter()
+                t0 = _clock()
                 _loop(sa, sb, 1e-12, zero, -1, -1, 2000, out)
-                times[name].append((time.perf_counter() - t0) / 2000)
+                times[name].append((_clock() - t0) / 2000)
         lines.append(f"{n:>8d} {np.median(times['scan']) * 1e6:>8.3f} {np.median(times['climb']) * 1e6:>8.3f}")
 
 
@@ -212,11 +240,13 @@ def main(argv=None):
     rng = np.random.default_rng(0)
     lines = [f"collide.distance benchmark, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}",
              f"CPU: {_cpu()} ({platform.machine()}), Python {platform.python_version()}",
-             "Median over pairs of the mean time per call, microseconds; load average before the run "
+             "Median over pairs of the mean CPU time per call (time.process_time), microseconds; "
+             "load average before the run "
              f"{os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs (a shared machine: compare columns "
              "within a row, measured in one run).",
              f"Command: python tests/bench/distance.py {' '.join(sys.argv[1:])}".rstrip(), ""]
     bench_sizes(rng, lines)
+    bench_floor(lines)
     bench_policy(rng, lines)
     text = "\n".join(lines)
     print(text)

@@ -6,11 +6,12 @@
 of the commit before, the working tree after), each run in its own process (``PYTHONPATH`` set to
 its folder, its own numba cache), in turn, ``R`` rounds. A process times one
 ``collide.distance(a, b, pose_a, pose_b)`` on the pairs of `distance.py` (random convex meshes of
-100, 300 and 1000 vertices, ``P`` random pose pairs each; seed 0): per pair the mean time of a call
-over ~20 ms, and the median over the pairs. Printed per size: each tree's median over the rounds,
-its ratio to the first tree's, and the ratios of the best rounds. The answers (distance, bracket,
-normal) are compared with the first tree's bit for bit: any difference is printed.
-A developer's tool: the committed figures are `distance.py`'s (tests/bench/distance.txt).
+100, 300 and 1000 vertices, ``P`` random pose pairs each; seed 0): per pair the mean CPU time of a
+call (``time.process_time``, as `distance.py`) over ~20 ms, and the median over the pairs.
+Printed per size: each tree's median over the rounds, its ratio to the first tree's, and the
+ratios of the best rounds. The answers (distance, bracket, normal) are compared with the first
+tree's bit for bit: any difference is printed. The trees are run from their own folders (the
+child's working folder), so a package installed elsewhere is not imported instead.
 """
 
 from __future__ import annotations
@@ -33,10 +34,10 @@ def per_call(fn, budget=0.02):
     fn()
     reps = 5
     while True:
-        t = time.perf_counter()
+        t = time.process_time()
         for _ in range(reps):
             fn()
-        dt = time.perf_counter() - t
+        dt = time.process_time() - t
         if dt > budget or reps > 1_000_000:
             return dt / reps
         reps *= 4
