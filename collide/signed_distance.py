@@ -218,6 +218,10 @@ def _described(shape, name: str) -> tuple:
 _TOLERANCE, _MAX_ITERATIONS = 1e-12, 128  # the defaults (known valid: not checked again)
 
 
+# The largest `distance` tolerance accepted (relative to the size).
+_TOLERANCE_MAX = 1e-2
+
+
 def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = _TOLERANCE,
              max_iterations: int = _MAX_ITERATIONS) -> Distance:
     """Signed distance of two convex shapes, with witness points and a certified bracket.
@@ -234,7 +238,8 @@ def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = _T
         A previous result for the same pair (its normal seeds the first search direction and its
         support vertices the hill-climbs), or a direction from A to B.
     tolerance : float, default 1e-12
-        Target bracket width, relative to the shapes' size (half their boxes' diagonals plus radii).
+        Target bracket width, relative to the shapes' size (half their boxes' diagonals plus radii);
+        at most 1e-2.
     max_iterations : int, default 128
         Cap on GJK iterations and on EPA's polytope vertices; reaching it widens the bracket.
 
@@ -284,8 +289,12 @@ def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = _T
         w = np.zeros(_kd.OUT_SIZE)
         w[_kd.OUT_NORMAL:_kd.OUT_NORMAL + 3] = as_array(warm, "warm", (3,))
         w[_kd.OUT_HINT_A] = w[_kd.OUT_HINT_B] = -1.0
-    if tolerance is not _TOLERANCE and not (type(tolerance) is float and 0.0 < tolerance < 1.0):
+    if tolerance is not _TOLERANCE and not (type(tolerance) is float and 0.0 < tolerance <= _TOLERANCE_MAX):
         tolerance = as_positive(tolerance, "tolerance")
+        if tolerance > _TOLERANCE_MAX:
+            # a convergence tolerance, not an approximation knob: GJK's "touching" test and EPA's
+            # stop read it, and at a large fraction of the size they disagree with the witnesses
+            raise ValueError(f"tolerance: must be in (0, {_TOLERANCE_MAX}], got {tolerance}")
     if max_iterations is not _MAX_ITERATIONS and not (type(max_iterations) is int
                                                       and 4 <= max_iterations <= 100_000):
         max_iterations = as_count(max_iterations, "max_iterations", 4, 100_000)

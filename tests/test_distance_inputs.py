@@ -165,6 +165,8 @@ def test_bad_shapes_and_options_are_named_and_the_call_works_after_them():
         (lambda: collide.distance(a, PointCloud([[0.0, 0.0, 0.0]], -1.0)), "radius: must be >= 0"),
         (lambda: collide.distance(a, a, tolerance=float("nan")), "tolerance"),
         (lambda: collide.distance(a, a, tolerance=0.0), "tolerance"),
+        (lambda: collide.distance(a, a, tolerance=0.7), r"tolerance: must be in \(0, 0.01\]"),
+        (lambda: collide.distance(a, a, tolerance=np.float64(1e300)), "tolerance"),
         (lambda: collide.distance(a, a, max_iterations=3), "max_iterations"),
         (lambda: collide.distance(a, a, max_iterations=10.0), "max_iterations"),
         (lambda: collide.distance(a, a, warm=[1.0, 0.0]), "warm"),
