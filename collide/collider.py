@@ -303,7 +303,10 @@ class Collider:
         collide.Contacts
             Several contacts a pair for face contacts, as MuJoCo 4 makes them (box-box up to 8,
             box and mesh faces and a plane against a box, mesh, capsule or cylinder up to 4), one
-            otherwise; pairs with a height field or SDF geom in ``skipped``.
+            otherwise; pairs with a height field or SDF geom in ``skipped``. Where MuJoCo makes
+            more than one for another pair (two for a capsule parallel to a capsule or along a
+            box face; several for a cylinder's rim or face against a box), ours is one contact,
+            at that pair's deepest point (its ``dist`` is MuJoCo's deepest).
 
         Raises
         ------
