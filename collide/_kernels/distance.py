@@ -38,14 +38,13 @@ ROUNDING = 64.0
 
 
 @njit(cache=True, inline="always")
-def _endpoint(shape, j):
-    # World end point j (0 or 1) of a core of 1 or 2 points (the same point twice for one), as
-    # three scalars: an array here was a heap allocation on every call of `segment_distance`.
+def _endpoints(shape, e):
+    # World end points of a core of 1 or 2 points, into e[0], e[1] (the same point twice for one).
     pts, rot, pos = shape[2], shape[5], shape[6]
-    i = min(j, pts.shape[0] - 1)
-    return (rot[0, 0] * pts[i, 0] + rot[0, 1] * pts[i, 1] + rot[0, 2] * pts[i, 2] + pos[0],
-            rot[1, 0] * pts[i, 0] + rot[1, 1] * pts[i, 1] + rot[1, 2] * pts[i, 2] + pos[1],
-            rot[2, 0] * pts[i, 0] + rot[2, 1] * pts[i, 1] + rot[2, 2] * pts[i, 2] + pos[2])
+    for j in range(2):
+        i = min(j, pts.shape[0] - 1)
+        for k in range(3):
+            e[j, k] = rot[k, 0] * pts[i, 0] + rot[k, 1] * pts[i, 1] + rot[k, 2] * pts[i, 2] + pos[k]
 
 
 @njit(cache=True)
@@ -59,13 +58,12 @@ def segment_distance(sa, sb, tol, out):
     not within ``tol`` (rounding near parallel segments) or the cores nearly touch (the normal
     of ``pb - pa`` would be poorly known there): the caller runs GJK/EPA instead.
     """
-    a00, a01, a02 = _endpoint(sa, 0)
-    a10, a11, a12 = _endpoint(sa, 1)
-    b00, b01, b02 = _endpoint(sb, 0)
-    b10, b11, b12 = _endpoint(sb, 1)
-    d10, d11, d12 = a10 - a00, a11 - a01, a12 - a02
-    d20, d21, d22 = b10 - b00, b11 - b01, b12 - b02
-    r0, r1, r2 = a00 - b00, a01 - b01, a02 - b02
+    e = np.empty((4, 3))
+    _endpoints(sa, e[0:2])
+    _endpoints(sb, e[2:4])
+    d10, d11, d12 = e[1, 0] - e[0, 0], e[1, 1] - e[0, 1], e[1, 2] - e[0, 2]
+    d20, d21, d22 = e[3, 0] - e[2, 0], e[3, 1] - e[2, 1], e[3, 2] - e[2, 2]
+    r0, r1, r2 = e[0, 0] - e[2, 0], e[0, 1] - e[2, 1], e[0, 2] - e[2, 2]
     a = d10 * d10 + d11 * d11 + d12 * d12
     c2 = d20 * d20 + d21 * d21 + d22 * d22
     f = d20 * r0 + d21 * r1 + d22 * r2
@@ -90,17 +88,18 @@ def segment_distance(sa, sb, tol, out):
                 t = 1.0
                 s = min(max((b - c) / a, 0.0), 1.0)
     scale = 0.0
-    for x in (a00, a01, a02, a10, a11, a12, b00, b01, b02, b10, b11, b12):
-        scale = max(scale, abs(x))
-    pa0, pa1, pa2 = a00 + s * d10, a01 + s * d11, a02 + s * d12
-    pb0, pb1, pb2 = b00 + t * d20, b01 + t * d21, b02 + t * d22
+    for j in range(4):
+        for k in range(3):
+            scale = max(scale, abs(e[j, k]))
+    pa0, pa1, pa2 = e[0, 0] + s * d10, e[0, 1] + s * d11, e[0, 2] + s * d12
+    pb0, pb1, pb2 = e[2, 0] + t * d20, e[2, 1] + t * d21, e[2, 2] + t * d22
     w = (pb0 - pa0, pb1 - pa1, pb2 - pa2)
     gap = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
     if not gap > 1e-6 * scale:
         return False
     n0, n1, n2 = w[0] / gap, w[1] / gap, w[2] / gap
-    ha = max(n0 * a00 + n1 * a01 + n2 * a02, n0 * a10 + n1 * a11 + n2 * a12)
-    hb = min(n0 * b00 + n1 * b01 + n2 * b02, n0 * b10 + n1 * b11 + n2 * b12)
+    ha = max(n0 * e[0, 0] + n1 * e[0, 1] + n2 * e[0, 2], n0 * e[1, 0] + n1 * e[1, 1] + n2 * e[1, 2])
+    hb = min(n0 * e[2, 0] + n1 * e[2, 1] + n2 * e[2, 2], n0 * e[3, 0] + n1 * e[3, 1] + n2 * e[3, 2])
     lower = hb - ha
     if gap - lower > max(tol, _FLOOR * scale):
         return False
