@@ -35,7 +35,7 @@ from ._ptr import borrow
 from ._quat import _qmat, _qmul
 from ._threads import fetch_add, set_chunksize
 from .distance import ROUNDING
-from .gjk import OVERLAP, SEPARATED, gjk
+from .gjk import OVERLAP, SEPARATED, gjk_within
 from .kinematics import _kinematics_world
 from .support import POINTS, support
 from .manifold import (BOX_WS, CONTACT_TOL, CONVEX_PAIR, MAX_PER_PAIR, OUT_DISTANCE, OUT_SIZE, PLANE, SKIPPED,
@@ -187,8 +187,10 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_mar
             hints[1] = -1
             gws[:] = 0.0  # a fresh simplex, as pair_distance starts from
             g4[:] = 0.0
-            st, nsx, lower, scale, iters = gjk(s1, s2, d0, hints, tol, 128, gws[0], gws[1], gws[2], g4[0],
-                                               gws[3, 0], g4[1], gws[3, 1], gws[3, 2])
+            # GJK stops once its certified lower bound passes thr + r (`gjk_within`): the pair is
+            # then certainly beyond reach, the decision the full run's lower bound would give
+            st, nsx, lower, scale, iters = gjk_within(s1, s2, d0, hints, tol, thr + r, 128, gws[0], gws[1], gws[2],
+                                                      g4[0], gws[3, 0], g4[1], gws[3, 1], gws[3, 2])
             if st == OVERLAP:
                 return ACTIVE  # cores within tol of touching: d <= tol - r
             if st == SEPARATED:
