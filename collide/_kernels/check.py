@@ -40,7 +40,7 @@ from .kinematics import _kinematics_world
 from .support import POINTS, support
 from .manifold import (BOX_WS, CONTACT_TOL, CONVEX_PAIR, MAX_PER_PAIR, OUT_DISTANCE, OUT_SIZE, PLANE, SKIPPED,
                        _finite_pose, _pair_rows, _shape, pair_distance, pair_margins, pair_signed_distance,
-                       plane_box_contacts)
+                       plane_box_contacts, scratch_caps)
 
 _EPS = float(np.finfo(np.float64).eps)
 
@@ -81,6 +81,18 @@ def geom_pose(g, body_pos, body_rot, body_quat, geom_body, geom_pos, geom_quat, 
     xmat[g, 0, 0], xmat[g, 0, 1], xmat[g, 0, 2] = m[0], m[1], m[2]
     xmat[g, 1, 0], xmat[g, 1, 1], xmat[g, 1, 2] = m[3], m[4], m[5]
     xmat[g, 2, 0], xmat[g, 2, 1], xmat[g, 2, 2] = m[6], m[7], m[8]
+
+
+@nb.njit(cache=True, inline="always")
+def decider_scratch(cap, fmax):
+    """One worker's scratch for `deepest_contact`, for ``cap`` support points of a geom and
+    ``fmax`` vertices of a hull face at most (`collide._kernels.manifold.scratch_caps`): the
+    tuple ``(scratch, out, d0, gws, g4, hints)`` it takes (``d0``, GJK's first direction, zero:
+    the centres' difference)."""
+    scratch = (np.empty((cap, 3)), np.empty(cap), np.zeros(4, np.int64), np.empty((MAX_PER_PAIR, 4)), np.zeros(3),
+               np.empty(BOX_WS), np.empty((fmax, 3)), np.empty(fmax))  # cand, dep, sel, res, bnrm, bws, pcand, pdep
+    # GJK's W, WA, WB (4, 3), then v, pa, pb (3,); its lam, dirn
+    return scratch, np.empty(OUT_SIZE), np.zeros(3), np.zeros((4, 4, 3)), np.zeros((2, 4)), np.empty(2, np.int64)
 
 
 @nb.njit(cache=True, inline="always")
@@ -272,14 +284,7 @@ def check_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, bod
     G = geom_body.shape[0]
     nj = jnt_type.shape[0]
     P = dpairs.shape[0]
-    cap = 1
-    for g in range(G):
-        if pts_num[g] > cap:
-            cap = pts_num[g]
-    fmax = 4
-    for f in range(f_vnum.shape[0]):
-        if f_vnum[f] > fmax:
-            fmax = f_vnum[f]
+    cap, fmax = scratch_caps(pts_num, f_vnum)
     addr = counter.ctypes.data
     chunksize = set_chunksize(1)  # one iteration a worker (`_threads`)
     for wk in nb.prange(workers):
@@ -290,20 +295,8 @@ def check_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, bod
         xpos = np.zeros((G, 3))
         xmat = np.zeros((G, 3, 3))
         stamp = np.full(G, -1, np.int64)
-        cand = np.empty((cap, 3))
-        dep = np.empty(cap)
-        sel = np.zeros(4, np.int64)
-        res = np.empty((MAX_PER_PAIR, 4))
-        bnrm = np.zeros(3)
-        bws = np.empty(BOX_WS)
-        pcand = np.empty((fmax, 3))
-        pdep = np.empty(fmax)
-        out = np.empty(OUT_SIZE)
+        scratch, out, d0, gws, g4, hints = decider_scratch(cap, fmax)
         out7 = np.empty(7)
-        d0 = np.zeros(3)  # GJK's first direction: the centres' difference
-        gws = np.zeros((4, 4, 3))  # GJK's W, WA, WB (4, 3), then v, pa, pb (3,)
-        g4 = np.zeros((2, 4))  # GJK's lam, dirn
-        hints = np.empty(2, np.int64)
         lb = np.empty(P if want_distance else 0)
         # the shared tables borrowed (`borrow`): no counter the two threads take turns on
         cls_, rule_, below_, rbound_, size_ = borrow(cls), borrow(rule), borrow(below), borrow(rbound), borrow(size)
@@ -321,7 +314,6 @@ def check_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, bod
         jntadr, jntnum, jtype, jqadr = borrow(body_jntadr), borrow(body_jntnum), borrow(jnt_type), \
             borrow(jnt_qposadr)
         jpos, jaxis = borrow(jnt_pos), borrow(jnt_axis)
-        scratch = (cand, dep, sel, res, bnrm, bws, pcand, pdep)
         while True:
             c = fetch_add(addr, 1)
             if c >= chunks:

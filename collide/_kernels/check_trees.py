@@ -26,9 +26,9 @@ import numpy as np
 
 from ._ptr import borrow
 from ._threads import fetch_add, set_chunksize
-from .check import ACTIVE, deepest_contact, geom_pose
+from .check import ACTIVE, decider_scratch, deepest_contact, geom_pose
 from .kinematics import _bodies_span, _half_angles_span
-from .manifold import BOX_WS, MAX_PER_PAIR, OUT_SIZE, PLANE, SKIPPED, _finite_pose, _pair_rows, pair_margins
+from .manifold import PLANE, SKIPPED, _finite_pose, _pair_rows, pair_margins, scratch_caps
 
 
 @nb.njit(cache=True, inline="always")
@@ -98,14 +98,7 @@ def check_trees(qpos, qmax, qpos0, body_parent, body_pos, body_quat, body_jntadr
     G = geom_body.shape[0]
     nj = jnt_type.shape[0]
     T = tree_span.shape[0]
-    cap = 1
-    for g in range(G):
-        if pts_num[g] > cap:
-            cap = pts_num[g]
-    fmax = 4
-    for f in range(f_vnum.shape[0]):
-        if f_vnum[f] > fmax:
-            fmax = f_vnum[f]
+    cap, fmax = scratch_caps(pts_num, f_vnum)
     addr = counter.ctypes.data
     chunksize = set_chunksize(1)  # one iteration a worker (`_threads`)
     for wk in nb.prange(workers):
@@ -121,19 +114,7 @@ def check_trees(qpos, qmax, qpos0, body_parent, body_pos, body_quat, body_jntadr
                          jnt_qposadr, jnt_pos, jnt_axis, bpos, brot, bquat, sc, static_span[s, 0], static_span[s, 1])
         xpos = np.zeros((G, 3))
         xmat = np.zeros((G, 3, 3))
-        cand = np.empty((cap, 3))
-        dep = np.empty(cap)
-        sel = np.zeros(4, np.int64)
-        res = np.empty((MAX_PER_PAIR, 4))
-        bnrm = np.zeros(3)
-        bws = np.empty(BOX_WS)
-        pcand = np.empty((fmax, 3))
-        pdep = np.empty(fmax)
-        out = np.empty(OUT_SIZE)
-        d0 = np.zeros(3)
-        gws = np.zeros((4, 4, 3))
-        g4 = np.zeros((2, 4))
-        hints = np.empty(2, np.int64)
+        scratch, out, d0, gws, g4, hints = decider_scratch(cap, fmax)
         # the shared tables borrowed (`borrow`, as check_worlds does)
         cls_, rule_, below_, rbound_, size_ = borrow(cls), borrow(rule), borrow(below), borrow(rbound), borrow(size)
         gmargin, ggap, pkey = borrow(geom_margin), borrow(geom_gap), borrow(pair_key)
@@ -150,7 +131,6 @@ def check_trees(qpos, qmax, qpos0, body_parent, body_pos, body_quat, body_jntadr
         jntadr, jntnum, jtype, jqadr = borrow(body_jntadr), borrow(body_jntnum), borrow(jnt_type), \
             borrow(jnt_qposadr)
         jpos, jaxis = borrow(jnt_pos), borrow(jnt_axis)
-        scratch = (cand, dep, sel, res, bnrm, bws, pcand, pdep)
         # the static geoms' poses (no joint above them) once, and each pair's reach for the cull:
         # the ball test |c1 - c2| > r1 + r2 + thr squared (no root), a plane's n . (c - p) > r + thr
         for i in range(sgeom.shape[0]):
