@@ -380,9 +380,15 @@ class Collider:
         # cannot pay: its pairs (inside one tree with joints, or with a static geom) must be at most
         # TREE_SHARE of the filtered pairs, so that most of the broad phase's work (the pairs between trees) is what a decided configuration
         # skips. A single robot among obstacles has every pair there and keeps the full path.
+        # Nor where the model's body offsets are so large that poses could overflow: the full
+        # path reports what it reports (read once, as the kinematic tree's arrays are).
         got = self._tree_pairs
         if got is None:
-            got = self._tree_pairs = _tree_pairs(self.model, self._filtered())
+            if float(np.abs(self.model.body_pos).max(initial=0.0)) > TREE_QMAX:
+                got = False
+            else:
+                got = _tree_pairs(self.model, self._filtered())
+            self._tree_pairs = got
         return got
 
     def _qpos(self, qpos) -> np.ndarray:
@@ -486,8 +492,6 @@ class Collider:
         if not trees:
             return None
         B = len(q)
-        if float(np.abs(self.model.body_pos).max(initial=0.0)) > TREE_QMAX:
-            return None  # poses could overflow: the full path reports what it reports
         n0 = min(B, TREE_SAMPLE)
         self._check_trees(q[:n0], trees, kin, kargs, workers, hit[:n0])
         if 2 * int(np.count_nonzero(hit[:n0])) < n0:
