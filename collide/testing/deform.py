@@ -143,11 +143,17 @@ def signed_excess(points, cloud: PointCloud) -> np.ndarray:
     center, axes, rank, local = _frame(P)
     if rank == 3:
         h = ConvexHull(local)
-        plane = (X - center) @ axes.T @ h.equations[:, :3].T + h.equations[:, 3]  # (m, f)
-        worst = plane.max(axis=1)
-        out[:] = worst
-        outside = np.nonzero(worst > 0)[0]
-        out[outside] = _tri_distance(X[outside], P[h.simplices])
+        Xl = (X - center) @ axes.T  # in the hull's frame, as its equations are
+        tris = P[h.simplices]
+        # Points in chunks: a (chunk, facets) block of plane values stays small on big hulls.
+        for s in range(0, len(X), 64):
+            plane = Xl[s:s + 64] @ h.equations[:, :3].T + h.equations[:, 3]  # (c, f)
+            out[s:s + 64] = plane.max(axis=1)
+            # Outside, the nearest point q of the hull lies on a facet whose plane has p on its
+            # outer side (p - q is a nonnegative combination of the outward normals of q's facets,
+            # and |p - q|^2 > 0 makes one of them positive on p - q): only those are measured.
+            for i in np.nonzero(out[s:s + 64] > 0)[0]:
+                out[s + i] = _tri_distance(X[s + i:s + i + 1], tris[plane[i] > 0])[0]
     elif rank == 2:
         out[:] = _tri_distance(X, _hull_triangles(P)[0])
     elif rank == 1:
