@@ -139,6 +139,29 @@ def winding_number(tri: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.
 
 
 def _mesh_spans(tri: np.ndarray, o: np.ndarray, d: np.ndarray):
+    # A closed mesh's spans along each ray (`_mesh_spans_all`), computed only for the rays whose
+    # line meets the mesh's box padded by 1e-6 of its diagonal (a line crossing a triangle, or
+    # passing within TOL of one, meets it; the rest have no span), with as many columns as the
+    # most spans of a ray: every ray against every triangle made (R, T) blocks before.
+    r = len(o)
+    lo, hi = tri.min(axis=(0, 1)), tri.max(axis=(0, 1))
+    pad = 1e-6 * float(np.linalg.norm(hi - lo)) + 1e-300
+    lo, hi = lo - pad, hi + pad
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ta, tb = (lo - o) / d, (hi - o) / d
+    flat = d == 0  # a line parallel to a slab: inside it or not, for every t
+    inslab = (o >= lo) & (o <= hi)
+    tmin = np.where(flat, np.where(inslab, -np.inf, np.inf), np.minimum(ta, tb)).max(axis=1)
+    tmax = np.where(flat, np.where(inslab, np.inf, -np.inf), np.maximum(ta, tb)).min(axis=1)
+    sel = np.flatnonzero(tmin <= tmax)
+    t0s, t1s = _mesh_spans_all(tri, o[sel], d[sel])
+    n = int(np.isfinite(t0s).sum(axis=1).max(initial=0))  # a ray's spans are its first columns
+    t0, t1 = np.full((r, max(n, 1)), np.nan), np.full((r, max(n, 1)), np.nan)
+    t0[sel, :n], t1[sel, :n] = t0s[:, :n], t1s[:, :n]
+    return t0, t1
+
+
+def _mesh_spans_all(tri: np.ndarray, o: np.ndarray, d: np.ndarray):
     # A closed mesh's spans along each ray. Every triangle's crossing by Cramer's rule on
     # o + t d = v0 + u e1 + v e2 (scalar triple products; the kernel shears instead, Woop et al.
     # 2013). A ray that crosses every triangle it meets well inside (barycentric coordinates
