@@ -301,6 +301,8 @@ class Collider:
         Returns
         -------
         collide.Contacts
+            Its arrays are views of rows that later calls never write again (a result may be
+            kept; see `collide.Contacts`); a call without contacts returns the same empty one.
             Several contacts a pair for face contacts, as MuJoCo 4 makes them (box-box up to 8,
             box and mesh faces and a plane against a box, mesh, capsule or cylinder up to 4), one
             otherwise; pairs with a height field or SDF geom in ``skipped``. Where MuJoCo makes

@@ -67,6 +67,14 @@ class Contacts:
         in the gap, and MuJoCo flags it ``exclude``.
     skipped : (S, 2) int32
         Pairs not collided (a height field or SDF geom): reported, not dropped silently.
+
+    Notes
+    -----
+    From `narrow_phase` and `collide.mujoco.Collider.contacts`, the arrays are views of rows of
+    a larger output buffer that later calls never write again (they fill other rows), so a
+    result may be kept; the buffer is freed with the last view that holds it. A call without
+    contacts or skipped pairs returns one empty `Contacts` again (``is`` tells). Copy an array
+    (``np.array(c.dist)``) to own it.
     """
 
     geom: np.ndarray
@@ -162,9 +170,10 @@ class GeomTable:
     -----
     The per-geom and support arrays above and the face arrays `kernel_args` hands out are views
     of four packed buffers, one a dtype (`collide._kernels.manifold.collide_packed` takes those,
-    not forty arrays); the kernel's scratch is made here, once (`contacts_of` runs the kernel
-    with the GIL held, so calls on one table never share it at once). Copies and unpickled tables
-    rebind their views to their own buffers.
+    not forty arrays); the kernel's scratch and an output arena are made here, once
+    (`contacts_of` runs the kernel with the GIL held, so calls on one table never share the
+    scratch at once, and the arena's rows handed out are never written again). Copies and
+    unpickled tables rebind their views to their own buffers and get an arena of their own.
 
     Everything is read from the model once, margins and gaps included (copies, not views of the
     model's arrays): a model edited after the table was made is not seen, as the broad phase
@@ -250,6 +259,8 @@ class GeomTable:
         self._no_skipped.flags.writeable = False
         self._per_pair = _km.MAX_PER_PAIR * self.pair_mult
         self._skip = np.empty(0, np.bool_)  # `contacts_of`'s skipped flags where no geom is skipped
+        self._empty = _empty_contacts()
+        self._new_out(OUT_ROWS)
 
     def _pack(self) -> None:
         # The kernel's tables, one buffer a dtype (`collide._kernels.manifold.collide_packed`: a
@@ -287,6 +298,18 @@ class GeomTable:
         self._wsf, self._wsi = np.zeros(nf), np.zeros(ni, np.int64)
         self._bind()
 
+    def _new_out(self, rows: int) -> None:
+        # A new output arena of ``rows`` contacts (`collide_packed` writes each call's contacts into
+        # its next free rows, `contacts_of` hands them out as views): the kernel's two buffers and
+        # its free-row counter, then the per-field views cut from them, in one tuple (one store: a
+        # thread reads one arena's parts, never two arenas'). Rows once handed out are never
+        # written again; a full arena is left to the views that hold it (freed with the last).
+        geom = np.empty((rows, 2), np.int32)
+        f = np.empty(_km.F_END * rows)
+        d, p, m, q = _km.F_DIST * rows, _km.F_POS * rows, _km.F_NORMAL * rows, _km.F_MARGIN * rows
+        self._out = (geom, f, np.zeros(1, np.int64), f[d:d + rows], f[p:p + 3 * rows].reshape(rows, 3),
+                     f[m:m + 3 * rows].reshape(rows, 3), f[q:q + rows])
+
     def _views(self) -> dict:
         # Each slot's view of the packed buffers, by the header in ``_tables[1]``.
         ti = self._tables[1]
@@ -312,12 +335,16 @@ class GeomTable:
 
     def __getstate__(self) -> dict:
         # The packed buffers and the scalars; the views are rebound on the copy (`__setstate__`).
-        views = set(_SLOT_ATTR) | {"below", "_face_args", "_kargs"}
+        views = set(_SLOT_ATTR) | {"below", "_face_args", "_kargs", "_out"}
         return {k: v for k, v in self.__dict__.items() if k not in views}
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
+        # a scratch of its own (`copy.copy` shares the rest): the kernel's warm-start cache in it
+        # (`collide._kernels.warm`) is this table's alone, empty
+        self._wsf, self._wsi = np.zeros_like(self._wsf), np.zeros_like(self._wsi)
         self._bind()
+        self._new_out(OUT_ROWS)  # an arena of its own: a copy never writes into rows the original handed out
 
     @property
     def override(self) -> bool:
@@ -405,6 +432,9 @@ def contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.
     Returns
     -------
     Contacts
+        Its arrays are views of rows of the table's output arena that are never written again
+        (the views keep it alive); without contacts or skipped pairs, the table's one empty
+        `Contacts`.
 
     Raises
     ------
@@ -412,31 +442,90 @@ def contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.
         A non-finite pose of a geom in a pair (naming it): the kernel checks those.
     """
     K = len(pairs)
-    cap = table._per_pair * K
-    geom = np.empty((cap, 2), np.int32)
-    f = np.empty(_km.F_END * cap)  # dist, pos, normal, margin (`collide_packed`'s ``F_*`` layout)
-    if table._any_skipped:
+    if K == 0:
+        return table._empty
+    any_skipped = table._any_skipped
+    if any_skipped:
         skipped = np.empty(K, np.bool_)  # the kernel writes every entry
     else:
         skipped = table._skip
         if len(skipped) < K:
             skipped = table._skip = np.empty(2 * K, np.bool_)
     tf, ti, t8, t32 = table._tables
-    n = _km.collide_packed(pairs, xpos, xmat, tf, ti, t8, t32, table.override, table.o_margin, table._wsf,
-                           table._wsi, geom, f, skipped)
-    if n < 0:
-        g = (-n - 1) // 8
+    out = table._out
+    # The compiled function's entry point, called directly (`_first_packed`): the arguments have
+    # its types by construction (the broad phase's pairs, `_poses`' views, the table's buffers).
+    r = _packed(pairs, xpos, xmat, tf, ti, t8, t32, table._override, table._o_margin, table._wsf, table._wsi,
+                out[0], out[1], out[2], table._per_pair, skipped)
+    while r == _km.OUT_FULL:  # a new arena, large enough for this call (another thread may take it first)
+        table._new_out(max(OUT_ROWS, 4 * table._per_pair * K))
+        out = table._out
+        r = _packed(pairs, xpos, xmat, tf, ti, t8, t32, table._override, table._o_margin, table._wsf, table._wsi,
+                    out[0], out[1], out[2], table._per_pair, skipped)
+    if r < 0:
+        g = (-r - 1) // 8
         raise ValueError(f"geom_xpos/geom_xmat: non-finite pose (NaN or inf) of geom {g}")
+    n = r & 0xFFFFFFFF
+    if n == 0 and not any_skipped:
+        return table._empty
+    o = r >> 32
+    e = o + n
     # Built without the frozen dataclass's __init__ (a setattr per field): the same fields.
     c = _new(Contacts)
-    d, p, m, q = _km.F_DIST * cap, _km.F_POS * cap, _km.F_NORMAL * cap, _km.F_MARGIN * cap
-    c.__dict__.update(geom=geom[:n], dist=f[d:d + n], pos=f[p:p + 3 * n].reshape(n, 3),
-                      normal=f[m:m + 3 * n].reshape(n, 3), margin=f[q:q + n],
-                      skipped=pairs[skipped[:K]] if table._any_skipped else table._no_skipped)
+    c.__dict__.update(geom=out[0][o:e], dist=out[3][o:e], pos=out[4][o:e], normal=out[5][o:e], margin=out[6][o:e],
+                      skipped=pairs[skipped[:K]] if any_skipped else table._no_skipped)
     return c
 
 
 _new = object.__new__
+
+# Rows of a new output arena (`GeomTable._new_out`): the contacts of many calls; a call needs
+# ``per_pair * K`` free rows, and a larger arena is made when a call needs more.
+OUT_ROWS = 4096
+
+
+def _empty_contacts() -> Contacts:
+    # No contacts, no skipped pair: one per table, handed out by every such call (zero rows:
+    # nothing in it can be written).
+    c = _new(Contacts)
+    c.__dict__.update(geom=np.zeros((0, 2), np.int32), dist=np.zeros(0), pos=np.zeros((0, 3)),
+                      normal=np.zeros((0, 3)), margin=np.zeros(0), skipped=np.zeros((0, 2), np.int32))
+    return c
+
+
+def _packed_signature() -> tuple:
+    # `collide_packed`'s one compiled signature: the types contacts_of passes (pairs read-only,
+    # as the broad phase hands them out).
+    from numba import types as nt
+
+    def a(dtype, ndim=1, readonly=False):
+        return nt.Array(dtype, ndim, "C", readonly=readonly)
+
+    return (a(nt.int32, 2, True), a(nt.float64, 2), a(nt.float64, 3), a(nt.float64), a(nt.int64), a(nt.int8),
+            a(nt.int32), nt.boolean, nt.float64, a(nt.float64), a(nt.int64), a(nt.int32, 2), a(nt.float64),
+            a(nt.int64), nt.int64, a(nt.boolean))
+
+
+def _first_packed(*args):
+    # `_packed` until the first call: compiles (or loads from numba's cache) `collide_packed` for
+    # `_packed_signature`, then binds `_packed` to that compiled function's entry point. The
+    # dispatcher checks every argument's type on each call (some 16 here, most of the call's
+    # fixed cost on a small model); the entry point behind it unboxes them as that signature's
+    # types without checking, so only contacts_of, whose arguments have them by construction,
+    # calls it (the dispatcher where this numba does not expose the entry point).
+    global _packed
+    sig = _packed_signature()
+    disp = _km.collide_packed
+    disp.compile(sig)
+    try:
+        entry = disp.overloads[sig].entry_point
+    except (AttributeError, KeyError):
+        entry = None
+    _packed = entry if callable(entry) else disp
+    return _packed(*args)
+
+
+_packed = _first_packed
 
 # `GeomTable`'s attributes that are slots (``below`` is ``S_BELOW`` viewed as bool; the face slots
 # are `GeomTable.faces`' arrays, handed to the kernel in ``_face_args``).

@@ -62,7 +62,7 @@ __all__ = [
     "CONVEX", "ERR_POSE", "MAX_PER_PAIR", "PLANE", "SKIPPED", "T_BOX", "T_CAPSULE", "T_CYLINDER", "T_ELLIPSOID",
     "T_HFIELD", "T_MESH", "T_PLANE", "T_SPHERE", "CONVEX_PAIR", "F_DIST", "F_END", "F_MARGIN", "F_NORMAL",
     "F_POS", "N_SLOTS", "SLOT_BUFFER", "SLOT_COLS", "BUFFER_DTYPES", "TI_HEADER", "carve_scratch",
-    "collide_packed", "collide_pairs", "pair_margins", "scratch_caps", "scratch_sizes",
+    "OUT_FULL", "collide_packed", "collide_pairs", "pair_margins", "scratch_caps", "scratch_sizes",
     "pair_signed_distance", "plane_box_contacts",
     # re-exported
     "BOX_MAX", "BOX_WS", "EDGE_TOL", "FACE_TOL", "OUT_DISTANCE", "OUT_NORMAL", "OUT_POINT_A", "OUT_POINT_B",
@@ -160,7 +160,9 @@ def scratch_sizes(cap, fmax):
     return nf, ni
 
 
-@njit(cache=True)
+# Inlined: called once a `collide_packed` call, where a call returning its 22 views cost more
+# than the views themselves (numba's reference counting on each, across the call).
+@njit(cache=True, inline="always")
 def carve_scratch(wsf, wsi, cap, fmax):
     """`collide_pairs`' scratch as views of two flat workspaces (`scratch_sizes` long at least).
 
@@ -544,9 +546,15 @@ def _slot2(buf, ti, s):
     return buf[o:o + n * c].reshape((n, c))
 
 
+# `collide_packed`'s answer when its output arena has fewer free rows than ``per_pair * K``
+# (nothing written: the caller starts a new arena and calls again).
+OUT_FULL = -1
+
+
 @njit(cache=True)
-def collide_packed(pairs, xpos, xmat, tf, ti, t8, t32, override, o_margin, wsf, wsi, out_geom, out_f, skipped):
-    """`collide_pairs` on packed tables and a workspace made once (the per-step call).
+def collide_packed(pairs, xpos, xmat, tf, ti, t8, t32, override, o_margin, wsf, wsi, out_geom, out_f, out_next,
+                   per_pair, skipped):
+    """`collide_pairs` on packed tables and a workspace made once, into an output arena (the per-step call).
 
     Parameters
     ----------
@@ -564,17 +572,29 @@ def collide_packed(pairs, xpos, xmat, tf, ti, t8, t32, override, o_margin, wsf, 
         The scratch (`scratch_sizes` of ``ti``'s ``cap``, ``fmax``), overwritten.
     out_geom : (M, 2) int32
     out_f : (F_END M,) float64
-        ``M`` at least `MAX_PER_PAIR` times the contacts a pair may make times ``K``; receives the
-        contacts, ``out_f`` as ``dist (M,)``, ``pos (M, 3)``, ``normal (M, 3)``, ``margin (M,)``
-        from ``F_DIST M``, ``F_POS M``, ``F_NORMAL M``, ``F_MARGIN M`` on.
+        The output arena, ``M`` rows: ``out_f`` holds ``dist (M,)``, ``pos (M, 3)``,
+        ``normal (M, 3)``, ``margin (M,)`` from ``F_DIST M``, ``F_POS M``, ``F_NORMAL M``,
+        ``F_MARGIN M`` on. The contacts are written from row ``out_next[0]`` on.
+    out_next : (1,) int64
+        The arena's first free row; advanced past the contacts written. Rows before it are never
+        written again (the caller hands them out). A call runs under the GIL, so calls from two
+        threads never interleave between reading and advancing it.
+    per_pair : int
+        The most contacts a pair may make (`MAX_PER_PAIR` times the most ``<pair>`` s of a
+        geom pair): a call needs ``per_pair * K`` free rows.
     skipped : (K,) bool
 
     Returns
     -------
     int
-        As `collide_pairs`.
+        ``(row << 32) | n``: ``n`` contacts written from ``row`` on; `OUT_FULL` when fewer than
+        ``per_pair * K`` rows are free (nothing written, ``out_next`` unchanged); a non-finite
+        pose as `collide_pairs` reports it (``out_next`` unchanged).
     """
     M = out_geom.shape[0]
+    row = out_next[0]
+    if M - row < per_pair * pairs.shape[0]:
+        return OUT_FULL
     # every array borrowed (`borrow`): the caller holds them for the call
     pairs, xpos, xmat, tf, ti, t8, t32 = borrow(pairs), borrow(xpos), borrow(xmat), borrow(tf), borrow(ti), \
         borrow(t8), borrow(t32)
@@ -591,9 +611,15 @@ def collide_packed(pairs, xpos, xmat, tf, ti, t8, t32, override, o_margin, wsf, 
              _slot(ti, ti, S_F_NUM), _slot2(tf, ti, S_F_NORMAL), _slot(tf, ti, S_F_OFFSET),
              _slot(ti, ti, S_F_VADR), _slot(ti, ti, S_F_VNUM), _slot(t32, ti, S_F_VIDX))
     ws = carve_scratch(wsf, wsi, ti[2 * N_SLOTS], ti[2 * N_SLOTS + 1])
-    outs = (out_geom, out_f[F_DIST * M:(F_DIST + 1) * M], out_f[F_POS * M:(F_POS + 3) * M].reshape((M, 3)),
-            out_f[F_NORMAL * M:(F_NORMAL + 3) * M].reshape((M, 3)), out_f[F_MARGIN * M:(F_MARGIN + 1) * M], skipped)
-    return _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs)
+    outs = (out_geom[row:], out_f[F_DIST * M + row:(F_DIST + 1) * M],
+            out_f[F_POS * M + 3 * row:(F_POS + 3) * M].reshape((M - row, 3)),
+            out_f[F_NORMAL * M + 3 * row:(F_NORMAL + 3) * M].reshape((M - row, 3)),
+            out_f[F_MARGIN * M + row:(F_MARGIN + 1) * M], skipped)
+    n = _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs)
+    if n < 0:
+        return n
+    out_next[0] = row + n
+    return (row << 32) | n
 
 
 @njit(cache=True)

@@ -9,7 +9,7 @@ each step (after ``mj_step``) the medians over the steps of:
 * ``call``: the same call repeated on that state (caches warm);
 * ``broad``: ``Collider.pairs(data)`` (the broad phase, its Python call included);
 * ``contacts_of``: `collide.contacts.contacts_of` on those pairs (our Python wrapper and the kernel);
-* ``kernel``: `collide._kernels.manifold.collide_packed` alone, on preallocated outputs;
+* ``kernel``: `collide._kernels.manifold.collide_packed` alone (its entry point), into an arena of its own;
 * ``fixed``: the kernel on no pairs (numba's dispatch and the tables' views, the per-call floor);
 
 and, every ``--every`` steps, the kernel on the step's pairs of one kind of geom pair at a time,
@@ -72,12 +72,15 @@ def profile(path: Path, steps: int, every: int, seed: int = 0, hold: int = 10) -
         pairs = col.pairs(data)
         xpos, xmat = col._poses(data)
         split["contacts_of"].append(_best(lambda: _c.contacts_of(table, pairs, xpos, xmat)))
+        # an arena of the profile's own (the table's kept as it was), its first free row reset at each call
         cap = table._per_pair * max(len(pairs), 1)
-        geom, f, skipped = np.empty((cap, 2), np.int32), np.empty(8 * cap), np.empty(max(len(pairs), 1), np.bool_)
+        geom, f, nxt = np.empty((cap, 2), np.int32), np.empty(_km.F_END * cap), np.zeros(1, np.int64)
+        skipped = np.empty(max(len(pairs), 1), np.bool_)
 
         def kernel(p):
-            return _km.collide_packed(p, xpos, xmat, tf, ti, t8, t32, table.override, table.o_margin, table._wsf,
-                                      table._wsi, geom, f, skipped)
+            nxt[0] = 0
+            return _c._packed(p, xpos, xmat, tf, ti, t8, t32, table._override, table._o_margin, table._wsf,
+                              table._wsi, geom, f, nxt, table._per_pair, skipped)
 
         split["kernel"].append(_best(lambda: kernel(pairs)))
         fixed = _best(lambda: kernel(pairs[:0]))
