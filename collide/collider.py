@@ -319,7 +319,7 @@ class Collider:
         posed = self._posed
         xpos, xmat = posed[1] if posed[0] is data else self._poses(data)
         # the broad phase's pairs are int32, C-contiguous, in range, lower first: not checked again
-        return _contacts.contacts_of(self.table, pairs, xpos, xmat)
+        return _contacts._contacts_of(self.table, pairs, xpos, xmat)
 
     def geom_distance(self, data, g1: int, g2: int, distmax: float) -> tuple[float, np.ndarray]:
         """Signed distance of geoms ``g1`` and ``g2``, like ``mujoco.mj_geomDistance``.

@@ -255,8 +255,7 @@ class GeomTable:
         self.faces = _faces.FaceTable([_polytope(model, g, int(types[g]), sizes[g]) for g in range(G)])
         self._pack()
         self._any_skipped = bool(np.any(self.cls == _km.SKIPPED))
-        self._no_skipped = np.zeros((0, 2), np.int32)
-        self._no_skipped.flags.writeable = False
+        self._no_skipped = _no_rows((2,), np.int32)  # a read-only view, never resized in place (`_empty_contacts`)
         self._per_pair = _km.MAX_PER_PAIR * self.pair_mult
         self._skip = np.empty(0, np.bool_)  # `contacts_of`'s skipped flags where no geom is skipped
         self._empty = _empty_contacts()
@@ -335,7 +334,7 @@ class GeomTable:
 
     def __getstate__(self) -> dict:
         # The packed buffers and the scalars; the views are rebound on the copy (`__setstate__`).
-        views = set(_SLOT_ATTR) | {"below", "_face_args", "_kargs", "_out"}
+        views = set(_SLOT_ATTR) | {"below", "_face_args", "_kargs", "_out", "_empty", "_no_skipped"}
         return {k: v for k, v in self.__dict__.items() if k not in views}
 
     def __setstate__(self, state: dict) -> None:
@@ -345,6 +344,8 @@ class GeomTable:
         self._wsf, self._wsi = np.zeros_like(self._wsf), np.zeros_like(self._wsi)
         self._bind()
         self._new_out(OUT_ROWS)  # an arena of its own: a copy never writes into rows the original handed out
+        # read-only views again (unpickled arrays own their data and are writeable)
+        self._empty, self._no_skipped = _empty_contacts(), _no_rows((2,), np.int32)
 
     @property
     def override(self) -> bool:
@@ -408,26 +409,34 @@ def narrow_phase(table: GeomTable, pairs, geom_xpos, geom_xmat) -> Contacts:
     P = np.asarray(pairs)
     if P.ndim != 2 or P.shape[1] != 2 or (P.size and not np.issubdtype(P.dtype, np.integer)):
         raise ValueError(f"pairs: expected a (K, 2) integer array, got shape {P.shape}, dtype {P.dtype}")
+    _check_ids(table, P)  # before narrowing to int32 (2**32 + 1 would become 1)
     P = np.ascontiguousarray(P, dtype=np.int32)
-    if len(P) and (P.min() < 0 or P.max() >= table.ngeom or np.any(P[:, 0] >= P[:, 1])):
-        raise ValueError(f"pairs: geom ids must be in [0, {table.ngeom}) with the lower id first")
     xpos, xmat = _poses(table, geom_xpos, geom_xmat)
     if P.flags.writeable:  # read-only as the broad phase's pairs are: one compiled `collide_packed`
         P = P.view()
         P.flags.writeable = False
-    return contacts_of(table, P, xpos, xmat)
+    return _contacts_of(table, P, xpos, xmat)
+
+
+def _check_ids(table: GeomTable, P: np.ndarray) -> None:
+    if len(P) and (P.min() < 0 or P.max() >= table.ngeom or np.any(P[:, 0] >= P[:, 1])):
+        raise ValueError(f"pairs: geom ids must be in [0, {table.ngeom}) with the lower id first")
 
 
 def contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.ndarray) -> Contacts:
-    """`narrow_phase` on checked input (the per-step path of `collide.mujoco.Collider`).
+    """`narrow_phase` on input in the kernel's own types (no conversion on that path).
 
     Parameters
     ----------
     table : GeomTable
     pairs : (K, 2) int32, C-contiguous
-        Geom ids in ``[0, G)``, lower first (a broad phase's output: not checked here).
+        Geom ids in ``[0, G)``, lower first (checked).
     xpos : (G, 3) float64, C-contiguous
     xmat : (G, 3, 3) float64, C-contiguous
+        Input of another dtype, layout or shape is converted and checked as `narrow_phase` does:
+        the kernel is called through its compiled entry point, which reads its arguments as
+        these types without checking them (a Fortran-ordered or strided array would be read
+        wrongly, a 1-D one past its end).
 
     Returns
     -------
@@ -439,8 +448,23 @@ def contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.
     Raises
     ------
     ValueError
-        A non-finite pose of a geom in a pair (naming it): the kernel checks those.
+        As `narrow_phase`: wrong shapes, a bad geom id, a non-finite pose of a geom in a pair.
     """
+    G = table.ngeom
+    if not (type(pairs) is np.ndarray and pairs.dtype == np.int32 and pairs.ndim == 2 and pairs.shape[1] == 2
+            and pairs.flags.c_contiguous and type(xpos) is np.ndarray and xpos.dtype == np.float64
+            and xpos.shape == (G, 3) and xpos.flags.c_contiguous and type(xmat) is np.ndarray
+            and xmat.dtype == np.float64 and xmat.shape == (G, 3, 3) and xmat.flags.c_contiguous):
+        return narrow_phase(table, pairs, xpos, xmat)
+    _check_ids(table, pairs)
+    return _contacts_of(table, pairs, xpos, xmat)
+
+
+def _contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.ndarray) -> Contacts:
+    # `contacts_of` unchecked: pairs (K, 2) int32, xpos (G, 3), xmat (G, 3, 3) float64, all
+    # C-contiguous, ids in range and lower first, as the broad phase's pairs and `_poses`' views
+    # are by construction (`collide.mujoco.Collider.contacts`, `narrow_phase`). `_packed` reads
+    # them as those types without a check: anything else is read wrongly or past its end.
     K = len(pairs)
     if K == 0:
         return table._empty
@@ -485,12 +509,20 @@ OUT_ROWS = 4096
 
 
 def _empty_contacts() -> Contacts:
-    # No contacts, no skipped pair: one per table, handed out by every such call (zero rows:
-    # nothing in it can be written).
+    # No contacts, no skipped pair: one per table, handed out by every such call. Its arrays are
+    # read-only views (zero rows of a one-row array): an array owning its data could be resized
+    # in place (``c.dist.resize(5)``), which every later empty result would show.
     c = _new(Contacts)
-    c.__dict__.update(geom=np.zeros((0, 2), np.int32), dist=np.zeros(0), pos=np.zeros((0, 3)),
-                      normal=np.zeros((0, 3)), margin=np.zeros(0), skipped=np.zeros((0, 2), np.int32))
+    c.__dict__.update(geom=_no_rows((2,), np.int32), dist=_no_rows(()), pos=_no_rows((3,)), normal=_no_rows((3,)),
+                      margin=_no_rows(()), skipped=_no_rows((2,), np.int32))
     return c
+
+
+def _no_rows(cols: tuple, dtype=np.float64) -> np.ndarray:
+    # A read-only (0, *cols) view (`_empty_contacts`).
+    a = np.zeros((1,) + cols, dtype)[:0]
+    a.flags.writeable = False
+    return a
 
 
 def _packed_signature() -> tuple:
