@@ -155,7 +155,11 @@ def _mesh_spans(tri: np.ndarray, o: np.ndarray, d: np.ndarray):
     tmax = np.where(flat, np.where(inslab, np.inf, -np.inf), np.maximum(ta, tb)).min(axis=1)
     sel = np.flatnonzero(tmin <= tmax)
     t0s, t1s = _mesh_spans_all(tri, o[sel], d[sel])
-    n = int(np.isfinite(t0s).sum(axis=1).max(initial=0))  # a ray's spans are its first columns
+    # Columns up to the last finite one of any ray: a ray's spans may have a gap of NaN
+    # columns (two crossings at one t, a doubled sheet inside a closed mesh, pair as an empty
+    # span), so the count of finite columns would drop the spans after it.
+    fin = np.isfinite(t0s)
+    n = int((fin * np.arange(1, fin.shape[1] + 1)).max(initial=0))
     t0, t1 = np.full((r, max(n, 1)), np.nan), np.full((r, max(n, 1)), np.nan)
     t0[sel, :n], t1[sel, :n] = t0s[:, :n], t1s[:, :n]
     return t0, t1
