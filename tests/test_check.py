@@ -34,6 +34,7 @@ from collide import collider as ccol
 from collide import testing
 from collide._kernels import check as kc
 from collide._kernels import manifold as km
+from collide._kernels import plane as kp
 from contact_check import MODELS, contact_distance, oracle, pair_tolerance
 
 SCENES = sorted(p.name for p in MODELS.iterdir() if (p / "scene.xml").is_file()) if MODELS.is_dir() else []
@@ -649,3 +650,169 @@ def test_the_axis_rejection_never_rejects_a_pair_within_reach(scene):
         rejected += int(np.count_nonzero(apart & ok))
         kept += int(np.count_nonzero(~apart & ok))
     assert rejected > 50 and kept > 50  # the test saw both answers
+
+
+@numba.njit(cache=False)
+def _sat_and_distance(xp, xm, rows, thr, cls, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr,
+                      nbr_start_num, nbr, nbr_adr, nbr_num, size):
+    # Per row (world, g1, g2): whether check._apart_sat puts the pair beyond thr, and the pair's
+    # signed distance (manifold.pair_signed_distance), at the poses xp[w], xm[w].
+    K = rows.shape[0]
+    apart = np.zeros(K, np.bool_)
+    dist = np.full(K, np.nan)
+    out = np.empty(7)
+    for k in range(K):
+        w, g1, g2 = rows[k, 0], rows[k, 1], rows[k, 2]
+        if cls[g1] == km.PLANE or cls[g2] == km.PLANE or cls[g1] == km.SKIPPED or cls[g2] == km.SKIPPED:
+            continue
+        xpos, xmat = xp[w], xm[w]
+        s1 = km._shape(g1, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr,
+                       nbr_num, xpos, xmat)
+        s2 = km._shape(g2, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr,
+                       nbr_num, xpos, xmat)
+        apart[k] = kc._apart_sat(s1, s2, prm[g1, 3] + prm[g2, 3], thr)
+        if km.pair_signed_distance(g1, g2, xpos, xmat, cls, kind, prm, pts, pts_adr, pts_num, nbr_start,
+                                   nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, size, out) == 0:
+            dist[k] = out[0]
+    return apart, dist
+
+
+def _mujoco_poses(model, q):
+    # Geom poses of each configuration from MuJoCo's mj_kinematics: (B, G, 3), (B, G, 3, 3).
+    data = mujoco.MjData(model)
+    G = model.ngeom
+    xp = np.empty((len(q), G, 3))
+    xm = np.empty((len(q), G, 3, 3))
+    for i, x in enumerate(q):
+        data.qpos[:] = x
+        mujoco.mj_kinematics(model, data)
+        xp[i] = data.geom_xpos
+        xm[i] = data.geom_xmat.reshape(G, 3, 3)
+    return xp, xm
+
+
+# Five free primitives of every type check._apart_sat reads (a box, a capsule, a cylinder, an
+# ellipsoid, a sphere), placed at random in a cube about their sizes: pairs at every distance.
+_PRIMITIVES = "".join(
+    f'<body pos="0 0 {i}"><freejoint/><geom type="{t}" size="{s}"/></body>'
+    for i, (t, s) in enumerate([("box", "0.1 0.05 0.2"), ("capsule", "0.04 0.15"), ("cylinder", "0.08 0.1"),
+                                ("ellipsoid", "0.1 0.05 0.12"), ("sphere", "0.07")]))
+
+
+def _primitive_configurations(model, n, rng):
+    q = np.zeros((n, model.nq))
+    for b in range(5):
+        q[:, 7 * b:7 * b + 3] = rng.uniform(-0.25, 0.25, (n, 3))
+        quat = rng.normal(size=(n, 4))
+        q[:, 7 * b + 3:7 * b + 7] = quat / np.linalg.norm(quat, axis=1, keepdims=True)
+    return q
+
+
+@pytest.mark.parametrize("scene", ["primitives", "shadow_hand"])
+def test_the_separating_axes_never_reject_a_pair_within_reach(scene):
+    # deepest_contact's second test before GJK (check._apart_sat: the shapes' own axes and their
+    # cross products) is conservative: a pair it puts beyond thr is farther than thr by the
+    # pair's signed distance, on random poses of every primitive type and on the broad phase's
+    # candidates of random configurations (boxes, capsules, cylinders; a mesh is never passed),
+    # at thresholds from zero to past the rejected pairs' distances.
+    rng = np.random.default_rng(7)
+    if scene == "primitives":
+        model = _model(_PRIMITIVES)
+        q = _primitive_configurations(model, 400, rng)
+        G = model.ngeom
+        gi, gj = np.triu_indices(G, 1)
+        rows = np.stack([np.repeat(np.arange(len(q)), len(gi)), np.tile(gi, len(q)), np.tile(gj, len(q))],
+                        axis=1).astype(np.int32)
+        col = cm.Collider(model)
+    else:
+        if scene not in SCENES:
+            pytest.skip(NO_MODELS)
+        model = _load(scene)
+        q = testing.random_configurations(model, 200, rng)
+        col = cm.Collider(model)
+        rows = np.ascontiguousarray(col.broadphase.pairs_batch(model, q), dtype=np.int32).reshape(-1, 3)
+    xp, xm = _mujoco_poses(model, q)
+    t = col.table._kargs
+    size = t[15]
+    tol = 1e-9 * (size[rows[:, 1]] + size[rows[:, 2]])
+    rejected = kept = 0
+    for thr in (0.0, 1e-3, 0.01, 0.05):
+        apart, dist = _sat_and_distance(xp, xm, rows, thr, t[0], *t[3:14], size)
+        ok = np.isfinite(dist)
+        assert not np.any(apart & ok & (dist <= thr - tol)), "a pair within reach rejected"
+        rejected += int(np.count_nonzero(apart & ok))
+        kept += int(np.count_nonzero(~apart & ok))
+    assert rejected > 50 and kept > 50  # the test saw both answers
+    if scene == "primitives":  # every type pair with axes of its own (box, capsule, cylinder) had pairs rejected
+        g1t, g2t = model.geom_type[rows[:, 1]], model.geom_type[rows[:, 2]]
+        apart, dist = _sat_and_distance(xp, xm, rows, 0.0, t[0], *t[3:14], size)
+        round_ = (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_ELLIPSOID)  # no axis: never tested
+        for a, b in set(zip(g1t.tolist(), g2t.tolist())):
+            sel = (g1t == a) & (g2t == b)
+            assert apart[sel].any() == (a not in round_ and b not in round_), (a, b)
+
+
+@numba.njit(cache=False)
+def _plane_mesh_both(xp, xm, rows, cls, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num,
+                     nbr, nbr_adr, nbr_num, hv_adr, hv_num, hv, f_adr, f_num, f_normal, f_vadr, f_vnum, f_vidx):
+    # Per row (world, plane, mesh or mesh, plane): check._plane_mesh_depth's depth and slack, and
+    # plane.plane_mesh's deepest contact (its every-vertex scan) at a threshold past any depth.
+    K = rows.shape[0]
+    dm = np.full(K, np.nan)
+    sl = np.full(K, np.nan)
+    ds = np.full(K, np.nan)
+    pa = np.empty(3)
+    fmax = 4
+    for f in range(f_vnum.shape[0]):
+        fmax = max(fmax, f_vnum[f])
+    cand = np.empty((fmax, 3))
+    dep = np.empty(fmax)
+    sel = np.zeros(4, np.int64)
+    res = np.empty((8, 4))
+    for k in range(K):
+        w, g1, g2 = rows[k, 0], rows[k, 1], rows[k, 2]
+        if (cls[g1] == km.PLANE) == (cls[g2] == km.PLANE):
+            continue
+        gp = g1 if cls[g1] == km.PLANE else g2
+        gc = g2 if cls[g1] == km.PLANE else g1
+        if hv_num[gc] == 0:
+            continue
+        xpos, xmat = xp[w], xm[w]
+        s = km._shape(gc, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr,
+                      nbr_num, xpos, xmat)
+        dm[k], sl[k] = kc._plane_mesh_depth(gp, gc, xpos, xmat, s, pa)
+        n = np.ascontiguousarray(xmat[gp, :, 2])
+        a = hv_adr[gc]
+        m = kp.plane_mesh(hv[a:a + hv_num[gc]], f_adr[gc], f_num[gc], f_normal, f_vadr, f_vnum, f_vidx, xmat[gc],
+                          xpos[gc], n, xpos[gp], 1e300, cand, dep, sel, res)
+        d = np.inf
+        for i in range(m):
+            d = min(d, res[i, 0])
+        ds[k] = d
+    return dm, sl, ds
+
+
+@pytest.mark.skipif("franka_emika_panda" not in SCENES, reason=NO_MODELS)
+def test_a_mesh_on_a_plane_is_decided_by_its_lowest_point():
+    # deepest_contact's mesh-plane shortcut (check._plane_mesh_depth: the hill-climbed support
+    # point) is plane_mesh's deepest contact within its slack, on franka's links over its floor
+    # in random configurations (inside and outside the joint limits), above and below it.
+    model = _load("franka_emika_panda")
+    rng = np.random.default_rng(3)
+    q = testing.random_configurations(model, 300, rng)
+    q[::2] *= 2.0
+    col = cm.Collider(model)
+    t = col.table._kargs
+    G = model.ngeom
+    planes = np.flatnonzero(model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE)
+    meshes = np.flatnonzero(model.geom_type == mujoco.mjtGeom.mjGEOM_MESH)
+    pairs = np.array([(min(p, m), max(p, m)) for p in planes for m in meshes], np.int32)
+    rows = np.concatenate([np.column_stack([np.full(len(pairs), w, np.int32), pairs]) for w in range(len(q))])
+    xp, xm = _mujoco_poses(model, q)
+    dm, sl, ds = _plane_mesh_both(xp, xm, rows, t[0], *t[3:14], *t[25:31], *t[32:])
+    ok = np.isfinite(ds)
+    assert ok.sum() > 1000 and (ds[ok] < 0).sum() > 50 and (ds[ok] > 0).sum() > 50  # both sides met
+    assert np.all(np.abs(dm[ok] - ds[ok]) <= sl[ok])
+    assert np.all(sl[ok] < 1e-6)  # a slack of rounding, not of geometry
+    assert G == col.table.ngeom
+

@@ -37,10 +37,10 @@ from ._threads import fetch_add, set_chunksize
 from .distance import ROUNDING
 from .gjk import OVERLAP, SEPARATED, gjk_within
 from .kinematics import _kinematics_world
-from .support import POINTS, support
+from .support import CYLINDER, ELLIPSOID, POINTS, support
 from .manifold import (BOX_WS, CONTACT_TOL, CONVEX_PAIR, MAX_PER_PAIR, OUT_DISTANCE, OUT_SIZE, PLANE, SKIPPED,
                        _finite_pose, _pair_rows, _shape, pair_distance, pair_margins, pair_signed_distance,
-                       plane_box_contacts, scratch_caps)
+                       plane_box_contacts, scratch_caps, T_MESH)
 
 _EPS = float(np.finfo(np.float64).eps)
 
@@ -116,6 +116,125 @@ def _apart_on_axis(s1, s2, xpos, g1, g2, r, thr, pa, pb):
     return sep - ROUNDING * _EPS * (scale + r) - r > thr
 
 
+# The most core points of a shape whose projection on an axis `_extent` takes by scanning them
+# (a box's eight corners; a mesh's hull is left to GJK).
+SAT_POINTS = 8
+
+# `_plane_mesh_depth`'s slack, relative to the coordinates' magnitude: the hill-climbed support
+# vertex and `collide._kernels.plane.plane_mesh`'s scan may differ by rounding (ties, and a climb
+# stopped on a face almost parallel to the plane); a depth this close to a threshold is left to
+# `plane_box_contacts`.
+PLANE_MESH_SLACK = 1e-9
+
+
+@nb.njit(cache=True, inline="always")
+def _extent(s, u0, u1, u2):
+    # The interval (lo, hi) of u . (x - pos) over the shape's core (u a world direction): a box's
+    # or capsule's points scanned, a cylinder's and an ellipsoid's support in closed form; (nan,
+    # nan) for a shape with more points (a mesh: left to GJK).
+    kind, prm, pts, nbr_start, nbr, rot, pos = s
+    l0 = rot[0, 0] * u0 + rot[1, 0] * u1 + rot[2, 0] * u2
+    l1 = rot[0, 1] * u0 + rot[1, 1] * u1 + rot[2, 1] * u2
+    l2 = rot[0, 2] * u0 + rot[1, 2] * u1 + rot[2, 2] * u2
+    if kind == POINTS:
+        if pts.shape[0] > SAT_POINTS:
+            return np.nan, np.nan
+        lo = np.inf
+        hi = -np.inf
+        for i in range(pts.shape[0]):
+            v = pts[i, 0] * l0 + pts[i, 1] * l1 + pts[i, 2] * l2
+            lo = min(lo, v)
+            hi = max(hi, v)
+        return lo, hi
+    if kind == CYLINDER:
+        e = prm[1] * abs(l2) + prm[0] * math.sqrt(l0 * l0 + l1 * l1)
+        return -e, e
+    if kind == ELLIPSOID:
+        e = math.sqrt((prm[0] * l0) ** 2 + (prm[1] * l1) ** 2 + (prm[2] * l2) ** 2)
+        return -e, e
+    return np.nan, np.nan
+
+
+@nb.njit(cache=True, inline="always")
+def _axes_of(s):
+    # How many of the shape's frame axes are separating-axis candidates, from the last: a box's
+    # three face normals (3), a capsule's or cylinder's axis, its frame's z (1), none (0).
+    kind, prm, pts, nbr_start, nbr, rot, pos = s
+    if kind == POINTS:
+        n = pts.shape[0]
+        return 3 if n == SAT_POINTS else (1 if n == 2 else 0)
+    return 1 if kind == CYLINDER else 0
+
+
+@nb.njit(cache=True, inline="always")
+def _sep_on(s1, s2, u0, u1, u2, r, thr):
+    # Whether the unit axis u separates the two cores by more than thr + r (a lower bound of their
+    # distance: the gap between the two projected intervals), less `_apart_on_axis`' rounding
+    # allowance; False where a core has no closed-form extent.
+    p1 = s1[6]
+    p2 = s2[6]
+    a0, a1 = _extent(s1, u0, u1, u2)
+    b0, b1 = _extent(s2, u0, u1, u2)
+    if not (a0 == a0 and b0 == b0):
+        return False
+    c = u0 * (p2[0] - p1[0]) + u1 * (p2[1] - p1[1]) + u2 * (p2[2] - p1[2])
+    sep = max(c + b0 - a1, a0 - c - b1)
+    scale = (max(abs(p1[0]), abs(p1[1]), abs(p1[2]), abs(p2[0]), abs(p2[1]), abs(p2[2])) + max(-a0, a1)
+             + max(-b0, b1))
+    return sep - ROUNDING * _EPS * (scale + r) - r > thr
+
+
+@nb.njit(cache=True, inline="always")
+def _apart_sat(s1, s2, r, thr):
+    # Whether a separating axis of two boxes, capsules or cylinders (not a mesh, a sphere or an
+    # ellipsoid) puts their cores more than thr + r apart: each shape's own axes (`_axes_of`), then the
+    # cross products of one's with the other's (the separating-axis theorem's candidates for two
+    # boxes, Gottschalk, Lin, Manocha 1996, "OBBTree", sec. 4; a segment's against a box's
+    # edges). Each gap is a lower bound of the cores' distance, so a pair it passes makes no
+    # contact (the decision GJK's certified lower bound gives); one it fails goes on to GJK.
+    n1 = _axes_of(s1)
+    n2 = _axes_of(s2)
+    if n1 == 0 or n2 == 0:
+        # a sphere or an ellipsoid: the axis through the centres (`_apart_on_axis`) was its
+        # test; a box's faces rarely separate it where that axis did not (measured: stonehenge's
+        # sphere among its boxes paid the axes and went on to GJK)
+        return False
+    if (s1[0] == POINTS and s1[2].shape[0] > SAT_POINTS) or (s2[0] == POINTS and s2[2].shape[0] > SAT_POINTS):
+        return False
+    R1 = s1[5]
+    R2 = s2[5]
+    for k in range(3 - n1, 3):
+        if _sep_on(s1, s2, R1[0, k], R1[1, k], R1[2, k], r, thr):
+            return True
+    for k in range(3 - n2, 3):
+        if _sep_on(s1, s2, R2[0, k], R2[1, k], R2[2, k], r, thr):
+            return True
+    for i in range(3 - n1, 3):
+        for k in range(3 - n2, 3):
+            c0 = R1[1, i] * R2[2, k] - R1[2, i] * R2[1, k]
+            c1 = R1[2, i] * R2[0, k] - R1[0, i] * R2[2, k]
+            c2 = R1[0, i] * R2[1, k] - R1[1, i] * R2[0, k]
+            ln = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+            if ln > 1e-6 and _sep_on(s1, s2, c0 / ln, c1 / ln, c2 / ln, r, thr):
+                return True
+    return False
+
+
+@nb.njit(cache=True, inline="always")
+def _plane_mesh_depth(gp, gc, xpos, xmat, s, pa):
+    # The signed distance of mesh gc's lowest hull point below plane gp (`support` along the
+    # plane's -normal, hill-climbed: the depth `plane_mesh` finds by scanning every vertex, its
+    # deepest contact), and the slack within which the two may differ (`PLANE_MESH_SLACK`).
+    n0 = xmat[gp, 0, 2]
+    n1 = xmat[gp, 1, 2]
+    n2 = xmat[gp, 2, 2]
+    support(s, -n0, -n1, -n2, -1, pa)
+    d = n0 * (pa[0] - xpos[gp, 0]) + n1 * (pa[1] - xpos[gp, 1]) + n2 * (pa[2] - xpos[gp, 2])
+    scale = max(abs(pa[0]), abs(pa[1]), abs(pa[2]), abs(xpos[gp, 0]), abs(xpos[gp, 1]), abs(xpos[gp, 2]),
+                abs(xpos[gc, 0]), abs(xpos[gc, 1]), abs(xpos[gc, 2]))
+    return d, PLANE_MESH_SLACK * (scale + 1.0)
+
+
 @nb.njit(cache=True, inline="always")
 def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_margin, geom_gap, pair_key, pair_margin,
                     pair_gap, override, o_margin, gtype, half, shapes, faces, scratch, out, d0, gws, g4, hints):
@@ -127,8 +246,10 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_mar
     decides whether a contact is active: a face manifold's deepest point is the pair's exact
     distance (`polytope_contacts` sets it so), so the manifold is not built. Two convex geoms
     (not two boxes) that the axis through their origins separates beyond the contact distance
-    (`_apart_on_axis`) make no contact; the others are first decided by GJK alone, on its certified bounds: cores that GJK
-    finds overlapping within its tolerance (`collide._kernels.manifold.CONTACT_TOL` of the two
+    (`_apart_on_axis`), or an axis of their own (`_apart_sat`: boxes, capsules, cylinders), make
+    no contact; a mesh on a plane is decided by its lowest point (`_plane_mesh_depth`, the depth
+    `plane_mesh` finds first) where that is clear of the thresholds; the others are first
+    decided by GJK alone, on its certified bounds: cores that GJK finds overlapping within its tolerance (`collide._kernels.manifold.CONTACT_TOL` of the two
     sizes, as `collide_pairs` gives `collide._kernels.distance.pair_distance`) make an active
     contact (no EPA: the depth is not needed), a lower bound beyond the contact distance none,
     an upper bound below the margin an active one; only a pair within the tolerance of a
@@ -171,6 +292,19 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_mar
     for e in range(nent):
         margin, thr = pair_margins(g1, g2, j + e, explicit, geom_margin, geom_gap, pair_margin, pair_gap, override,
                                    o_margin)
+        if (c1 == PLANE) != (c2 == PLANE):
+            gp = g1 if c1 == PLANE else g2
+            gc = g2 if c1 == PLANE else g1
+            if gtype[gc] == T_MESH and faces[1][gc] > 0 and prm[gc, 3] == 0.0:
+                # a mesh on a plane: its lowest point (a hill climb) decides where it is clear of the
+                # thresholds by the slack; `plane_mesh` (every vertex, then a face's) otherwise
+                sc = _shape(gc, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr,
+                            nbr_adr, nbr_num, xpos, xmat)
+                dm, sl = _plane_mesh_depth(gp, gc, xpos, xmat, sc, gws[3, 1])
+                if dm - sl > thr:
+                    continue  # plane_mesh: no contact
+                if dm + sl < margin and dm + sl <= thr:
+                    return ACTIVE  # plane_mesh's deepest contact is made and active
         m = plane_box_contacts(g1, g2, thr, xpos, xmat, cls, rule, below, rbound, gtype, half, shapes, faces, scratch)
         d = np.inf
         if m != CONVEX_PAIR:
@@ -195,6 +329,8 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_mar
             # beyond thr + tol: cores GJK would find within tol of touching (OVERLAP, active) never rejected here
             if _apart_on_axis(s1, s2, xpos, g1, g2, r, thr + tol, gws[3, 1], gws[3, 2]):
                 continue  # certainly no contact, before GJK
+            if _apart_sat(s1, s2, r, thr + tol):
+                continue  # likewise, on the shapes' own axes
             hints[0] = -1
             hints[1] = -1
             gws[:] = 0.0  # a fresh simplex, as pair_distance starts from

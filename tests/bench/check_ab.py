@@ -1,7 +1,7 @@
 """Before/after of a change to check_batch, in one run (the project's rule for keeping a mechanism).
 
     python tests/bench/check_ab.py --trees DIR_A DIR_B [DIR_C ...] [--rounds R] [--configs N]
-        [--threads T] [--reps K] [--scenes NAME ...] [--distance]
+        [--threads T] [--reps K] [--scenes NAME ...] [--distance] [--cpu]
 
 ``DIR_A``, ``DIR_B``, ...: folders each holding a copy of the ``collide`` package (before, after
 one mechanism, after the next, ...). They run in turn, ``R`` rounds, each in its own process
@@ -10,7 +10,9 @@ one mechanism, after the next, ...). They run in turn, ``R`` rounds, each in its
 gives each tree's median over the rounds and each tree over the one before it (and, on a
 line below, the ratios of the best rounds). The answers
 (``in_collision``, and ``min_distance`` with ``--distance``) are compared with the first tree's:
-any difference is printed.
+any difference is printed. ``--cpu``: the process's CPU time (``time.process_time``) instead of
+the wall clock, for ``--threads 1`` on a machine other work keeps busy (a wait for the core is
+not charged; the threads' time would be summed with more than one).
 """
 
 from __future__ import annotations
@@ -60,10 +62,12 @@ def main() -> int:
     ap.add_argument("--reps", type=int, default=5)
     ap.add_argument("--scenes", nargs="*", default=DEFAULT)
     ap.add_argument("--distance", action="store_true")
+    ap.add_argument("--cpu", action="store_true")
     a = ap.parse_args()
     models = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "shared", "models")
     print(f"# check_ab: {a.configs} configurations, {a.threads} threads, best of {a.reps}, {a.rounds} rounds "
-          f"alternating; distance={a.distance}; {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
+          f"alternating; distance={a.distance}; {'CPU' if a.cpu else 'wall'} time; "
+          f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
     print(f"# command: python tests/bench/check_ab.py {' '.join(sys.argv[1:])}")
     print(f"# load average at start {os.getloadavg()[0]:.2f}", flush=True)
     times = {t: {s: [] for s in a.scenes} for t in a.trees}
@@ -72,8 +76,10 @@ def main() -> int:
         for t in a.trees:
             env = dict(os.environ, PYTHONPATH=os.path.abspath(t))
             # argv: models, configs, threads, reps, then (a distance flag folded in before the scenes)
-            res = subprocess.run([sys.executable, "-c", _CHILD.replace("sys.argv[6 - 2]", repr("1" if a.distance
-                                                                                              else "0")),
+            child = _CHILD.replace("sys.argv[6 - 2]", repr("1" if a.distance else "0"))
+            if a.cpu:
+                child = child.replace("time.perf_counter()", "time.process_time()")
+            res = subprocess.run([sys.executable, "-c", child,
                                   models, str(a.configs), str(a.threads), str(a.reps)] + a.scenes,
                                  env=env, capture_output=True, text=True, cwd="/tmp")
             if res.returncode != 0:
