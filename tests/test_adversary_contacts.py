@@ -157,3 +157,55 @@ def test_shared_empty_contacts_cannot_be_changed_through_its_arrays():
         for f in FIELDS:
             with pytest.raises(ValueError):
                 getattr(e, f).resize(5, refcheck=False)
+
+
+def test_threads_on_one_table_keep_their_rows(monkeypatch):
+    # Two threads, one table, small arenas (replaced every few calls, by either thread): each
+    # call's rows are its own, then and after every later call. A warm start across calls may
+    # move a distance by its tolerance: dist within 1e-9 of the pair's size, rows equal.
+    import threading
+
+    monkeypatch.setattr(cc, "OUT_ROWS", 24)
+    sys.setswitchinterval(1e-6)
+    model = cm.default_scene(seed=3, objects=14)
+    base = mujoco.MjData(model)
+    for _ in range(30):
+        mujoco.mj_step(model, base)
+    col = cm.Collider(model)
+    size = col.table.size
+    states = []
+    for s in range(2):
+        d = mujoco.MjData(model)
+        d.qpos[:] = base.qpos
+        d.qvel[:] = base.qvel + 0.05 * np.random.default_rng(s).normal(size=model.nv)
+        traj = []
+        for _ in range(60):
+            mujoco.mj_step(model, d)
+            traj.append((np.array(col.pairs(d)), d.geom_xpos.copy(), d.geom_xmat.copy()))
+        states.append(traj)
+    refs = [[cc.narrow_phase(cc.GeomTable(model), *st) for st in traj] for traj in states]
+    refs = [[{f: np.array(getattr(c, f)) for f in FIELDS} for c in r] for r in refs]
+    got = [[], []]
+
+    def work(s):
+        for st in states[s]:
+            got[s].append(cc.narrow_phase(col.table, *st))
+
+    try:
+        ts = [threading.Thread(target=work, args=(s,)) for s in range(2)]
+        for t in ts:
+            t.start()
+        for t in ts:
+            t.join()
+    finally:
+        sys.setswitchinterval(0.005)
+    n = 0
+    for s in range(2):
+        assert len(got[s]) == 60
+        for c, r in zip(got[s], refs[s]):
+            n += len(c)
+            assert np.array_equal(c.geom, r["geom"]) and np.array_equal(c.margin, r["margin"])
+            tol = 1e-9 * (size[r["geom"][:, 0]] + size[r["geom"][:, 1]]) if len(c) else 0.0
+            assert np.all(np.abs(c.dist - r["dist"]) <= 2 * tol + 1e-15)
+            assert np.allclose(c.pos, r["pos"], atol=1e-9) and np.allclose(c.normal, r["normal"], atol=1e-6)
+    assert n > 1000  # the scene has real contacts
