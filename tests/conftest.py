@@ -9,14 +9,7 @@ time: it is deselected from the quick loop, never from CI.
 
 from __future__ import annotations
 
-import os
-
-# CI runs the suite in two processes (pytest-xdist, ``-n 2``) on two cores, each with numba's two
-# threads: OpenMP's waiting threads should sleep, not spin on a core the other process needs.
-# Set before numba starts its OpenMP runtime (tests import collide after this file).
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
-
-import pytest  # noqa: E402
+import pytest
 
 # file -> test functions (every parametrization of each) that are long runs.
 SLOW: dict[str, frozenset[str]] = {
