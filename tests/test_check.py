@@ -618,19 +618,9 @@ def _axis_and_distance(xp, xm, rows, thr, cls, kind, prm, pts, pts_adr, pts_num,
     return apart, dist
 
 
-@pytest.mark.skipif(not {"franka_emika_panda", "shadow_hand"} <= set(SCENES), reason=NO_MODELS)
-@pytest.mark.parametrize("scene", ["franka_emika_panda", "shadow_hand"])
-def test_the_axis_rejection_never_rejects_a_pair_within_reach(scene):
-    # deepest_contact's test before GJK (check._apart_on_axis) is conservative: a pair it puts
-    # beyond thr is farther than thr by the pair's signed distance, on the broad phase's
-    # candidates of random configurations (meshes, boxes, cylinders, capsules), at thresholds
-    # from zero to past the rejected pairs' distances (the boundary where rounding would show).
-    model = _load(scene)
+def _mujoco_poses(model, q):
+    # Geom poses of each configuration from MuJoCo's mj_kinematics: (B, G, 3), (B, G, 3, 3).
     data = mujoco.MjData(model)
-    rng = np.random.default_rng(5)
-    q = testing.random_configurations(model, 200, rng)
-    col = cm.Collider(model)
-    rows = np.ascontiguousarray(col.broadphase.pairs_batch(model, q), dtype=np.int32).reshape(-1, 3)
     G = model.ngeom
     xp = np.empty((len(q), G, 3))
     xm = np.empty((len(q), G, 3, 3))
@@ -639,17 +629,40 @@ def test_the_axis_rejection_never_rejects_a_pair_within_reach(scene):
         mujoco.mj_kinematics(model, data)
         xp[i] = data.geom_xpos
         xm[i] = data.geom_xmat.reshape(G, 3, 3)
+    return xp, xm
+
+
+def _assert_never_rejects_within_reach(kernel, xp, xm, rows, col):
+    # A rejection test (kernel: rows -> whether rejected at thr, and the pair's signed distance) is
+    # conservative at thresholds from zero to past the rejected pairs' distances (the boundary where
+    # rounding would show), and the rows gave it both answers to make.
     t = col.table._kargs
     size = t[15]
     tol = 1e-9 * (size[rows[:, 1]] + size[rows[:, 2]])
     rejected = kept = 0
     for thr in (0.0, 1e-3, 0.01, 0.05):
-        apart, dist = _axis_and_distance(xp, xm, rows, thr, t[0], *t[3:14], size)
+        apart, dist = kernel(xp, xm, rows, thr, t[0], *t[3:14], size)
         ok = np.isfinite(dist)
         assert not np.any(apart & ok & (dist <= thr - tol)), "a pair within reach rejected"
         rejected += int(np.count_nonzero(apart & ok))
         kept += int(np.count_nonzero(~apart & ok))
     assert rejected > 50 and kept > 50  # the test saw both answers
+
+
+@pytest.mark.skipif(not {"franka_emika_panda", "shadow_hand"} <= set(SCENES), reason=NO_MODELS)
+@pytest.mark.parametrize("scene", ["franka_emika_panda", "shadow_hand"])
+def test_the_axis_rejection_never_rejects_a_pair_within_reach(scene):
+    # deepest_contact's test before GJK (check._apart_on_axis) is conservative: a pair it puts
+    # beyond thr is farther than thr by the pair's signed distance, on the broad phase's
+    # candidates of random configurations (meshes, boxes, cylinders, capsules), at thresholds
+    # from zero to past the rejected pairs' distances (the boundary where rounding would show).
+    model = _load(scene)
+    rng = np.random.default_rng(5)
+    q = testing.random_configurations(model, 200, rng)
+    col = cm.Collider(model)
+    rows = np.ascontiguousarray(col.broadphase.pairs_batch(model, q), dtype=np.int32).reshape(-1, 3)
+    xp, xm = _mujoco_poses(model, q)
+    _assert_never_rejects_within_reach(_axis_and_distance, xp, xm, rows, col)
 
 
 @numba.njit(cache=False)
@@ -675,20 +688,6 @@ def _sat_and_distance(xp, xm, rows, thr, cls, kind, prm, pts, pts_adr, pts_num, 
                                    nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, size, out) == 0:
             dist[k] = out[0]
     return apart, dist
-
-
-def _mujoco_poses(model, q):
-    # Geom poses of each configuration from MuJoCo's mj_kinematics: (B, G, 3), (B, G, 3, 3).
-    data = mujoco.MjData(model)
-    G = model.ngeom
-    xp = np.empty((len(q), G, 3))
-    xm = np.empty((len(q), G, 3, 3))
-    for i, x in enumerate(q):
-        data.qpos[:] = x
-        mujoco.mj_kinematics(model, data)
-        xp[i] = data.geom_xpos
-        xm[i] = data.geom_xmat.reshape(G, 3, 3)
-    return xp, xm
 
 
 # Five free primitives of every type check._apart_sat reads (a box, a capsule, a cylinder, an
@@ -732,17 +731,9 @@ def test_the_separating_axes_never_reject_a_pair_within_reach(scene):
         col = cm.Collider(model)
         rows = np.ascontiguousarray(col.broadphase.pairs_batch(model, q), dtype=np.int32).reshape(-1, 3)
     xp, xm = _mujoco_poses(model, q)
+    _assert_never_rejects_within_reach(_sat_and_distance, xp, xm, rows, col)
     t = col.table._kargs
     size = t[15]
-    tol = 1e-9 * (size[rows[:, 1]] + size[rows[:, 2]])
-    rejected = kept = 0
-    for thr in (0.0, 1e-3, 0.01, 0.05):
-        apart, dist = _sat_and_distance(xp, xm, rows, thr, t[0], *t[3:14], size)
-        ok = np.isfinite(dist)
-        assert not np.any(apart & ok & (dist <= thr - tol)), "a pair within reach rejected"
-        rejected += int(np.count_nonzero(apart & ok))
-        kept += int(np.count_nonzero(~apart & ok))
-    assert rejected > 50 and kept > 50  # the test saw both answers
     if scene == "primitives":  # every type pair with axes of its own (box, capsule, cylinder) had pairs rejected
         g1t, g2t = model.geom_type[rows[:, 1]], model.geom_type[rows[:, 2]]
         apart, dist = _sat_and_distance(xp, xm, rows, 0.0, t[0], *t[3:14], size)
