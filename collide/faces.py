@@ -51,19 +51,19 @@ def _empty(points: np.ndarray) -> PolytopeFaces:
                          np.zeros(0, np.int32))
 
 
-def polytope_faces(points) -> PolytopeFaces:
-    """Faces of the convex hull of ``points`` ``(n, 3)``.
+def _hull_planes(pts: np.ndarray):
+    """Qhull's triangles of the hull of ``pts`` ``(n, 3)`` grouped by plane, or None (no volume).
 
-    A flat, collinear or single-point set has no faces (a hull of no volume): the result then
-    has no faces and no adjacency, its ``verts`` the input.
+    Returns ``verts`` (H, 3) (the hull's vertices), ``tri`` (T, 3) (indices into ``verts``),
+    ``group`` (T,) (each triangle's plane, 0..F-1, ordered as the planes' grid keys sort) and
+    ``normal`` (F, 3) (outward unit normals).
     """
-    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     if len(pts) < 4 or not np.all(np.isfinite(pts)):
-        return _empty(pts)
+        return None
     try:
         hull = ConvexHull(pts)
     except (QhullError, ValueError):
-        return _empty(pts)
+        return None
     used = np.unique(hull.simplices)
     remap = np.full(len(pts), -1, np.int64)
     remap[used] = np.arange(len(used))
@@ -76,27 +76,44 @@ def polytope_faces(points) -> PolytopeFaces:
     # shrinks a face manifold, never makes a wrong contact)
     q = np.c_[np.round(eq[:, :3] / _COPLANAR), np.round(eq[:, 3] / (_COPLANAR * size))].astype(np.int64)
     _, first, group = np.unique(q, axis=0, return_index=True, return_inverse=True)
-    group = group.ravel()
     normal = eq[first, :3].astype(np.float64)
-    planes = range(len(first))
     normal /= np.linalg.norm(normal, axis=1)[:, None]
-    vlists = []
-    for g in range(len(planes)):
-        ids = np.unique(tri[group == g])
-        p = verts[ids]
-        ctr = p.mean(axis=0)
-        n = normal[g]
-        u = p[0] - ctr
-        u -= n * np.dot(u, n)
-        u /= np.linalg.norm(u) or 1.0
-        w = np.cross(n, u)
-        ang = np.arctan2((p - ctr) @ w, (p - ctr) @ u)
-        vlists.append(ids[np.argsort(ang)])
-    offset = np.array([float(np.mean(verts[v] @ normal[g])) for g, v in enumerate(vlists)])
-    vnum = np.array([len(v) for v in vlists], np.int64)
-    vadr = np.concatenate([[0], np.cumsum(vnum)[:-1]]).astype(np.int64)
-    vidx = np.concatenate(vlists).astype(np.int32)
-    return PolytopeFaces(verts, normal, offset, vadr, vnum, vidx)
+    return verts, tri, group.ravel(), normal
+
+
+def polytope_faces(points) -> PolytopeFaces:
+    """Faces of the convex hull of ``points`` ``(n, 3)``.
+
+    A flat, collinear or single-point set has no faces (a hull of no volume): the result then
+    has no faces and no adjacency, its ``verts`` the input.
+    """
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    planes = _hull_planes(pts)
+    if planes is None:
+        return _empty(pts)
+    verts, tri, group, normal = planes
+    # Each face's distinct vertices, sorted by face then vertex id, all faces at once (a mesh of
+    # thousands of triangles has thousands of faces: a Python loop per face was the Collider's
+    # set-up time). `collide.testing.manifold.polytope_faces_loop` is the per-face twin.
+    H = len(verts)
+    key = np.unique(np.repeat(group, 3) * H + tri.ravel())
+    fid, vid = key // H, key % H
+    start = np.flatnonzero(np.r_[True, fid[1:] != fid[:-1]])
+    count = np.diff(np.r_[start, len(key)])
+    p = verts[vid]
+    ctr = np.add.reduceat(p, start, axis=0) / count[:, None]
+    # angles about the centre in the face's plane, from its lowest-numbered vertex
+    u = p[start] - ctr
+    u -= normal * np.einsum("ij,ij->i", u, normal)[:, None]
+    un = np.linalg.norm(u, axis=1)
+    u /= np.where(un > 0, un, 1.0)[:, None]
+    w = np.cross(normal, u)
+    d = p - ctr[fid]
+    ang = np.arctan2(np.einsum("ij,ij->i", d, w[fid]), np.einsum("ij,ij->i", d, u[fid]))
+    order = np.lexsort((ang, fid))
+    offset = np.add.reduceat(np.einsum("ij,ij->i", p, normal[fid]), start) / count
+    return PolytopeFaces(verts, normal, offset, start.astype(np.int64), count.astype(np.int64),
+                         vid[order].astype(np.int32))
 
 
 class FaceTable:

@@ -181,6 +181,44 @@ def test_polytope_faces():
         assert len(cf.polytope_faces(flat).normal) == 0
 
 
+def _cycles(pf) -> list:
+    # Each face's vertex cycle from its lowest id: equal cycles are the same polygon, however a
+    # near-tie of angles at the start (+-pi) rotated the list.
+    out = []
+    for f in range(len(pf.vnum)):
+        v = pf.vidx[pf.vadr[f]:pf.vadr[f] + pf.vnum[f]]
+        out.append(tuple(np.roll(v, -int(np.argmin(v))).tolist()))
+    return out
+
+
+def test_polytope_faces_is_its_per_face_twin():
+    # The all-faces-at-once construction against the loop over faces (collide.testing), on random
+    # hulls (rounded: coplanar faces merged; doubled: duplicate points) and every mesh of the
+    # real models.
+    rng = np.random.default_rng(11)
+    clouds = []
+    for trial in range(120):
+        pts = rng.normal(size=(rng.integers(1, 150), 3))
+        if trial % 3 == 0:
+            pts = np.round(pts)
+        if trial % 5 == 0:
+            pts = np.vstack([pts, pts])
+        clouds.append(pts)
+    for scene in sorted(p.name for p in MODELS.iterdir()) if MODELS.is_dir() else []:
+        if (MODELS / scene / "scene.xml").is_file():
+            m = mujoco.MjModel.from_xml_path(str(MODELS / scene / "scene.xml"))
+            clouds += [m.mesh_vert[a:a + n] for a, n in zip(m.mesh_vertadr, m.mesh_vertnum)]
+    merged = 0
+    for pts in clouds:
+        a, b = cf.polytope_faces(pts), tm.polytope_faces_loop(pts)
+        assert np.array_equal(a.verts, b.verts) and np.array_equal(a.normal, b.normal)
+        assert np.array_equal(a.vadr, b.vadr) and np.array_equal(a.vnum, b.vnum)
+        assert _cycles(a) == _cycles(b)
+        assert np.allclose(a.offset, b.offset, rtol=0, atol=1e-12 * max(1.0, float(np.abs(a.verts).max(initial=0))))
+        merged += int(np.count_nonzero(a.vnum > 3))
+    assert merged > 50  # faces of more than one triangle were merged and ordered
+
+
 @pytest.mark.parametrize("scene", ["cube_3x3x3", "kinova_gen3", "stonehenge"])
 def test_face_contact_counts_near_mujocos(scene):
     # Multi-contact of face contacts over a short simulation: per pair type, the contact count

@@ -11,7 +11,7 @@ import itertools
 
 import numpy as np
 
-__all__ = ["box_box_contacts", "box_corners", "convex_polygon_intersection", "max_area_quad"]
+__all__ = ["box_box_contacts", "box_corners", "convex_polygon_intersection", "max_area_quad", "polytope_faces_loop"]
 
 
 def box_corners(p: np.ndarray, r: np.ndarray, h: np.ndarray) -> np.ndarray:
@@ -214,3 +214,32 @@ def _segment_closest(p0, p1, q0, q1):
         t = np.clip(np.dot(x - q0, dq) / np.dot(dq, dq), 0.0, 1.0)
         y = q0 + t * dq
     return x, y
+
+
+def polytope_faces_loop(points):
+    """`collide.faces.polytope_faces`, one face at a time (its twin): the same planes (Qhull's
+    triangles grouped by `collide.faces._hull_planes`), each face's vertices found and ordered
+    counter-clockwise about its normal by a loop over the faces."""
+    from ..faces import PolytopeFaces, _empty, _hull_planes
+
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    planes = _hull_planes(pts)
+    if planes is None:
+        return _empty(pts)
+    verts, tri, group, normal = planes
+    vlists = []
+    for g in range(len(normal)):
+        ids = np.unique(tri[group == g])
+        p = verts[ids]
+        ctr = p.mean(axis=0)
+        n = normal[g]
+        u = p[0] - ctr
+        u -= n * np.dot(u, n)
+        u /= np.linalg.norm(u) or 1.0
+        w = np.cross(n, u)
+        ang = np.arctan2((p - ctr) @ w, (p - ctr) @ u)
+        vlists.append(ids[np.argsort(ang, kind="stable")])
+    offset = np.array([float(np.mean(verts[v] @ normal[g])) for g, v in enumerate(vlists)])
+    vnum = np.array([len(v) for v in vlists], np.int64)
+    vadr = np.concatenate([[0], np.cumsum(vnum)[:-1]]).astype(np.int64)
+    return PolytopeFaces(verts, normal, offset, vadr, vnum, np.concatenate(vlists).astype(np.int32))
