@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from ._ptr import f64_ptr, i32_ptr, i64_ptr, view_of
-from .epa import DEGENERATE, epa
+from .epa import CONVERGED, DEGENERATE, E_NV, epa, epa_warm
 from .gjk import _FLOOR, OVERLAP, gjk_within
 from .support import POINTS
 
@@ -133,7 +133,7 @@ def pair_distance(sa, sb, tol, d0, hint_a, hint_b, max_iter, out):
 
 
 @njit(cache=True)
-def pair_distance_within(sa, sb, tol, cutoff, d0, hint_a, hint_b, max_iter, out):
+def pair_distance_within(sa, sb, tol, cutoff, d0, hint_a, hint_b, max_iter, out, entry=None):
     """Signed distance of two posed shapes (core ⊕ ball), its witnesses and a certified bracket.
 
     Parameters
@@ -158,7 +158,13 @@ def pair_distance_within(sa, sb, tol, cutoff, d0, hint_a, hint_b, max_iter, out)
     out : (16,) float64
         Receives, by slot (the ``OUT_*`` constants): distance, lower, upper, point_a (3),
         point_b (3), normal (3, unit, from A to B), penetrating (1.0 when the cores overlap and
-        EPA ran), iterations (GJK's plus EPA's), hint_a, hint_b.
+        EPA ran), iterations (GJK's plus EPA's; 0 when ``entry`` answered), hint_a, hint_b.
+    entry : (ENTRY,) int64, optional
+        The pair's row of a warm-start cache (`collide._kernels.epa`'s ``E_*``), for two point
+        clouds (``POINTS``) only: when it holds a polytope, `collide._kernels.epa.epa_warm` tries
+        it first and its certified answer is the result (no GJK, no EPA); after GJK and EPA it
+        receives their polytope (or is emptied). A hint only: whatever it holds, the result is
+        certified as without it.
     """
     if sa[0] == POINTS and sb[0] == POINTS and sa[2].shape[0] <= 2 and sb[2].shape[0] <= 2:
         if segment_distance(sa, sb, tol, out):  # spheres and capsules: no iteration
@@ -173,12 +179,35 @@ def pair_distance_within(sa, sb, tol, cutoff, d0, hint_a, hint_b, max_iter, out)
     v = vec[2, :3]
     pa = vec[3, :3]
     pb = vec[4, :3]
-    hints = np.empty(2, np.int64)
+    # With ``entry`` (a separate compilation: without it, none of this is in the code): its
+    # polytope first; GJK then also records its simplex's vertex indices (``hints[2:]``) for EPA
+    # to keep. Without, the cold query as it always was.
+    warm = False
+    s = 0.0
+    if entry is None:
+        hints = np.empty(2, np.int64)
+    else:
+        hints = np.empty(10, np.int64)
+        if sa[0] != POINTS or sb[0] != POINTS:
+            entry[E_NV] = 0  # a kept vertex is a point of C only for two point clouds
+        elif entry[E_NV] > 0:
+            res = np.empty(13)
+            st, s = epa_warm(sa, sb, entry, tol, res)
+            warm = st == CONVERGED
     hints[0] = hint_a
     hints[1] = hint_b
     r = sa[1][3] + sb[1][3]
-    status, n, lower, scale, iters = gjk_within(sa, sb, d0, hints, tol, cutoff + r, max_iter, W, WA, WB, lam, v,
-                                                dirn, pa, pb)
+    if warm:  # the kept polytope's certified answer: EPA's result below, GJK's bounds none
+        status, n, lower, scale, iters = OVERLAP, 0, -math.inf, s, 0
+        dirn[3] = math.inf
+    elif entry is None:
+        status, n, lower, scale, iters = gjk_within(sa, sb, d0, hints, tol, cutoff + r, max_iter, W, WA, WB, lam,
+                                                    v, dirn, pa, pb)
+    else:
+        status, n, lower, scale, iters = gjk_within(sa, sb, d0, hints, tol, cutoff + r, max_iter, W, WA, WB, lam,
+                                                    v, dirn, pa, pb, hints[2:])
+        if status != OVERLAP:
+            entry[E_NV] = 0
     pa[:] = 0.0
     pb[:] = 0.0
     for i in range(n):
@@ -196,10 +225,16 @@ def pair_distance_within(sa, sb, tol, cutoff, d0, hint_a, hint_b, max_iter, out)
     estimate = gap
     penetrating = 0.0
     if status == OVERLAP:
-        res = np.empty(13)
-        st, s, it = epa(sa, sb, W, WA, WB, n, hints, tol, max_iter, lower, res)
-        scale = max(scale, s)
-        iters += it
+        if warm:
+            st = CONVERGED
+        else:
+            res = np.empty(13)
+            if entry is None:
+                st, s, it = epa(sa, sb, W, WA, WB, n, hints, tol, max_iter, lower, res)
+            else:
+                st, s, it = epa(sa, sb, W, WA, WB, n, hints, tol, max_iter, lower, res, entry)
+            scale = max(scale, s)
+            iters += it
         lower = max(lower, res[0])
         upper = min(upper, res[1])
         for k in range(3):

@@ -23,6 +23,13 @@ A cone face that would be degenerate, or leave the origin outside, makes the fac
 horizon edge visible too (the new point is on that plane up to rounding); an expansion whose
 horizon still fails, or is not one simple cycle, is refused and the loop stops with the bracket
 it has.
+
+Warm start across calls (`epa_warm`; `collide._kernels.warm` keeps the rows): a converged,
+certified polytope of two point clouds is kept as the vertex indices of its vertices and its
+faces; at the next poses the same indices give points of the new ``C`` (so the polytope is again
+inside it), and the support along its nearest face's normal with the certificate above decide
+whether it answers. The row is checked (indices in range, a closed surface, every face in front
+of the origin) before anything is built on it, so a stale or foreign row only costs its check.
 """
 
 from __future__ import annotations
@@ -37,8 +44,19 @@ from .support import support
 
 _EPS = float(np.finfo(np.float64).eps)
 
-# Outcome of `epa`.
-CONVERGED, CAPPED, DEGENERATE = 0, 1, 2
+# Outcome of `epa`; `epa_warm`'s when its polytope gives no certified answer.
+CONVERGED, CAPPED, DEGENERATE, WARM_MISS = 0, 1, 2, 3
+
+# A warm start across calls (`epa_warm`): a converged, certified polytope kept as one int64 row
+# of a geom pair's cache (`collide._kernels.warm` keeps the rows in the narrow phase's scratch):
+# ``E_NV`` vertices (0: empty) and ``E_NF`` faces, then ``WARM_NV``
+# vertices as ``index_a | index_b << 32`` (vertex indices of the two point clouds, whose
+# difference is the polytope's vertex) and ``WARM_NF`` faces as ``a | b << 8 | c << 16`` (their
+# vertices, counter-clockwise seen from outside). Larger polytopes are not kept.
+WARM_NV, WARM_NF = 16, 28
+E_NV, E_NF, E_VERT = 0, 1, 2
+E_FACE = E_VERT + WARM_NV
+ENTRY = E_FACE + WARM_NF
 
 
 @njit(cache=True)
@@ -264,7 +282,7 @@ def _expand(V, nv, fv, fa, fn, fo, fl, alive, nf, f, seen, forced, stack, hz, ti
 
 
 @njit(cache=True)
-def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res):
+def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res, keep=None):
     """Penetration depth of two overlapping cores from GJK's final simplex.
 
     Parameters
@@ -275,8 +293,10 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res):
         GJK's final simplex (first ``n`` rows), which holds the origin within ``tol``.
     n : int
         1 to 4.
-    hints : (2,) int64
-        Hill-climb start vertices, updated in place.
+    hints : (2,) int64, or (10,) with ``keep``
+        Hill-climb start vertices, updated in place; with ``keep``, ``hints[2 + 2 i]``,
+        ``hints[3 + 2 i]`` are the vertex indices of A and B of row ``i`` of the simplex
+        (`collide._kernels.gjk.gjk_within`'s ``idx``).
     tol : float
         Absolute tolerance on the gap between a face and the support along its normal.
     max_vertices : int
@@ -289,6 +309,11 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res):
         ``normal (3)`` (the nearest face's outward normal of ``C``, i.e. from A to B) and that
         normal's conditioning ``(|e| + |f|) / |e x f|`` (its angle is known to about that times
         the vertices' rounding; a tiny sliver's is poor).
+    keep : (ENTRY,) int64, optional
+        A cache row (``E_*``) of two point clouds: receives the final polytope when it
+        converged, its certificate holds with every face in front of the origin and it fits
+        (``WARM_NV``, ``WARM_NF``); otherwise emptied (``E_NV`` 0). Omitted: nothing is
+        recorded (numba compiles that call without the bookkeeping).
 
     Returns
     -------
@@ -309,9 +334,12 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res):
     VA = fbuf[mv:2 * mv]
     VB = fbuf[2 * mv:3 * mv]
     fn = fbuf[3 * mv:]
-    ibuf = np.empty((2, mf, 3), np.int64)
+    ibuf = np.empty((3, mf, 3), np.int64)
     fv = ibuf[0]
     fa = ibuf[1]
+    vi = ibuf[2]  # with ``keep``: each vertex's indices in A and B (columns 0, 1)
+    if keep is not None:
+        keep[E_NV] = 0
     obuf = np.empty((2, mf))
     fo = obuf[0]
     fl = obuf[1]
@@ -326,6 +354,8 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res):
     scale = 0.0
     for i in range(n):
         _add_vertex(V, VA, VB, i, W[i, 0], W[i, 1], W[i, 2], WA[i], WB[i])
+        if keep is not None:
+            vi[i, 0], vi[i, 1] = hints[2 + 2 * i], hints[3 + 2 * i]
         for k in range(3):
             scale = max(scale, abs(WA[i, k]), abs(WB[i, k]))
     nv = n
@@ -344,6 +374,8 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res):
                 best_n[:] = d
             if math.sqrt((w0 - V[0, 0]) ** 2 + (w1 - V[0, 1]) ** 2 + (w2 - V[0, 2]) ** 2) > tol:
                 nv = _add_vertex(V, VA, VB, nv, w0, w1, w2, pa, pb)
+                if keep is not None:
+                    vi[nv - 1, 0], vi[nv - 1, 1] = hints[0], hints[1]
                 break
     if nv == 2:
         e = V[1] - V[0]
@@ -366,6 +398,8 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res):
             x -= (x[0] * e[0] + x[1] * e[1] + x[2] * e[2]) * e
             if math.sqrt(x[0] ** 2 + x[1] ** 2 + x[2] ** 2) > tol:
                 nv = _add_vertex(V, VA, VB, nv, w0, w1, w2, pa, pb)
+                if keep is not None:
+                    vi[nv - 1, 0], vi[nv - 1, 1] = hints[0], hints[1]
                 break
     nf = 0
     if nv == 3:
@@ -382,6 +416,8 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res):
                 best_n[:] = d
             if h - sgn * off > tol:
                 nv = _add_vertex(V, VA, VB, nv, w0, w1, w2, pa, pb)
+                if keep is not None:
+                    vi[nv - 1, 0], vi[nv - 1, 1] = hints[0], hints[1]
                 sides += 1
         if sides == 2:
             nf = _bipyramid(V, fv, fa, fn, fo, fl, 0, 1, 2, 3, 4)
@@ -420,6 +456,8 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res):
         if nv == mv:
             break
         _add_vertex(V, VA, VB, nv, w0, w1, w2, pa, pb)
+        if keep is not None:
+            vi[nv, 0], vi[nv, 1] = hints[0], hints[1]
         tiny = 16.0 * _EPS * scale
         nf_new = _expand(V, nv, fv, fa, fn, fo, fl, alive, nf, f, seen, forced, stack, hz, tiny)
         if nf_new < 0:
@@ -479,4 +517,177 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res):
         el += math.sqrt((V[x, 0] - V[a, 0]) ** 2 + (V[x, 1] - V[a, 1]) ** 2 + (V[x, 2] - V[a, 2]) ** 2)
     res[12] = el / fl[f] if fl[f] > 0.0 else math.inf
     res[0], res[1], res[2] = lower, upper, -fo[f]
+    if keep is not None:
+        if status == CONVERGED and front and upper < math.inf:
+            _keep(keep, vi, fv, alive, nf, nv, stack)
     return status, scale, it
+
+
+@njit(cache=True)
+def _keep(keep, vi, fv, alive, nf, nv, remap):
+    # The live faces and the vertices they use, renumbered, into the cache row ``keep`` (left
+    # empty when they do not fit or a vertex has no point-cloud index).
+    for i in range(nv):
+        remap[i] = -1
+    m = 0
+    k = 0
+    for g in range(nf):
+        if not alive[g]:
+            continue
+        if k == WARM_NF:
+            return
+        code = 0
+        for j in range(3):
+            x = fv[g, j]
+            if remap[x] < 0:
+                if m == WARM_NV or vi[x, 0] < 0 or vi[x, 1] < 0:
+                    return
+                remap[x] = m
+                keep[E_VERT + m] = vi[x, 0] | (vi[x, 1] << 32)
+                m += 1
+            code |= remap[x] << (8 * j)
+        keep[E_FACE + k] = code
+        k += 1
+    keep[E_NF] = k
+    keep[E_NV] = m  # last: the row is whole
+
+
+@njit(cache=True)
+def epa_warm(sa, sb, entry, tol, res):
+    """EPA's answer from a kept polytope (``entry``, the ``E_*`` row `epa` keeps) at new poses.
+
+    The polytope's vertices are rebuilt from their vertex indices in the two point clouds at the
+    shapes' poses (each a point of ``C = A - B``, whatever the poses); then the support along its
+    nearest face's normal and `epa`'s certificate: the answer when the face is a face of ``C``
+    within ``tol`` (EPA's convergence test) and the certificate holds with every face in front of
+    the origin. The row is only a hint and is checked first: vertex indices within the clouds,
+    face vertices within the row's vertices and distinct, and the faces a closed surface (every
+    directed edge once, its reverse once: a 2-cycle, whose winding number about the origin is
+    the positive sum of its faces' solid angles when every face is in front of it, so `epa`'s
+    ball argument holds). Anything else is `WARM_MISS`: the caller runs GJK and EPA.
+
+    Parameters
+    ----------
+    sa, sb : tuple
+        Shape tuples (`collide._kernels.support`), both ``POINTS``.
+    entry : (ENTRY,) int64
+        The cache row.
+    tol : float
+        As `epa` takes it.
+    res : (13,) float64
+        As `epa` fills it, on `CONVERGED` only.
+
+    Returns
+    -------
+    status : int
+        `CONVERGED` or `WARM_MISS`.
+    scale : float
+        Largest absolute world coordinate of the points used.
+    """
+    nv = entry[E_NV]
+    nf = entry[E_NF]
+    if not (4 <= nv <= WARM_NV and 4 <= nf <= WARM_NF):
+        return WARM_MISS, 0.0
+    pts_a, rot_a, pos_a = sa[2], sa[5], sa[6]
+    pts_b, rot_b, pos_b = sb[2], sb[5], sb[6]
+    na = pts_a.shape[0]
+    nb = pts_b.shape[0]
+    fbuf = np.empty((3 * WARM_NV + WARM_NF, 3))
+    V = fbuf[0:WARM_NV]
+    VA = fbuf[WARM_NV:2 * WARM_NV]
+    VB = fbuf[2 * WARM_NV:3 * WARM_NV]
+    fn = fbuf[3 * WARM_NV:]
+    obuf = np.empty((2, WARM_NF))
+    fo = obuf[0]
+    fl = obuf[1]
+    ibuf = np.empty(3 * WARM_NF + 2 * WARM_NV + 2, np.int64)
+    fv = ibuf[0:3 * WARM_NF].reshape((WARM_NF, 3))
+    outm = ibuf[3 * WARM_NF:3 * WARM_NF + WARM_NV]  # directed edges leaving each vertex, as bits
+    inm = ibuf[3 * WARM_NF + WARM_NV:3 * WARM_NF + 2 * WARM_NV]  # and entering it
+    hints = ibuf[3 * WARM_NF + 2 * WARM_NV:]
+    for i in range(nv):
+        code = entry[E_VERT + i]
+        ia = code & 0xFFFFFFFF
+        ib = code >> 32
+        if not (0 <= ia < na and 0 <= ib < nb):
+            return WARM_MISS, 0.0
+        for k in range(3):  # as `collide._kernels.support.support` poses a vertex
+            VA[i, k] = rot_a[k, 0] * pts_a[ia, 0] + rot_a[k, 1] * pts_a[ia, 1] + rot_a[k, 2] * pts_a[ia, 2] + pos_a[k]
+            VB[i, k] = rot_b[k, 0] * pts_b[ib, 0] + rot_b[k, 1] * pts_b[ib, 1] + rot_b[k, 2] * pts_b[ib, 2] + pos_b[k]
+            V[i, k] = VA[i, k] - VB[i, k]
+        outm[i] = 0
+        inm[i] = 0
+    for g in range(nf):
+        code = entry[E_FACE + g]
+        if code < 0 or code >= 1 << 24:
+            return WARM_MISS, 0.0
+        for j in range(3):
+            fv[g, j] = (code >> (8 * j)) & 0xFF
+            if fv[g, j] >= nv:
+                return WARM_MISS, 0.0
+        for j in range(3):
+            x = fv[g, j]
+            y = fv[g, (j + 1) % 3]
+            if x == y or (outm[x] >> y) & 1:
+                return WARM_MISS, 0.0  # a repeated vertex or directed edge
+            outm[x] |= 1 << y
+            inm[y] |= 1 << x
+    for i in range(nv):
+        if outm[i] != inm[i]:
+            return WARM_MISS, 0.0  # an edge without its reverse: not closed
+    scale = 0.0
+    for i in range(nv):
+        for k in range(3):
+            scale = max(scale, abs(VA[i, k]), abs(VB[i, k]))
+    f = 0
+    for g in range(nf):
+        _new_face(V, fv, fn, fo, fl, g, fv[g, 0], fv[g, 1], fv[g, 2])
+        if fo[g] < fo[f]:
+            f = g
+    if not fl[f] > 0.0:
+        return WARM_MISS, 0.0
+    # EPA's convergence test on the nearest face (its support hill-climbs from the face's vertex)
+    code = entry[E_VERT + fv[f, 0]]
+    hints[0] = code & 0xFFFFFFFF
+    hints[1] = code >> 32
+    pp = np.empty(6)
+    w0, w1, w2, s = _support_c(sa, sb, fn[f, 0], fn[f, 1], fn[f, 2], hints, pp[0:3], pp[3:6])
+    scale = max(scale, s)
+    h = fn[f, 0] * w0 + fn[f, 1] * w1 + fn[f, 2] * w2
+    if not h - fo[f] <= max(tol, 16.0 * _EPS * scale):
+        return WARM_MISS, scale
+    # `epa`'s certificate, every face in front of the origin (the 2-cycle's winding number then
+    # at least 1, as `epa`'s closed surface by construction)
+    vertex_err = 8.0 * _EPS * scale
+    inner = math.inf
+    for g in range(nf):
+        a, b, c = fv[g, 0], fv[g, 1], fv[g, 2]
+        bound = fo[g] - _offset_error(V, a, b, c, fl[g], vertex_err) if fl[g] > 0.0 else -math.inf
+        if not bound > 0.0:
+            return WARM_MISS, scale
+        if bound < inner:
+            _, _, _, d2 = s2d(V, a, b, c)
+            bound = max(bound, math.sqrt(d2) - vertex_err)
+            inner = min(inner, bound)
+    if not inner > 0.0:
+        return WARM_MISS, scale
+    # the witness, as `epa` takes it
+    near = fo[f] + max(tol, 16.0 * _EPS * scale)
+    best = math.inf
+    la = lb = lc = 0.0
+    for g in range(nf):
+        if fo[g] <= near:
+            l0, l1, l2, d2 = s2d(V, fv[g, 0], fv[g, 1], fv[g, 2])
+            if d2 < best:
+                best, f, la, lb, lc = d2, g, l0, l1, l2
+    a, b, c = fv[f, 0], fv[f, 1], fv[f, 2]
+    for k in range(3):
+        res[3 + k] = la * VA[a, k] + lb * VA[b, k] + lc * VA[c, k]
+        res[6 + k] = la * VB[a, k] + lb * VB[b, k] + lc * VB[c, k]
+        res[9 + k] = fn[f, k]
+    el = 0.0
+    for x in (b, c):
+        el += math.sqrt((V[x, 0] - V[a, 0]) ** 2 + (V[x, 1] - V[a, 1]) ** 2 + (V[x, 2] - V[a, 2]) ** 2)
+    res[12] = el / fl[f] if fl[f] > 0.0 else math.inf
+    res[0], res[1], res[2] = -h, -inner, -fo[f]
+    return CONVERGED, scale

@@ -266,7 +266,7 @@ def gjk(sa, sb, d0, hints, tol, max_iter, W, WA, WB, lam, v, dirn, pa, pb):
 
 
 @njit(cache=True)
-def gjk_within(sa, sb, d0, hints, tol, cutoff, max_iter, W, WA, WB, lam, v, dirn, pa, pb):
+def gjk_within(sa, sb, d0, hints, tol, cutoff, max_iter, W, WA, WB, lam, v, dirn, pa, pb, idx=None):
     """GJK distance of the cores of two posed shapes, with a certified lower bound.
 
     Parameters
@@ -298,6 +298,11 @@ def gjk_within(sa, sb, d0, hints, tol, cutoff, max_iter, W, WA, WB, lam, v, dirn
         (its angle is known to about that times the coordinates' rounding): see `_direction`.
     pa, pb : (3,) float64
         Scratch for the support points (no allocation here: see `collide._kernels.distance`).
+    idx : (8,) int64, optional
+        Receives the vertex indices of A and B of the final simplex's row ``i`` in
+        ``idx[2 i]``, ``idx[2 i + 1]`` (the supports' own, `collide._kernels.support.support`),
+        which EPA carries into its polytope for a warm start across calls
+        (`collide._kernels.epa`). Omitted: none kept (numba compiles that call without it).
 
     Returns
     -------
@@ -337,6 +342,8 @@ def gjk_within(sa, sb, d0, hints, tol, cutoff, max_iter, W, WA, WB, lam, v, dirn
             status = SEPARATED
             if n == 0:  # the support alone: a point of C, so |v| >= lower
                 _push(W, WA, WB, 0, pa, pb)
+                if idx is not None:
+                    idx[0], idx[1] = hints[0], hints[1]
                 n = 1
                 lam[0] = 1.0
                 lam[1] = lam[2] = lam[3] = 0.0
@@ -352,6 +359,8 @@ def gjk_within(sa, sb, d0, hints, tol, cutoff, max_iter, W, WA, WB, lam, v, dirn
         if dup:  # the support is already a vertex: no progress is possible
             break
         _push(W, WA, WB, n, pa, pb)
+        if idx is not None:
+            idx[2 * n], idx[2 * n + 1] = hints[0], hints[1]
         n += 1
         for i in range(n, 4):
             lam[i] = 0.0
@@ -361,6 +370,12 @@ def gjk_within(sa, sb, d0, hints, tol, cutoff, max_iter, W, WA, WB, lam, v, dirn
         if n == 4 and vv_new == 0.0:
             status = OVERLAP
             break
+        if idx is not None:  # the rows `_compact` keeps, in its order
+            m = 0
+            for i in range(n):
+                if lam[i] > 0.0:
+                    idx[2 * m], idx[2 * m + 1] = idx[2 * i], idx[2 * i + 1]
+                    m += 1
         n = _compact(W, WA, WB, lam, n)
         if vv_new <= tol * tol:
             status = OVERLAP

@@ -48,13 +48,14 @@ import numpy as np
 from numba import njit
 
 from ._ptr import borrow
-from .distance import (OUT_DISTANCE, OUT_NORMAL, OUT_POINT_A, OUT_POINT_B, OUT_SIZE, pair_distance,
-                       pair_distance_within)
+from .distance import (OUT_DISTANCE, OUT_NORMAL, OUT_PENETRATING, OUT_POINT_A, OUT_POINT_B, OUT_SIZE,
+                       pair_distance, pair_distance_within)
 from .faces import BOX_MAX, BOX_WS, box_box, clip_faces
 from .plane import (PLANE_FACE_TOL, RULE_CYLINDER, RULE_POINTS, RULE_SUPPORT, RULE_VERTICES, _plane_cylinder,
                     _support_minus, plane_convex, plane_mesh, reduce_four)
 from .polytope import EDGE_TOL, FACE_TOL, _edge_in_face, _touching_faces, _world_face, polytope_contacts
-from .support import support
+from .support import POINTS, support
+from .warm import WARM_KEYS, WARM_LEN, distance_warm, warm_claim, warm_slot
 
 # This module's own names, and those of the routines moved out of it (plane, polytope), which
 # importers of `collide._kernels.manifold` still read here.
@@ -157,7 +158,7 @@ def scratch_sizes(cap, fmax):
     ni = 0
     for n in _SCRATCH_INT:
         ni += n
-    return nf, ni
+    return nf, ni + WARM_LEN  # then the warm-start cache (`collide._kernels.warm`), never cleared
 
 
 # Inlined: called once a `collide_packed` call, where a call returning its 22 views cost more
@@ -167,8 +168,9 @@ def carve_scratch(wsf, wsi, cap, fmax):
     """`collide_pairs`' scratch as views of two flat workspaces (`scratch_sizes` long at least).
 
     Returns the tuple ``(cand, dep, sel, res, bnrm, bws, seg, pcand, pdep, face1, face2, poly, tmp,
-    cand1, cand2, cnrm1, cnrm2, pa, pb, nv, out, d0)``; ``sel`` and ``d0`` are zeroed (``d0`` is
-    GJK's cold start, zeros), the rest is written before it is read.
+    cand1, cand2, cnrm1, cnrm2, pa, pb, nv, out, d0, cache)``; ``sel`` and ``d0`` are zeroed (``d0``
+    is GJK's cold start, zeros), ``cache`` (`collide._kernels.warm`, the rest of ``wsi``) is kept
+    across calls, the rest is written before it is read.
     """
     (n_cand, n_dep, n_res, n_bnrm, n_bws, n_seg, n_pcand, n_pdep, n_face1, n_face2, n_poly, n_tmp, n_cnrm1,
      n_cnrm2, n_pa, n_pb, n_nv, n_out, n_d0) = _scratch_lengths(cap, fmax)
@@ -216,8 +218,9 @@ def carve_scratch(wsf, wsi, cap, fmax):
     sel[:] = 0
     cand1 = wsi[n_sel:n_sel + n_cand1]
     cand2 = wsi[n_sel + n_cand1:n_sel + n_cand1 + n_cand2]
+    cache = wsi[n_sel + n_cand1 + n_cand2:]  # shorter than WARM_LEN (`_scratch`): no warm start
     return (cand, dep, sel, res, bnrm, bws, seg, pcand, pdep, face1, face2, poly, tmp, cand1, cand2, cnrm1, cnrm2,
-            pa, pb, nv, out, d0)
+            pa, pb, nv, out, d0, cache)
 
 
 @njit(cache=True)
@@ -240,7 +243,7 @@ def _scratch(pts_num, f_vnum):
     # `collide_pairs`' scratch, allocated once a call (`collide_packed` takes a workspace instead).
     cap, fmax = scratch_caps(pts_num, f_vnum)
     nf, ni = scratch_sizes(cap, fmax)
-    return carve_scratch(np.empty(nf), np.empty(ni, np.int64), cap, fmax)
+    return carve_scratch(np.empty(nf), np.empty(ni - WARM_LEN, np.int64), cap, fmax)  # no cache: cold
 
 
 @njit(cache=True, inline="always")
@@ -436,7 +439,7 @@ def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
     out_geom, out_dist, out_pos, out_normal, out_margin, skipped = outs
     G = cls.shape[0]
     (cand, dep, sel, res, bnrm, bws, seg, pcand, pdep, face1, face2, poly, tmp, cand1, cand2, cnrm1, cnrm2, pa, pb,
-     nv, out, d0) = ws
+     nv, out, d0, cache) = ws
     pfaces = (hv_adr, hv_num, hv, f_adr, f_num, f_normal, f_vadr, f_vnum, f_vidx)
     scratch = (cand, dep, sel, res, bnrm, bws, pcand, pdep)
     k = 0
@@ -479,7 +482,19 @@ def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
             # GJK stops once the pair is certainly beyond its contact distance (by the tolerance:
             # the converged distance would exceed thr too), as MuJoCo's GJK at its dist_cutoff
             tol = CONTACT_TOL * (size[g1] + size[g2])
-            pair_distance_within(s1, s2, tol, thr + tol, d0, -1, -1, 128, out)
+            # the warm start across calls (`collide._kernels.warm`), for two point clouds that
+            # GJK/EPA decide (not two spheres or capsules: `distance.segment_distance`) and only
+            # once they penetrated: any other pair takes the cold query, after one key look-up
+            key = 0
+            if (kind[g1] == POINTS and kind[g2] == POINTS and max(pts_num[g1], pts_num[g2]) > 2
+                    and cache.shape[0] >= WARM_LEN):
+                key = g1 * G + g2 + 1
+            if key != 0 and cache[WARM_KEYS + warm_slot(key)] == key:
+                distance_warm(s1, s2, tol, thr + tol, d0, out, cache, key)
+            else:
+                pair_distance_within(s1, s2, tol, thr + tol, d0, -1, -1, 128, out)
+                if key != 0 and out[OUT_PENETRATING] == 1.0:
+                    warm_claim(cache, key)
             d = out[OUT_DISTANCE]
             if d > thr:
                 continue
