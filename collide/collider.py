@@ -10,7 +10,10 @@ not import ``mujoco`` (DESIGN.md's layers): the adapter `collide.mujoco`, import
 each to a collision?" for a batch ``qpos (B, nq)`` in one call: the batch broad phase
 (`collide.mujoco.BroadPhase.pairs_batch`) gives each configuration's candidate pairs, and
 `collide._kernels.check.check_worlds` (threads across configurations, the GIL released) computes
-each configuration's poses and decides its pairs, stopping at the first active contact.
+each configuration's poses and decides its pairs, stopping at the first active contact. Without
+distances, where the batch broad phase runs the lanes on its own kinematics, the two are one pass
+(`collide._kernels.check_lanes.check_lanes_kin`): each group of configurations' candidates decided
+as the broad phase finds them, on the body poses it computed (the same answers).
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ import numpy as np
 
 from . import contacts as _contacts
 from ._kernels import check as _kc
+from ._kernels import check_lanes as _kl
 from ._kernels import check_trees as _kt
 from ._validate import _reject_complex
 
@@ -261,6 +265,7 @@ class Collider:
         self._geom_setup = (np.ascontiguousarray(model.geom_bodyid, dtype=np.int64),) + _geom_frames(model)
         self._distance_pairs = None  # check_batch's filtered pairs (distance=True), likewise
         self._tree_pairs = None  # check_batch's early exit by trees (`_trees`), likewise
+        self._no_function = None  # (G,) bool: the broad phase's geoms that never pair (`_in_lanes`), likewise
         self._setup_lock = threading.Lock()
 
     def __repr__(self) -> str:
@@ -520,18 +525,43 @@ class Collider:
         for s in range(0, B, BLOCK):
             qb = q[s:s + BLOCK]
             nb = len(qb)
+            e = err[:nb]
+            if not distance and self._in_lanes(qb, kin, kargs, hit[s:s + nb], skipped[s:s + nb], e, s, name):
+                self._raise_pose(e, s, name)
+                continue
             rows = self._candidates(qb, s, name)
             row_start = np.searchsorted(rows[:, 0], np.arange(nb + 1, dtype=np.int32)).astype(np.int64)
             chunks = min(nb, 16 * workers)
-            e = err[:nb]
             _kc.check_worlds(qb, *kin, rows, row_start, self._subset_mode, self._subset_label, dpairs, distmax,
                              bool(distance), chunks, min(workers, chunks), np.zeros(1, np.int64), *kargs,
                              hit[s:s + nb], scratch_dist[s:s + nb] if distance else scratch_dist,
                              scratch_closest[s:s + nb] if distance else scratch_closest, skipped[s:s + nb], e)
-            if e.any():
-                b = int(np.flatnonzero(e)[0])
-                g = int(e[b] - _kc.ERR_POSE) // 8
-                raise ValueError(f"qpos: configuration {name(s + b)} gives a non-finite pose (NaN or inf) of geom {g}")
+            self._raise_pose(e, s, name)
+
+    @staticmethod
+    def _raise_pose(e, first, name) -> None:
+        # check_worlds' (or check_lanes_kin's) errors of a block whose first configuration is first.
+        if e.any():
+            b = int(np.flatnonzero(e)[0])
+            g = int(e[b] - _kc.ERR_POSE) // 8
+            raise ValueError(f"qpos: configuration {name(first + b)} gives a non-finite pose (NaN or inf) of geom {g}")
+
+    def _in_lanes(self, qb, kin, kargs, hit, skipped, err, first, name) -> bool:
+        # check_worlds' answers of the configurations qb, without distances, decided in the batch
+        # broad phase's own pass (`_kernels.check_lanes`: no second kinematics, no rows): False
+        # (nothing done) where the broad phase does not take the lanes with its own kinematics.
+        nf = self._no_function
+        if nf is None:
+            nfa = self.broadphase._no_function
+            nf = self._no_function = np.zeros(int(self.model.ngeom), np.bool_) if nfa is None else \
+                np.ascontiguousarray(nfa, dtype=np.bool_)
+        try:
+            status = self.broadphase._lanes_joints(qb, _kl.check_lanes_kin, kin[10:13] + (
+                nf, self._subset_mode, self._subset_label) + kargs + (hit, skipped, err))
+        except ValueError:
+            self._candidates(qb, first, name)  # names the configuration the broad phase refuses
+            raise
+        return status is not None
 
     def _candidates(self, qb: np.ndarray, first: int, name=lambda i: i) -> np.ndarray:
         # The batch broad phase's (world, g1, g2) rows of these configurations; a pose it refuses

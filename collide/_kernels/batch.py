@@ -1,7 +1,8 @@
 """The batch driver of the per-step broad phase, world by world: worlds split into chunks that
 numba's threads take one at a time, each chunk with its own buffers (a context row, `step.context`),
 each world through `broadphase._world`; `gather_batch` turns the chunks' keys into rows
-``(world, g1, g2)`` in the same call. The lanes (`lanes.step_lanes`) and the fused kinematics
+``(world, g1, g2)`` in the same call (`gather_status` only checks the chunks, for a kernel that
+used the keys in its pass). The lanes (`lanes.step_lanes`) and the fused kinematics
 (`kinematics.step_lanes_kin`) use the same chunks.
 """
 
@@ -173,3 +174,22 @@ def gather_batch(ctxs, world_count, chunk_info, S, stats):
                 r += 1
                 i += 1
     return out
+
+
+@nb.njit(cache=True)
+def gather_status(ctxs, chunk_info, stats):
+    """`gather_batch` for a batch kernel that consumed its keys in its pass (`check_lanes.check_lanes_kin`):
+    ``stats`` (N_STATS,) = the chunks' stats summed, and ``(1,)`` int64, or ``(0,)`` when a chunk
+    holds a bad world or ran out of room (the caller reads ``chunk_info`` then, as after
+    `gather_batch`'s empty rows)."""
+    C = ctxs.shape[0]
+    for c in range(C):
+        if chunk_info[c, CI_BAD] >= 0 or chunk_info[c, CI_NEED] > 0 or chunk_info[c, CI_KEYS] > ctxs[c, C_NKEYS]:
+            return np.zeros(0, np.int64)
+    for s in range(N_STATS):
+        stats[s] = 0
+    for c in range(C):
+        cs = view_of(i64_ptr(ctxs[c, C_STATS]), N_STATS)
+        for s in range(N_STATS):
+            stats[s] += cs[s]
+    return np.ones(1, np.int64)

@@ -85,15 +85,20 @@ class Batch:
                                      world_count, world_info, chunk_info, S, self.stats)
         return launch
 
-    def joints_launch(self, tree: KinematicTree, qpos: np.ndarray):
+    def joints_launch(self, tree: KinematicTree, qpos: np.ndarray, kernel=None, extra: tuple = ()):
         """The launch of `run` (lanes' path only) for ``(B, nq)`` C-contiguous float64 configurations
-        of ``tree``: each group's poses computed by the thread that tests them, in its workspace."""
+        of ``tree``: each group's poses computed by the thread that tests them, in its workspace.
+        ``kernel``: `_kernels.kinematics.step_lanes_kin` (None), or a kernel taking its arguments
+        followed by ``extra`` (`_kernels.check_lanes.check_lanes_kin`, which uses each group's
+        candidates in its pass and returns `_kernels.batch.gather_status`' status for rows)."""
+        kernel = _kin.step_lanes_kin if kernel is None else kernel
+
         def launch(bt, world_count, world_info, chunk_info, S):
             shape = (bt["LW"].shape[0], _kin.lanes_scratch_size(tree.body_count, tree.joint_count))
             if self.kin_scratch is None or self.kin_scratch.shape != shape:
                 self.kin_scratch = np.empty(shape)
-            return _kin.step_lanes_kin(qpos, *tree.arrays, bt["ctx"], self.lane_tables, bt["LW"], bt["LB"],
-                                       self.kin_scratch, world_count, world_info, chunk_info, S, self.stats)
+            return kernel(qpos, *tree.arrays, bt["ctx"], self.lane_tables, bt["LW"], bt["LB"], self.kin_scratch,
+                          world_count, world_info, chunk_info, S, self.stats, *extra)
         return launch
 
     def run(self, B: int, launch) -> np.ndarray:

@@ -213,16 +213,32 @@ class BroadPhase:
         if type(self).kinematics_batch is not BroadPhase.kinematics_batch:  # kinematics of one's own
             out = self.broadphase.pairs_batch(*self.kinematics_batch(model, as_array(qpos, "qpos", (None, model.nq))))
         else:
-            # The model's tree (`kinematic_tree`: views of its float arrays), made once per MjModel
-            # and held with it (an id could be reused): the model's buffers never move, so the views
-            # see every change made to them in place, as mj_kinematics would. Made afresh, it would
-            # add ten binding accesses and the tree's checks to every call.
-            held, tree = self._tree
-            if model is not held:
-                tree = kinematic_tree(model)
-                self._tree = (model, tree)  # one store: another thread sees both or neither
-            out = self.broadphase.pairs_batch_joints(tree, qpos)
+            out = self.broadphase.pairs_batch_joints(self._model_tree(model), qpos)
         return out if self._no_function is None else self._drop_null(out, 1)
+
+    def _model_tree(self, model: mujoco.MjModel):
+        # The model's tree (`kinematic_tree`: views of its float arrays), made once per MjModel
+        # and held with it (an id could be reused): the model's buffers never move, so the views
+        # see every change made to them in place, as mj_kinematics would. Made afresh, it would
+        # add ten binding accesses and the tree's checks to every call.
+        held, tree = self._tree
+        if model is not held:
+            tree = kinematic_tree(model)
+            self._tree = (model, tree)  # one store: another thread sees both or neither
+        return tree
+
+    def _lanes_joints(self, qpos: np.ndarray, kernel, extra: tuple):
+        """``kernel`` (`collide._kernels.check_lanes.check_lanes_kin`'s signature: that of
+        `collide._kernels.kinematics.step_lanes_kin`, then ``extra``) run as `pairs_batch` runs the
+        lanes on ``qpos`` (``(B, nq)`` float64, C-contiguous, finite: not checked here), this
+        model's: its status, or None where `pairs_batch` would not take that path (a subclass's
+        own `kinematics_batch`, contacts disabled, the world-by-world path). Raises
+        `pairs_batch`'s ValueError on a pose the broad phase refuses (not naming the entry)."""
+        bp = self.broadphase
+        if (type(self).kinematics_batch is not BroadPhase.kinematics_batch or self._disabled
+                or bp.batch_path != "lanes"):
+            return None
+        return bp._run_batch(len(qpos), bp._batch.joints_launch(self._model_tree(self.model), qpos, kernel, extra))
 
     def pairs_swept(self, data0: mujoco.MjData, data1: mujoco.MjData) -> np.ndarray:
         """Candidate geom pairs at *some* time between the poses of ``data0`` and ``data1`` (a step).
