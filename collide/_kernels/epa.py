@@ -675,11 +675,25 @@ def epa_warm(sa, sb, entry, tol, res):
     near = fo[f] + max(tol, 16.0 * _EPS * scale)
     best = math.inf
     la = lb = lc = 0.0
+    f0 = f
     for g in range(nf):
         if fo[g] <= near:
             l0, l1, l2, d2 = s2d(V, fv[g, 0], fv[g, 1], fv[g, 2])
             if d2 < best:
                 best, f, la, lb, lc = d2, g, l0, l1, l2
+    # A kept polytope need not be convex at the new poses (`epa`'s holds the origin's foot point
+    # in its nearest face): the nearest triangle may lie off the checked face's foot point, or
+    # on a face within the tolerance of the nearest plane that is no face of C (its normal, the
+    # contact's, then far from the depth's direction: tests/test_adversary_warm.py). Such a
+    # witness face is checked as the nearest one was, and a witness beyond the tolerance of the
+    # nearest plane is declined.
+    if not math.sqrt(best) - vertex_err <= near:
+        return WARM_MISS, scale
+    if f != f0:
+        w0, w1, w2, s = _support_c(sa, sb, fn[f, 0], fn[f, 1], fn[f, 2], hints, pp[0:3], pp[3:6])
+        scale = max(scale, s)
+        if not fn[f, 0] * w0 + fn[f, 1] * w1 + fn[f, 2] * w2 - fo[f] <= max(tol, 16.0 * _EPS * scale):
+            return WARM_MISS, scale
     a, b, c = fv[f, 0], fv[f, 1], fv[f, 2]
     for k in range(3):
         res[3 + k] = la * VA[a, k] + lb * VA[b, k] + lc * VA[c, k]
