@@ -132,8 +132,11 @@ def test_two_cubes_slide_tilt_part_and_jump(margin):
     data = mujoco.MjData(model)
     one = np.array([1.0, 0, 0, 0])
     poses = [(np.array([x, 0.0, 0.18]), one) for x in np.linspace(-0.15, 0.15, 31)]
-    poses += [(np.array([0.0, 0.0, 0.17]), np.array([np.cos(a / 2), np.sin(a / 2), 0, 0])) for a in np.linspace(0, 1, 31)]
-    poses += [(np.array([0.0, 0.0, 0.17]), np.array([np.cos(a / 2), 0, 0, np.sin(a / 2)])) for a in np.linspace(0, 1, 31)]
+    for axis in (1, 3):  # tilting about x, spinning about z
+        for a in np.linspace(0, 1, 31):
+            quat = np.array([np.cos(a / 2), 0.0, 0.0, 0.0])
+            quat[axis] = np.sin(a / 2)
+            poses.append((np.array([0.0, 0.0, 0.17]), quat))
     poses += [(np.array([0.0, 0.0, z]), one) for z in np.r_[np.linspace(0.15, 0.25, 11), np.linspace(0.25, 0.15, 11)]]
     poses += [(np.array([0.1, 0.05, 0.0]) if s % 2 else np.array([0.0, -0.03, -0.17]), one) for s in range(10)]
     # depths that cross: x's from 0.0705 to 0.0295 against z's 0.05, never tied (at a tie either
@@ -259,3 +262,78 @@ def test_star_shaped_rows_give_a_normal_of_the_depth():
         assert float(np.max(P @ res[9:12])) - depth <= tol * (1 + 1e-9)
         assert res[0] - 1e-12 <= -depth <= res[1] + 1e-12
     assert answered > 300
+
+
+def _poses_walk(model, data, rng, sd):
+    q = data.qpos.reshape(model.nbody - 1, 7)
+    q[:, :3] += rng.normal(scale=sd, size=(model.nbody - 1, 3))
+    q[:, 3:] += rng.normal(scale=sd, size=(model.nbody - 1, 4))
+    q[:, 3:] /= np.linalg.norm(q[:, 3:], axis=1)[:, None]
+    mujoco.mj_kinematics(model, data)
+
+
+def test_pair_overrides_and_duplicate_pairs():
+    """Explicit <pair>s over heaped meshes: margins, gaps beyond the margin (a negative contact
+    threshold) and a geom pair listed twice (collided twice a call, one slot): as a cold table's."""
+    n = 12
+    rng = np.random.default_rng(7)
+    names = [f"g{i}" for i in range(n)]
+    assets, bodies = [], []
+    for i in range(n):
+        p = rng.normal(size=(int(rng.integers(6, 30)), 3)) * 0.1
+        assets.append(f'<mesh name="m{i}" vertex="{" ".join(map(str, p.ravel()))}"/>')
+        x = rng.uniform(-0.1, 0.1, 3)
+        bodies.append(f'<body pos="{x[0]} {x[1]} {x[2]}"><freejoint/><geom name="{names[i]}" type="mesh" mesh="m{i}" '
+                      'margin="0.004" gap="0.002"/></body>')
+    pairs = "".join(f'<pair geom1="g{i}" geom2="g{i + 1}" margin="{0.02 if i % 2 else 0.0}" '
+                    f'gap="{0.03 if i % 3 == 0 else 0.0}"/>' for i in range(n - 1))
+    pairs += "".join(f'<pair geom1="g{i}" geom2="g{i + 2}" margin="0.005"/>'
+                     f'<pair geom1="g{i}" geom2="g{i + 2}" gap="0.01" margin="0.001"/>' for i in range(0, n - 2, 3))
+    model = mujoco.MjModel.from_xml_string(f'<mujoco><asset>{"".join(assets)}</asset><worldbody>{"".join(bodies)}'
+                                           f'</worldbody><contact>{pairs}</contact></mujoco>')
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    col = cm.Collider(model)
+    cold = cc.GeomTable(model)
+    pen = 0
+    for _ in range(30):
+        _poses_walk(model, data, rng, 2e-3)
+        w = col.contacts(data)
+        cold._wsi[-WARM_LEN:] = 0
+        pen += _compare(w, cc.narrow_phase(cold, col.pairs(data), data.geom_xpos, data.geom_xmat), col.table.size)
+    assert pen > 300 and col.table._wsi[-WARM_LEN:][WARM_HITS] > 100
+
+
+def test_threads_share_one_cache():
+    """Two threads on one Collider, each walking its own poses (each thread's calls find the
+    other's rows, at other poses): every call as a cold table's."""
+    import threading
+
+    model = _mesh_scene(24, seed=21)
+    col = cm.Collider(model)
+    errors, pens = [], []
+
+    def walk(seed):
+        try:
+            rng = np.random.default_rng(seed)
+            data = mujoco.MjData(model)
+            mujoco.mj_kinematics(model, data)
+            cold = cc.GeomTable(model)
+            pen = 0
+            for _ in range(20):
+                _poses_walk(model, data, rng, 3e-3)
+                w = col.contacts(data)
+                cold._wsi[-WARM_LEN:] = 0
+                pen += _compare(w, cc.narrow_phase(cold, col.pairs(data), data.geom_xpos, data.geom_xmat),
+                                col.table.size)
+            pens.append(pen)
+        except AssertionError as exc:  # reported by the main thread
+            errors.append(exc)
+
+    threads = [threading.Thread(target=walk, args=(k,)) for k in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors, errors[0]
+    assert len(pens) == 2 and min(pens) > 1000 and col.table._wsi[-WARM_LEN:][WARM_TRIES] > 500
