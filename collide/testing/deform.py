@@ -50,6 +50,28 @@ def _tri_distance(X: np.ndarray, tris: np.ndarray, chunk: int = 256) -> np.ndarr
     return out
 
 
+def _tri_distance_paired(X: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    # Distance (m,) of each point X[i] (m, 3) to its own triangle tris[i] (m, 3, 3).
+    a, b, c = tris[:, 0], tris[:, 1], tris[:, 2]
+    n = np.cross(b - a, c - a)
+    nn = np.einsum("ij,ij->i", n, n)
+    ok = nn > 0
+    s = np.where(ok, np.einsum("ij,ij->i", X - a, n) / np.where(ok, nn, 1.0), 0.0)
+    foot = X - s[:, None] * n
+    inside = ok.copy()
+    for u, v in ((a, b), (b, c), (c, a)):
+        inside &= np.einsum("ij,ij->i", np.cross(v - u, foot - u), n) >= 0
+
+    def seg(u, v):
+        uv = v - u
+        ll = np.einsum("ij,ij->i", uv, uv)
+        t = np.clip(np.einsum("ij,ij->i", X - u, uv) / np.where(ll > 0, ll, 1.0), 0.0, 1.0)
+        return np.linalg.norm(u + t[:, None] * uv - X, axis=1)
+
+    edge = np.minimum(np.minimum(seg(a, b), seg(b, c)), seg(c, a))
+    return np.where(inside, np.abs(s) * np.sqrt(nn), edge)
+
+
 def _frame(points: np.ndarray):
     center, axes, rank = affine_basis(points)
     return center, axes, rank, (points - center) @ axes.T
@@ -149,30 +171,30 @@ def signed_excess(points, cloud: PointCloud) -> np.ndarray:
         cen = tris.mean(axis=1)
         rad = np.sqrt(np.einsum("tkj,tkj->tk", tris - cen[:, None], tris - cen[:, None]).max(axis=1))
         # Points in chunks: a (chunk, facets) block of plane values stays small on big hulls.
-        for s in range(0, len(X), 64):
-            plane = Xl[s:s + 64] @ h.equations[:, :3].T + h.equations[:, 3]  # (c, f)
-            out[s:s + 64] = plane.max(axis=1)
-            # Outside, the nearest point q of the hull lies on a facet whose plane has p on its
-            # outer side (p - q is a nonnegative combination of the outward normals of q's facets,
-            # and |p - q|^2 > 0 makes one of them positive on p - q): those are measured first.
-            # Qhull's planes are rounded, and a sliver facet's (near-duplicate points) may be far
-            # off, which dropped the nearest triangle (1e-4 of the size too far on clustered
-            # clouds: tests/test_adversary_oracles.py): the other triangles whose bounding sphere
-            # comes nearer than the answer so far are measured too, nearest bound first, so the
-            # answer is the all-triangle minimum.
-            for i in np.nonzero(out[s:s + 64] > 0)[0]:
-                x = X[s + i:s + i + 1]
-                facing = plane[i] > 0
-                d = _tri_distance(x, tris[facing])[0]
-                dc = np.sqrt(np.einsum("tj,tj->t", cen - x, cen - x))
-                lb = dc - rad - 1e-9 * (dc + rad)  # slack for the rounding of the bound
-                cand = np.flatnonzero((lb < d) & ~facing)
-                cand = cand[np.argsort(lb[cand], kind="stable")]
-                for k in range(0, len(cand), 1024):  # nearest bounds first, until none can be nearer
-                    if lb[cand[k]] >= d:
-                        break
-                    d = min(d, _tri_distance(x, tris[cand[k:k + 1024]])[0])
-                out[s + i] = d
+        step = int(np.clip(2_000_000 // len(tris), 16, 256))
+        for s in range(0, len(X), step):
+            plane = Xl[s:s + step] @ h.equations[:, :3].T + h.equations[:, 3]  # (c, f)
+            out[s:s + step] = plane.max(axis=1)
+            o = np.flatnonzero(out[s:s + step] > 0)
+            if len(o) == 0:
+                continue
+            # Outside, the distance is the nearest triangle's. The triangle of the facet the point
+            # is farthest outside of gives an upper bound d; a triangle can be nearer only if its
+            # bounding sphere comes nearer than d (|p - centre| - radius is at most p's distance
+            # to it), so those candidates, all measured, give the all-triangle minimum. (Qhull's
+            # planes are rounded, and a sliver facet's -- near-duplicate points -- may be far off:
+            # the planes only choose the first bound, never exclude a triangle;
+            # tests/test_adversary_oracles.py checks the all-triangle formula on clustered clouds.)
+            x = X[s + o]
+            d = _tri_distance_paired(x, tris[np.argmax(plane[o], axis=1)])
+            dc = np.sqrt(np.maximum(np.einsum("ij,ij->i", x, x)[:, None] - 2 * x @ cen.T
+                                    + np.einsum("ij,ij->i", cen, cen)[None, :], 0.0))
+            # slack for the rounding of the bound (the expanded square loses ~1e-8 of |x| + |cen|)
+            slack = 1e-7 * (np.abs(x).max(axis=1)[:, None] + np.abs(cen).max(axis=1)[None, :] + rad[None, :])
+            pi, ti = np.nonzero(dc - rad[None, :] - slack < d[:, None])
+            for k in range(0, len(pi), 65536):  # candidate pairs in blocks: memory stays small
+                np.minimum.at(d, pi[k:k + 65536], _tri_distance_paired(x[pi[k:k + 65536]], tris[ti[k:k + 65536]]))
+            out[s + o] = d
     elif rank == 2:
         out[:] = _tri_distance(X, _hull_triangles(P)[0])
     elif rank == 1:
