@@ -106,9 +106,9 @@ def random_configurations(model, n: int, rng: np.random.Generator, outside: floa
         t = int(model.jnt_type[j])
         if t == _FREE:
             q[:, a:a + 3] += rng.uniform(-0.2, 0.2, (n, 3)) + np.array([0.0, 0.0, 0.2]) * rng.random((n, 1))
-            q[:, a + 3:a + 7] = rotations(q[0, a + 3:a + 7].copy())
+            q[:, a + 3:a + 7] = rotations(np.asarray(model.qpos0[a + 3:a + 7], dtype=np.float64))
         elif t == _BALL:
-            q[:, a:a + 4] = rotations(q[0, a:a + 4].copy())
+            q[:, a:a + 4] = rotations(np.asarray(model.qpos0[a:a + 4], dtype=np.float64))
         elif bool(model.jnt_limited[j]):
             lo, hi = (float(v) for v in model.jnt_range[j])
             w = (hi - lo) * outside
