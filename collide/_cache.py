@@ -233,3 +233,47 @@ def register(suffix: str = "") -> None:
     classes = impl._locator_classes
     if not any(getattr(c, "_collide_root", None) == root for c in classes):
         classes.insert(0, _PackageLocator)
+    _lock_saves(caching)
+
+
+# One lock file per cache folder, beside numba's index files.
+LOCK_NAME = "collide-cache.lock"
+
+
+def _lock_saves(caching) -> None:
+    """Make numba's saving of a cache entry one process's at a time in each cache folder.
+
+    numba's ``IndexDataCacheFile.save`` reads a function's index, picks for a new entry the first
+    data-file name the index does not list (``<name>.1.nbc``, ...), then writes the index and the
+    data file. Two processes saving new entries (other signatures) of one function at once can
+    pick the same name: the index one of them leaves then maps its signature to the other's
+    machine code, which numba loads without checking. The test run's warm-up process
+    (``tests/_warmup.py``) compiles beside the tests, and users run several processes on one
+    checkout, so the read-modify-write runs under an exclusive ``flock`` of the folder's
+    `LOCK_NAME`; loading is unchanged (it reads whole files, written to a temporary file and
+    renamed). Where the lock cannot be taken (no ``fcntl``, a read-only folder) numba saves as
+    before.
+    """
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover (Windows)
+        return
+    cls = getattr(caching, "IndexDataCacheFile", None)
+    save = getattr(cls, "save", None)
+    if save is None or getattr(save, "_collide_locked", False):
+        return
+
+    def locked_save(self, key, data):
+        try:
+            fd = os.open(os.path.join(self._cache_path, LOCK_NAME), os.O_RDWR | os.O_CREAT, 0o644)
+        except (OSError, AttributeError):
+            return save(self, key, data)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+            return save(self, key, data)
+        finally:
+            os.close(fd)  # releases the lock
+
+    locked_save._collide_locked = True
+    locked_save.__wrapped__ = save
+    cls.save = locked_save

@@ -205,3 +205,42 @@ def test_the_package_imports_from_a_zip_archive(tmp_path):
                          capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     assert "collide.zip" in out.stdout
+
+
+def test_saves_of_new_entries_from_many_writers_keep_each_its_own_code(tmp_path):
+    # numba names a new entry's data file after the index it read: writers saving other
+    # signatures of one function at once could both take "k.1.nbc", and the index would then map
+    # one signature to the other's code (collide._cache._lock_saves). Writers with their own file
+    # objects, as two processes have, saving at once; then a save waits while the lock is held.
+    import fcntl
+    import threading
+
+    from numba.core import caching
+
+    def writer(w):
+        f = caching.IndexDataCacheFile(cache_path=str(tmp_path), filename_base="k", source_stamp="s")
+        for i in range(25):
+            f.save(("sig", w, i), ("code", w, i))
+
+    old = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)
+    try:
+        ts = [threading.Thread(target=writer, args=(w,)) for w in range(6)]
+        for t in ts:
+            t.start()
+        for t in ts:
+            t.join()
+    finally:
+        sys.setswitchinterval(old)
+    f = caching.IndexDataCacheFile(cache_path=str(tmp_path), filename_base="k", source_stamp="s")
+    assert all(f.load(("sig", w, i)) == ("code", w, i) for w in range(6) for i in range(25))
+
+    fd = os.open(tmp_path / _cache.LOCK_NAME, os.O_RDWR | os.O_CREAT)
+    fcntl.flock(fd, fcntl.LOCK_EX)
+    t = threading.Thread(target=f.save, args=(("late",), ("code", "late")))
+    t.start()
+    t.join(0.5)
+    assert t.is_alive() and f.load(("late",)) is None  # waiting for the lock
+    os.close(fd)
+    t.join(30)
+    assert not t.is_alive() and f.load(("late",)) == ("code", "late")
