@@ -5,11 +5,20 @@
 place, by file and test name: simulations of hundreds or thousands of steps on the real MuJoCo
 models, the command line's and the demos' full runs. A test marked slow must still be worth its
 time: it is deselected from the quick loop, never from CI.
+
+At the start of a session a second process (``tests/_warmup.py``) compiles into numba's cache the
+kernels that test files later in the run need, so that a cold run (CI) compiles on both cores.
 """
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import pytest
+from _warmup import WARMUPS
 
 # file -> test functions (every parametrization of each) that are long runs.
 SLOW: dict[str, frozenset[str]] = {
@@ -53,3 +62,24 @@ def pytest_collection_modifyitems(config, items):
                 raise pytest.UsageError(f"tests/conftest.py marks tests {item.path.name} does not define: {stale}")
         if item.originalname in names:
             item.add_marker(pytest.mark.slow)
+
+
+def pytest_collection_finish(session):
+    # A second process compiles kernels the run needs later (tests/_warmup.py: a cold run is half
+    # numba's compiler, on one core); COLLIDE_NO_WARMUP=1 turns it off.
+    if os.environ.get("COLLIDE_NO_WARMUP") or not session.items:
+        return
+    files = sorted({item.path.name for item in session.items})
+    if not {name for name, _ in WARMUPS} & set(files):
+        return
+    script = Path(__file__).with_name("_warmup.py")
+    session.config._collide_warmup = subprocess.Popen(
+        [sys.executable, str(script), *files], cwd=str(script.parent.parent), stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def pytest_unconfigure(config):
+    proc = getattr(config, "_collide_warmup", None)
+    if proc is not None and proc.poll() is None:
+        proc.terminate()
+        proc.wait()
