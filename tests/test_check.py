@@ -592,10 +592,11 @@ def test_threads_on_one_collider_give_the_same_answers():
 
 
 @numba.njit(cache=False)
-def _axis_and_distance(xp, xm, rows, thr, cls, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr,
-                       nbr_start_num, nbr, nbr_adr, nbr_num, size):
-    # Per row (world, g1, g2): whether check._apart_on_axis puts the pair beyond thr, and the
-    # pair's signed distance (manifold.pair_signed_distance), at the poses xp[w], xm[w].
+def _rejection_and_distance(sat, xp, xm, rows, thr, cls, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr,
+                            nbr_start_num, nbr, nbr_adr, nbr_num, size):
+    # Per row (world, g1, g2): whether check's rejection test before GJK puts the pair beyond thr
+    # (sat: check._apart_sat, else check._apart_on_axis), and the pair's signed distance
+    # (manifold.pair_signed_distance), at the poses xp[w], xm[w].
     K = rows.shape[0]
     apart = np.zeros(K, np.bool_)
     dist = np.full(K, np.nan)
@@ -611,7 +612,10 @@ def _axis_and_distance(xp, xm, rows, thr, cls, kind, prm, pts, pts_adr, pts_num,
                        nbr_num, xpos, xmat)
         s2 = km._shape(g2, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr,
                        nbr_num, xpos, xmat)
-        apart[k] = kc._apart_on_axis(s1, s2, xpos, g1, g2, prm[g1, 3] + prm[g2, 3], thr, pa, pb)
+        if sat:
+            apart[k] = kc._apart_sat(s1, s2, prm[g1, 3] + prm[g2, 3], thr)
+        else:
+            apart[k] = kc._apart_on_axis(s1, s2, xpos, g1, g2, prm[g1, 3] + prm[g2, 3], thr, pa, pb)
         if km.pair_signed_distance(g1, g2, xpos, xmat, cls, kind, prm, pts, pts_adr, pts_num, nbr_start,
                                    nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, size, out) == 0:
             dist[k] = out[0]
@@ -632,16 +636,16 @@ def _mujoco_poses(model, q):
     return xp, xm
 
 
-def _assert_never_rejects_within_reach(kernel, xp, xm, rows, col):
-    # A rejection test (kernel: rows -> whether rejected at thr, and the pair's signed distance) is
-    # conservative at thresholds from zero to past the rejected pairs' distances (the boundary where
-    # rounding would show), and the rows gave it both answers to make.
+def _assert_never_rejects_within_reach(sat, xp, xm, rows, col):
+    # A rejection test before GJK (`_rejection_and_distance`'s: sat, or the axis) is conservative
+    # at thresholds from zero to past the rejected pairs' distances (the boundary where rounding
+    # would show), and the rows gave it both answers to make.
     t = col.table._kargs
     size = t[15]
     tol = 1e-9 * (size[rows[:, 1]] + size[rows[:, 2]])
     rejected = kept = 0
     for thr in (0.0, 1e-3, 0.01, 0.05):
-        apart, dist = kernel(xp, xm, rows, thr, t[0], *t[3:14], size)
+        apart, dist = _rejection_and_distance(sat, xp, xm, rows, thr, t[0], *t[3:14], size)
         ok = np.isfinite(dist)
         assert not np.any(apart & ok & (dist <= thr - tol)), "a pair within reach rejected"
         rejected += int(np.count_nonzero(apart & ok))
@@ -662,32 +666,7 @@ def test_the_axis_rejection_never_rejects_a_pair_within_reach(scene):
     col = cm.Collider(model)
     rows = np.ascontiguousarray(col.broadphase.pairs_batch(model, q), dtype=np.int32).reshape(-1, 3)
     xp, xm = _mujoco_poses(model, q)
-    _assert_never_rejects_within_reach(_axis_and_distance, xp, xm, rows, col)
-
-
-@numba.njit(cache=False)
-def _sat_and_distance(xp, xm, rows, thr, cls, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr,
-                      nbr_start_num, nbr, nbr_adr, nbr_num, size):
-    # Per row (world, g1, g2): whether check._apart_sat puts the pair beyond thr, and the pair's
-    # signed distance (manifold.pair_signed_distance), at the poses xp[w], xm[w].
-    K = rows.shape[0]
-    apart = np.zeros(K, np.bool_)
-    dist = np.full(K, np.nan)
-    out = np.empty(7)
-    for k in range(K):
-        w, g1, g2 = rows[k, 0], rows[k, 1], rows[k, 2]
-        if cls[g1] == km.PLANE or cls[g2] == km.PLANE or cls[g1] == km.SKIPPED or cls[g2] == km.SKIPPED:
-            continue
-        xpos, xmat = xp[w], xm[w]
-        s1 = km._shape(g1, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr,
-                       nbr_num, xpos, xmat)
-        s2 = km._shape(g2, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr,
-                       nbr_num, xpos, xmat)
-        apart[k] = kc._apart_sat(s1, s2, prm[g1, 3] + prm[g2, 3], thr)
-        if km.pair_signed_distance(g1, g2, xpos, xmat, cls, kind, prm, pts, pts_adr, pts_num, nbr_start,
-                                   nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, size, out) == 0:
-            dist[k] = out[0]
-    return apart, dist
+    _assert_never_rejects_within_reach(False, xp, xm, rows, col)
 
 
 # Five free primitives of every type check._apart_sat reads (a box, a capsule, a cylinder, an
@@ -731,12 +710,12 @@ def test_the_separating_axes_never_reject_a_pair_within_reach(scene):
         col = cm.Collider(model)
         rows = np.ascontiguousarray(col.broadphase.pairs_batch(model, q), dtype=np.int32).reshape(-1, 3)
     xp, xm = _mujoco_poses(model, q)
-    _assert_never_rejects_within_reach(_sat_and_distance, xp, xm, rows, col)
+    _assert_never_rejects_within_reach(True, xp, xm, rows, col)
     t = col.table._kargs
     size = t[15]
     if scene == "primitives":  # every type pair with axes of its own (box, capsule, cylinder) had pairs rejected
         g1t, g2t = model.geom_type[rows[:, 1]], model.geom_type[rows[:, 2]]
-        apart, dist = _sat_and_distance(xp, xm, rows, 0.0, t[0], *t[3:14], size)
+        apart, dist = _rejection_and_distance(True, xp, xm, rows, 0.0, t[0], *t[3:14], size)
         round_ = (mujoco.mjtGeom.mjGEOM_SPHERE, mujoco.mjtGeom.mjGEOM_ELLIPSOID)  # no axis: never tested
         for a, b in set(zip(g1t.tolist(), g2t.tolist())):
             sel = (g1t == a) & (g2t == b)
