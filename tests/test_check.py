@@ -786,3 +786,45 @@ def test_a_mesh_on_a_plane_is_decided_by_its_lowest_point():
     assert np.all(sl[ok] < 1e-6)  # a slack of rounding, not of geometry
     assert G == col.table.ngeom
 
+
+def test_closed_form_pairs_first_give_the_answer_in_row_order(monkeypatch):
+    # `check.decide_rows` decides the closed-form pairs (capsules, spheres, the height field's) of
+    # a configuration before its GJK pairs (the box's, first in row order): where a GJK pair and a
+    # closed-form pair are both active, where only one is, and where none is, the answers must be
+    # those of the contacts of each configuration, on the lanes' path and on check_worlds' alike,
+    # ``skipped`` included (the height field's pairs: decided by nothing, reported unless a hit).
+    model = _model(
+        '<geom type="hfield" hfield="h" pos="0 0 -.15"/>'
+        '<body><freejoint/><geom type="box" size=".1 .06 .04"/></body>'
+        '<body><freejoint/><geom type="capsule" size=".03" fromto="-.08 0 0 .08 0 0"/></body>'
+        '<body><freejoint/><geom type="capsule" size=".03" fromto="0 -.08 0 0 .08 0"/></body>'
+        '<body><freejoint/><geom type="sphere" size=".05"/></body>',
+        '<asset><hfield name="h" nrow="3" ncol="3" size=".3 .3 .05 .05" elevation="0 0 0 0 0 0 0 0 0"/></asset>')
+    data = mujoco.MjData(model)
+    rng = np.random.default_rng(11)
+    n = 400
+    q = np.tile(model.qpos0, (n, 1))
+    for b in range(4):
+        q[:, 7 * b:7 * b + 3] = rng.uniform(-0.13, 0.13, (n, 3))
+        quat = rng.normal(size=(n, 4))
+        q[:, 7 * b + 3:7 * b + 7] = quat / np.linalg.norm(quat, axis=1, keepdims=True)
+    col = cm.Collider(model)
+    assert col.broadphase.broadphase.batch_path == "lanes"
+    got = col.check_batch(q)
+    with monkeypatch.context() as m:
+        m.setattr(ccol.Collider, "_in_lanes", lambda *a, **k: False)
+        worlds = col.check_batch(q)
+    assert np.array_equal(got.in_collision, worlds.in_collision)
+    assert np.array_equal(got.skipped, worlds.skipped)
+    kinds = {(True, True): 0, (True, False): 0, (False, True): 0, (False, False): 0}
+    for i, x in enumerate(q):
+        ours, deep = ours_active(col, model, data, x)
+        assert ours == got.in_collision[i] or abs(deep[0]) < 1e-9, (i, deep)
+        c = col.contacts(data)
+        active = c.geom[c.dist < c.margin]
+        box = bool(np.any(active == 1))  # the box's pairs: GJK's
+        other = bool(np.any(np.all(active != 1, axis=1)))  # the capsules' and the sphere's
+        kinds[box, other] += 1
+    assert min(kinds.values()) >= 10, kinds  # every case, many times
+    assert got.skipped.any() and (got.in_collision & ~got.skipped).any()
+    assert not np.any(got.skipped & got.in_collision)

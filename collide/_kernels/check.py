@@ -13,7 +13,8 @@ early takes more), for each configuration:
    bounding and box-box branches are `collide._kernels.manifold`'s own, `pair_margins` and
    `plane_box_contacts`, which `collide_pairs` calls too); the first pair whose deepest
    contact is active (``dist < margin``, not in the gap: MuJoCo's ``exclude == 0``) ends the
-   configuration's search (an early exit);
+   configuration's search (an early exit), the pairs decided in closed form (spheres, capsules,
+   planes) tried before those GJK may decide, with the answer of the rows' order (`decide_rows`);
 3. with distances asked: the signed distance of the closest pair of a static list of filtered
    pairs (`pair_signed_distance`, the single-pair distance of ``mj_geomDistance``), by branch and
    bound: a lower bound per pair from balls about the geoms' origins (``|c1 - c2| - r1 - r2``, or
@@ -38,7 +39,7 @@ from .distance import ROUNDING
 from .gjk import OVERLAP, SEPARATED, gjk_within
 from .kinematics import _kinematics_world
 from .support import CYLINDER, ELLIPSOID, POINTS, support
-from .manifold import (BOX_WS, CONTACT_TOL, CONVEX_PAIR, MAX_PER_PAIR, OUT_DISTANCE, OUT_SIZE, PLANE, SKIPPED,
+from .manifold import (BOX_WS, CONTACT_TOL, CONVEX, CONVEX_PAIR, MAX_PER_PAIR, OUT_DISTANCE, OUT_SIZE, PLANE, SKIPPED,
                        _finite_pose, _pair_rows, _shape, pair_distance, pair_margins, pair_signed_distance,
                        plane_box_contacts, scratch_caps, T_MESH)
 
@@ -76,6 +77,23 @@ def geom_pose(g, body_pos, body_rot, body_quat, geom_body, geom_pos, geom_quat, 
         xpos[g, i] = (body_pos[b, i] + body_rot[b, i, 0] * geom_pos[g, 0] + body_rot[b, i, 1] * geom_pos[g, 1]
                       + body_rot[b, i, 2] * geom_pos[g, 2])
     q0, q1, q2, q3 = _qmul(body_quat[b, 0], body_quat[b, 1], body_quat[b, 2], body_quat[b, 3],
+                           geom_quat[g, 0], geom_quat[g, 1], geom_quat[g, 2], geom_quat[g, 3])
+    m = _qmat(q0, q1, q2, q3)
+    xmat[g, 0, 0], xmat[g, 0, 1], xmat[g, 0, 2] = m[0], m[1], m[2]
+    xmat[g, 1, 0], xmat[g, 1, 1], xmat[g, 1, 2] = m[3], m[4], m[5]
+    xmat[g, 2, 0], xmat[g, 2, 1], xmat[g, 2, 2] = m[6], m[7], m[8]
+
+
+@nb.njit(cache=True, inline="always")
+def geom_pose_lane(g, l, ps, xq, geom_body, geom_pos, geom_quat, xpos, xmat):
+    """`geom_pose` of geom ``g`` from lane ``l``'s body poses: ``ps (NB, 12, LANES)`` (position,
+    then the rotation row-major: `layout.LW_POSES`) and ``xq (NB, 4, LANES)`` (the unit quaternions,
+    `kinematics._kinematics_lanes`' scratch); the same operations in the same order."""
+    b = geom_body[g]
+    for i in range(3):
+        xpos[g, i] = (ps[b, i, l] + ps[b, 3 + 3 * i, l] * geom_pos[g, 0] + ps[b, 4 + 3 * i, l] * geom_pos[g, 1]
+                      + ps[b, 5 + 3 * i, l] * geom_pos[g, 2])
+    q0, q1, q2, q3 = _qmul(xq[b, 0, l], xq[b, 1, l], xq[b, 2, l], xq[b, 3, l],
                            geom_quat[g, 0], geom_quat[g, 1], geom_quat[g, 2], geom_quat[g, 3])
     m = _qmat(q0, q1, q2, q3)
     xmat[g, 0, 0], xmat[g, 0, 1], xmat[g, 0, 2] = m[0], m[1], m[2]
@@ -357,6 +375,135 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_mar
     return found
 
 
+@nb.njit(cache=True, inline="always")
+def closed_form_pair(g1, g2, cls, kind, pts_num):
+    """Whether `deepest_contact` decides the pair ``(g1, g2)`` without an iteration: a height
+    field or SDF geom (not decided), a plane (`plane_box_contacts`' planes), or two spheres or
+    capsules (`pair_distance`'s closed form); the others may run GJK."""
+    c1 = cls[g1]
+    c2 = cls[g2]
+    if c1 != CONVEX or c2 != CONVEX:
+        return True
+    return kind[g1] == POINTS and kind[g2] == POINTS and pts_num[g1] <= 2 and pts_num[g2] <= 2
+
+
+@nb.njit(cache=True, inline="always")
+def first_pass(cls, kind, pts_num):
+    """`decide_rows`' first pass: 0, or 1 (the second) for a model where no pair is a
+    `closed_form_pair` (every geom convex, none a sphere or capsule: meshes and boxes only)."""
+    for g in range(cls.shape[0]):
+        if cls[g] != CONVEX or (kind[g] == POINTS and pts_num[g] <= 2):
+            return 0
+    return 1
+
+
+@nb.njit(cache=True, inline="always")
+def decide_rows(w, lane, r0, r1, src, pose, mode, label, geoms, tables, shapes, faces, xpos, xmat, stamp, scratch,
+                out, d0, gws, g4, hints):
+    """Configuration ``w``'s ``(hit, skipped, err)`` from its candidate rows ``r0 .. r1``: the
+    answer of deciding them in row order with the early exit (the first pair whose
+    `deepest_contact` is `ACTIVE` decides), found with the pairs `closed_form_pair` takes first.
+
+    ``src = (keys, S, nf, rows, p0)``: the rows are ``keys[r] = g1 << S | g2`` (``S > 0``: the lanes'
+    broad phase; the pairs of two ``nf`` geoms left out) or ``rows[r, 1:]`` (``S == 0``); ``p0``:
+    `first_pass`. ``pose =
+    (ps, xq, bpos, brot, bquat)``: the geom poses come from lane ``lane`` of ``ps``, ``xq``
+    (`geom_pose_lane`, ``S > 0``) or from ``bpos``, ``brot``, ``bquat`` (`geom_pose`). ``geoms =
+    (geom_body, geom_pos, geom_quat)``; ``stamp[g] == w`` marks geom ``g`` posed in ``xpos``,
+    ``xmat``. ``tables`` (``cls`` ... ``half``), ``shapes``, ``faces``, ``scratch`` ... ``hints``:
+    `deepest_contact`'s arguments, in its order. The tuples hold borrowed views only
+    (`_ptr.borrow`), made once per worker: a call of more than 30 arguments is compiled to a
+    ``*args`` call, which numba does not inline, and an owned array in a tuple unpacked per
+    configuration costs its reference count's atomic operations there.
+
+    The first pass decides the closed-form pairs, in row order; the second the others, in row
+    order; each poses a geom when a pair it decides first needs it. Why: a configuration in
+    collision is usually decided by a closed-form pair as well, and a GJK pair tried before it
+    costs several times more. The answer is the row order's: a hit where some row is active and
+    every geom of the rows before it has a finite pose (the first pass poses the rows it left
+    before its active one), which is where the row order stops too; where a non-finite pose
+    turns up, the rows are decided again in their order (every geom posed again), which finds
+    the row order's error, or its hit when an active row comes before the bad pose.
+    `NOT_COLLIDED` (a height field's or SDF's pair) is a closed-form pair's only: ``skipped`` is
+    the row order's where nothing is active.
+    """
+    keys, S, nf, rows, p = src
+    (cls, rule, below, rbound, size, geom_margin, geom_gap, pair_key, pair_margin, pair_gap, override, o_margin, gtype,
+     half) = tables
+    skipped = False
+    err = 0
+    mask = (np.int64(1) << S) - 1
+    later = False  # a row left to the second pass
+    while True:
+        for r in range(r0, r1):
+            g1, g2, ok = _row(r, keys, S, mask, nf, rows, mode, label)
+            if not ok:
+                continue
+            if p < 2 and closed_form_pair(g1, g2, cls, shapes[0], shapes[4]) != (p == 0):
+                later = True
+                continue
+            err = _pose_pair(g1, g2, w, lane, pose, geoms, xpos, xmat, stamp, S, err)
+            if err != 0:
+                break
+            a = deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_margin, geom_gap, pair_key,
+                                pair_margin, pair_gap, override, o_margin, gtype, half, shapes, faces, scratch, out,
+                                d0, gws, g4, hints)
+            if a == ACTIVE:
+                for rr in range(r0, r if p == 0 else r0):  # the rows before it that the first pass left
+                    h1, h2, ok = _row(rr, keys, S, mask, nf, rows, mode, label)
+                    if ok and err == 0:
+                        err = _pose_pair(h1, h2, w, lane, pose, geoms, xpos, xmat, stamp, S, err)
+                if err == 0:
+                    return True, False, 0  # the early exit: one active contact decides
+                break
+            if a == NOT_COLLIDED:
+                skipped = True
+        if err != 0 and p < 2:
+            # a non-finite pose: the rows in order, every geom posed again (the order's own error)
+            for g in range(stamp.shape[0]):
+                if stamp[g] == w:
+                    stamp[g] = -1
+            err = 0
+            skipped = False
+            p = 2
+        elif p == 0 and later:
+            p = 1
+        else:
+            return False, skipped, err
+
+
+@nb.njit(cache=True, inline="always")
+def _row(r, keys, S, mask, nf, rows, mode, label):
+    # `decide_rows`' row r: (g1, g2, whether it is decided)
+    if S > 0:
+        g1 = keys[r] >> S
+        g2 = keys[r] & mask
+        if nf[g1] and nf[g2]:
+            return g1, g2, False
+    else:
+        g1 = np.int64(rows[r, 1])
+        g2 = np.int64(rows[r, 2])
+    return g1, g2, in_subset(mode, label, g1, g2)
+
+
+@nb.njit(cache=True, inline="always")
+def _pose_pair(g1, g2, w, lane, pose, geoms, xpos, xmat, stamp, S, err):
+    # `decide_rows`: the poses of g1 and g2 unless posed for world w; err, or the first non-finite
+    # one's error when err is 0
+    ps, xq, bpos, brot, bquat = pose
+    geom_body, geom_pos, geom_quat = geoms
+    for g in (g1, g2):
+        if stamp[g] != w:
+            if S > 0:
+                geom_pose_lane(g, lane, ps, xq, geom_body, geom_pos, geom_quat, xpos, xmat)
+            else:
+                geom_pose(g, bpos, brot, bquat, geom_body, geom_pos, geom_quat, xpos, xmat)
+            stamp[g] = w
+            if not _finite_pose(xpos, xmat, g) and err == 0:
+                err = ERR_POSE + 8 * g
+    return err
+
+
 @nb.njit(cache=True, parallel=True, nogil=True)
 def check_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr,
                  jnt_pos, jnt_axis, geom_body, geom_pos, geom_quat, rows, row_start, mode, label, dpairs, distmax,
@@ -434,6 +581,8 @@ def check_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, bod
         scratch, out, d0, gws, g4, hints = decider_scratch(cap, fmax)
         out7 = np.empty(7)
         lb = np.empty(P if want_distance else 0)
+        no_keys = np.empty(0, np.int64)  # `decide_rows`' lanes' arguments, never read here
+        no_lanes = np.empty((0, 12, 1))
         # the shared tables borrowed (`borrow`): no counter the two threads take turns on
         cls_, rule_, below_, rbound_, size_ = borrow(cls), borrow(rule), borrow(below), borrow(rbound), borrow(size)
         gmargin, ggap, pkey = borrow(geom_margin), borrow(geom_gap), borrow(pair_key)
@@ -450,40 +599,29 @@ def check_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, bod
         jntadr, jntnum, jtype, jqadr = borrow(body_jntadr), borrow(body_jntnum), borrow(jnt_type), \
             borrow(jnt_qposadr)
         jpos, jaxis = borrow(jnt_pos), borrow(jnt_axis)
+        # `decide_rows`' tuples, of borrowed views (the body poses are written in the loop: alive through it)
+        src = (borrow(no_keys), 0, borrow(no_keys), rows_, first_pass(cls_, kind_, pts_num_))
+        pose = (borrow(no_lanes), borrow(no_lanes), borrow(bpos), borrow(brot), borrow(bquat))
+        geoms = (geom_body_, geom_pos_, geom_quat_)
+        tables = (cls_, rule_, below_, rbound_, size_, gmargin, ggap, pkey, pmargin, pgap, override,
+                  o_margin, gtype_, half_)
         while True:
             c = fetch_add(addr, 1)
             if c >= chunks:
                 break
             for w in range((B * c) // chunks, (B * (c + 1)) // chunks):
-                hit = False
-                skipped = False
-                err = 0
                 posed = False  # body poses only for a configuration with a pair to decide
                 for r in range(row_start_[w], row_start_[w + 1]):
-                    g1 = rows_[r, 1]
-                    g2 = rows_[r, 2]
-                    if not in_subset(mode, label_, g1, g2):
-                        continue
-                    if not posed:
+                    if in_subset(mode, label_, rows_[r, 1], rows_[r, 2]):
                         _kinematics_world(qpos_[w], qpos0_, parent_, bpos0, bquat0, jntadr, jntnum, jtype, jqadr, jpos,
                                           jaxis, bpos, brot, bquat, sc)
                         posed = True
-                    for g in (g1, g2):
-                        if stamp[g] != w:
-                            geom_pose(g, bpos, brot, bquat, geom_body_, geom_pos_, geom_quat_, xpos, xmat)
-                            stamp[g] = w
-                            if not _finite_pose(xpos, xmat, g) and err == 0:
-                                err = ERR_POSE + 8 * g
-                    if err != 0:
                         break
-                    a = deepest_contact(g1, g2, xpos, xmat, cls_, rule_, below_, rbound_, size_, gmargin, ggap, pkey,
-                                        pmargin, pgap, override, o_margin, gtype_, half_, shapes, faces, scratch, out,
-                                        d0, gws, g4, hints)
-                    if a == ACTIVE:
-                        hit = True
-                        break  # the early exit: one active contact decides
-                    if a == NOT_COLLIDED:
-                        skipped = True
+                hit, skipped, err = False, False, 0
+                if posed:
+                    hit, skipped, err = decide_rows(w, 0, row_start_[w], row_start_[w + 1], src, pose, mode, label_,
+                                                    geoms, tables, shapes, faces, xpos, xmat, stamp, scratch, out, d0,
+                                                    gws, g4, hints)
                 out_hit[w] = hit
                 out_skipped[w] = skipped and not hit
                 if want_distance and err == 0:

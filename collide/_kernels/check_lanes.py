@@ -22,35 +22,17 @@ import numba as nb
 import numpy as np
 
 from ._ptr import borrow, check_span, f64_ptr, i64_ptr
-from ._quat import _qmat, _qmul
 from ._simd import LANES
 from ._threads import set_chunksize
 from .batch import CI_BAD, CI_KEYS, chunk_buffers, gather_status, next_chunk, start_chunks
-from .check import ACTIVE, ERR_POSE, NOT_COLLIDED, decider_scratch, deepest_contact, in_subset
+from .check import decide_rows, decider_scratch, first_pass, geom_pose_lane
 from .kinematics import _kinematics_lanes, _model_views, lanes_scratch_size
 from .lanes import _lane_group, lane_buffers
 from .layout import LW_GPOS, LW_GROT, LW_POSES, N_STATS, view_f3, view_f4
-from .manifold import _finite_pose, scratch_caps
+from .manifold import scratch_caps
 from .step import C_KEYS, C_NKEYS
 
-__all__ = ["check_lanes_kin", "geom_pose_lane"]
-
-
-@nb.njit(cache=True, inline="always")
-def geom_pose_lane(g, l, ps, xq, geom_body, geom_pos, geom_quat, xpos, xmat):
-    """`check.geom_pose` of geom ``g`` from lane ``l``'s body poses: ``ps (NB, 12, LANES)`` (position,
-    then the rotation row-major: `layout.LW_POSES`) and ``xq (NB, 4, LANES)`` (the unit quaternions,
-    `kinematics._kinematics_lanes`' scratch); the same operations in the same order."""
-    b = geom_body[g]
-    for i in range(3):
-        xpos[g, i] = (ps[b, i, l] + ps[b, 3 + 3 * i, l] * geom_pos[g, 0] + ps[b, 4 + 3 * i, l] * geom_pos[g, 1]
-                      + ps[b, 5 + 3 * i, l] * geom_pos[g, 2])
-    q0, q1, q2, q3 = _qmul(xq[b, 0, l], xq[b, 1, l], xq[b, 2, l], xq[b, 3, l],
-                           geom_quat[g, 0], geom_quat[g, 1], geom_quat[g, 2], geom_quat[g, 3])
-    m = _qmat(q0, q1, q2, q3)
-    xmat[g, 0, 0], xmat[g, 0, 1], xmat[g, 0, 2] = m[0], m[1], m[2]
-    xmat[g, 1, 0], xmat[g, 1, 1], xmat[g, 1, 2] = m[3], m[4], m[5]
-    xmat[g, 2, 0], xmat[g, 2, 1], xmat[g, 2, 2] = m[6], m[7], m[8]
+__all__ = ["check_lanes_kin", "geom_pose_lane"]  # geom_pose_lane: `check`'s, re-exported
 
 
 @nb.njit(cache=True, parallel=True, nogil=True)
@@ -103,7 +85,6 @@ def check_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, 
     qp = nb.carray(f64_ptr(np.int64(qpos.ctypes.data)), (B, nq))
     Jv = nb.carray(i64_ptr(np.int64(J.ctypes.data)), J.shape[0])
     cap, fmax = scratch_caps(pts_num, f_vnum)
-    mask = (np.int64(1) << S) - 1
     nw = min(start_chunks(chunk_info, C), LWs.shape[0], LBs.shape[0], scratch.shape[0])  # a workspace a worker
     chunksize = set_chunksize(1)  # one worker a thread (`_threads`)
     for wk in nb.prange(nw):
@@ -116,6 +97,7 @@ def check_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, 
         xpos = np.zeros((G, 3))
         xmat = np.zeros((G, 3, 3))
         stamp = np.full(G, -1, np.int64)
+        no_rows, no_body, no_rot = np.empty((0, 3), np.int32), np.empty((0, 3)), np.empty((0, 3, 3))
         dscratch, out, d0, gws, g4, hints = decider_scratch(cap, fmax)
         # the shared tables borrowed (`_ptr.borrow`): no counter the two threads take turns on
         cls_, rule_, below_, rbound_, size_ = borrow(cls), borrow(rule), borrow(below), borrow(rbound), borrow(size)
@@ -127,6 +109,12 @@ def check_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, 
                  borrow(f_vadr), borrow(f_vnum), borrow(f_vidx))
         geom_body_, geom_pos_, geom_quat_ = borrow(geom_body), borrow(geom_pos), borrow(geom_quat)
         nf_, label_ = borrow(no_function), borrow(label)
+        # `decide_rows`' tuples, of borrowed views (`ps`, `xq` and `keys` are views without a count)
+        geoms = (geom_body_, geom_pos_, geom_quat_)
+        tables = (cls_, rule_, below_, rbound_, size_, gmargin, ggap, pkey, pmargin, pgap, override,
+                  o_margin, gtype_, half_)
+        no_rows, no_body, no_rot = borrow(no_rows), borrow(no_body), borrow(no_rot)  # never read
+        p0 = first_pass(cls_, shapes[0], shapes[4])
         while True:
             c = next_chunk(chunk_info, C)
             if c >= C:
@@ -137,6 +125,8 @@ def check_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, 
             grot = view_f4(I, LW, LW_GROT)
             kcap = ctx[C_NKEYS]
             keys = nb.carray(i64_ptr(ctx[C_KEYS]), kcap)
+            src = (keys, S, nf_, no_rows, p0)
+            pose = (ps, xq, no_body, no_rot, no_body)
             for s in range(N_STATS):
                 st[s] = 0
             off = 0
@@ -152,30 +142,9 @@ def check_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, 
                     continue  # the call raises (`batch.gather_status`): nothing to decide
                 for l in range(nl):
                     w = g0 + l
-                    hit = False
-                    skipped = False
-                    err = 0
-                    for r in range(k, min(k + world_count[w], kcap)):  # past kcap: the call runs again
-                        g1 = keys[r] >> S
-                        g2 = keys[r] & mask
-                        if (nf_[g1] and nf_[g2]) or not in_subset(mode, label_, g1, g2):
-                            continue
-                        for g in (g1, g2):
-                            if stamp[g] != w:
-                                geom_pose_lane(g, l, ps, xq, geom_body_, geom_pos_, geom_quat_, xpos, xmat)
-                                stamp[g] = w
-                                if not _finite_pose(xpos, xmat, g) and err == 0:
-                                    err = ERR_POSE + 8 * g
-                        if err != 0:
-                            break
-                        a = deepest_contact(g1, g2, xpos, xmat, cls_, rule_, below_, rbound_, size_, gmargin, ggap,
-                                            pkey, pmargin, pgap, override, o_margin, gtype_, half_, shapes, faces,
-                                            dscratch, out, d0, gws, g4, hints)
-                        if a == ACTIVE:
-                            hit = True
-                            break  # the early exit: one active contact decides
-                        if a == NOT_COLLIDED:
-                            skipped = True
+                    hit, skipped, err = decide_rows(w, l, k, min(k + world_count[w], kcap), src, pose, mode,
+                                                    label_, geoms, tables, shapes, faces, xpos, xmat, stamp,
+                                                    dscratch, out, d0, gws, g4, hints)  # past kcap: runs again
                     k += world_count[w]
                     out_hit[w] = hit
                     out_skipped[w] = skipped and not hit
