@@ -787,12 +787,9 @@ def test_a_mesh_on_a_plane_is_decided_by_its_lowest_point():
     assert G == col.table.ngeom
 
 
-def test_closed_form_pairs_first_give_the_answer_in_row_order(monkeypatch):
-    # `check.decide_rows` decides the closed-form pairs (capsules, spheres, the height field's) of
-    # a configuration before its GJK pairs (the box's, first in row order): where a GJK pair and a
-    # closed-form pair are both active, where only one is, and where none is, the answers must be
-    # those of the contacts of each configuration, on the lanes' path and on check_worlds' alike,
-    # ``skipped`` included (the height field's pairs: decided by nothing, reported unless a hit).
+def _box_capsules_sphere(n, rng):
+    # a height field, then a box, two capsules and a sphere on free bodies (in that geom order), and
+    # n configurations of the four bodies about it
     model = _model(
         '<geom type="hfield" hfield="h" pos="0 0 -.15"/>'
         '<body><freejoint/><geom type="box" size=".1 .06 .04"/></body>'
@@ -800,14 +797,22 @@ def test_closed_form_pairs_first_give_the_answer_in_row_order(monkeypatch):
         '<body><freejoint/><geom type="capsule" size=".03" fromto="0 -.08 0 0 .08 0"/></body>'
         '<body><freejoint/><geom type="sphere" size=".05"/></body>',
         '<asset><hfield name="h" nrow="3" ncol="3" size=".3 .3 .05 .05" elevation="0 0 0 0 0 0 0 0 0"/></asset>')
-    data = mujoco.MjData(model)
-    rng = np.random.default_rng(11)
-    n = 400
     q = np.tile(model.qpos0, (n, 1))
     for b in range(4):
         q[:, 7 * b:7 * b + 3] = rng.uniform(-0.13, 0.13, (n, 3))
         quat = rng.normal(size=(n, 4))
         q[:, 7 * b + 3:7 * b + 7] = quat / np.linalg.norm(quat, axis=1, keepdims=True)
+    return model, q
+
+
+def test_closed_form_pairs_first_give_the_answer_in_row_order(monkeypatch):
+    # `check.decide_rows` decides the closed-form pairs (capsules, spheres, the height field's) of
+    # a configuration before its GJK pairs (the box's, first in row order): where a GJK pair and a
+    # closed-form pair are both active, where only one is, and where none is, the answers must be
+    # those of the contacts of each configuration, on the lanes' path and on check_worlds' alike,
+    # ``skipped`` included (the height field's pairs: decided by nothing, reported unless a hit).
+    model, q = _box_capsules_sphere(400, np.random.default_rng(11))
+    data = mujoco.MjData(model)
     col = cm.Collider(model)
     assert col.broadphase.broadphase.batch_path == "lanes"
     got = col.check_batch(q)
@@ -828,3 +833,55 @@ def test_closed_form_pairs_first_give_the_answer_in_row_order(monkeypatch):
     assert min(kinds.values()) >= 10, kinds  # every case, many times
     assert got.skipped.any() and (got.in_collision & ~got.skipped).any()
     assert not np.any(got.skipped & got.in_collision)
+
+
+def test_a_non_finite_pose_gives_the_row_orders_answer():
+    # `check.decide_rows` where a geom's pose is not finite (check_worlds called directly: its
+    # caller refuses such a qpos, a NaN body position here): the twin decides each candidate row
+    # alone (check_worlds on that one row: no order to keep) and composes the answers in row order
+    # (the first active row before the first row with a bad geom: a hit; else that row's error, and
+    # skipped where a row before it is not decided); check_worlds on all of a configuration's rows
+    # (random subsets of the pairs, in order) must give the same hit, skipped and error.
+    rng = np.random.default_rng(12)
+    model, q = _box_capsules_sphere(600, rng)
+    bad = rng.random(len(q)) < 0.5
+    q[bad, 7 * rng.integers(0, 4, int(bad.sum()))] = np.nan  # one body's x
+    col = cm.Collider(model)
+    kin = col._setup_check()
+    kargs = col.table._kargs
+    G = model.ngeom
+    every = [(a, b) for a in range(G) for b in range(a + 1, G)]
+
+    def check_worlds(qb, rows):
+        B = len(qb)
+        rows = np.asarray(rows, np.int32).reshape(-1, 3)
+        row_start = np.searchsorted(rows[:, 0], np.arange(B + 1, dtype=np.int32)).astype(np.int64)
+        hit, skipped, err = np.zeros(B, np.bool_), np.zeros(B, np.bool_), np.zeros(B, np.int64)
+        kc.check_worlds(qb, *kin, rows, row_start, col._subset_mode, col._subset_label, np.zeros((0, 2), np.int32),
+                        np.inf, False, B, 1, np.zeros(1, np.int64), *kargs, hit, np.empty(0),
+                        np.empty((0, 2), np.int32), skipped, err)
+        return hit, skipped, err
+
+    rows = []
+    want = np.zeros((len(q), 3), np.int64)
+    for w in range(len(q)):
+        mine = [every[i] for i in sorted(rng.choice(len(every), rng.integers(1, len(every) + 1), replace=False))]
+        rows += [(w, a, b) for a, b in mine]
+        hit, skipped, err = False, False, 0
+        for a, b in mine:
+            h, s, e = check_worlds(q[w:w + 1], [(0, a, b)])
+            if e[0]:
+                err = int(e[0])
+                break
+            if h[0]:
+                hit = True
+                break
+            skipped |= bool(s[0])
+        want[w] = hit, skipped and not hit, err
+    hit, skipped, err = check_worlds(q, rows)
+    assert np.array_equal(hit, want[:, 0].astype(bool))
+    assert np.array_equal(skipped, want[:, 1].astype(bool))
+    assert np.array_equal(err, want[:, 2])
+    # the cases: errors, hits with a bad geom in a later row, hits and misses of finite poses, skipped
+    assert (err != 0).sum() >= 20 and (hit & bad).sum() >= 10 and (hit & ~bad).sum() >= 20
+    assert (~hit & ~bad).sum() >= 20 and skipped.any()
