@@ -120,6 +120,21 @@ def test_demo_runs_without_a_gl_backend(tmp_path):
     assert "no rendered image" in proc.stdout
 
 
+def test_motion_planning_demo_runs(tmp_path, capsys):
+    # demos/motion_planning.py on its arm among obstacles (made in code), a few hundred
+    # configurations: both figures written, and the scene had free and colliding configurations.
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("motion_planning", REPO / "demos" / "motion_planning.py")
+    demo = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(demo)
+    assert demo.main(["--configs", "300", "--out", str(tmp_path)]) == 0
+    for f in ("motion_planning_stats.png", "motion_planning_configs.png"):
+        assert (tmp_path / f).stat().st_size > 10_000
+    out = capsys.readouterr().out
+    free = float(out.split("configurations, ")[1].split("% free")[0])
+    assert 0.0 < free < 100.0, out
+
+
 def test_unloadable_model_exits_2(tmp_path, capsys):
     bad = tmp_path / "bad.xml"
     bad.write_text("<mujoco><worldbody><geom type='nonsense'/></worldbody></mujoco>")
