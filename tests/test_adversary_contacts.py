@@ -19,6 +19,7 @@ import pytest
 
 mujoco = pytest.importorskip("mujoco")
 import collide.mujoco as cm  # noqa: E402
+from _threads import in_threads  # noqa: E402
 from collide import contacts as cc  # noqa: E402
 
 FIELDS = ("geom", "dist", "pos", "normal", "margin", "skipped")
@@ -163,10 +164,7 @@ def test_threads_on_one_table_keep_their_rows(monkeypatch):
     # Two threads, one table, small arenas (replaced every few calls, by either thread): each
     # call's rows are its own, then and after every later call. A warm start across calls may
     # move a distance by its tolerance: dist within 1e-9 of the pair's size, rows equal.
-    import threading
-
     monkeypatch.setattr(cc, "OUT_ROWS", 24)
-    sys.setswitchinterval(1e-6)
     model = cm.default_scene(seed=3, objects=14)
     base = mujoco.MjData(model)
     for _ in range(30):
@@ -185,20 +183,7 @@ def test_threads_on_one_table_keep_their_rows(monkeypatch):
         states.append(traj)
     refs = [[cc.narrow_phase(cc.GeomTable(model), *st) for st in traj] for traj in states]
     refs = [[{f: np.array(getattr(c, f)) for f in FIELDS} for c in r] for r in refs]
-    got = [[], []]
-
-    def work(s):
-        for st in states[s]:
-            got[s].append(cc.narrow_phase(col.table, *st))
-
-    try:
-        ts = [threading.Thread(target=work, args=(s,)) for s in range(2)]
-        for t in ts:
-            t.start()
-        for t in ts:
-            t.join()
-    finally:
-        sys.setswitchinterval(0.005)
+    got = in_threads(lambda s: [cc.narrow_phase(col.table, *st) for st in states[s]], 2, switch=1e-6)
     n = 0
     for s in range(2):
         assert len(got[s]) == 60

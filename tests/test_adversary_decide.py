@@ -22,8 +22,6 @@ distances, and numba's threads and two Python threads on one Collider.
 
 from __future__ import annotations
 
-import threading
-
 import mujoco
 import numba
 import numpy as np
@@ -33,6 +31,7 @@ import collide.mujoco as cm
 from collide import collider as ccol
 from collide import testing
 from collide._kernels import check as kc
+from _threads import in_threads
 from contact_check import MODELS
 
 ROWS = """<mujoco><asset><hfield name="h" nrow="3" ncol="3" size=".3 .3 .05 .05"
@@ -314,17 +313,7 @@ def test_threads_and_huge_coordinates():
             assert np.array_equal(r.in_collision, ref.in_collision) and np.array_equal(r.skipped, ref.skipped)
     finally:
         numba.set_num_threads(before)
-    got = [[], []]
-
-    def run(i):
-        for _ in range(6):
-            got[i].append(col.check_batch(q[i::2]))
-
-    ts = [threading.Thread(target=run, args=(i,)) for i in range(2)]
-    for t in ts:
-        t.start()
-    for t in ts:
-        t.join()
+    got = in_threads(lambda i: [col.check_batch(q[i::2]) for _ in range(6)], 2)
     for i in range(2):
         assert len(got[i]) == 6
         for r in got[i]:

@@ -11,8 +11,6 @@ right after it); one thread, and two Python threads on one Collider; a model wit
 
 from __future__ import annotations
 
-import threading
-
 import mujoco
 import numba
 import numpy as np
@@ -21,6 +19,7 @@ import pytest
 import collide.mujoco as cm
 from collide import collider as ccol
 from collide import testing
+from _threads import in_threads
 from test_check import mujoco_active
 
 MIX = """<mujoco><option {opt}/><worldbody>
@@ -114,17 +113,7 @@ def test_one_thread_and_two_callers_on_one_collider():
         _same(col.check_batch(q), _old(col, q))
     finally:
         numba.set_num_threads(old)
-    got = [[], []]
-
-    def run(i):
-        for _ in range(10):
-            got[i].append(col.check_batch(parts[i]))
-
-    ts = [threading.Thread(target=run, args=(i,)) for i in range(2)]
-    for t in ts:
-        t.start()
-    for t in ts:
-        t.join()
+    got = in_threads(lambda i: [col.check_batch(parts[i]) for _ in range(10)], 2)
     for i in range(2):
         assert len(got[i]) == 10
         for r in got[i]:

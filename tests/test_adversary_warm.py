@@ -29,6 +29,7 @@ from collide._kernels.warm import WARM_HITS, WARM_KEYS, WARM_LEN, WARM_ROWS, WAR
 from collide.pointcloud import PointCloud
 from collide.support import support_data
 from collide.testing.narrow import polytope_signed_distance
+from _threads import in_threads
 
 EYE = np.eye(3)
 
@@ -307,33 +308,22 @@ def test_pair_overrides_and_duplicate_pairs():
 def test_threads_share_one_cache():
     """Two threads on one Collider, each walking its own poses (each thread's calls find the
     other's rows, at other poses): every call as a cold table's."""
-    import threading
-
     model = _mesh_scene(24, seed=21)
     col = cm.Collider(model)
-    errors, pens = [], []
 
     def walk(seed):
-        try:
-            rng = np.random.default_rng(seed)
-            data = mujoco.MjData(model)
-            mujoco.mj_kinematics(model, data)
-            cold = cc.GeomTable(model)
-            pen = 0
-            for _ in range(20):
-                _poses_walk(model, data, rng, 3e-3)
-                w = col.contacts(data)
-                cold._wsi[-WARM_LEN:] = 0
-                pen += _compare(w, cc.narrow_phase(cold, col.pairs(data), data.geom_xpos, data.geom_xmat),
-                                col.table.size)
-            pens.append(pen)
-        except AssertionError as exc:  # reported by the main thread
-            errors.append(exc)
+        rng = np.random.default_rng(seed)
+        data = mujoco.MjData(model)
+        mujoco.mj_kinematics(model, data)
+        cold = cc.GeomTable(model)
+        pen = 0
+        for _ in range(20):
+            _poses_walk(model, data, rng, 3e-3)
+            w = col.contacts(data)
+            cold._wsi[-WARM_LEN:] = 0
+            pen += _compare(w, cc.narrow_phase(cold, col.pairs(data), data.geom_xpos, data.geom_xmat),
+                            col.table.size)
+        return pen
 
-    threads = [threading.Thread(target=walk, args=(k,)) for k in range(2)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
-    assert not errors, errors[0]
-    assert len(pens) == 2 and min(pens) > 1000 and col.table._wsi[-WARM_LEN:][WARM_TRIES] > 500
+    pens = in_threads(walk, 2)
+    assert min(pens) > 1000 and col.table._wsi[-WARM_LEN:][WARM_TRIES] > 500

@@ -9,13 +9,12 @@ per-world batch kernel (`collide.BroadPhase.pairs_batch`) too. The test asserts 
 produced pairs, explicit pairs among them, so it cannot pass by testing nothing.
 """
 
-import threading
-
 import mujoco
 import numpy as np
 import pytest
 
 import collide.mujoco as cm
+from _threads import in_threads
 
 
 def _geom(rng, name, extra=""):
@@ -233,28 +232,21 @@ def test_two_threads_share_one_broad_phase():
     assert sum(len(w) for w in want) > 0
     bp = cm.BroadPhase(model)
     data = [mujoco.MjData(model) for _ in range(2)]
-    errors = []
 
     def run(t):
-        try:
-            for r in range(20):
-                i = (r + 5 * t) % len(qs)
-                if not np.array_equal(bp.pairs_batch(model, qs[i]), want[i]):
-                    errors.append(("batch", t, r))
-                d = data[t]
-                d.qpos[:] = qs[i][0]
-                mujoco.mj_kinematics(model, d)
-                if not np.array_equal(bp.pairs(d), want[i][want[i][:, 0] == 0, 1:]):
-                    errors.append(("single", t, r))
-        except Exception as exc:  # noqa: BLE001 - reported below
-            errors.append(repr(exc))
+        errors = []
+        for r in range(20):
+            i = (r + 5 * t) % len(qs)
+            if not np.array_equal(bp.pairs_batch(model, qs[i]), want[i]):
+                errors.append(("batch", t, r))
+            d = data[t]
+            d.qpos[:] = qs[i][0]
+            mujoco.mj_kinematics(model, d)
+            if not np.array_equal(bp.pairs(d), want[i][want[i][:, 0] == 0, 1:]):
+                errors.append(("single", t, r))
+        return errors
 
-    threads = [threading.Thread(target=run, args=(t,)) for t in range(2)]
-    for th in threads:
-        th.start()
-    for th in threads:
-        th.join(timeout=300)
-    assert not any(th.is_alive() for th in threads), "hang"
+    errors = sum(in_threads(run, 2, timeout=300), [])
     assert not errors, errors[:5]
 
 

@@ -17,6 +17,7 @@ from collide._kernels import lane_tests as _lane_tests
 from collide._kernels import layout as _layout
 from collide.broadphase import ARENA_ROWS
 from collide.testing.scenes import random_rotation
+from _threads import in_threads
 
 BALL = PointCloud([[0, 0, 0]], 0.5)
 EYE = np.eye(3)
@@ -1165,26 +1166,19 @@ def test_one_copy_per_thread():
     # its own memory (the kernels hold the GIL, so a shared instance would rarely race; the
     # arenas tell whether the copies share state).
     import copy
-    import threading
 
     sc = testing.many_robots(4, 5, seed=45, spread=0.4)
     pos, rot = sc.poses(np.random.default_rng(46), worlds=40)
     bp = BroadPhase(sc.articulation)
     want = [bp.pairs(pos[w], rot[w]).copy() for w in range(40)]
     assert sum(len(p) for p in want) > 100  # the scene had hits
-    got = {}
 
     def run(t):
         mine = copy.copy(bp)
-        got[t] = [[mine.pairs(pos[w], rot[w]) for w in range(40)] for _ in range(25)]
+        return [[mine.pairs(pos[w], rot[w]) for w in range(40)] for _ in range(25)]
 
-    threads = [threading.Thread(target=run, args=(t,)) for t in range(4)]
-    for th in threads:
-        th.start()
-    for th in threads:
-        th.join()
-    assert sorted(got) == [0, 1, 2, 3]
-    for rounds in got.values():
+    got = in_threads(run, 4)
+    for rounds in got:
         for answers in rounds:
             for w in range(40):
                 assert np.array_equal(answers[w], want[w])

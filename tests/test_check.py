@@ -21,8 +21,6 @@ from __future__ import annotations
 
 import copy
 import pickle
-import threading
-
 import mujoco
 import numba
 import numpy as np
@@ -35,6 +33,7 @@ from collide import testing
 from collide._kernels import check as kc
 from collide._kernels import manifold as km
 from collide._kernels import plane as kp
+from _threads import in_threads
 from contact_check import MODELS, contact_distance, oracle, pair_tolerance
 
 SCENES = sorted(p.name for p in MODELS.iterdir() if (p / "scene.xml").is_file()) if MODELS.is_dir() else []
@@ -347,17 +346,12 @@ def test_blocks_threads_and_reuse_give_the_same_answers(monkeypatch):
         assert np.array_equal(r.in_collision, ref.in_collision)
         assert np.array_equal(r.min_distance, ref.min_distance) and np.array_equal(r.closest, ref.closest)
     # two Python threads, each with its own Collider (a copy), at the same time
-    out = {}
 
     def work(k):
         c = copy.deepcopy(col) if k else cm.Collider(model)
-        out[k] = [c.check_batch(q, distance=bool(j % 2)) for j in range(4)]
+        return [c.check_batch(q, distance=bool(j % 2)) for j in range(4)]
 
-    ts = [threading.Thread(target=work, args=(k,)) for k in range(2)]
-    for t in ts:
-        t.start()
-    for t in ts:
-        t.join()
+    out = in_threads(work, 2)
     for k in range(2):
         for j, r in enumerate(out[k]):
             assert np.array_equal(r.in_collision, ref.in_collision)
@@ -571,21 +565,8 @@ def test_threads_on_one_collider_give_the_same_answers():
     col = cm.Collider(model)
     ref = col.check_batch(q, distance=True)
     assert 0 < ref.in_collision.sum() < len(q)
-    out, errors = {}, []
-
-    def work(k):
-        try:
-            out[k] = [col.check_batch(q, distance=bool((j + k) % 2)) for j in range(3)]
-        except Exception as exc:  # noqa: BLE001 (reported below, in the main thread)
-            errors.append(exc)
-
-    ts = [threading.Thread(target=work, args=(k,)) for k in range(3)]
-    for t in ts:
-        t.start()
-    for t in ts:
-        t.join()
-    assert not errors and len(out) == 3
-    for runs in out.values():
+    out = in_threads(lambda k: [col.check_batch(q, distance=bool((j + k) % 2)) for j in range(3)], 3)
+    for runs in out:
         for r in runs:
             assert np.array_equal(r.in_collision, ref.in_collision)
             assert r.min_distance is None or np.array_equal(r.min_distance, ref.min_distance)

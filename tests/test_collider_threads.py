@@ -10,7 +10,6 @@ tracer) puts a switch point on every line, which this test installs to make the 
 
 from __future__ import annotations
 
-import sys
 import threading
 import time
 
@@ -19,6 +18,7 @@ import pytest
 
 mujoco = pytest.importorskip("mujoco")
 import collide.mujoco as cm  # noqa: E402
+from _threads import in_threads  # noqa: E402
 
 XML = ("<mujoco><worldbody><geom type='plane' size='5 5 .1'/>" + "".join(
     f"<body pos='{0.3 * (i % 3)} {0.3 * (i // 3)} 0.2'><freejoint/><geom type='box' size='.1 .12 .08'/></body>"
@@ -46,32 +46,26 @@ def test_two_threads_two_datas_one_collider():
     ref = [_signature(r) for r in ref]
     assert ref[0] != ref[1]  # and different ones: a mix-up shows
     col = cm.Collider(m)
-    wrong, errors = [0, 0], []
 
     def worker(k):
+        wrong, errors = 0, []
         for _ in range(10000):
             time.sleep(0)  # hand the GIL over: the other thread's call interleaves with this one's
             try:
                 c = col.contacts(datas[k])
-            except Exception as exc:  # noqa: BLE001 - any exception is a failure
+            except Exception as exc:  # noqa: BLE001 - any exception is a failure, counted on
                 errors.append(repr(exc))
                 continue
-            wrong[k] += _signature(c) != ref[k]
+            wrong += _signature(c) != ref[k]
+        return wrong, errors
 
     def tracer(frame, event, arg):  # a switch point on every line of Collider._poses
         return tracer if frame.f_code.co_name == "_poses" else None
 
-    old = sys.getswitchinterval()
-    sys.setswitchinterval(1e-6)
     threading.settrace(tracer)
     try:
-        threads = [threading.Thread(target=worker, args=(k,)) for k in range(2)]
-        for t in threads:
-            t.start()
-        for t in threads:
-            t.join()
+        got = in_threads(worker, 2, switch=1e-6)
     finally:
         threading.settrace(None)
-        sys.setswitchinterval(old)
-    assert errors == []
-    assert wrong == [0, 0]
+    assert [e for _, e in got] == [[], []]
+    assert [w for w, _ in got] == [0, 0]

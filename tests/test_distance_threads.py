@@ -8,14 +8,12 @@ between ``iter`` and ``next``, and the cache grew past its bound.
 
 from __future__ import annotations
 
-import sys
-import threading
-
 import numpy as np
 
 import collide.signed_distance as sd
 import collide.support as sp
 from collide import PointCloud, distance
+from _threads import in_threads
 
 
 def test_distance_threads_evicting_caches():
@@ -25,9 +23,9 @@ def test_distance_threads_evicting_caches():
     expect = {(i, j): distance(PointCloud(base[i]), PointCloud(base[j], 0.05), None, (np.eye(3), offs[j])).distance
               for i in range(16) for j in range(16)}
     assert min(expect.values()) < 0.0 < max(expect.values())  # both overlapping and separated pairs
-    errors = []
 
     def worker(seed):
+        errors = []
         r = np.random.default_rng(seed)
         for _ in range(2500):
             i, j = (int(k) for k in r.integers(16, size=2))
@@ -38,17 +36,9 @@ def test_distance_threads_evicting_caches():
                 continue
             if d != expect[(i, j)]:
                 errors.append(("mismatch", i, j, d, expect[(i, j)]))
+        return errors
 
-    old = sys.getswitchinterval()
-    sys.setswitchinterval(1e-6)  # switch threads as often as possible: the race needs a switch mid-eviction
-    try:
-        threads = [threading.Thread(target=worker, args=(s,)) for s in range(4)]
-        for t in threads:
-            t.start()
-        for t in threads:
-            t.join()
-    finally:
-        sys.setswitchinterval(old)
-    assert errors == []
+    # switch threads as often as possible: the race needs a switch mid-eviction
+    assert in_threads(worker, 4, switch=1e-6) == [[], [], [], []]
     assert len(sd._shapes) <= sd._CACHE_SIZE
     assert len(sp._cache) <= sp._CACHE_SIZE

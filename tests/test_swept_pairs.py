@@ -3,14 +3,13 @@ of a step, against its brute-force twin and a sampling oracle."""
 
 from __future__ import annotations
 
-import threading
-
 import numpy as np
 import pytest
 
 import collide
 from collide import shapes, testing
 from collide.testing.swept import brute_force_swept_pairs, motion_poses
+from _threads import in_threads
 
 
 def _set(p):
@@ -217,22 +216,13 @@ def test_two_threads():
     rng = np.random.default_rng(70)
     steps = [_pose_pair(scene, rng, 0.3) for _ in range(20)]
     want = [bp.pairs_swept(*s) for s in steps]
-    errors = []
 
-    def run():
-        try:
-            for _ in range(5):
-                for s, w in zip(steps, want):
-                    np.testing.assert_array_equal(bp.pairs_swept(*s), w)
-        except Exception as exc:  # noqa: BLE001 (reported below)
-            errors.append(exc)
+    def run(_):
+        for _ in range(5):
+            for s, w in zip(steps, want):
+                np.testing.assert_array_equal(bp.pairs_swept(*s), w)
 
-    threads = [threading.Thread(target=run) for _ in range(2)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
-    assert not errors, errors
+    in_threads(run, 2)
 
 
 MODELS = __import__("pathlib").Path(__file__).resolve().parents[1] / ".." / "shared" / "models"

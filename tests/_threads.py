@@ -1,0 +1,70 @@
+"""Run a test's worker in several Python threads at once (the thread-safety tests' one harness).
+
+A worker's exception would die with its thread and a hung thread would hang the suite: `in_threads`
+joins with a timeout, fails on a hang, and raises the first worker's exception in the test's own
+thread (its traceback kept), so a test states only what each thread does and what it must get.
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+from collections.abc import Callable
+from typing import Any
+
+__all__ = ["in_threads"]
+
+
+def in_threads(work: Callable[[int], Any], n: int = 2, *, timeout: float = 600.0,
+               switch: float | None = None) -> list:
+    """``[work(0), ..., work(n - 1)]``, each called in a thread of its own, all started at once.
+
+    Parameters
+    ----------
+    work : callable
+        Called with the thread's index.
+    n : int
+        Number of threads.
+    timeout : float
+        Seconds each join waits; a thread still running after it fails the test ("hang").
+    switch : float, optional
+        ``sys.setswitchinterval`` while the threads run (restored after): a tiny one makes the
+        threads hand the GIL over as often as possible, so that calls interleave.
+
+    Returns
+    -------
+    list
+        Each thread's return value, by index.
+
+    Raises
+    ------
+    AssertionError
+        A thread did not finish within ``timeout``.
+    BaseException
+        The first exception a worker raised (by thread index), re-raised here.
+    """
+    out: list = [None] * n
+    errors: list = [None] * n
+
+    def run(k: int) -> None:
+        try:
+            out[k] = work(k)
+        except BaseException as exc:  # noqa: BLE001 - re-raised in the caller's thread below
+            errors[k] = exc
+
+    old = sys.getswitchinterval()
+    if switch is not None:
+        sys.setswitchinterval(switch)
+    try:
+        threads = [threading.Thread(target=run, args=(k,)) for k in range(n)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join(timeout)
+    finally:
+        sys.setswitchinterval(old)
+    assert not any(t.is_alive() for t in threads), f"a thread ran past {timeout} s (hang)"
+    for exc in errors:
+        if exc is not None:
+            raise exc
+    return out
