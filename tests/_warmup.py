@@ -59,13 +59,20 @@ def _swept() -> None:
     bp.pairs_swept(p0[0], r0[0], p1[0], r1[0])
 
 
-# file whose tests need them -> warm-up; run in this order (the files pytest reaches later last)
-WARMUPS = (("test_check.py", _check), ("test_swept_pairs.py", _swept))
+# (the test files that need a warm-up's kernels, the warm-up), in the order they run. conftest.py
+# runs these files after every other file, in this order, so that the warm-up has the time the
+# others take to compile their kernels: a file that needs them and ran early (a new file sorts
+# where its name puts it) would compile the same kernels beside this process, on both cores.
+WARMUPS = (
+    (frozenset({"test_check.py", "test_check_lanes.py", "test_check_trees.py", "test_adversary_decide.py",
+                "test_adversary_lanes.py"}), _check),
+    (frozenset({"test_swept_pairs.py", "test_swept_reuse.py"}), _swept),
+)
 
 
 def main(files: list[str]) -> None:
-    for name, fn in WARMUPS:
-        if name in files:
+    for names, fn in WARMUPS:
+        if names & set(files):
             try:
                 fn()
             except Exception:  # noqa: BLE001 -- the tests report their own errors

@@ -7,7 +7,8 @@ models, the command line's and the demos' full runs. A test marked slow must sti
 time: it is deselected from the quick loop, never from CI.
 
 At the start of a session a second process (``tests/_warmup.py``) compiles into numba's cache the
-kernels that test files later in the run need, so that a cold run (CI) compiles on both cores.
+kernels that test files later in the run need, so that a cold run (CI) compiles on both cores;
+those files run after all others (`pytest_collection_modifyitems`), to leave it the time.
 """
 
 from __future__ import annotations
@@ -49,6 +50,10 @@ SLOW: dict[str, frozenset[str]] = {
 
 @pytest.hookimpl(tryfirst=True)  # before ``-m`` deselects by marker
 def pytest_collection_modifyitems(config, items):
+    # The files whose kernels the warm-up compiles last, in WARMUPS' order (each file's tests in
+    # their order): the warm-up compiles while the other files run (see _warmup.WARMUPS).
+    late = {name: i + 1 for i, (names, _) in enumerate(WARMUPS) for name in names}
+    items.sort(key=lambda item: late.get(item.path.name, 0))  # stable: the rest keep their order
     checked = set()
     for item in items:
         names = SLOW.get(item.path.name)
@@ -70,7 +75,7 @@ def pytest_collection_finish(session):
     if os.environ.get("COLLIDE_NO_WARMUP") or not session.items:
         return
     files = sorted({item.path.name for item in session.items})
-    if not {name for name, _ in WARMUPS} & set(files):
+    if not any(names & set(files) for names, _ in WARMUPS):
         return
     script = Path(__file__).with_name("_warmup.py")
     session.config._collide_warmup = subprocess.Popen(
