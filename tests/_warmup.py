@@ -59,6 +59,21 @@ def _swept() -> None:
     bp.pairs_swept(p0[0], r0[0], p1[0], r1[0])
 
 
+def _mujoco() -> None:
+    # test_mujoco.py, test_batch_models.py: the MuJoCo adapter's contacts and batched broad phase
+    # (CI's second run, in the checked mode, compiles them here while test_broadphase.py runs).
+    import mujoco
+    import numpy as np
+
+    import collide.mujoco as cm
+
+    model = cm.default_scene(seed=1, objects=10)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    cm.Collider(model).contacts(data)
+    cm.BroadPhase(model).pairs_batch(model, np.tile(model.qpos0, (4, 1)))
+
+
 # (the test files that need a warm-up's kernels, the warm-up), in the order they run. conftest.py
 # runs these files after every other file, in this order, so that the warm-up has the time the
 # others take to compile their kernels: a file that needs them and ran early (a new file sorts
@@ -67,6 +82,7 @@ WARMUPS = (
     (frozenset({"test_check.py", "test_check_lanes.py", "test_check_trees.py", "test_adversary_decide.py",
                 "test_adversary_lanes.py"}), _check),
     (frozenset({"test_swept_pairs.py", "test_swept_reuse.py"}), _swept),
+    (frozenset({"test_mujoco.py", "test_batch_models.py"}), _mujoco),
 )
 
 
