@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import copy
 import pickle
+
 import mujoco
 import numba
 import numpy as np
@@ -346,7 +347,6 @@ def test_blocks_threads_and_reuse_give_the_same_answers(monkeypatch):
         assert np.array_equal(r.in_collision, ref.in_collision)
         assert np.array_equal(r.min_distance, ref.min_distance) and np.array_equal(r.closest, ref.closest)
     # two Python threads, each with its own Collider (a copy), at the same time
-
     def work(k):
         c = copy.deepcopy(col) if k else cm.Collider(model)
         return [c.check_batch(q, distance=bool(j % 2)) for j in range(4)]
