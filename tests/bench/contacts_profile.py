@@ -7,6 +7,10 @@ each step (after ``mj_step``) the medians over the steps of:
 
 * ``first``: the first ``Collider.contacts(data)`` after the step (what contacts.py times);
 * ``call``: the same call repeated on that state (caches warm);
+* ``replayed``: after the run, each step's poses copied into one MjData and a Collider of its own
+  called on them, no ``mj_step`` between (caches warm, the poses moving as in the run, so the
+  warm starts work as there): ``first - replayed`` is what the step's eviction of our code and
+  tables costs, ``replayed - call`` what the same state again gains from the warm starts;
 * ``broad``: ``Collider.pairs(data)`` (the broad phase, its Python call included);
 * ``contacts_of``: `collide.contacts.contacts_of` on those pairs (our Python wrapper and the kernel);
 * ``kernel``: `collide._kernels.manifold.collide_packed` alone (its entry point), into an arena of its own;
@@ -58,7 +62,9 @@ def profile(path: Path, steps: int, every: int, seed: int = 0, hold: int = 10) -
     table = col.table
     tf, ti, t8, t32 = table._tables
     ctrls = cm._random_controls(model, steps, seed, hold)
-    split = {k: [] for k in ("first", "call", "broad", "contacts_of", "kernel", "fixed")}
+    split = {k: [] for k in ("first", "call", "replayed", "broad", "contacts_of", "kernel", "fixed")}
+    fields = ("xpos", "xquat", "xmat", "geom_xpos", "geom_xmat")  # what the two phases read
+    kept = []
     kinds: dict = {}
     for step in range(steps):
         if step % hold == 0 and len(ctrls):
@@ -68,6 +74,7 @@ def profile(path: Path, steps: int, every: int, seed: int = 0, hold: int = 10) -
         col.contacts(data)
         split["first"].append((time.perf_counter_ns() - t0) * 1e-3)
         split["call"].append(_best(lambda: col.contacts(data)))
+        kept.append([getattr(data, f).copy() for f in fields])
         split["broad"].append(_best(lambda: col.pairs(data)))
         pairs = col.pairs(data)
         xpos, xmat = col._poses(data)
@@ -92,6 +99,16 @@ def profile(path: Path, steps: int, every: int, seed: int = 0, hold: int = 10) -
         for key in set(label):
             sub = np.ascontiguousarray(pairs[label == key])
             kinds.setdefault(key, []).append((_best(lambda: kernel(sub)) - fixed, len(sub)))
+    replay = mujoco.MjData(model)
+    mujoco.mj_forward(model, replay)
+    again = cm.Collider(model)
+    again.contacts(replay)
+    for poses in kept:
+        for f, v in zip(fields, poses):
+            getattr(replay, f)[:] = v
+        t0 = time.perf_counter_ns()
+        again.contacts(replay)
+        split["replayed"].append((time.perf_counter_ns() - t0) * 1e-3)
     return split, kinds
 
 
