@@ -273,6 +273,19 @@ def _poses_walk(model, data, rng, sd):
     mujoco.mj_kinematics(model, data)
 
 
+def _walk_against_cold(model, col, data, rng, steps, sd):
+    # `steps` random steps of the poses (`_poses_walk`): each call of col as a cold table's, its
+    # cache rows cleared first; returns the penetrating contacts compared
+    cold = cc.GeomTable(model)
+    pen = 0
+    for _ in range(steps):
+        _poses_walk(model, data, rng, sd)
+        w = col.contacts(data)
+        cold._wsi[-WARM_LEN:] = 0
+        pen += _compare(w, cc.narrow_phase(cold, col.pairs(data), data.geom_xpos, data.geom_xmat), col.table.size)
+    return pen
+
+
 def test_pair_overrides_and_duplicate_pairs():
     """Explicit <pair>s over heaped meshes: margins, gaps beyond the margin (a negative contact
     threshold) and a geom pair listed twice (collided twice a call, one slot): as a cold table's."""
@@ -295,13 +308,7 @@ def test_pair_overrides_and_duplicate_pairs():
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
     col = cm.Collider(model)
-    cold = cc.GeomTable(model)
-    pen = 0
-    for _ in range(30):
-        _poses_walk(model, data, rng, 2e-3)
-        w = col.contacts(data)
-        cold._wsi[-WARM_LEN:] = 0
-        pen += _compare(w, cc.narrow_phase(cold, col.pairs(data), data.geom_xpos, data.geom_xmat), col.table.size)
+    pen = _walk_against_cold(model, col, data, rng, 30, 2e-3)
     assert pen > 300 and col.table._wsi[-WARM_LEN:][WARM_HITS] > 100
 
 
@@ -312,18 +319,9 @@ def test_threads_share_one_cache():
     col = cm.Collider(model)
 
     def walk(seed):
-        rng = np.random.default_rng(seed)
         data = mujoco.MjData(model)
         mujoco.mj_kinematics(model, data)
-        cold = cc.GeomTable(model)
-        pen = 0
-        for _ in range(20):
-            _poses_walk(model, data, rng, 3e-3)
-            w = col.contacts(data)
-            cold._wsi[-WARM_LEN:] = 0
-            pen += _compare(w, cc.narrow_phase(cold, col.pairs(data), data.geom_xpos, data.geom_xmat),
-                            col.table.size)
-        return pen
+        return _walk_against_cold(model, col, data, np.random.default_rng(seed), 20, 3e-3)
 
     pens = in_threads(walk, 2)
     assert min(pens) > 1000 and col.table._wsi[-WARM_LEN:][WARM_TRIES] > 500
