@@ -16,13 +16,14 @@ from __future__ import annotations
 
 import sys
 import time
+from pathlib import Path
 
 import mujoco
 import numpy as np
 
 import collide.mujoco as cm
 
-MODELS = __import__("pathlib").Path(__file__).resolve().parents[2] / ".." / "shared" / "models"
+MODELS = Path(__file__).resolve().parents[2] / ".." / "shared" / "models"
 
 
 def main(name: str, steps: int = 300) -> None:
