@@ -182,14 +182,17 @@ def _bipyramid(V, fv, fa, fn, fo, fl, p, q, r, top, bottom):
 
 
 @njit(cache=True)
-def _horizon(V, nv, fv, fa, fn, fo, nf, f, seen, forced, stack, hz, tiny):
+def _horizon(V, nv, fv, fa, fn, fo, nf, f, seen, forced, stack, hz, tiny, vis):
     # Flood the faces visible from vertex nv (or forced visible) from face f; their horizon
-    # edges (a, b, kept face) into hz. Returns the edge count, -1 when hz overflows.
+    # edges (a, b, kept face) into hz, the visible faces into vis. Returns (the edge count, -1
+    # when hz overflows; the visible face count).
     w0, w1, w2 = V[nv, 0], V[nv, 1], V[nv, 2]
     for g in range(nf):
         seen[g] = False
     seen[f] = True
     stack[0] = f
+    vis[0] = f
+    nvis = 1
     top = 1
     nh = 0
     while top > 0:
@@ -203,18 +206,20 @@ def _horizon(V, nv, fv, fa, fn, fo, nf, f, seen, forced, stack, hz, tiny):
                 seen[g] = True
                 stack[top] = g
                 top += 1
+                vis[nvis] = g
+                nvis += 1
             else:  # horizon edge (a, b) of x, seen from the kept face g
                 if nh == hz.shape[0]:
-                    return -1
+                    return -1, nvis
                 hz[nh, 0] = fv[x, e]
                 hz[nh, 1] = fv[x, (e + 1) % 3]
                 hz[nh, 2] = g
                 nh += 1
-    return nh
+    return nh, nvis
 
 
 @njit(cache=True)
-def _expand(V, nv, fv, fa, fn, fo, fl, alive, nf, f, seen, forced, stack, hz, tiny):
+def _expand(V, nv, fv, fa, fn, fo, fl, alive, nf, f, seen, forced, stack, hz, tiny, hp, vis):
     # Replace the faces visible from vertex nv (a connected set grown from face f) by a cone of
     # new faces over their horizon. A cone face that would be degenerate (its edges parallel
     # within 1e-10) or leave the origin outside makes the kept face across its horizon edge
@@ -223,19 +228,21 @@ def _expand(V, nv, fv, fa, fn, fo, fl, alive, nf, f, seen, forced, stack, hz, ti
     # horizon is not one simple cycle.
     for g in range(nf):
         forced[g] = False
-    e = np.empty(3)
     nh = -1
+    nvis = 0
     for _ in range(8):
-        nh = _horizon(V, nv, fv, fa, fn, fo, nf, f, seen, forced, stack, hz, tiny)
+        nh, nvis = _horizon(V, nv, fv, fa, fn, fo, nf, f, seen, forced, stack, hz, tiny, vis)
         if nh < 3:
             return -1
         ok = True
         for i in range(nh):
             a, b = hz[i, 0], hz[i, 1]
-            off, ln = _plane(V, a, b, nv, e)
-            ea = math.sqrt((V[b, 0] - V[a, 0]) ** 2 + (V[b, 1] - V[a, 1]) ** 2 + (V[b, 2] - V[a, 2]) ** 2)
-            eb = math.sqrt((V[nv, 0] - V[a, 0]) ** 2 + (V[nv, 1] - V[a, 1]) ** 2 + (V[nv, 2] - V[a, 2]) ** 2)
-            if not ln > 1e-10 * ea * eb or off < -tiny:
+            off, ln = _plane(V, a, b, nv, hp[i])
+            hp[i, 3] = off
+            hp[i, 4] = ln
+            ea2 = (V[b, 0] - V[a, 0]) ** 2 + (V[b, 1] - V[a, 1]) ** 2 + (V[b, 2] - V[a, 2]) ** 2
+            eb2 = (V[nv, 0] - V[a, 0]) ** 2 + (V[nv, 1] - V[a, 1]) ** 2 + (V[nv, 2] - V[a, 2]) ** 2
+            if not ln * ln > 1e-20 * ea2 * eb2 or off < -tiny:
                 forced[hz[i, 2]] = True
                 ok = False
         if ok:
@@ -252,15 +259,21 @@ def _expand(V, nv, fv, fa, fn, fo, fl, alive, nf, f, seen, forced, stack, hz, ti
                 starts += 1
             if hz[j, 0] == hz[i, 1]:
                 ends += 1
+                hz[i, 4] = j  # the next edge around the cycle
         if starts != 1 or ends != 1:
             return -1
     # Commit: free the visible faces, fill their slots (and new ones) with the cone.
-    nfree = 0
-    for g in range(nf):
-        if seen[g] and alive[g]:
-            alive[g] = False
-            stack[nfree] = g
-            nfree += 1
+    # The visible faces' slots, in increasing order (insertion sort; a few faces), reused so.
+    nfree = nvis
+    for k in range(nvis):
+        g = vis[k]
+        alive[g] = False
+        fo[g] = math.inf  # the nearest-face scan needs no alive test
+        j = k
+        while j > 0 and stack[j - 1] > g:
+            stack[j] = stack[j - 1]
+            j -= 1
+        stack[j] = g
     for i in range(nh):
         if i < nfree:
             slot = stack[i]
@@ -268,15 +281,23 @@ def _expand(V, nv, fv, fa, fn, fo, fl, alive, nf, f, seen, forced, stack, hz, ti
             slot = nf
             nf += 1
         hz[i, 3] = slot
-        _new_face(V, fv, fn, fo, fl, slot, hz[i, 0], hz[i, 1], nv)
+        fv[slot, 0], fv[slot, 1], fv[slot, 2] = hz[i, 0], hz[i, 1], nv
+        fn[slot, 0], fn[slot, 1], fn[slot, 2] = hp[i, 0], hp[i, 1], hp[i, 2]
+        fo[slot] = hp[i, 3]
+        fl[slot] = hp[i, 4]
         alive[slot] = True
     for i in range(nh):
         slot = hz[i, 3]
-        _link(fv, fa, slot, hz[i, 2])
-        for j in range(nh):
-            if hz[j, 0] == hz[i, 1]:  # the next face around the cone shares edge (b, nv)
-                fa[slot, 1] = hz[j, 3]
-                fa[hz[j, 3], 2] = slot
+        # edge 0 of the cone face, (a, b), is edge (b, a) of the kept face g
+        a, b, g = hz[i, 0], hz[i, 1], hz[i, 2]
+        fa[slot, 0] = g
+        for j in range(3):
+            if fv[g, j] == b and fv[g, (j + 1) % 3] == a:
+                fa[g, j] = slot
+        # the next face around the cone shares edge (b, nv)
+        nxt = hz[hz[i, 4], 3]
+        fa[slot, 1] = nxt
+        fa[nxt, 2] = slot
     # Freed slots the cone did not reuse stay dead (alive False).
     return nf
 
@@ -329,28 +350,34 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res, keep=None):
     mf = 2 * mv
     # Uninitialised (zeroing them cost more than the rest of a typical call): every entry is
     # written before it is read; face arrays are only read below the face count ``nf``.
-    fbuf = np.empty((3 * mv + mf, 3))
-    V = fbuf[0:mv]
-    VA = fbuf[mv:2 * mv]
-    VB = fbuf[2 * mv:3 * mv]
-    fn = fbuf[3 * mv:]
-    ibuf = np.empty((3, mf, 3), np.int64)
-    fv = ibuf[0]
-    fa = ibuf[1]
-    vi = ibuf[2]  # with ``keep``: each vertex's indices in A and B (columns 0, 1)
+    # One allocation per element type: float64 V, VA, VB (mv, 3), fn (mf, 3), hp (mf, 5) (the
+    # cone faces' planes: normal, offset, |cross|), fo, fl (mf,), pa, pb (3,); int64 fv, fa, vi
+    # (mf, 3), hz (mf, 5: horizon edge a, b, kept face, new slot, next edge), stack, vis (mf,);
+    # bool alive, seen, forced (mf,).
+    fbuf = np.empty(9 * mv + 10 * mf + 6)
+    V = fbuf[0:3 * mv].reshape((mv, 3))
+    VA = fbuf[3 * mv:6 * mv].reshape((mv, 3))
+    VB = fbuf[6 * mv:9 * mv].reshape((mv, 3))
+    o = 9 * mv
+    fn = fbuf[o:o + 3 * mf].reshape((mf, 3))
+    hp = fbuf[o + 3 * mf:o + 8 * mf].reshape((mf, 5))
+    fo = fbuf[o + 8 * mf:o + 9 * mf]
+    fl = fbuf[o + 9 * mf:o + 10 * mf]
+    pa = fbuf[o + 10 * mf:o + 10 * mf + 3]
+    pb = fbuf[o + 10 * mf + 3:o + 10 * mf + 6]
+    ibuf = np.empty(16 * mf, np.int64)
+    fv = ibuf[0:3 * mf].reshape((mf, 3))
+    fa = ibuf[3 * mf:6 * mf].reshape((mf, 3))
+    vi = ibuf[6 * mf:9 * mf].reshape((mf, 3))  # with ``keep``: each vertex's indices in A, B (columns 0, 1)
+    hz = ibuf[9 * mf:14 * mf].reshape((mf, 5))
+    stack = ibuf[14 * mf:15 * mf]
+    vis = ibuf[15 * mf:16 * mf]
     if keep is not None:
         keep[E_NV] = 0
-    obuf = np.empty((2, mf))
-    fo = obuf[0]
-    fl = obuf[1]
     bbuf = np.empty((3, mf), np.bool_)
     alive = bbuf[0]
     seen = bbuf[1]
     forced = bbuf[2]
-    stack = np.empty(mf, np.int64)
-    hz = np.empty((mf, 4), np.int64)
-    pa = np.empty(3)
-    pb = np.empty(3)
     scale = 0.0
     for i in range(n):
         _add_vertex(V, VA, VB, i, W[i, 0], W[i, 1], W[i, 2], WA[i], WB[i])
@@ -440,9 +467,11 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res, keep=None):
     f = 0
     while True:
         it += 1
-        f = -1
-        for g in range(nf):
-            if alive[g] and (f < 0 or fo[g] < fo[f]):
+        f = 0  # the nearest face (a dead face's offset is +inf: `_expand`)
+        fmin = fo[0]
+        for g in range(1, nf):
+            if fo[g] < fmin:
+                fmin = fo[g]
                 f = g
         d0, d1, d2 = fn[f, 0], fn[f, 1], fn[f, 2]
         w0, w1, w2, s = _support_c(sa, sb, d0, d1, d2, hints, pa, pb)
@@ -459,7 +488,7 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res, keep=None):
         if keep is not None:
             vi[nv, 0], vi[nv, 1] = hints[0], hints[1]
         tiny = 16.0 * _EPS * scale
-        nf_new = _expand(V, nv, fv, fa, fn, fo, fl, alive, nf, f, seen, forced, stack, hz, tiny)
+        nf_new = _expand(V, nv, fv, fa, fn, fo, fl, alive, nf, f, seen, forced, stack, hz, tiny, hp, vis)
         if nf_new < 0:
             break
         nf = nf_new
