@@ -126,6 +126,36 @@ def _solid_angle(V, a, b, c):
 
 
 @njit(cache=True)
+def _nearest_triangle(V, fv, fo, nf, near, f):
+    # Among the faces whose plane is within ``near`` of the origin (a dead face's offset is +inf),
+    # the triangle nearest the origin: (face, barycentric weights of its point nearest the origin,
+    # squared distance); (f, 0, 0, 0, inf) when none is.
+    best = math.inf
+    la = lb = lc = 0.0
+    for g in range(nf):
+        if fo[g] <= near:
+            l0, l1, l2, d2 = s2d(V, fv[g, 0], fv[g, 1], fv[g, 2])
+            if d2 < best:
+                best, f, la, lb, lc = d2, g, l0, l1, l2
+    return f, la, lb, lc, best
+
+
+@njit(cache=True)
+def _witness(V, VA, VB, fv, fn, fl, f, la, lb, lc, res):
+    # The witness of face f's point (la, lb, lc) into res[3:13]: that point carried to A and B,
+    # the face's normal and its conditioning (`epa`'s ``res``).
+    a, b, c = fv[f, 0], fv[f, 1], fv[f, 2]
+    for k in range(3):
+        res[3 + k] = la * VA[a, k] + lb * VA[b, k] + lc * VA[c, k]
+        res[6 + k] = la * VB[a, k] + lb * VB[b, k] + lc * VB[c, k]
+        res[9 + k] = fn[f, k]
+    el = 0.0
+    for x in (b, c):
+        el += math.sqrt((V[x, 0] - V[a, 0]) ** 2 + (V[x, 1] - V[a, 1]) ** 2 + (V[x, 2] - V[a, 2]) ** 2)
+    res[12] = el / fl[f] if fl[f] > 0.0 else math.inf
+
+
+@njit(cache=True)
 def _new_face(V, fv, fn, fo, fl, slot, a, b, c):
     fv[slot, 0], fv[slot, 1], fv[slot, 2] = a, b, c
     off, ln = _plane(V, a, b, c, fn[slot])
@@ -529,22 +559,8 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res, keep=None):
     # face need not hold the origin's foot point (a face of C split into coplanar triangles):
     # among the faces within the tolerance of the nearest plane, the nearest triangle.
     near = fo[f] + max(tol, 16.0 * _EPS * scale)
-    best = math.inf
-    la = lb = lc = 0.0
-    for g in range(nf):
-        if alive[g] and fo[g] <= near:
-            l0, l1, l2, d2 = s2d(V, fv[g, 0], fv[g, 1], fv[g, 2])
-            if d2 < best:
-                best, f, la, lb, lc = d2, g, l0, l1, l2
-    a, b, c = fv[f, 0], fv[f, 1], fv[f, 2]
-    for k in range(3):
-        res[3 + k] = la * VA[a, k] + lb * VA[b, k] + lc * VA[c, k]
-        res[6 + k] = la * VB[a, k] + lb * VB[b, k] + lc * VB[c, k]
-        res[9 + k] = fn[f, k]
-    el = 0.0
-    for x in (b, c):
-        el += math.sqrt((V[x, 0] - V[a, 0]) ** 2 + (V[x, 1] - V[a, 1]) ** 2 + (V[x, 2] - V[a, 2]) ** 2)
-    res[12] = el / fl[f] if fl[f] > 0.0 else math.inf
+    f, la, lb, lc, _ = _nearest_triangle(V, fv, fo, nf, near, f)
+    _witness(V, VA, VB, fv, fn, fl, f, la, lb, lc, res)
     res[0], res[1], res[2] = lower, upper, -fo[f]
     if keep is not None:
         if status == CONVERGED and front and upper < math.inf:
@@ -702,14 +718,8 @@ def epa_warm(sa, sb, entry, tol, res):
         return WARM_MISS, scale
     # the witness, as `epa` takes it
     near = fo[f] + max(tol, 16.0 * _EPS * scale)
-    best = math.inf
-    la = lb = lc = 0.0
     f0 = f
-    for g in range(nf):
-        if fo[g] <= near:
-            l0, l1, l2, d2 = s2d(V, fv[g, 0], fv[g, 1], fv[g, 2])
-            if d2 < best:
-                best, f, la, lb, lc = d2, g, l0, l1, l2
+    f, la, lb, lc, best = _nearest_triangle(V, fv, fo, nf, near, f)
     # A kept polytope need not be convex at the new poses (`epa`'s holds the origin's foot point
     # in its nearest face): the nearest triangle may lie off the checked face's foot point, or
     # on a face within the tolerance of the nearest plane that is no face of C (its normal, the
@@ -723,14 +733,6 @@ def epa_warm(sa, sb, entry, tol, res):
         scale = max(scale, s)
         if not fn[f, 0] * w0 + fn[f, 1] * w1 + fn[f, 2] * w2 - fo[f] <= max(tol, 16.0 * _EPS * scale):
             return WARM_MISS, scale
-    a, b, c = fv[f, 0], fv[f, 1], fv[f, 2]
-    for k in range(3):
-        res[3 + k] = la * VA[a, k] + lb * VA[b, k] + lc * VA[c, k]
-        res[6 + k] = la * VB[a, k] + lb * VB[b, k] + lc * VB[c, k]
-        res[9 + k] = fn[f, k]
-    el = 0.0
-    for x in (b, c):
-        el += math.sqrt((V[x, 0] - V[a, 0]) ** 2 + (V[x, 1] - V[a, 1]) ** 2 + (V[x, 2] - V[a, 2]) ** 2)
-    res[12] = el / fl[f] if fl[f] > 0.0 else math.inf
+    _witness(V, VA, VB, fv, fn, fl, f, la, lb, lc, res)
     res[0], res[1], res[2] = -h, -inner, -fo[f]
     return CONVERGED, scale
