@@ -14,44 +14,13 @@ import sys
 import time
 
 import numpy as np
-from numba import njit
 from scipy.spatial.transform import Rotation
 
-from collide._kernels._ptr import borrow
-from collide._kernels.epa import epa
-from collide._kernels.gjk import OVERLAP, gjk_within
+from epa_ab import CASES, _runner  # the same cases and timed loop, on the installed package
 
 TOL = float(sys.argv[1]) if len(sys.argv) > 1 else 1e-11
 E32 = np.zeros(1, np.int32)
-BOX = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float) * np.array([0.02, 0.015, 0.01])
-
-
-@njit
-def run(ka, pra, pta, ra, pa, kb, prb, ptb, rb, pb, tol, reps, res, e32):
-    e = borrow(e32)
-    sa = (ka, borrow(pra), borrow(pta), e, e, borrow(ra), borrow(pa))
-    sb = (kb, borrow(prb), borrow(ptb), e, e, borrow(rb), borrow(pb))
-    W, WA, WB = np.zeros((4, 3)), np.zeros((4, 3)), np.zeros((4, 3))
-    lam, v, dirn, p1, p2 = np.zeros(4), np.zeros(3), np.zeros(4), np.zeros(3), np.zeros(3)
-    hints = np.array([-1, -1])
-    st, n, lower, scale, it = gjk_within(sa, sb, np.zeros(3), hints, tol, np.inf, 128, W, WA, WB, lam, v, dirn,
-                                         p1, p2)
-    if st != OVERLAP:
-        return -1
-    r = borrow(res)
-    h = np.empty(2, np.int64)
-    its = 0
-    for _ in range(reps):
-        h[0], h[1] = hints[0], hints[1]
-        _, _, its = epa(sa, sb, W, WA, WB, n, h, tol, 128, lower, r)
-    return its
-
-
-NONE = np.zeros((0, 3))
-CASES = {"box-ellipsoid": ((0, np.zeros(4), BOX), (3, np.array([0.012, 0.01, 0.02, 0.0]), NONE)),
-         "ellipsoid-ellipsoid": ((3, np.array([0.02, 0.01, 0.015, 0.0]), NONE),
-                                 (3, np.array([0.012, 0.01, 0.02, 0.0]), NONE)),
-         "cylinder-cylinder": ((1, np.array([0.01, 0.02, 0.0, 0.0]), NONE), (1, np.array([0.012, 0.015, 0.0, 0.0]), NONE))}
+run = _runner("collide")
 print(f"# EPA on penetrating curved pairs, tolerance {TOL:g} (python tests/bench/epa_curved.py {TOL:g})")
 for name, (A, B) in CASES.items():
     rng = np.random.default_rng(1)
