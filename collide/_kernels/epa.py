@@ -127,13 +127,13 @@ def _solid_angle(V, a, b, c):
 
 @njit(cache=True)
 def _nearest_triangle(V, fv, fo, nf, near, f):
-    # Among the faces whose plane is within ``near`` of the origin (a dead face's offset is +inf),
-    # the triangle nearest the origin: (face, barycentric weights of its point nearest the origin,
-    # squared distance); (f, 0, 0, 0, inf) when none is.
+    # Among the faces whose plane is within ``near`` of the origin (a dead face's offset is +inf:
+    # never one, whatever ``near``), the triangle nearest the origin: (face, barycentric weights of
+    # its point nearest the origin, squared distance); (f, 0, 0, 0, inf) when none is.
     best = math.inf
     la = lb = lc = 0.0
     for g in range(nf):
-        if fo[g] <= near:
+        if fo[g] <= near and fo[g] < math.inf:
             l0, l1, l2, d2 = s2d(V, fv[g, 0], fv[g, 1], fv[g, 2])
             if d2 < best:
                 best, f, la, lb, lc = d2, g, l0, l1, l2
@@ -291,6 +291,11 @@ def _expand(V, nv, fv, fa, fn, fo, fl, alive, nf, f, seen, forced, stack, hz, ti
                 ends += 1
                 hz[i, 4] = j  # the next edge around the cycle
         if starts != 1 or ends != 1:
+            return -1
+    j = 0  # and one cycle, not several: the next edges lead from edge 0 back to it in nh steps
+    for i in range(1, nh):
+        j = hz[j, 4]
+        if j == 0:
             return -1
     # Commit: free the visible faces, fill their slots (and new ones) with the cone.
     # The visible faces' slots, in increasing order (insertion sort; a few faces), reused so.

@@ -5,8 +5,8 @@
 
 Each ``DIR/NAME`` holds a copy of the ``collide`` package under a name of its own
 (``mkdir -p /tmp/e/a && git archive REV collide | tar -x -C /tmp/e/a && mv /tmp/e/a/collide
-/tmp/e/a/c_before``); its imports are relative, so it runs its own kernels. The cases are
-`epa_curved.py`'s: 150 random poses each of box-ellipsoid, ellipsoid-ellipsoid and
+/tmp/e/a/c_before``); its imports are relative, so it runs its own kernels. The cases (also
+`epa_curved.py`'s, from here): 150 random poses each of box-ellipsoid, ellipsoid-ellipsoid and
 cylinder-cylinder pairs of 1-2 cm shapes (seed 1), GJK's final simplex taken once per pair, EPA at
 the absolute tolerance TOL (default 1e-11, the contacts' 1e-9 of the sizes at this scale). Per
 pair, each copy's 20 calls are timed five times, the copies' order alternating, and the best of
@@ -33,6 +33,15 @@ CASES = {"box-ellipsoid": ((0, np.zeros(4), BOX), (3, np.array([0.012, 0.01, 0.0
                                  (3, np.array([0.012, 0.01, 0.02, 0.0]), NONE)),
          "cylinder-cylinder": ((1, np.array([0.01, 0.02, 0.0, 0.0]), NONE),
                                (1, np.array([0.012, 0.015, 0.0, 0.0]), NONE))}
+
+
+def poses(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    # One case's rotations of A and B and B's position (A at the origin), 5-20 mm apart.
+    ra = Rotation.random(random_state=rng.integers(1 << 30)).as_matrix()
+    rb = Rotation.random(random_state=rng.integers(1 << 30)).as_matrix()
+    pb = rng.normal(size=3)
+    pb *= rng.uniform(0.005, 0.02) / np.linalg.norm(pb)
+    return ra, rb, pb
 
 
 def _runner(name: str):
@@ -83,10 +92,7 @@ def main() -> None:
         its = [0, 0]
         pairs = differ = 0
         for _ in range(150):
-            ra = Rotation.random(random_state=rng.integers(1 << 30)).as_matrix()
-            rb = Rotation.random(random_state=rng.integers(1 << 30)).as_matrix()
-            pb = rng.normal(size=3)
-            pb *= rng.uniform(0.005, 0.02) / np.linalg.norm(pb)
+            ra, rb, pb = poses(rng)
             args = (A[0], A[1], A[2], ra, np.zeros(3), B[0], B[1], B[2], rb, pb, tol)
             res = [np.empty(13), np.empty(13)]
             it = [runs[k](*args, 1, res[k], e32) for k in range(2)]

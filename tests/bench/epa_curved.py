@@ -14,9 +14,8 @@ import sys
 import time
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from epa_ab import CASES, _runner  # the same cases and timed loop, on the installed package
+from epa_ab import CASES, _runner, poses  # the same cases and timed loop, on the installed package
 
 TOL = float(sys.argv[1]) if len(sys.argv) > 1 else 1e-11
 E32 = np.zeros(1, np.int32)
@@ -26,10 +25,7 @@ for name, (A, B) in CASES.items():
     rng = np.random.default_rng(1)
     total = iters = n = 0
     for _ in range(150):
-        ra = Rotation.random(random_state=rng.integers(1 << 30)).as_matrix()
-        rb = Rotation.random(random_state=rng.integers(1 << 30)).as_matrix()
-        pb = rng.normal(size=3)
-        pb *= rng.uniform(0.005, 0.02) / np.linalg.norm(pb)
+        ra, rb, pb = poses(rng)
         res = np.empty(13)
         args = (A[0], A[1], A[2], ra, np.zeros(3), B[0], B[1], B[2], rb, pb, TOL)
         it = run(*args, 1, res, E32)
