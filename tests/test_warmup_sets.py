@@ -20,7 +20,7 @@ def test_every_file_calling_check_batch_waits_for_the_check_warm_up():
     calling = {p.name for p in TESTS.glob("test_*.py") if re.search(r"\.check_batch\(", p.read_text())}
     if re.search(r"\.check_batch\(", README.read_text()):
         calling.add("test_readme.py")  # runs the README's examples
-    assert calling >= {"test_check.py", "test_readme.py"}  # the scan finds what it is for
+    assert "test_check.py" in calling  # the scan finds what it is for
     assert not calling - names, sorted(calling - names)
 
 
