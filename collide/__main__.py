@@ -123,7 +123,7 @@ def compare_main(args: argparse.Namespace) -> int:
     else:
         model = cm.default_scene(seed=args.seed)
         name = "built-in scene (figure falling on a pile)"
-    # Said before the run: the first one also compiles the kernels (about a minute, silent).
+    # Said before the run: the first one also compiles the kernels (said on stderr as it goes).
     print(f"{name}: simulating {args.steps} steps with random controls (seed {args.seed})...", flush=True)
     if args.rerun:
         from .rerun_log import record_compare

@@ -16,10 +16,11 @@ transitively; numba discards an index whose stamp differs and compiles afresh. I
 when `collide` is imported, before any kernel is defined. (``NUMBA_CACHE_LOCATOR_CLASSES``, where
 set, replaces numba's list of locators, this one included: numba's own stamps then.)
 
-A cache miss means a compile, and the first one takes about a minute with no output: `register`
-also listens to numba's ``numba:compile`` event (numba.core.event, broadcast only when a kernel is
-compiled, not when it is loaded from the cache) and says so on stderr, once a process, when a
-kernel of this package starts compiling.
+A cache miss means a compile, with no output of numba's: a minute or more for the per-step
+kernels, several for the batch checker's. `register` also listens to numba's ``numba:compile``
+event (numba.core.event, broadcast only when a kernel is compiled, not when it is loaded from the
+cache) and says so on stderr when a kernel of this package first starts compiling, then again,
+naming the kernel, after each `STILL_EVERY` seconds of compiling since its last line.
 """
 
 from __future__ import annotations
@@ -29,6 +30,8 @@ import hashlib
 import os
 import re
 import sys
+import threading
+import time
 import warnings
 
 _ROOT = os.path.dirname(os.path.abspath(__file__))
@@ -143,33 +146,94 @@ def _inside(path: str, root: str) -> bool:
         return False
 
 
-COMPILE_NOTICE = "compiling {}'s kernels, once: about a minute (cached afterwards)"
+COMPILE_NOTICE = ("compiling {}'s kernels, once: a minute or more (the batch checker's several minutes); "
+                  "cached afterwards")
+# Said again after each STILL_EVERY seconds spent compiling the package's kernels since the last
+# notice, naming the kernel (`_announce_compiles`): one process may compile for minutes, a kernel
+# at a time, and each call that compiles would otherwise be silent after the first notice.
+STILL_EVERY = 60.0
+STILL_NOTICE = "still compiling {}'s kernels ({}, {:.0f} min of compiling so far), once: cached afterwards"
 
 
 def _announce_compiles(root: str) -> None:
-    # Once a process, on stderr, when a kernel of the package at ``root`` starts compiling (a cache
-    # miss): the first run is otherwise a silent minute. Loading from the cache broadcasts nothing.
+    # On stderr, when a kernel of the package at ``root`` starts compiling (a cache miss): the first
+    # run is otherwise a silent minute; then again (`STILL_NOTICE`, from a timer thread) after each
+    # `STILL_EVERY` seconds spent in the package's compiles since the last line, so that no compile
+    # is silent for longer. Loading from the cache broadcasts nothing. Compiles are timed from the
+    # outermost compile of a package kernel to its end (its callees, numba's own functions
+    # included, compile inside it); numba compiles one function at a time (its compiler lock).
     try:
         from numba.core import event
     except ImportError:  # pragma: no cover (every numba this package supports has it)
         return
     pkg = os.path.basename(root)
 
+    def ours(ev) -> str | None:
+        # The compiled function's qualified name when it is a kernel of this package, else None.
+        disp = (ev.data or {}).get("dispatcher")
+        func = getattr(disp, "py_func", None)
+        module = getattr(func, "__module__", "") or ""
+        if module == pkg or module.startswith(pkg + "."):
+            return f"{module}.{getattr(func, '__qualname__', '?')}"
+        return None
+
     class _Notice(event.Listener):
         _collide_root = root
         said = False
 
+        def __init__(self):
+            super().__init__()
+            self.lock = threading.Lock()
+            self.depth = 0  # nesting of compiles inside the outermost package compile (0: none running)
+            self.name = None  # that outermost kernel
+            self.t0 = 0.0  # when it (or the last notice during it) began
+            self.spent = 0.0  # seconds compiling since the last notice
+            self.total = 0.0  # seconds compiling, all told
+            self.timer = None
+
         def on_start(self, ev):
-            if self.said:
-                return
-            disp = (ev.data or {}).get("dispatcher")
-            module = getattr(getattr(disp, "py_func", None), "__module__", "") or ""
-            if module == pkg or module.startswith(pkg + "."):
-                self.said = True
-                print(COMPILE_NOTICE.format(pkg), file=sys.stderr, flush=True)
+            with self.lock:
+                if self.depth:
+                    self.depth += 1
+                    return
+                name = ours(ev)
+                if name is None:
+                    return
+                if not self.said:
+                    self.said = True
+                    print(COMPILE_NOTICE.format(pkg), file=sys.stderr, flush=True)
+                self.depth, self.name, self.t0 = 1, name, time.perf_counter()
+                self._arm(max(STILL_EVERY - self.spent, 0.0))
 
         def on_end(self, ev):
-            pass
+            with self.lock:
+                if not self.depth:
+                    return
+                self.depth -= 1
+                if self.depth:
+                    return
+                now = time.perf_counter()
+                self.spent += now - self.t0
+                self.total += now - self.t0
+                if self.timer is not None:
+                    self.timer.cancel()
+                    self.timer = None
+
+        def _arm(self, delay):
+            self.timer = threading.Timer(delay, self._still)
+            self.timer.daemon = True  # never keeps the process alive
+            self.timer.start()
+
+        def _still(self):
+            with self.lock:
+                if not self.depth or threading.current_thread() is not self.timer:
+                    return  # that compile ended (or another timer replaced this one)
+                now = time.perf_counter()
+                self.total += now - self.t0
+                minutes = self.total / 60.0
+                self.t0, self.spent = now, 0.0
+                print(STILL_NOTICE.format(pkg, self.name, minutes), file=sys.stderr, flush=True)
+                self._arm(STILL_EVERY)
 
     listeners = getattr(event, "_registered", {}).get("numba:compile", [])  # one listener per copy
     if not any(getattr(lst, "_collide_root", None) == root for lst in listeners):
@@ -179,7 +243,8 @@ def _announce_compiles(root: str) -> None:
 def register(suffix: str = "") -> None:
     """Put `_PackageLocator` (for this copy of the package) first among numba's cache locators;
     ``suffix`` is appended to its cache files' names (a compilation mode kept apart). Also says
-    on stderr, once a process, when a kernel of the package starts compiling (`COMPILE_NOTICE`)."""
+    on stderr when a kernel of the package first starts compiling (`COMPILE_NOTICE`), and after each
+    `STILL_EVERY` seconds of compiling since (`STILL_NOTICE`)."""
     _announce_compiles(_ROOT)
     try:
         from numba.core import caching

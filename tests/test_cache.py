@@ -52,7 +52,7 @@ def test_a_cached_kernel_is_recompiled_when_a_file_it_inlines_from_changes(tmp_p
 
 
 def test_a_compile_is_announced_on_stderr_once_and_a_cache_load_is_not(tmp_path):
-    # The first call compiles for about a minute with no output: the package says so first.
+    # The first call compiles for a minute or more with no output of numba's: the package says so first.
     pkg = tmp_path / "pkgx"
     pkg.mkdir()
     shutil.copy(PACKAGE / "_cache.py", pkg / "_cache.py")
@@ -80,6 +80,39 @@ def test_a_compile_is_announced_on_stderr_once_and_a_cache_load_is_not(tmp_path)
     assert first.count(notice) == 1, first  # two kernels compiled, one notice
     assert list((pkg / "__pycache__").glob("b.h-*.nbi")), "h was not cached: the second run would compile"
     assert notice not in run()
+
+
+def test_a_long_compile_is_announced_again_naming_its_kernel(tmp_path):
+    # One process may compile for minutes (check_batch's kernels after the per-step ones): after
+    # each STILL_EVERY seconds of compiling since the last line, another names the kernel. Made
+    # short here, so that any compile outlasts it; a cache load says nothing.
+    pkg = tmp_path / "pkgy"
+    pkg.mkdir()
+    shutil.copy(PACKAGE / "_cache.py", pkg / "_cache.py")
+    (pkg / "__init__.py").write_text("from . import _cache\n_cache.STILL_EVERY = 0.01\n_cache.register()\n")
+    (pkg / "b.py").write_text(textwrap.dedent("""
+        import numba as nb
+        import numpy as np
+        @nb.njit(cache=True)
+        def h(x):
+            return np.sort(np.cumsum(np.arange(x) * 2.5))[-1]
+    """))
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_CACHE")}
+
+    def run():
+        out = subprocess.run([sys.executable, "-c", "import pkgy.b as b; print(b.h(4))"], cwd=tmp_path, env=env,
+                             capture_output=True, text=True, timeout=300)
+        assert out.returncode == 0, out.stderr
+        assert out.stdout.strip() == "15.0"
+        return out.stderr
+
+    first = run()
+    head, _, _ = _cache.STILL_NOTICE.partition("(")
+    lines = [ln for ln in first.splitlines() if ln.startswith(head.format("pkgy"))]
+    assert lines, first
+    assert all("(pkgy.b.h, " in ln and ln.endswith("once: cached afterwards") for ln in lines), lines
+    assert first.count(_cache.COMPILE_NOTICE.format("pkgy")) == 1
+    assert run() == ""  # loaded from the cache: not a word
 
 
 def _module(base: Path, dotted: str) -> Path | None:
