@@ -148,19 +148,13 @@ def gather_batch(ctxs, world_count, chunk_info, S, stats):
     of its own costs more than it saves, its waiting thread having gone to sleep."""
     B = world_count.shape[0]
     C = ctxs.shape[0]
-    for c in range(C):
-        if chunk_info[c, CI_BAD] >= 0 or chunk_info[c, CI_NEED] > 0 or chunk_info[c, CI_KEYS] > ctxs[c, C_NKEYS]:
-            return np.empty((0, 3), np.int32)
+    if not _chunks_ok(ctxs, chunk_info):
+        return np.empty((0, 3), np.int32)
     mask = (np.int64(1) << S) - 1
     K = 0
     for c in range(C):
         K += chunk_info[c, CI_KEYS]
-    for s in range(N_STATS):
-        stats[s] = 0
-    for c in range(C):
-        cs = view_of(i64_ptr(ctxs[c, C_STATS]), N_STATS)
-        for s in range(N_STATS):
-            stats[s] += cs[s]
+    _sum_stats(ctxs, stats)
     out = np.empty((K, 3), np.int32)
     r = 0
     for c in range(C):
@@ -182,14 +176,27 @@ def gather_status(ctxs, chunk_info, stats):
     ``stats`` (N_STATS,) = the chunks' stats summed, and ``(1,)`` int64, or ``(0,)`` when a chunk
     holds a bad world or ran out of room (the caller reads ``chunk_info`` then, as after
     `gather_batch`'s empty rows)."""
-    C = ctxs.shape[0]
-    for c in range(C):
+    if not _chunks_ok(ctxs, chunk_info):
+        return np.zeros(0, np.int64)
+    _sum_stats(ctxs, stats)
+    return np.ones(1, np.int64)
+
+
+@nb.njit(cache=True, inline="always")
+def _chunks_ok(ctxs, chunk_info):
+    # No chunk holds a bad world or ran out of room (`gather_batch`, `gather_status`).
+    for c in range(ctxs.shape[0]):
         if chunk_info[c, CI_BAD] >= 0 or chunk_info[c, CI_NEED] > 0 or chunk_info[c, CI_KEYS] > ctxs[c, C_NKEYS]:
-            return np.zeros(0, np.int64)
+            return False
+    return True
+
+
+@nb.njit(cache=True, inline="always")
+def _sum_stats(ctxs, stats):
+    # stats (N_STATS,) = the chunks' stats summed (`gather_batch`, `gather_status`).
     for s in range(N_STATS):
         stats[s] = 0
-    for c in range(C):
+    for c in range(ctxs.shape[0]):
         cs = view_of(i64_ptr(ctxs[c, C_STATS]), N_STATS)
         for s in range(N_STATS):
             stats[s] += cs[s]
-    return np.ones(1, np.int64)

@@ -335,7 +335,7 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_mar
                         nbr_adr, nbr_num, xpos, xmat)
             tol = CONTACT_TOL * (size[g1] + size[g2])
             r = prm[g1, 3] + prm[g2, 3]
-            if kind[g1] == POINTS and kind[g2] == POINTS and pts_num[g1] <= 2 and pts_num[g2] <= 2:
+            if _round(g1, kind, pts_num) and _round(g2, kind, pts_num):
                 # spheres and capsules: pair_distance's closed form (no iteration) decides
                 pair_distance(s1, s2, tol, d0, -1, -1, 128, out)
                 d = out[OUT_DISTANCE]
@@ -380,11 +380,15 @@ def closed_form_pair(g1, g2, cls, kind, pts_num):
     """Whether `deepest_contact` decides the pair ``(g1, g2)`` without an iteration: a height
     field or SDF geom (not decided), a plane (`plane_box_contacts`' planes), or two spheres or
     capsules (`pair_distance`'s closed form); the others may run GJK."""
-    c1 = cls[g1]
-    c2 = cls[g2]
-    if c1 != CONVEX or c2 != CONVEX:
+    if cls[g1] != CONVEX or cls[g2] != CONVEX:
         return True
-    return kind[g1] == POINTS and kind[g2] == POINTS and pts_num[g1] <= 2 and pts_num[g2] <= 2
+    return _round(g1, kind, pts_num) and _round(g2, kind, pts_num)
+
+
+@nb.njit(cache=True, inline="always")
+def _round(g, kind, pts_num):
+    # A sphere or a capsule: a point or segment core, which `pair_distance` takes in closed form.
+    return kind[g] == POINTS and pts_num[g] <= 2
 
 
 @nb.njit(cache=True, inline="always")
@@ -392,7 +396,7 @@ def first_pass(cls, kind, pts_num):
     """`decide_rows`' first pass: 0, or 1 (the second) for a model where no pair is a
     `closed_form_pair` (every geom convex, none a sphere or capsule: meshes and boxes only)."""
     for g in range(cls.shape[0]):
-        if cls[g] != CONVEX or (kind[g] == POINTS and pts_num[g] <= 2):
+        if cls[g] != CONVEX or _round(g, kind, pts_num):
             return 0
     return 1
 
