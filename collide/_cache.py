@@ -184,7 +184,7 @@ def _announce_compiles(root: str) -> None:
         def __init__(self):
             super().__init__()
             self.lock = threading.Lock()
-            self.depth = 0  # nesting of compiles inside the outermost package compile (0: none running)
+            self.outer = None  # the running outermost package compile's event data (None: none running)
             self.name = None  # that outermost kernel
             self.t0 = 0.0  # when it (or the last notice during it) began
             self.spent = 0.0  # seconds compiling since the last notice
@@ -193,47 +193,48 @@ def _announce_compiles(root: str) -> None:
 
         def on_start(self, ev):
             with self.lock:
-                if self.depth:
-                    self.depth += 1
+                if self.outer is not None:
                     return
                 name = ours(ev)
                 if name is None:
                     return
-                if not self.said:
-                    self.said = True
-                    print(COMPILE_NOTICE.format(pkg), file=sys.stderr, flush=True)
-                self.depth, self.name, self.t0 = 1, name, time.perf_counter()
+                first, self.said = not self.said, True
+                self.outer, self.name, self.t0 = ev.data, name, time.perf_counter()
                 self._arm(max(STILL_EVERY - self.spent, 0.0))
+            if first:  # printed outside the lock: whatever the write runs may compile
+                print(COMPILE_NOTICE.format(pkg), file=sys.stderr, flush=True)
 
         def on_end(self, ev):
             with self.lock:
-                if not self.depth:
-                    return
-                self.depth -= 1
-                if self.depth:
+                if self.outer is None or ev.data is not self.outer:  # start and end share one data dict
                     return
                 now = time.perf_counter()
                 self.spent += now - self.t0
                 self.total += now - self.t0
+                self.outer = None
                 if self.timer is not None:
                     self.timer.cancel()
                     self.timer = None
 
         def _arm(self, delay):
-            self.timer = threading.Timer(delay, self._still)
-            self.timer.daemon = True  # never keeps the process alive
-            self.timer.start()
+            timer = threading.Timer(delay, self._still)
+            timer.daemon = True  # never keeps the process alive
+            try:
+                timer.start()
+            except RuntimeError:  # no thread to be had (Python >= 3.12 at exit, a thread limit): no line
+                timer = None
+            self.timer = timer
 
         def _still(self):
             with self.lock:
-                if not self.depth or threading.current_thread() is not self.timer:
+                if self.outer is None or threading.current_thread() is not self.timer:
                     return  # that compile ended (or another timer replaced this one)
                 now = time.perf_counter()
                 self.total += now - self.t0
-                minutes = self.total / 60.0
+                line = STILL_NOTICE.format(pkg, self.name, self.total / 60.0)
                 self.t0, self.spent = now, 0.0
-                print(STILL_NOTICE.format(pkg, self.name, minutes), file=sys.stderr, flush=True)
                 self._arm(STILL_EVERY)
+            print(line, file=sys.stderr, flush=True)
 
     listeners = getattr(event, "_registered", {}).get("numba:compile", [])  # one listener per copy
     if not any(getattr(lst, "_collide_root", None) == root for lst in listeners):
