@@ -51,13 +51,30 @@ def test_a_cached_kernel_is_recompiled_when_a_file_it_inlines_from_changes(tmp_p
     assert _run(tmp_path) == "3"
 
 
-def test_a_compile_is_announced_on_stderr_once_and_a_cache_load_is_not(tmp_path):
-    # The first call compiles for a minute or more with no output of numba's: the package says so first.
-    pkg = tmp_path / "pkgx"
+def _noticed(tmp_path, name: str, init: str, module: str, call: str, expect: str):
+    # A package ``name`` of `_cache.py`'s copy (its __init__ runs ``init`` before register) and a
+    # module b (``module``), and a function that runs ``call`` on it in a fresh process (numba's
+    # cache under the package) and returns its stderr, its stdout checked to be ``expect``.
+    pkg = tmp_path / name
     pkg.mkdir()
     shutil.copy(PACKAGE / "_cache.py", pkg / "_cache.py")
-    (pkg / "__init__.py").write_text("from . import _cache\n_cache.register()\n")
-    (pkg / "b.py").write_text(textwrap.dedent("""
+    (pkg / "__init__.py").write_text(f"from . import _cache\n{init}_cache.register()\n")
+    (pkg / "b.py").write_text(textwrap.dedent(module))
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_CACHE")}
+
+    def run():
+        out = subprocess.run([sys.executable, "-c", f"import {name}.b as b; print({call})"], cwd=tmp_path, env=env,
+                             capture_output=True, text=True, timeout=300)
+        assert out.returncode == 0, out.stderr
+        assert out.stdout.strip() == expect
+        return out.stderr
+
+    return pkg, run
+
+
+def test_a_compile_is_announced_on_stderr_once_and_a_cache_load_is_not(tmp_path):
+    # The first call compiles for a minute or more with no output of numba's: the package says so first.
+    pkg, run = _noticed(tmp_path, "pkgx", "", """
         import numba as nb
         @nb.njit(cache=True)
         def g(x):
@@ -65,17 +82,8 @@ def test_a_compile_is_announced_on_stderr_once_and_a_cache_load_is_not(tmp_path)
         @nb.njit(cache=True)
         def h(x):
             return g(x) * 2
-    """))
-    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_CACHE")}
+    """, "b.h(1)", "4")
     notice = _cache.COMPILE_NOTICE.format("pkgx")
-
-    def run():
-        out = subprocess.run([sys.executable, "-c", "import pkgx.b as b; print(b.h(1))"], cwd=tmp_path, env=env,
-                             capture_output=True, text=True, timeout=300)
-        assert out.returncode == 0, out.stderr
-        assert out.stdout.strip() == "4"
-        return out.stderr
-
     first = run()
     assert first.count(notice) == 1, first  # two kernels compiled, one notice
     assert list((pkg / "__pycache__").glob("b.h-*.nbi")), "h was not cached: the second run would compile"
@@ -86,26 +94,13 @@ def test_a_long_compile_is_announced_again_naming_its_kernel(tmp_path):
     # One process may compile for minutes (check_batch's kernels after the per-step ones): after
     # each STILL_EVERY seconds of compiling since the last line, another names the kernel. Made
     # short here, so that any compile outlasts it; a cache load says nothing.
-    pkg = tmp_path / "pkgy"
-    pkg.mkdir()
-    shutil.copy(PACKAGE / "_cache.py", pkg / "_cache.py")
-    (pkg / "__init__.py").write_text("from . import _cache\n_cache.STILL_EVERY = 0.01\n_cache.register()\n")
-    (pkg / "b.py").write_text(textwrap.dedent("""
+    _, run = _noticed(tmp_path, "pkgy", "_cache.STILL_EVERY = 0.01\n", """
         import numba as nb
         import numpy as np
         @nb.njit(cache=True)
         def h(x):
             return np.sort(np.cumsum(np.arange(x) * 2.5))[-1]
-    """))
-    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_CACHE")}
-
-    def run():
-        out = subprocess.run([sys.executable, "-c", "import pkgy.b as b; print(b.h(4))"], cwd=tmp_path, env=env,
-                             capture_output=True, text=True, timeout=300)
-        assert out.returncode == 0, out.stderr
-        assert out.stdout.strip() == "15.0"
-        return out.stderr
-
+    """, "b.h(4)", "15.0")
     first = run()
     head, _, _ = _cache.STILL_NOTICE.partition("(")
     lines = [ln for ln in first.splitlines() if ln.startswith(head.format("pkgy"))]
