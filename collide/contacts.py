@@ -27,6 +27,7 @@ gets contacts from MuJoCo only where its boxes (in its sweep frame) still overla
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -169,11 +170,12 @@ class GeomTable:
     Notes
     -----
     The per-geom and support arrays above and the face arrays `kernel_args` hands out are views
-    of four packed buffers, one a dtype (`collide._kernels.manifold.collide_packed` takes those,
-    not forty arrays); the kernel's scratch and an output arena are made here, once
-    (`contacts_of` runs the kernel with the GIL held, so calls on one table never share the
-    scratch at once, and the arena's rows handed out are never written again). Copies and
-    unpickled tables rebind their views to their own buffers and get an arena of their own.
+    of four packed buffers, one a dtype; the kernel's scratch and an output arena are made here,
+    once, and their addresses kept in a context (`collide._kernels.manifold.collide_bound` takes
+    its address, not sixteen arrays). `contacts_of` calls the kernel and reads the arena under the
+    table's lock, so calls on one table never share the scratch at once, and the arena's rows
+    handed out are never written again. Copies and unpickled tables rebind their views and context
+    to their own buffers and get an arena of their own.
 
     Everything is read from the model once, margins and gaps included (copies, not views of the
     model's arrays): a model edited after the table was made is not seen, as the broad phase
@@ -257,13 +259,35 @@ class GeomTable:
         self._any_skipped = bool(np.any(self.cls == _km.SKIPPED))
         self._no_skipped = _no_rows((2,), np.int32)  # a read-only view, never resized in place (`_empty_contacts`)
         self._per_pair = _km.MAX_PER_PAIR * self.pair_mult
-        self._skip = np.empty(0, np.bool_)  # `contacts_of`'s skipped flags where no geom is skipped
         self._empty = _empty_contacts()
+        self._new_ctx()
+
+    def _new_ctx(self) -> None:
+        # The kernel's context (`collide._kernels.manifold.CTX_FIELDS`) on this table's buffers, a
+        # skipped-flags buffer and an output arena of its own, and the lock its calls take
+        # (`contacts_of`). The context holds addresses only: the buffers are this table's
+        # attributes, and every method that replaces one writes its new address here.
+        self._lock = threading.Lock()
+        self._ctx = np.zeros(_km.NCTX, np.int64)
+        self._ctx_addr = self._ctx.ctypes.data
+        ctx = self._ctx
+        for c, a in zip((_km.C_TF, _km.C_TI, _km.C_T8, _km.C_T32, _km.C_WSF, _km.C_WSI),
+                        self._tables + (self._wsf, self._wsi)):
+            ctx[c], ctx[c + 1] = a.ctypes.data, a.size
+        ctx[_km.C_PER_PAIR] = self._per_pair
+        ctx[_km.C_OVERRIDE] = int(self._override)
+        ctx[_km.C_O_MARGIN] = np.float64(self._o_margin).view(np.int64)
+        self._new_skip(64)
         self._new_out(OUT_ROWS)
 
+    def _new_skip(self, n: int) -> None:
+        # The kernel's skipped flags of ``n`` pairs at most (read under the lock, `contacts_of`).
+        self._skip = np.empty(n, np.bool_)
+        self._ctx[_km.C_SKIP], self._ctx[_km.C_SKIP_LEN] = self._skip.ctypes.data, n
+
     def _pack(self) -> None:
-        # The kernel's tables, one buffer a dtype (`collide._kernels.manifold.collide_packed`: a
-        # call passes a few arrays, not forty); the attributes become views of them (`_bind`: one
+        # The kernel's tables, one buffer a dtype (`collide._kernels.manifold.collide_bound` reads
+        # them from a context of four addresses, not forty arrays); the attributes become views of them (`_bind`: one
         # copy, which `kernel_args` hands out too), and the kernel's scratch is made here, once.
         fa = self.faces.kernel_args()
         slots = {_km.S_PRM: self.prm, _km.S_PTS: self.pts, _km.S_RBOUND: self.rbound, _km.S_SIZE: self.size,
@@ -298,16 +322,19 @@ class GeomTable:
         self._bind()
 
     def _new_out(self, rows: int) -> None:
-        # A new output arena of ``rows`` contacts (`collide_packed` writes each call's contacts into
-        # its next free rows, `contacts_of` hands them out as views): the kernel's two buffers and
-        # its free-row counter, then the per-field views cut from them, in one tuple (one store: a
-        # thread reads one arena's parts, never two arenas'). Rows once handed out are never
-        # written again; a full arena is left to the views that hold it (freed with the last).
+        # A new output arena of ``rows`` contacts (`collide_bound` writes each call's contacts into
+        # its next free rows, `contacts_of` hands them out as views): the kernel's two buffers,
+        # then the per-field views cut from them, in one tuple; their addresses, the rows and the
+        # first free row (0) into the context. Rows once handed out are never written again; a
+        # full arena is left to the views that hold it (freed with the last).
         geom = np.empty((rows, 2), np.int32)
         f = np.empty(_km.F_END * rows)
         d, p, m, q = _km.F_DIST * rows, _km.F_POS * rows, _km.F_NORMAL * rows, _km.F_MARGIN * rows
-        self._out = (geom, f, np.zeros(1, np.int64), f[d:d + rows], f[p:p + 3 * rows].reshape(rows, 3),
-                     f[m:m + 3 * rows].reshape(rows, 3), f[q:q + rows])
+        self._out = (geom, f, f[d:d + rows], f[p:p + 3 * rows].reshape(rows, 3), f[m:m + 3 * rows].reshape(rows, 3),
+                     f[q:q + rows])
+        ctx = self._ctx
+        ctx[_km.C_OUT_GEOM], ctx[_km.C_OUT_F] = geom.ctypes.data, f.ctypes.data
+        ctx[_km.C_OUT_ROWS], ctx[_km.C_OUT_NEXT] = rows, 0
 
     def _views(self) -> dict:
         # Each slot's view of the packed buffers, by the header in ``_tables[1]``.
@@ -334,7 +361,8 @@ class GeomTable:
 
     def __getstate__(self) -> dict:
         # The packed buffers and the scalars; the views are rebound on the copy (`__setstate__`).
-        views = set(_SLOT_ATTR) | {"below", "_face_args", "_kargs", "_out", "_empty", "_no_skipped"}
+        views = set(_SLOT_ATTR) | {"below", "_face_args", "_kargs", "_out", "_empty", "_no_skipped", "_lock", "_ctx",
+                                   "_ctx_addr", "_skip"}
         return {k: v for k, v in self.__dict__.items() if k not in views}
 
     def __setstate__(self, state: dict) -> None:
@@ -343,7 +371,7 @@ class GeomTable:
         # (`collide._kernels.warm`) is this table's alone, empty
         self._wsf, self._wsi = np.zeros_like(self._wsf), np.zeros_like(self._wsi)
         self._bind()
-        self._new_out(OUT_ROWS)  # an arena of its own: a copy never writes into rows the original handed out
+        self._new_ctx()  # an arena of its own: a copy never writes into rows the original handed out
         # read-only views again (unpickled arrays own their data and are writeable)
         self._empty, self._no_skipped = _empty_contacts(), _no_rows((2,), np.int32)
 
@@ -412,7 +440,7 @@ def narrow_phase(table: GeomTable, pairs, geom_xpos, geom_xmat) -> Contacts:
     _check_ids(table, P)  # before narrowing to int32 (2**32 + 1 would become 1)
     P = np.ascontiguousarray(P, dtype=np.int32)
     xpos, xmat = _poses(table, geom_xpos, geom_xmat)
-    if P.flags.writeable:  # read-only as the broad phase's pairs are: one compiled `collide_packed`
+    if P.flags.writeable:  # read-only as the broad phase's pairs are: one compiled `collide_bound`
         P = P.view()
         P.flags.writeable = False
     return _contacts_of(table, P, xpos, xmat)
@@ -463,41 +491,37 @@ def contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.
 def _contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.ndarray) -> Contacts:
     # `contacts_of` unchecked: pairs (K, 2) int32, xpos (G, 3), xmat (G, 3, 3) float64, all
     # C-contiguous, ids in range and lower first, as the broad phase's pairs and `_poses`' views
-    # are by construction (`collide.mujoco.Collider.contacts`, `narrow_phase`). `_packed` reads
+    # are by construction (`collide.mujoco.Collider.contacts`, `narrow_phase`). `_bound` reads
     # them as those types without a check: anything else is read wrongly or past its end.
     K = len(pairs)
     if K == 0:
         return table._empty
-    any_skipped = table._any_skipped
-    if any_skipped:
-        skipped = np.empty(K, np.bool_)  # the kernel writes every entry
-    else:
-        skipped = table._skip
-        if len(skipped) < K:
-            skipped = table._skip = np.empty(2 * K, np.bool_)
-    tf, ti, t8, t32 = table._tables
-    out = table._out
-    # The compiled function's entry point, called directly (`_first_packed`): the arguments have
-    # its types by construction (the broad phase's pairs, `_poses`' views, the table's buffers).
-    r = _packed(pairs, xpos, xmat, tf, ti, t8, t32, table._override, table._o_margin, table._wsf, table._wsi,
-                out[0], out[1], out[2], table._per_pair, skipped)
-    while r == _km.OUT_FULL:  # a new arena, large enough for this call (another thread may take it first)
-        table._new_out(max(OUT_ROWS, 4 * table._per_pair * K))
+    # Under the table's lock: the kernel writes its scratch, the skipped flags and the arena that
+    # the context names, and the rows are read from that same arena (another thread's call may
+    # start a new one).
+    with table._lock:
+        if K > len(table._skip):
+            table._new_skip(2 * K)
+        # The compiled function's entry point, called directly (`_first_bound`): the arguments
+        # have its types by construction (the broad phase's pairs, `_poses`' views).
+        r = _bound(pairs, xpos, xmat, table._ctx_addr)
+        while r == _km.OUT_FULL:  # a new arena, large enough for this call
+            table._new_out(max(OUT_ROWS, 4 * table._per_pair * K))
+            r = _bound(pairs, xpos, xmat, table._ctx_addr)
+        if r < 0:
+            g = (-r - 1) // 8
+            raise ValueError(f"geom_xpos/geom_xmat: non-finite pose (NaN or inf) of geom {g}")
+        n = r & 0xFFFFFFFF
+        any_skipped = table._any_skipped
+        if n == 0 and not any_skipped:
+            return table._empty
         out = table._out
-        r = _packed(pairs, xpos, xmat, tf, ti, t8, t32, table._override, table._o_margin, table._wsf, table._wsi,
-                    out[0], out[1], out[2], table._per_pair, skipped)
-    if r < 0:
-        g = (-r - 1) // 8
-        raise ValueError(f"geom_xpos/geom_xmat: non-finite pose (NaN or inf) of geom {g}")
-    n = r & 0xFFFFFFFF
-    if n == 0 and not any_skipped:
-        return table._empty
-    o = r >> 32
-    e = o + n
-    # Built without the frozen dataclass's __init__ (a setattr per field): the same fields.
-    c = _new(Contacts)
-    c.__dict__.update(geom=out[0][o:e], dist=out[3][o:e], pos=out[4][o:e], normal=out[5][o:e], margin=out[6][o:e],
-                      skipped=pairs[skipped[:K]] if any_skipped else table._no_skipped)
+        o = r >> 32
+        e = o + n
+        # Built without the frozen dataclass's __init__ (a setattr per field): the same fields.
+        c = _new(Contacts)
+        c.__dict__.update(geom=out[0][o:e], dist=out[2][o:e], pos=out[3][o:e], normal=out[4][o:e],
+                          margin=out[5][o:e], skipped=pairs[table._skip[:K]] if any_skipped else table._no_skipped)
     return c
 
 
@@ -525,39 +549,29 @@ def _no_rows(cols: tuple, dtype=np.float64) -> np.ndarray:
     return a
 
 
-def _packed_signature() -> tuple:
-    # `collide_packed`'s one compiled signature: the types contacts_of passes (pairs read-only,
-    # as the broad phase hands them out).
+def _first_bound(*args):
+    # `_bound` until the first call: compiles (or loads from numba's cache) `collide_bound` for
+    # the types `_contacts_of` passes (pairs read-only, as the broad phase hands them out), then
+    # binds `_bound` to that compiled function's entry point. The dispatcher checks every
+    # argument's type on each call; the entry point behind it unboxes them as that signature's
+    # types without checking, so only `_contacts_of`, whose arguments have them by construction,
+    # calls it (the dispatcher where this numba does not expose the entry point).
+    global _bound
     from numba import types as nt
 
-    def a(dtype, ndim=1, readonly=False):
-        return nt.Array(dtype, ndim, "C", readonly=readonly)
-
-    return (a(nt.int32, 2, True), a(nt.float64, 2), a(nt.float64, 3), a(nt.float64), a(nt.int64), a(nt.int8),
-            a(nt.int32), nt.boolean, nt.float64, a(nt.float64), a(nt.int64), a(nt.int32, 2), a(nt.float64),
-            a(nt.int64), nt.int64, a(nt.boolean))
-
-
-def _first_packed(*args):
-    # `_packed` until the first call: compiles (or loads from numba's cache) `collide_packed` for
-    # `_packed_signature`, then binds `_packed` to that compiled function's entry point. The
-    # dispatcher checks every argument's type on each call (some 16 here, most of the call's
-    # fixed cost on a small model); the entry point behind it unboxes them as that signature's
-    # types without checking, so only contacts_of, whose arguments have them by construction,
-    # calls it (the dispatcher where this numba does not expose the entry point).
-    global _packed
-    sig = _packed_signature()
-    disp = _km.collide_packed
+    sig = (nt.Array(nt.int32, 2, "C", readonly=True), nt.Array(nt.float64, 2, "C"), nt.Array(nt.float64, 3, "C"),
+           nt.int64)
+    disp = _km.collide_bound
     disp.compile(sig)
     try:
         entry = disp.overloads[sig].entry_point
     except (AttributeError, KeyError):
         entry = None
-    _packed = entry if callable(entry) else disp
-    return _packed(*args)
+    _bound = entry if callable(entry) else disp
+    return _bound(*args)
 
 
-_packed = _first_packed
+_bound = _first_bound
 
 # `GeomTable`'s attributes that are slots (``below`` is ``S_BELOW`` viewed as bool; the face slots
 # are `GeomTable.faces`' arrays, handed to the kernel in ``_face_args``).

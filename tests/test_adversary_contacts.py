@@ -1,5 +1,5 @@
 """Adversarial checks of the narrow phase's per-step path (e665341): `collide.contacts.contacts_of`
-is public, and it calls `collide_packed`'s compiled entry point, which reads its arguments as its one
+is public, and it calls `collide_bound`'s compiled entry point, which reads its arguments as its one
 signature's types without checking them. Input of another layout, dtype or shape must give the
 right answer or a ValueError (as the dispatcher's own specialisation or error did before), never a
 silently wrong answer or a crash; the shared empty `Contacts` must not be changed through its

@@ -1,20 +1,24 @@
 """`collide.Contacts` from `Collider.contacts` are views of an output arena (`GeomTable._new_out`):
 a result kept by the caller is never written by a later call, through full arenas and calls
 that need more rows than a new arena has; a call without contacts returns the table's one
-empty `Contacts`; a copied or unpickled table writes an arena of its own.
+empty `Contacts`; a copied or unpickled table writes an arena of its own; two threads calling one
+table never get rows of the other's call.
 """
 
 from __future__ import annotations
 
 import copy
 import pickle
+import time
 
 import mujoco
 import numpy as np
 
 import collide.mujoco as cm
 from collide import contacts as cc
+from collide._kernels import manifold as _km
 from collide._kernels.warm import WARM_LEN
+from _threads import in_threads
 
 FIELDS = ("geom", "dist", "pos", "normal", "margin", "skipped")
 
@@ -105,6 +109,57 @@ def test_copied_tables_write_arenas_of_their_own():
     frozen = _frozen(ref)
     for t in (copy.copy(col.table), copy.deepcopy(col.table), pickle.loads(pickle.dumps(col.table))):
         assert not np.shares_memory(t._out[1], col.table._out[1])
-        assert t._out[2][0] == 0
+        assert t._ctx[_km.C_OUT_NEXT] == 0 and t._ctx_addr != col.table._ctx_addr
         c = cc.narrow_phase(t, pairs, data.geom_xpos, xmat)
         assert _same(c, frozen) and _same(ref, frozen)
+
+
+def test_two_threads_one_table_through_new_arenas(monkeypatch):
+    # The kernel writes the arena its table's context names, and `_contacts_of` reads the rows from
+    # the table's arena: both under the table's lock, so a thread that starts a new arena (a full
+    # one) between another thread's call and its read cannot hand that thread rows of the wrong
+    # arena. Tiny arenas (a new one every few calls), and a pause after each kernel call that lets
+    # the other thread run (it waits for the lock there; without the lock it ran calls of its own
+    # and started new arenas: both threads' results went wrong); every kept result must hold its
+    # own scene's contacts at the end. Boxes on a plane: box-box and box-plane pairs, which no
+    # warm start answers, so every call's answer is the cold reference's bit for bit.
+    monkeypatch.setattr(cc, "OUT_ROWS", 16)
+    model = mujoco.MjModel.from_xml_string(
+        "<mujoco><worldbody><geom type='plane' size='5 5 .1'/>" + "".join(
+            f"<body pos='{0.3 * (i % 3)} {0.3 * (i // 3)} 0.2'><freejoint/><geom type='box' size='.1 .12 .08'/></body>"
+            for i in range(6)) + "</worldbody></mujoco>")
+    datas = []
+    for seed in range(2):
+        d = mujoco.MjData(model)
+        rng = np.random.default_rng(seed)
+        for b in range(6):
+            d.qpos[7 * b:7 * b + 3] += rng.normal(size=3) * 0.1
+            q = rng.normal(size=4)
+            d.qpos[7 * b + 3:7 * b + 7] = q / np.linalg.norm(q)
+        mujoco.mj_kinematics(model, d)
+        datas.append(d)
+    col = cm.Collider(model)
+    pairs = [col.pairs(d).copy() for d in datas]
+    ref = [_frozen(cc.narrow_phase(cm.Collider(model).table, p, d.geom_xpos, d.geom_xmat))
+           for p, d in zip(pairs, datas)]
+    assert min(len(r["dist"]) for r in ref) > 0 and not np.array_equal(ref[0]["pos"], ref[1]["pos"])
+    table = col.table
+    poses = [(d.geom_xpos, d.geom_xmat.reshape(-1, 3, 3)) for d in datas]
+    cc.contacts_of(table, pairs[0], *poses[0])  # `_bound` is the compiled entry point from here on
+    kernel = cc._bound
+
+    def paused(*args):
+        r = kernel(*args)
+        time.sleep(2e-4)  # the GIL to the other thread, between this call and its rows' read
+        return r
+
+    monkeypatch.setattr(cc, "_bound", paused)
+
+    def worker(k):
+        return [cc.contacts_of(table, pairs[k], *poses[k]) for _ in range(300)]
+
+    arena = table._out[1]
+    got = in_threads(worker, 2)
+    assert table._out[1] is not arena  # arenas were replaced during the run
+    for k in range(2):
+        assert all(_same(c, ref[k]) for c in got[k]), f"thread {k} got another scene's or a rewritten result"

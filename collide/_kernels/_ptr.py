@@ -68,6 +68,8 @@ def _pointer_cast(dtype):
 f64_ptr = _pointer_cast(types.float64)
 i64_ptr = _pointer_cast(types.int64)
 i32_ptr = _pointer_cast(types.int32)
+i8_ptr = _pointer_cast(types.int8)
+bool_ptr = _pointer_cast(types.boolean)
 
 
 @intrinsic
@@ -122,8 +124,7 @@ def borrow(typingctx, arr):
     around (tuples, inlined helpers) pays it on each, and threads sharing the tables take turns
     on the counters' cache lines. A view of a borrowed array carries a null record, which the
     runtime skips (as `view_of`'s views do). It must not outlive ``arr``: a kernel borrows its
-    own arguments, which its caller holds for the call (`collide._kernels.manifold.collide_packed`,
-    `collide._kernels.check.check_worlds`).
+    own arguments, which its caller holds for the call (`collide._kernels.check.check_worlds`).
     """
     if not isinstance(arr, types.Array):
         return None

@@ -132,7 +132,8 @@ def pair_distance(sa, sb, tol, d0, hint_a, hint_b, max_iter, out):
     pair_distance_within(sa, sb, tol, math.inf, d0, hint_a, hint_b, max_iter, out)
 
 
-@njit(cache=True)
+# With reference counting even where its caller has none (it allocates; `collide._kernels.manifold.collide_bound`).
+@njit(cache=True, _nrt=True)
 def pair_distance_within(sa, sb, tol, cutoff, d0, hint_a, hint_b, max_iter, out, entry=None):
     """Signed distance of two posed shapes (core ⊕ ball), its witnesses and a certified bracket.
 

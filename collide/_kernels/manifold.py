@@ -47,7 +47,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ._ptr import borrow
+from ._ptr import NO_NRT, bool_ptr, check_span, f64_ptr, i8_ptr, i32_ptr, i64_ptr, view_of
 from .distance import (OUT_DISTANCE, OUT_NORMAL, OUT_PENETRATING, OUT_POINT_A, OUT_POINT_B, OUT_SIZE,
                        pair_distance, pair_distance_within)
 from .faces import BOX_MAX, BOX_WS, box_box, clip_faces
@@ -63,7 +63,7 @@ __all__ = [
     "CONVEX", "ERR_POSE", "MAX_PER_PAIR", "PLANE", "SKIPPED", "T_BOX", "T_CAPSULE", "T_CYLINDER", "T_ELLIPSOID",
     "T_HFIELD", "T_MESH", "T_PLANE", "T_SPHERE", "CONVEX_PAIR", "F_DIST", "F_END", "F_MARGIN", "F_NORMAL",
     "F_POS", "N_SLOTS", "SLOT_BUFFER", "SLOT_COLS", "BUFFER_DTYPES", "TI_HEADER", "carve_scratch",
-    "OUT_FULL", "collide_packed", "collide_pairs", "pair_margins", "scratch_caps", "scratch_sizes",
+    "CTX_FIELDS", "NCTX", "OUT_FULL", "collide_bound", "collide_pairs", "pair_margins", "scratch_caps", "scratch_sizes",
     "pair_signed_distance", "plane_box_contacts",
     # re-exported
     "BOX_MAX", "BOX_WS", "EDGE_TOL", "FACE_TOL", "OUT_DISTANCE", "OUT_NORMAL", "OUT_POINT_A", "OUT_POINT_B",
@@ -161,7 +161,7 @@ def scratch_sizes(cap, fmax):
     return nf, ni + WARM_LEN  # then the warm-start cache (`collide._kernels.warm`), never cleared
 
 
-# Inlined: called once a `collide_packed` call, where a call returning its 22 views cost more
+# Inlined: called once a `collide_bound` call, where a call returning its 22 views cost more
 # than the views themselves (numba's reference counting on each, across the call).
 @njit(cache=True, inline="always")
 def carve_scratch(wsf, wsi, cap, fmax):
@@ -240,7 +240,7 @@ def scratch_caps(pts_num, f_vnum):
 
 @njit(cache=True)
 def _scratch(pts_num, f_vnum):
-    # `collide_pairs`' scratch, allocated once a call (`collide_packed` takes a workspace instead).
+    # `collide_pairs`' scratch, allocated once a call (`collide_bound` takes a workspace instead).
     cap, fmax = scratch_caps(pts_num, f_vnum)
     nf, ni = scratch_sizes(cap, fmax)
     return carve_scratch(np.empty(nf), np.empty(ni - WARM_LEN, np.int64), cap, fmax)  # no cache: cold
@@ -523,7 +523,7 @@ def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
     return k
 
 
-# Slots of the packed tables of `collide_packed` (`collide.contacts.GeomTable` builds them): one
+# Slots of the packed tables of `collide_bound` (`collide.contacts.GeomTable` builds them): one
 # flat buffer a dtype, so that a call passes a few arrays, not forty (numba's dispatch unboxes
 # each argument). Slot ``s`` is rows ``ti[2 s + 1]`` from element ``ti[2 s]`` of its buffer.
 (S_PRM, S_PTS, S_RBOUND, S_SIZE, S_GEOM_MARGIN, S_GEOM_GAP, S_PAIR_MARGIN, S_PAIR_GAP, S_HALF, S_HV, S_F_NORMAL,
@@ -535,13 +535,13 @@ S_NBR_START, S_NBR, S_F_VIDX = range(30, 33)  # int32: t32
 N_SLOTS = 33
 # ti's header: the slots' (offset, rows), then the scratch's ``cap`` and ``fmax`` (`scratch_caps`).
 TI_HEADER = 2 * N_SLOTS + 2
-# Each slot's buffer (0: tf, 1: ti, 2: t8, 3: t32) and the buffers' dtypes, in `collide_packed`'s order.
+# Each slot's buffer (0: tf, 1: ti, 2: t8, 3: t32) and the buffers' dtypes, in that order.
 SLOT_BUFFER = tuple(0 if s <= S_F_OFFSET else 1 if s <= S_F_VNUM else 2 if s <= S_GTYPE else 3 for s in range(N_SLOTS))
 BUFFER_DTYPES = (np.dtype(np.float64), np.dtype(np.int64), np.dtype(np.int8), np.dtype(np.int32))
 # Columns of each slot's rows (1: a flat array; ``prm`` (G, 4), points and face vertices (N, 3), ...).
 SLOT_COLS = tuple(4 if s == S_PRM else 3 if s in (S_PTS, S_HALF, S_HV, S_F_NORMAL) else 1 for s in range(N_SLOTS))
 
-# `collide_packed`'s float output ``out_f`` for ``M`` contacts at most: field ``F_X`` begins at
+# `collide_bound`'s float output ``out_f`` for ``M`` contacts at most: field ``F_X`` begins at
 # ``F_X * M`` (``dist (M,)``, ``pos (M, 3)``, ``normal (M, 3)``, ``margin (M,)``); ``F_END * M`` long.
 F_DIST, F_POS, F_NORMAL, F_MARGIN, F_END = 0, 1, 4, 7, 8
 
@@ -561,43 +561,54 @@ def _slot2(buf, ti, s):
     return buf[o:o + n * c].reshape((n, c))
 
 
-# `collide_packed`'s answer when its output arena has fewer free rows than ``per_pair * K``
+# `collide_bound`'s answer when its output arena has fewer free rows than ``per_pair * K``
 # (nothing written: the caller starts a new arena and calls again).
 OUT_FULL = -1
 
+# `collide_bound`'s context: one int64 array (`collide.contacts.GeomTable` owns and fills it) of
+# the addresses and lengths of the table's buffers, its output arena and the call's scalars, so
+# that a call passes four arguments, not sixteen (each array argument is unboxed on every call).
+# ``o_margin`` holds the float64's bits.
+CTX_FIELDS = ("tf", "tf_len", "ti", "ti_len", "t8", "t8_len", "t32", "t32_len", "wsf", "wsf_len", "wsi",
+              "wsi_len", "out_geom", "out_f", "out_rows", "out_next", "skip", "skip_len", "per_pair", "override",
+              "o_margin")
+(C_TF, C_TF_LEN, C_TI, C_TI_LEN, C_T8, C_T8_LEN, C_T32, C_T32_LEN, C_WSF, C_WSF_LEN, C_WSI, C_WSI_LEN, C_OUT_GEOM,
+ C_OUT_F, C_OUT_ROWS, C_OUT_NEXT, C_SKIP, C_SKIP_LEN, C_PER_PAIR, C_OVERRIDE, C_O_MARGIN) = range(len(CTX_FIELDS))
+NCTX = len(CTX_FIELDS)
 
-@njit(cache=True)
-def collide_packed(pairs, xpos, xmat, tf, ti, t8, t32, override, o_margin, wsf, wsi, out_geom, out_f, out_next,
-                   per_pair, skipped):
-    """`collide_pairs` on packed tables and a workspace made once, into an output arena (the per-step call).
+
+# Compiled without numba's reference counting (`_ptr.NO_NRT`): every table, scratch and output
+# view here is made from an address and carries no count, and numba's runtime calls on them (the
+# table tuples unpacked and passed on at every pair) were a large part of a small model's call.
+# Its callees that allocate say ``_nrt=True`` themselves (`plane_convex`, `polytope_contacts`,
+# `collide._kernels.distance.pair_distance_within`); the others are compiled without it too.
+@njit(**NO_NRT)
+def collide_bound(pairs, xpos, xmat, addr):
+    """`collide_pairs` on a table's packed buffers and workspace, into its output arena (the per-step call).
 
     Parameters
     ----------
     pairs, xpos, xmat
         As `collide_pairs` takes them.
-    tf : (NF,) float64
-    ti : (NI,) int64
-    t8 : (N8,) int8
-    t32 : (N32,) int32
-        The tables of `collide_pairs`, packed by slot (``S_*``; ``ti`` begins with the header).
-    override : bool
-    o_margin : float
-    wsf : (nf,) float64
-    wsi : (ni,) int64
-        The scratch (`scratch_sizes` of ``ti``'s ``cap``, ``fmax``), overwritten.
-    out_geom : (M, 2) int32
-    out_f : (F_END M,) float64
-        The output arena, ``M`` rows: ``out_f`` holds ``dist (M,)``, ``pos (M, 3)``,
-        ``normal (M, 3)``, ``margin (M,)`` from ``F_DIST M``, ``F_POS M``, ``F_NORMAL M``,
-        ``F_MARGIN M`` on. The contacts are written from row ``out_next[0]`` on.
-    out_next : (1,) int64
-        The arena's first free row; advanced past the contacts written. Rows before it are never
-        written again (the caller hands them out). A call runs under the GIL, so calls from two
-        threads never interleave between reading and advancing it.
-    per_pair : int
-        The most contacts a pair may make (`MAX_PER_PAIR` times the most ``<pair>`` s of a
-        geom pair): a call needs ``per_pair * K`` free rows.
-    skipped : (K,) bool
+    addr : int
+        Address of the table's context (``NCTX`` int64, fields ``C_*``):
+
+        - ``tf`` (float64), ``ti`` (int64, beginning with the header ``TI_HEADER``), ``t8``
+          (int8), ``t32`` (int32): the tables of `collide_pairs`, packed by slot (``S_*``);
+        - ``wsf`` (float64), ``wsi`` (int64): the scratch (`scratch_sizes` of ``ti``'s ``cap``,
+          ``fmax``), overwritten, the warm-start cache kept in ``wsi``;
+        - ``out_geom`` ((rows, 2) int32) and ``out_f`` (``F_END * rows`` float64: ``dist``,
+          ``pos (rows, 3)``, ``normal (rows, 3)``, ``margin`` from ``F_DIST rows``, ``F_POS rows``,
+          ``F_NORMAL rows``, ``F_MARGIN rows`` on): the output arena, written from row
+          ``out_next`` on, which is advanced past the contacts written (rows before it are never
+          written again: the caller hands them out);
+        - ``skip`` (``skip_len`` bool, at least ``K``): receives each pair's skipped flag;
+        - ``per_pair``: the most contacts a pair may make (`MAX_PER_PAIR` times the most
+          ``<pair>`` s of a geom pair): a call needs ``per_pair * K`` free rows;
+        - ``override``, ``o_margin``: as `collide_pairs` takes them.
+
+        Every buffer must be C-contiguous and outlive the call; nothing is checked (the owner,
+        `collide.contacts.GeomTable`, holds them, and calls under its lock).
 
     Returns
     -------
@@ -606,34 +617,43 @@ def collide_packed(pairs, xpos, xmat, tf, ti, t8, t32, override, o_margin, wsf, 
         ``per_pair * K`` rows are free (nothing written, ``out_next`` unchanged); a non-finite
         pose as `collide_pairs` reports it (``out_next`` unchanged).
     """
-    M = out_geom.shape[0]
-    row = out_next[0]
-    if M - row < per_pair * pairs.shape[0]:
+    ctx = view_of(i64_ptr(addr), NCTX)
+    K = pairs.shape[0]
+    M = ctx[C_OUT_ROWS]
+    row = ctx[C_OUT_NEXT]
+    if M - row < ctx[C_PER_PAIR] * K:
         return OUT_FULL
-    # every array borrowed (`borrow`): the caller holds them for the call
-    pairs, xpos, xmat, tf, ti, t8, t32 = borrow(pairs), borrow(xpos), borrow(xmat), borrow(tf), borrow(ti), \
-        borrow(t8), borrow(t32)
-    wsf, wsi, out_geom, out_f, skipped = borrow(wsf), borrow(wsi), borrow(out_geom), borrow(out_f), borrow(skipped)
-    gtab = (_slot(t8, ti, S_CLS), _slot(t8, ti, S_RULE), _slot(t8, ti, S_BELOW).view(np.bool_),
-            _slot(tf, ti, S_RBOUND), _slot(tf, ti, S_SIZE), _slot(t8, ti, S_GTYPE), _slot2(tf, ti, S_HALF))
+    check_span(K, ctx[C_SKIP_LEN])
+    tf = view_of(f64_ptr(ctx[C_TF]), ctx[C_TF_LEN])
+    ti = view_of(i64_ptr(ctx[C_TI]), ctx[C_TI_LEN])
+    t8 = view_of(i8_ptr(ctx[C_T8]), ctx[C_T8_LEN])
+    t32 = view_of(i32_ptr(ctx[C_T32]), ctx[C_T32_LEN])
+    wsf = view_of(f64_ptr(ctx[C_WSF]), ctx[C_WSF_LEN])
+    wsi = view_of(i64_ptr(ctx[C_WSI]), ctx[C_WSI_LEN])
+    below = view_of(bool_ptr(ctx[C_T8] + ti[2 * S_BELOW]), ti[2 * S_BELOW + 1])  # t8's slot as bool
+    gtab = (_slot(t8, ti, S_CLS), _slot(t8, ti, S_RULE), below, _slot(tf, ti, S_RBOUND), _slot(tf, ti, S_SIZE),
+            _slot(t8, ti, S_GTYPE), _slot2(tf, ti, S_HALF))
     shapes = (_slot(ti, ti, S_KIND), _slot2(tf, ti, S_PRM), _slot2(tf, ti, S_PTS), _slot(ti, ti, S_PTS_ADR),
               _slot(ti, ti, S_PTS_NUM), _slot(t32, ti, S_NBR_START), _slot(ti, ti, S_NBR_START_ADR),
               _slot(ti, ti, S_NBR_START_NUM), _slot(t32, ti, S_NBR), _slot(ti, ti, S_NBR_ADR),
               _slot(ti, ti, S_NBR_NUM))
     margins = (_slot(tf, ti, S_GEOM_MARGIN), _slot(tf, ti, S_GEOM_GAP), _slot(ti, ti, S_PAIR_KEY),
-               _slot(tf, ti, S_PAIR_MARGIN), _slot(tf, ti, S_PAIR_GAP), override, o_margin)
+               _slot(tf, ti, S_PAIR_MARGIN), _slot(tf, ti, S_PAIR_GAP), ctx[C_OVERRIDE] != 0,
+               view_of(f64_ptr(addr + 8 * C_O_MARGIN), 1)[0])
     faces = (_slot(ti, ti, S_HV_ADR), _slot(ti, ti, S_HV_NUM), _slot2(tf, ti, S_HV), _slot(ti, ti, S_F_ADR),
              _slot(ti, ti, S_F_NUM), _slot2(tf, ti, S_F_NORMAL), _slot(tf, ti, S_F_OFFSET),
              _slot(ti, ti, S_F_VADR), _slot(ti, ti, S_F_VNUM), _slot(t32, ti, S_F_VIDX))
     ws = carve_scratch(wsf, wsi, ti[2 * N_SLOTS], ti[2 * N_SLOTS + 1])
-    outs = (out_geom[row:], out_f[F_DIST * M + row:(F_DIST + 1) * M],
-            out_f[F_POS * M + 3 * row:(F_POS + 3) * M].reshape((M - row, 3)),
-            out_f[F_NORMAL * M + 3 * row:(F_NORMAL + 3) * M].reshape((M - row, 3)),
-            out_f[F_MARGIN * M + row:(F_MARGIN + 1) * M], skipped)
+    R = M - row
+    f = ctx[C_OUT_F]
+    outs = (view_of(i32_ptr(ctx[C_OUT_GEOM] + 8 * row), (R, 2)), view_of(f64_ptr(f + 8 * (F_DIST * M + row)), R),
+            view_of(f64_ptr(f + 8 * (F_POS * M + 3 * row)), (R, 3)),
+            view_of(f64_ptr(f + 8 * (F_NORMAL * M + 3 * row)), (R, 3)),
+            view_of(f64_ptr(f + 8 * (F_MARGIN * M + row)), R), view_of(bool_ptr(ctx[C_SKIP]), K))
     n = _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs)
     if n < 0:
         return n
-    out_next[0] = row + n
+    ctx[C_OUT_NEXT] = row + n
     return (row << 32) | n
 
 

@@ -137,7 +137,8 @@ def reduce_four(pts, dep, n, sel):
     return 4
 
 
-@njit(cache=True)
+# With reference counting even where its caller has none (it allocates; `collide._kernels.manifold.collide_bound`).
+@njit(cache=True, _nrt=True)
 def plane_convex(rule, below_centre, shape, n, p0, thr, cand, dep, sel, res):
     """Contacts of a plane (normal ``n``, through ``p0``) and a convex geom's ``shape``.
 

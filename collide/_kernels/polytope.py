@@ -75,7 +75,8 @@ def _touching_faces(g, x, u, xpos, xmat, hv_adr, f_adr, f_num, f_normal, f_offse
     return k
 
 
-@njit(cache=True)
+# With reference counting even where its caller has none (it allocates; `collide._kernels.manifold.collide_bound`).
+@njit(cache=True, _nrt=True)
 def polytope_contacts(g1, g2, xpos, xmat, d, nrm, pa, pb, tol, hv_adr, hv, f_adr, f_num, f_normal, f_offset,
                       f_vadr, f_vnum, f_vidx, face1, face2, poly, tmp, cand1, cnrm1, cand2, cnrm2, seg, sel, res):
     """Face contacts of two penetrating polytopes (boxes, convex meshes) from their exact contact.

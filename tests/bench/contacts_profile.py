@@ -13,7 +13,7 @@ each step (after ``mj_step``) the medians over the steps of:
   tables costs, ``replayed - call`` what the same state again gains from the warm starts;
 * ``broad``: ``Collider.pairs(data)`` (the broad phase, its Python call included);
 * ``contacts_of``: `collide.contacts.contacts_of` on those pairs (our Python wrapper and the kernel);
-* ``kernel``: `collide._kernels.manifold.collide_packed` alone (its entry point), into an arena of its own;
+* ``kernel``: `collide._kernels.manifold.collide_bound` alone (its entry point), on a copy of the table;
 * ``fixed``: the kernel on no pairs (numba's dispatch and the tables' views, the per-call floor);
 
 and, every ``--every`` steps, the kernel on the step's pairs of one kind of geom pair at a time,
@@ -24,6 +24,7 @@ minimum of 3 (warm caches): they split a step's time, ``first`` is the step's re
 from __future__ import annotations
 
 import argparse
+import copy
 import os
 import platform
 import sys
@@ -60,7 +61,9 @@ def profile(path: Path, steps: int, every: int, seed: int = 0, hold: int = 10) -
     mujoco.mj_forward(model, data)
     col.contacts(data)
     table = col.table
-    tf, ti, t8, t32 = table._tables
+    own = copy.copy(table)  # `kernel`'s: a scratch, warm-start cache and arena of its own
+    own._new_skip(1 << 16)  # room for any step's pairs, and their contacts
+    own._new_out(_km.MAX_PER_PAIR * own.pair_mult << 16)
     ctrls = cm._random_controls(model, steps, seed, hold)
     split = {k: [] for k in ("first", "call", "replayed", "broad", "contacts_of", "kernel", "fixed")}
     fields = ("xpos", "xquat", "xmat", "geom_xpos", "geom_xmat")  # what the two phases read
@@ -79,15 +82,12 @@ def profile(path: Path, steps: int, every: int, seed: int = 0, hold: int = 10) -
         pairs = col.pairs(data)
         xpos, xmat = col._poses(data)
         split["contacts_of"].append(_best(lambda: _c.contacts_of(table, pairs, xpos, xmat)))
-        # an arena of the profile's own (the table's kept as it was), its first free row reset at each call
-        cap = table._per_pair * max(len(pairs), 1)
-        geom, f, nxt = np.empty((cap, 2), np.int32), np.empty(_km.F_END * cap), np.zeros(1, np.int64)
-        skipped = np.empty(max(len(pairs), 1), np.bool_)
 
         def kernel(p):
-            nxt[0] = 0
-            return _c._packed(p, xpos, xmat, tf, ti, t8, t32, table._override, table._o_margin, table._wsf,
-                              table._wsi, geom, f, nxt, table._per_pair, skipped)
+            # the profile's own copy of the table (its arena's rows are never handed out): its
+            # first free row reset at each call
+            own._ctx[_km.C_OUT_NEXT] = 0
+            return _c._bound(p, xpos, xmat, own._ctx_addr)
 
         split["kernel"].append(_best(lambda: kernel(pairs)))
         fixed = _best(lambda: kernel(pairs[:0]))
