@@ -27,6 +27,8 @@ import math
 import numpy as np
 from numba import njit
 
+from ._ptr import NO_NRT
+
 # Most contacts of one box-box manifold: a quadrilateral clipped by 4 half-planes.
 BOX_MAX = 8
 # Length of `box_box`'s workspace.
@@ -46,7 +48,7 @@ _SGN_EPS = 1e-9
 _DUP_EPS = 1e-14
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _clip_plane(poly, n, tmp, s0, s1, s2, off, segment):
     # One Sutherland-Hodgman step (Sutherland and Hodgman 1974): the first n rows of poly (x, y, z)
     # clipped to the half-space s . p <= off; the result back in poly, its count returned (tmp:
@@ -74,7 +76,7 @@ def _clip_plane(poly, n, tmp, s0, s1, s2, off, segment):
     return m
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _clip_half(poly, n, tmp, coord, sign, limit):
     # Clip the first n rows of poly (x, y, z) to sign * p[coord] <= limit, z carried along (a
     # side of the reference rectangle); the result back in poly, its count returned.
@@ -90,7 +92,7 @@ def _clip_half(poly, n, tmp, coord, sign, limit):
                        sign if coord == 2 else 0.0, limit, False)
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def box_box(p1, r1, h1, p2, r2, h2, thr, res, normal, ws):
     """Contacts of two boxes.
 
@@ -185,7 +187,7 @@ def box_box(p1, r1, h1, p2, r2, h2, thr, res, normal, ws):
     return _face(code, c, t1, t2, p1, r1, h1, p2, r2, h2, thr, res, normal, ws[48:])
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _edge_axis(c, i, j, ax):
     # a_i x b_j in box 1's frame, unit
     i1 = (i + 1) % 3
@@ -198,7 +200,7 @@ def _edge_axis(c, i, j, ax):
         ax[q] /= n
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _edge_edge(code, c, t1, p1, r1, h1, h2, tol, ax, res, normal, ws):
     # One contact: the closest points of the supporting edges (box 1's along e_i, box 2's along
     # b_j), in box 1's frame; an ambiguous corner (an axis component near zero) tried both ways.
@@ -269,7 +271,7 @@ def _edge_edge(code, c, t1, p1, r1, h1, h2, tol, ax, res, normal, ws):
     return 1
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _face(code, c, t1, t2, p1, r1, h1, p2, r2, h2, thr, res, normal, ws):
     # Reference box: the owner of the winning face (axis a); the other box's face most opposed
     # to it is clipped to the reference face, in the reference frame: (x, y) along the face's two
@@ -342,7 +344,7 @@ def _face(code, c, t1, t2, p1, r1, h1, p2, r2, h2, thr, res, normal, ws):
     return m
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def quad_max_area(poly, n, sel):
     """The 4 of ``n`` >= 4 convex-polygon vertices (in order) spanning the largest quadrilateral.
 
@@ -378,7 +380,7 @@ def quad_max_area(poly, n, sel):
                         sel[0], sel[1], sel[2], sel[3] = a, b, cc, d
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def clip_faces(ref, nref, nrm, inc, ninc, poly, tmp, res, sel):
     """Clip polygon ``inc`` to the prism over the face ``ref``; the points below ``ref``'s plane.
 

@@ -104,7 +104,7 @@ def _shape(g, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_st
             xmat[g], xpos[g])
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _finite_pose(xpos, xmat, g):
     for i in range(3):
         if not math.isfinite(xpos[g, i]):
@@ -115,7 +115,7 @@ def _finite_pose(xpos, xmat, g):
     return True
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _emit(k, g1, g2, d, px, py, pz, nx, ny, nz, margin, out_geom, out_dist, out_pos, out_normal, out_margin):
     out_geom[k, 0] = g1
     out_geom[k, 1] = g2
@@ -129,7 +129,7 @@ def _emit(k, g1, g2, d, px, py, pz, nx, ny, nz, margin, out_geom, out_dist, out_
     out_margin[k] = margin
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _polytope(t):
     return t == T_BOX or t == T_MESH
 
@@ -580,8 +580,12 @@ NCTX = len(CTX_FIELDS)
 # Compiled without numba's reference counting (`_ptr.NO_NRT`): every table, scratch and output
 # view here is made from an address and carries no count, and numba's runtime calls on them (the
 # table tuples unpacked and passed on at every pair) were a large part of a small model's call.
-# Its callees that allocate say ``_nrt=True`` themselves (`plane_convex`, `polytope_contacts`,
-# `collide._kernels.distance.pair_distance_within`); the others are compiled without it too.
+# Its callees state their own: ``_nrt=True`` where they allocate (`plane_convex`,
+# `polytope_contacts`, `collide._kernels.distance.pair_distance_within`), `NO_NRT` where they
+# do not (`box_box`, `plane_mesh`, `collide._kernels.warm.distance_warm`, ...). A callee that
+# states none is compiled with the flags of the first caller that compiles it, and numba compiles
+# (and caches) one version a signature whatever the flags: left to inherit them, `box_box` kept
+# the counting of whichever kernel reached it first (stonehenge's step 1.2x slower).
 @njit(**NO_NRT)
 def collide_bound(pairs, xpos, xmat, addr):
     """`collide_pairs` on a table's packed buffers and workspace, into its output arena (the per-step call).

@@ -24,6 +24,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ._ptr import NO_NRT
 from .support import support
 
 # Plane rules of a convex geom (`collide.contacts.GeomTable.rule`).
@@ -34,7 +35,7 @@ RULE_SUPPORT, RULE_POINTS, RULE_VERTICES, RULE_CYLINDER = 0, 1, 2, 3
 PLANE_FACE_TOL = 0.98
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def reduce_four(pts, dep, n, sel):
     """Pick up to 4 of ``n`` points spanning a large area, the deepest first.
 
@@ -203,12 +204,12 @@ def plane_convex(rule, below_centre, shape, n, p0, thr, cand, dep, sel, res):
     return 1
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _support_minus(shape, n, out):
     support(shape, -n[0], -n[1], -n[2], -1, out)
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _plane_cylinder(radius, half, rot, pos, n, c, thr, res):
     # A cylinder's contacts with a plane: the rim point nearest the plane on the nearer cap (the
     # exact signed distance: the support along -n), the same on the other cap, and two more on
@@ -267,7 +268,7 @@ def _plane_cylinder(radius, half, rot, pos, n, c, thr, res):
     return k
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def plane_mesh(hv, f0, nf, f_normal, f_vadr, f_vnum, f_vidx, rot, pos, n, p0, thr, cand, dep, sel, res):
     """Contacts of a plane (normal ``n`` through ``p0``) and a convex mesh's hull.
 

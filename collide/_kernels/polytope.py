@@ -16,6 +16,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ._ptr import NO_NRT
 from .faces import clip_faces
 
 # Polytope face contacts (MuJoCo 4's multi-contact of box and mesh pairs, engine_collision_gjk.h):
@@ -27,7 +28,7 @@ EDGE_TOL = 0.0888
 _EPS = float(np.finfo(np.float64).eps)
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _world_face(hv, a, vidx, vadr, vnum, f, rot, pos, out):
     # Face f's polygon in the world (rows of out), its vertex count returned.
     for r in range(vnum[f]):
@@ -37,7 +38,7 @@ def _world_face(hv, a, vidx, vadr, vnum, f, rot, pos, out):
     return vnum[f]
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _touching_faces(g, x, u, xpos, xmat, hv_adr, f_adr, f_num, f_normal, f_offset, tol, cand, cnrm):
     # Faces of geom g whose plane holds the witness x (within tol), their world normals in cnrm;
     # returns their count (cand: face ids) and puts the one best aligned with u first.
@@ -163,7 +164,7 @@ def polytope_contacts(g1, g2, xpos, xmat, d, nrm, pa, pb, tol, hv_adr, hv, f_adr
     return k
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _edge_in_face(ge, gf, x, tol, ce, cande, cf, candf, cnrmf, xpos, xmat, hv_adr, hv, f_vadr, f_vnum, f_vidx,
                   bufe, buff, poly, tmp, seg, sel, res):
     # An edge of geom ge through its witness x (an edge of one of its touching faces) lying in a

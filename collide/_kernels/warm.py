@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from numba import njit
 
+from ._ptr import NO_NRT
 from .distance import OUT_ITERATIONS, OUT_PENETRATING, pair_distance_within
 from .epa import E_NV, ENTRY
 
@@ -52,7 +53,7 @@ def warm_claim(cache, key):
     cache[WARM_ROWS + j * ENTRY + E_NV] = 0
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def distance_warm(sa, sb, tol, cutoff, d0, out, cache, key):
     """`collide._kernels.distance.pair_distance_within` (cold hill-climbs, 128 iterations) of the
     pair of key ``key``, which holds its slot of ``cache`` (``WARM_LEN`` int64), with its row:
