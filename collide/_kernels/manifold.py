@@ -580,12 +580,12 @@ NCTX = len(CTX_FIELDS)
 # Compiled without numba's reference counting (`_ptr.NO_NRT`): every table, scratch and output
 # view here is made from an address and carries no count, and numba's runtime calls on them (the
 # table tuples unpacked and passed on at every pair) were a large part of a small model's call.
-# Its callees state their own: ``_nrt=True`` where they allocate (`plane_convex`,
-# `polytope_contacts`, `collide._kernels.distance.pair_distance_within`), `NO_NRT` where they
-# do not (`box_box`, `plane_mesh`, `collide._kernels.warm.distance_warm`, ...). A callee that
-# states none is compiled with the flags of the first caller that compiles it, and numba compiles
-# (and caches) one version a signature whatever the flags: left to inherit them, `box_box` kept
-# the counting of whichever kernel reached it first (stonehenge's step 1.2x slower).
+# Its callees state their own: ``_nrt=True`` where they allocate
+# (`collide._kernels.distance.pair_distance_within`), `NO_NRT` where they do not (`box_box`,
+# `plane_convex`, `plane_mesh`, `polytope_contacts`, `collide._kernels.warm.distance_warm`, ...).
+# A callee that states none is compiled with the flags of the first caller that compiles it, and
+# numba compiles (and caches) one version a signature whatever the flags: left to inherit them,
+# `box_box` kept the counting of whichever kernel reached it first (stonehenge's step 1.2x slower).
 @njit(**NO_NRT)
 def collide_bound(pairs, xpos, xmat, addr):
     """`collide_pairs` on a table's packed buffers and workspace, into its output arena (the per-step call).

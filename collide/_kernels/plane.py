@@ -138,8 +138,7 @@ def reduce_four(pts, dep, n, sel):
     return 4
 
 
-# With reference counting even where its caller has none (it allocates; `collide._kernels.manifold.collide_bound`).
-@njit(cache=True, _nrt=True)
+@njit(**NO_NRT)
 def plane_convex(rule, below_centre, shape, n, p0, thr, cand, dep, sel, res):
     """Contacts of a plane (normal ``n``, through ``p0``) and a convex geom's ``shape``.
 
@@ -192,15 +191,16 @@ def plane_convex(rule, below_centre, shape, n, p0, thr, cand, dep, sel, res):
         return k
     if rule == RULE_CYLINDER:
         return _plane_cylinder(prm[0], prm[1], rot, pos, n, c, thr, res)
-    # RULE_SUPPORT: the support point along -n
-    s = np.empty(3)
+    # RULE_SUPPORT: the support point along -n, found in res[0]'s position (no allocation: the
+    # function is compiled without reference counting) and moved to the contact's place there
+    s = res[0, 1:4]
     _support_minus(shape, n, s)
     d = n[0] * (s[0] - p0[0]) + n[1] * (s[1] - p0[1]) + n[2] * (s[2] - p0[2]) - r
     if d > thr:
         return 0
     res[0, 0] = d
     for q in range(3):
-        res[0, 1 + q] = s[q] - (r + 0.5 * d) * n[q]
+        s[q] -= (r + 0.5 * d) * n[q]
     return 1
 
 

@@ -39,9 +39,9 @@ def _world_face(hv, a, vidx, vadr, vnum, f, rot, pos, out):
 
 
 @njit(**NO_NRT)
-def _touching_faces(g, x, u, xpos, xmat, hv_adr, f_adr, f_num, f_normal, f_offset, tol, cand, cnrm):
+def _touching_faces(g, x, u0, u1, u2, xpos, xmat, hv_adr, f_adr, f_num, f_normal, f_offset, tol, cand, cnrm):
     # Faces of geom g whose plane holds the witness x (within tol), their world normals in cnrm;
-    # returns their count (cand: face ids) and puts the one best aligned with u first.
+    # returns their count (cand: face ids) and puts the one best aligned with (u0, u1, u2) first.
     rot = xmat[g]
     k = 0
     best = -2.0
@@ -65,7 +65,7 @@ def _touching_faces(g, x, u, xpos, xmat, hv_adr, f_adr, f_num, f_normal, f_offse
             continue
         cand[k] = f
         cnrm[k, 0], cnrm[k, 1], cnrm[k, 2] = nw0, nw1, nw2
-        al = nw0 * u[0] + nw1 * u[1] + nw2 * u[2]
+        al = nw0 * u0 + nw1 * u1 + nw2 * u2
         if al > best:
             best = al
             if k > 0:  # swap to the front
@@ -76,8 +76,7 @@ def _touching_faces(g, x, u, xpos, xmat, hv_adr, f_adr, f_num, f_normal, f_offse
     return k
 
 
-# With reference counting even where its caller has none (it allocates; `collide._kernels.manifold.collide_bound`).
-@njit(cache=True, _nrt=True)
+@njit(**NO_NRT)
 def polytope_contacts(g1, g2, xpos, xmat, d, nrm, pa, pb, tol, hv_adr, hv, f_adr, f_num, f_normal, f_offset,
                       f_vadr, f_vnum, f_vidx, face1, face2, poly, tmp, cand1, cnrm1, cand2, cnrm2, seg, sel, res):
     """Face contacts of two penetrating polytopes (boxes, convex meshes) from their exact contact.
@@ -113,11 +112,10 @@ def polytope_contacts(g1, g2, xpos, xmat, d, nrm, pa, pb, tol, hv_adr, hv, f_adr
     int
         Contacts written (0: none found; the caller keeps its single contact).
     """
-    mn = np.empty(3)
-    for q in range(3):
-        mn[q] = -nrm[q]
-    c1 = _touching_faces(g1, pa, nrm, xpos, xmat, hv_adr, f_adr, f_num, f_normal, f_offset, tol, cand1, cnrm1)
-    c2 = _touching_faces(g2, pb, mn, xpos, xmat, hv_adr, f_adr, f_num, f_normal, f_offset, tol, cand2, cnrm2)
+    c1 = _touching_faces(g1, pa, nrm[0], nrm[1], nrm[2], xpos, xmat, hv_adr, f_adr, f_num, f_normal, f_offset, tol,
+                         cand1, cnrm1)
+    c2 = _touching_faces(g2, pb, -nrm[0], -nrm[1], -nrm[2], xpos, xmat, hv_adr, f_adr, f_num, f_normal, f_offset, tol,
+                         cand2, cnrm2)
     if c1 == 0 or c2 == 0:
         return 0
     # the most opposed pair of touching faces
