@@ -287,8 +287,9 @@ class GeomTable:
 
     def _pack(self) -> None:
         # The kernel's tables, one buffer a dtype (`collide._kernels.manifold.collide_bound` reads
-        # them from a context of four addresses, not forty arrays); the attributes become views of them (`_bind`: one
-        # copy, which `kernel_args` hands out too), and the kernel's scratch is made here, once.
+        # them from a context of four addresses, not forty arrays); the attributes become views of
+        # them (`_bind`: one copy, which `kernel_args` hands out too), and the kernel's scratch is
+        # made here, once.
         fa = self.faces.kernel_args()
         slots = {_km.S_PRM: self.prm, _km.S_PTS: self.pts, _km.S_RBOUND: self.rbound, _km.S_SIZE: self.size,
                  _km.S_GEOM_MARGIN: self.geom_margin, _km.S_GEOM_GAP: self.geom_gap,
