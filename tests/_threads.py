@@ -12,7 +12,7 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["in_threads"]
+__all__ = ["in_threads", "scattered_boxes"]
 
 
 def in_threads(work: Callable[[int], Any], n: int = 2, *, timeout: float = 600.0,
@@ -68,3 +68,27 @@ def in_threads(work: Callable[[int], Any], n: int = 2, *, timeout: float = 600.0
         if exc is not None:
             raise exc
     return out
+
+
+def scattered_boxes(seeds=(0, 1)) -> tuple:
+    """Six free boxes over a plane, and an ``MjData`` a seed with the boxes moved and turned at random
+    into one another (after ``mj_kinematics``): box-box and box-plane contacts, which no warm start
+    answers, different for each seed. Returns ``(model, datas)``."""
+    import mujoco
+    import numpy as np
+
+    model = mujoco.MjModel.from_xml_string(
+        "<mujoco><worldbody><geom type='plane' size='5 5 .1'/>" + "".join(
+            f"<body pos='{0.3 * (i % 3)} {0.3 * (i // 3)} 0.2'><freejoint/><geom type='box' size='.1 .12 .08'/></body>"
+            for i in range(6)) + "</worldbody></mujoco>")
+    datas = []
+    for seed in seeds:
+        d = mujoco.MjData(model)
+        rng = np.random.default_rng(seed)
+        for b in range(6):
+            d.qpos[7 * b:7 * b + 3] += rng.normal(size=3) * 0.1
+            q = rng.normal(size=4)
+            d.qpos[7 * b + 3:7 * b + 7] = q / np.linalg.norm(q)
+        mujoco.mj_kinematics(model, d)
+        datas.append(d)
+    return model, datas

@@ -18,11 +18,7 @@ import pytest
 
 mujoco = pytest.importorskip("mujoco")
 import collide.mujoco as cm  # noqa: E402
-from _threads import in_threads  # noqa: E402
-
-XML = ("<mujoco><worldbody><geom type='plane' size='5 5 .1'/>" + "".join(
-    f"<body pos='{0.3 * (i % 3)} {0.3 * (i // 3)} 0.2'><freejoint/><geom type='box' size='.1 .12 .08'/></body>"
-    for i in range(6)) + "</worldbody></mujoco>")
+from _threads import in_threads, scattered_boxes  # noqa: E402
 
 
 def _signature(c) -> tuple:
@@ -30,17 +26,7 @@ def _signature(c) -> tuple:
 
 
 def test_two_threads_two_datas_one_collider():
-    m = mujoco.MjModel.from_xml_string(XML)
-    datas = []
-    for s in range(2):
-        d = mujoco.MjData(m)
-        rng = np.random.default_rng(s)
-        for b in range(6):
-            d.qpos[7 * b:7 * b + 3] += rng.normal(size=3) * 0.1
-            q = rng.normal(size=4)
-            d.qpos[7 * b + 3:7 * b + 7] = q / np.linalg.norm(q)
-        mujoco.mj_kinematics(m, d)
-        datas.append(d)
+    m, datas = scattered_boxes()
     ref = [cm.Collider(m).contacts(d) for d in datas]
     assert min(len(r.dist) for r in ref) > 0  # both scenes have contacts
     ref = [_signature(r) for r in ref]

@@ -18,7 +18,7 @@ import collide.mujoco as cm
 from collide import contacts as cc
 from collide._kernels import manifold as _km
 from collide._kernels.warm import WARM_LEN
-from _threads import in_threads
+from _threads import in_threads, scattered_boxes
 
 FIELDS = ("geom", "dist", "pos", "normal", "margin", "skipped")
 
@@ -124,20 +124,7 @@ def test_two_threads_one_table_through_new_arenas(monkeypatch):
     # own scene's contacts at the end. Boxes on a plane: box-box and box-plane pairs, which no
     # warm start answers, so every call's answer is the cold reference's bit for bit.
     monkeypatch.setattr(cc, "OUT_ROWS", 16)
-    model = mujoco.MjModel.from_xml_string(
-        "<mujoco><worldbody><geom type='plane' size='5 5 .1'/>" + "".join(
-            f"<body pos='{0.3 * (i % 3)} {0.3 * (i // 3)} 0.2'><freejoint/><geom type='box' size='.1 .12 .08'/></body>"
-            for i in range(6)) + "</worldbody></mujoco>")
-    datas = []
-    for seed in range(2):
-        d = mujoco.MjData(model)
-        rng = np.random.default_rng(seed)
-        for b in range(6):
-            d.qpos[7 * b:7 * b + 3] += rng.normal(size=3) * 0.1
-            q = rng.normal(size=4)
-            d.qpos[7 * b + 3:7 * b + 7] = q / np.linalg.norm(q)
-        mujoco.mj_kinematics(model, d)
-        datas.append(d)
+    model, datas = scattered_boxes()
     col = cm.Collider(model)
     pairs = [col.pairs(d).copy() for d in datas]
     ref = [_frozen(cc.narrow_phase(cm.Collider(model).table, p, d.geom_xpos, d.geom_xmat))
