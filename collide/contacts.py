@@ -27,7 +27,6 @@ gets contacts from MuJoCo only where its boxes (in its sweep frame) still overla
 from __future__ import annotations
 
 import math
-import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -172,10 +171,10 @@ class GeomTable:
     The per-geom and support arrays above and the face arrays `kernel_args` hands out are views
     of four packed buffers, one a dtype; the kernel's scratch and an output arena are made here,
     once, and their addresses kept in a context (`collide._kernels.manifold.collide_bound` takes
-    its address, not sixteen arrays). `contacts_of` calls the kernel and reads the arena under the
-    table's lock, so calls on one table never share the scratch at once, and the arena's rows
-    handed out are never written again. Copies and unpickled tables rebind their views and context
-    to their own buffers and get an arena of their own.
+    its address, not sixteen arrays). `contacts_of` runs the kernel with the GIL held, so calls on
+    one table never share the scratch at once, and reads a call's rows from the arena it passed
+    (rows handed out are never written again). Copies and unpickled tables rebind their views and
+    context to their own buffers and get an arena of their own.
 
     Everything is read from the model once, margins and gaps included (copies, not views of the
     model's arrays): a model edited after the table was made is not seen, as the broad phase
@@ -259,15 +258,15 @@ class GeomTable:
         self._any_skipped = bool(np.any(self.cls == _km.SKIPPED))
         self._no_skipped = _no_rows((2,), np.int32)  # a read-only view, never resized in place (`_empty_contacts`)
         self._per_pair = _km.MAX_PER_PAIR * self.pair_mult
+        self._skip = np.empty(0, np.bool_)  # `contacts_of`'s skipped flags where no geom is skipped
         self._empty = _empty_contacts()
         self._new_ctx()
 
     def _new_ctx(self) -> None:
-        # The kernel's context (`collide._kernels.manifold.CTX_FIELDS`) on this table's buffers, a
-        # skipped-flags buffer and an output arena of its own, and the lock its calls take
-        # (`contacts_of`). The context holds addresses only: the buffers are this table's
-        # attributes, and every method that replaces one writes its new address here.
-        self._lock = threading.Lock()
+        # The kernel's context (`collide._kernels.manifold.CTX_FIELDS`) on this table's buffers
+        # (made by `_pack`, or copied by `__setstate__`, before), and an output arena of its own.
+        # The context holds addresses only: the buffers are this table's attributes, never
+        # replaced once it is made.
         self._ctx = np.zeros(_km.NCTX, np.int64)
         self._ctx_addr = self._ctx.ctypes.data
         ctx = self._ctx
@@ -277,13 +276,7 @@ class GeomTable:
         ctx[_km.C_PER_PAIR] = self._per_pair
         ctx[_km.C_OVERRIDE] = int(self._override)
         ctx[_km.C_O_MARGIN] = np.float64(self._o_margin).view(np.int64)
-        self._new_skip(64)
         self._new_out(OUT_ROWS)
-
-    def _new_skip(self, n: int) -> None:
-        # The kernel's skipped flags of ``n`` pairs at most (read under the lock, `contacts_of`).
-        self._skip = np.empty(n, np.bool_)
-        self._ctx[_km.C_SKIP], self._ctx[_km.C_SKIP_LEN] = self._skip.ctypes.data, n
 
     def _pack(self) -> None:
         # The kernel's tables, one buffer a dtype (`collide._kernels.manifold.collide_bound` reads
@@ -325,17 +318,18 @@ class GeomTable:
     def _new_out(self, rows: int) -> None:
         # A new output arena of ``rows`` contacts (`collide_bound` writes each call's contacts into
         # its next free rows, `contacts_of` hands them out as views): the kernel's two buffers,
-        # then the per-field views cut from them, in one tuple; their addresses, the rows and the
-        # first free row (0) into the context. Rows once handed out are never written again; a
-        # full arena is left to the views that hold it (freed with the last).
+        # the per-field views cut from them, and the arena's state (`collide._kernels.manifold.
+        # ARENA_FIELDS`: the buffers' addresses, the rows, the first free row) and its address, in
+        # one tuple (one store: a call reads one arena's parts, never two arenas'). Rows once
+        # handed out are never written again; a full arena is left to the views that hold it
+        # (freed with the last).
         geom = np.empty((rows, 2), np.int32)
         f = np.empty(_km.F_END * rows)
         d, p, m, q = _km.F_DIST * rows, _km.F_POS * rows, _km.F_NORMAL * rows, _km.F_MARGIN * rows
+        state = np.zeros(_km.NARENA, np.int64)
+        state[_km.A_GEOM], state[_km.A_F], state[_km.A_ROWS] = geom.ctypes.data, f.ctypes.data, rows
         self._out = (geom, f, f[d:d + rows], f[p:p + 3 * rows].reshape(rows, 3), f[m:m + 3 * rows].reshape(rows, 3),
-                     f[q:q + rows])
-        ctx = self._ctx
-        ctx[_km.C_OUT_GEOM], ctx[_km.C_OUT_F] = geom.ctypes.data, f.ctypes.data
-        ctx[_km.C_OUT_ROWS], ctx[_km.C_OUT_NEXT] = rows, 0
+                     f[q:q + rows], state, state.ctypes.data)
 
     def _views(self) -> dict:
         # Each slot's view of the packed buffers, by the header in ``_tables[1]``.
@@ -362,8 +356,8 @@ class GeomTable:
 
     def __getstate__(self) -> dict:
         # The packed buffers and the scalars; the views are rebound on the copy (`__setstate__`).
-        views = set(_SLOT_ATTR) | {"below", "_face_args", "_kargs", "_out", "_empty", "_no_skipped", "_lock", "_ctx",
-                                   "_ctx_addr", "_skip"}
+        views = set(_SLOT_ATTR) | {"below", "_face_args", "_kargs", "_out", "_empty", "_no_skipped", "_ctx",
+                                   "_ctx_addr"}
         return {k: v for k, v in self.__dict__.items() if k not in views}
 
     def __setstate__(self, state: dict) -> None:
@@ -497,32 +491,35 @@ def _contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np
     K = len(pairs)
     if K == 0:
         return table._empty
-    # Under the table's lock: the kernel writes its scratch, the skipped flags and the arena that
-    # the context names, and the rows are read from that same arena (another thread's call may
-    # start a new one).
-    with table._lock:
-        if K > len(table._skip):
-            table._new_skip(2 * K)
-        # The compiled function's entry point, called directly (`_first_bound`): the arguments
-        # have its types by construction (the broad phase's pairs, `_poses`' views).
-        r = _bound(pairs, xpos, xmat, table._ctx_addr)
-        while r == _km.OUT_FULL:  # a new arena, large enough for this call
-            table._new_out(max(OUT_ROWS, 4 * table._per_pair * K))
-            r = _bound(pairs, xpos, xmat, table._ctx_addr)
-        if r < 0:
-            g = (-r - 1) // 8
-            raise ValueError(f"geom_xpos/geom_xmat: non-finite pose (NaN or inf) of geom {g}")
-        n = r & 0xFFFFFFFF
-        any_skipped = table._any_skipped
-        if n == 0 and not any_skipped:
-            return table._empty
+    any_skipped = table._any_skipped
+    if any_skipped:
+        skipped = np.empty(K, np.bool_)  # the kernel writes every entry
+    else:
+        skipped = table._skip
+        if len(skipped) < K:
+            skipped = table._skip = np.empty(2 * K, np.bool_)
+    # The rows are read from the arena passed: another thread (or a signal handler) may start a
+    # new one before they are read, never in the call (it holds the GIL).
+    out = table._out
+    # The compiled function's entry point, called directly (`_first_bound`): the arguments have
+    # its types by construction (the broad phase's pairs, `_poses`' views, the table's buffers).
+    r = _bound(pairs, xpos, xmat, skipped, table._ctx_addr, out[7])
+    while r == _km.OUT_FULL:  # a new arena, large enough for this call
+        table._new_out(max(OUT_ROWS, 4 * table._per_pair * K))
         out = table._out
-        o = r >> 32
-        e = o + n
-        # Built without the frozen dataclass's __init__ (a setattr per field): the same fields.
-        c = _new(Contacts)
-        c.__dict__.update(geom=out[0][o:e], dist=out[2][o:e], pos=out[3][o:e], normal=out[4][o:e],
-                          margin=out[5][o:e], skipped=pairs[table._skip[:K]] if any_skipped else table._no_skipped)
+        r = _bound(pairs, xpos, xmat, skipped, table._ctx_addr, out[7])
+    if r < 0:
+        g = (-r - 1) // 8
+        raise ValueError(f"geom_xpos/geom_xmat: non-finite pose (NaN or inf) of geom {g}")
+    n = r & 0xFFFFFFFF
+    if n == 0 and not any_skipped:
+        return table._empty
+    o = r >> 32
+    e = o + n
+    # Built without the frozen dataclass's __init__ (a setattr per field): the same fields.
+    c = _new(Contacts)
+    c.__dict__.update(geom=out[0][o:e], dist=out[2][o:e], pos=out[3][o:e], normal=out[4][o:e], margin=out[5][o:e],
+                      skipped=pairs[skipped[:K]] if any_skipped else table._no_skipped)
     return c
 
 
@@ -561,7 +558,7 @@ def _first_bound(*args):
     from numba import types as nt
 
     sig = (nt.Array(nt.int32, 2, "C", readonly=True), nt.Array(nt.float64, 2, "C"), nt.Array(nt.float64, 3, "C"),
-           nt.int64)
+           nt.Array(nt.boolean, 1, "C"), nt.int64, nt.int64)
     disp = _km.collide_bound
     disp.compile(sig)
     try:

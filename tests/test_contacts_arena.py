@@ -109,20 +109,20 @@ def test_copied_tables_write_arenas_of_their_own():
     frozen = _frozen(ref)
     for t in (copy.copy(col.table), copy.deepcopy(col.table), pickle.loads(pickle.dumps(col.table))):
         assert not np.shares_memory(t._out[1], col.table._out[1])
-        assert t._ctx[_km.C_OUT_NEXT] == 0 and t._ctx_addr != col.table._ctx_addr
+        assert t._out[6][_km.A_NEXT] == 0 and t._ctx_addr != col.table._ctx_addr
         c = cc.narrow_phase(t, pairs, data.geom_xpos, xmat)
         assert _same(c, frozen) and _same(ref, frozen)
 
 
 def test_two_threads_one_table_through_new_arenas(monkeypatch):
-    # The kernel writes the arena its table's context names, and `_contacts_of` reads the rows from
-    # the table's arena: both under the table's lock, so a thread that starts a new arena (a full
-    # one) between another thread's call and its read cannot hand that thread rows of the wrong
-    # arena. Tiny arenas (a new one every few calls), and a pause after each kernel call that lets
-    # the other thread run (it waits for the lock there; without the lock it ran calls of its own
-    # and started new arenas: both threads' results went wrong); every kept result must hold its
-    # own scene's contacts at the end. Boxes on a plane: box-box and box-plane pairs, which no
-    # warm start answers, so every call's answer is the cold reference's bit for bit.
+    # The kernel writes the arena `_contacts_of` passes it, and `_contacts_of` reads the rows from
+    # that arena, not from the table's: a thread that starts a new arena (a full one) between
+    # another thread's call and its read cannot hand that thread rows of the wrong arena. Tiny
+    # arenas (a new one every few calls), and a pause after each kernel call that lets the other
+    # thread run its own calls there (reading the table's arena after the call instead, both
+    # threads' results went wrong); every kept result must hold its own scene's contacts at the
+    # end. Boxes on a plane: box-box and box-plane pairs, which no warm start answers, so every
+    # call's answer is the cold reference's bit for bit.
     monkeypatch.setattr(cc, "OUT_ROWS", 16)
     model, datas = scattered_boxes()
     col = cm.Collider(model)

@@ -63,8 +63,8 @@ __all__ = [
     "CONVEX", "ERR_POSE", "MAX_PER_PAIR", "PLANE", "SKIPPED", "T_BOX", "T_CAPSULE", "T_CYLINDER", "T_ELLIPSOID",
     "T_HFIELD", "T_MESH", "T_PLANE", "T_SPHERE", "CONVEX_PAIR", "F_DIST", "F_END", "F_MARGIN", "F_NORMAL",
     "F_POS", "N_SLOTS", "SLOT_BUFFER", "SLOT_COLS", "BUFFER_DTYPES", "TI_HEADER", "carve_scratch",
-    "CTX_FIELDS", "NCTX", "OUT_FULL", "collide_bound", "collide_pairs", "pair_margins", "scratch_caps", "scratch_sizes",
-    "pair_signed_distance", "plane_box_contacts",
+    "ARENA_FIELDS", "CTX_FIELDS", "NARENA", "NCTX", "OUT_FULL", "collide_bound", "collide_pairs", "pair_margins",
+    "scratch_caps", "scratch_sizes", "pair_signed_distance", "plane_box_contacts",
     # re-exported
     "BOX_MAX", "BOX_WS", "EDGE_TOL", "FACE_TOL", "OUT_DISTANCE", "OUT_NORMAL", "OUT_POINT_A", "OUT_POINT_B",
     "OUT_SIZE", "PLANE_FACE_TOL", "RULE_CYLINDER", "RULE_POINTS", "RULE_SUPPORT", "RULE_VERTICES",
@@ -566,15 +566,20 @@ def _slot2(buf, ti, s):
 OUT_FULL = -1
 
 # `collide_bound`'s context: one int64 array (`collide.contacts.GeomTable` owns and fills it) of
-# the addresses and lengths of the table's buffers, its output arena and the call's scalars, so
-# that a call passes four arguments, not sixteen (each array argument is unboxed on every call).
-# ``o_margin`` holds the float64's bits.
+# the addresses and lengths of the table's buffers and the call's scalars, so that a call passes
+# six arguments, not sixteen (each array argument is unboxed on every call). ``o_margin`` holds
+# the float64's bits.
 CTX_FIELDS = ("tf", "tf_len", "ti", "ti_len", "t8", "t8_len", "t32", "t32_len", "wsf", "wsf_len", "wsi",
-              "wsi_len", "out_geom", "out_f", "out_rows", "out_next", "skip", "skip_len", "per_pair", "override",
-              "o_margin")
-(C_TF, C_TF_LEN, C_TI, C_TI_LEN, C_T8, C_T8_LEN, C_T32, C_T32_LEN, C_WSF, C_WSF_LEN, C_WSI, C_WSI_LEN, C_OUT_GEOM,
- C_OUT_F, C_OUT_ROWS, C_OUT_NEXT, C_SKIP, C_SKIP_LEN, C_PER_PAIR, C_OVERRIDE, C_O_MARGIN) = range(len(CTX_FIELDS))
+              "wsi_len", "per_pair", "override", "o_margin")
+(C_TF, C_TF_LEN, C_TI, C_TI_LEN, C_T8, C_T8_LEN, C_T32, C_T32_LEN, C_WSF, C_WSF_LEN, C_WSI, C_WSI_LEN, C_PER_PAIR,
+ C_OVERRIDE, C_O_MARGIN) = range(len(CTX_FIELDS))
 NCTX = len(CTX_FIELDS)
+# An output arena's own state (an int64 array of each arena, `GeomTable._new_out`): its buffers'
+# addresses, its rows and its first free row. Its own, not the table's: a caller that holds an
+# arena reads its rows from that arena, whichever arena the table has started since.
+ARENA_FIELDS = ("geom", "f", "rows", "next")
+A_GEOM, A_F, A_ROWS, A_NEXT = range(len(ARENA_FIELDS))
+NARENA = len(ARENA_FIELDS)
 
 
 # Compiled without numba's reference counting (`_ptr.NO_NRT`): every table, scratch and output
@@ -587,13 +592,13 @@ NCTX = len(CTX_FIELDS)
 # numba compiles (and caches) one version a signature whatever the flags: left to inherit them,
 # `box_box` kept the counting of whichever kernel reached it first (stonehenge's step 1.2x slower).
 @njit(**NO_NRT)
-def collide_bound(pairs, xpos, xmat, addr):
-    """`collide_pairs` on a table's packed buffers and workspace, into its output arena (the per-step call).
+def collide_bound(pairs, xpos, xmat, skipped, addr, arena):
+    """`collide_pairs` on a table's packed buffers and workspace, into an output arena (the per-step call).
 
     Parameters
     ----------
-    pairs, xpos, xmat
-        As `collide_pairs` takes them.
+    pairs, xpos, xmat, skipped
+        As `collide_pairs` takes them (``skipped`` at least ``K`` long).
     addr : int
         Address of the table's context (``NCTX`` int64, fields ``C_*``):
 
@@ -601,18 +606,19 @@ def collide_bound(pairs, xpos, xmat, addr):
           (int8), ``t32`` (int32): the tables of `collide_pairs`, packed by slot (``S_*``);
         - ``wsf`` (float64), ``wsi`` (int64): the scratch (`scratch_sizes` of ``ti``'s ``cap``,
           ``fmax``), overwritten, the warm-start cache kept in ``wsi``;
-        - ``out_geom`` ((rows, 2) int32) and ``out_f`` (``F_END * rows`` float64: ``dist``,
-          ``pos (rows, 3)``, ``normal (rows, 3)``, ``margin`` from ``F_DIST rows``, ``F_POS rows``,
-          ``F_NORMAL rows``, ``F_MARGIN rows`` on): the output arena, written from row
-          ``out_next`` on, which is advanced past the contacts written (rows before it are never
-          written again: the caller hands them out);
-        - ``skip`` (``skip_len`` bool, at least ``K``): receives each pair's skipped flag;
         - ``per_pair``: the most contacts a pair may make (`MAX_PER_PAIR` times the most
           ``<pair>`` s of a geom pair): a call needs ``per_pair * K`` free rows;
         - ``override``, ``o_margin``: as `collide_pairs` takes them.
+    arena : int
+        Address of an output arena's state (``NARENA`` int64, fields ``A_*``): ``geom``
+        ((rows, 2) int32) and ``f`` (``F_END * rows`` float64: ``dist``, ``pos (rows, 3)``,
+        ``normal (rows, 3)``, ``margin`` from ``F_DIST rows``, ``F_POS rows``, ``F_NORMAL rows``,
+        ``F_MARGIN rows`` on), written from row ``next`` on, which is advanced past the contacts
+        written (rows before it are never written again: the caller hands them out).
 
         Every buffer must be C-contiguous and outlive the call; nothing is checked (the owner,
-        `collide.contacts.GeomTable`, holds them, and calls under its lock).
+        `collide.contacts.GeomTable`, holds them). The call holds the GIL throughout: calls on
+        one table from threads, or from a signal handler, never share the scratch at once.
 
     Returns
     -------
@@ -622,12 +628,13 @@ def collide_bound(pairs, xpos, xmat, addr):
         pose as `collide_pairs` reports it (``out_next`` unchanged).
     """
     ctx = view_of(i64_ptr(addr), NCTX)
+    out = view_of(i64_ptr(arena), NARENA)
     K = pairs.shape[0]
-    M = ctx[C_OUT_ROWS]
-    row = ctx[C_OUT_NEXT]
+    M = out[A_ROWS]
+    row = out[A_NEXT]
     if M - row < ctx[C_PER_PAIR] * K:
         return OUT_FULL
-    check_span(K, ctx[C_SKIP_LEN])
+    check_span(K, skipped.shape[0])
     tf = view_of(f64_ptr(ctx[C_TF]), ctx[C_TF_LEN])
     ti = view_of(i64_ptr(ctx[C_TI]), ctx[C_TI_LEN])
     t8 = view_of(i8_ptr(ctx[C_T8]), ctx[C_T8_LEN])
@@ -649,15 +656,15 @@ def collide_bound(pairs, xpos, xmat, addr):
              _slot(ti, ti, S_F_VADR), _slot(ti, ti, S_F_VNUM), _slot(t32, ti, S_F_VIDX))
     ws = carve_scratch(wsf, wsi, ti[2 * N_SLOTS], ti[2 * N_SLOTS + 1])
     R = M - row
-    f = ctx[C_OUT_F]
-    outs = (view_of(i32_ptr(ctx[C_OUT_GEOM] + 8 * row), (R, 2)), view_of(f64_ptr(f + 8 * (F_DIST * M + row)), R),
+    f = out[A_F]
+    outs = (view_of(i32_ptr(out[A_GEOM] + 8 * row), (R, 2)), view_of(f64_ptr(f + 8 * (F_DIST * M + row)), R),
             view_of(f64_ptr(f + 8 * (F_POS * M + 3 * row)), (R, 3)),
             view_of(f64_ptr(f + 8 * (F_NORMAL * M + 3 * row)), (R, 3)),
-            view_of(f64_ptr(f + 8 * (F_MARGIN * M + row)), R), view_of(bool_ptr(ctx[C_SKIP]), K))
+            view_of(f64_ptr(f + 8 * (F_MARGIN * M + row)), R), skipped)
     n = _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs)
     if n < 0:
         return n
-    ctx[C_OUT_NEXT] = row + n
+    out[A_NEXT] = row + n
     return (row << 32) | n
 
 

@@ -62,8 +62,8 @@ def profile(path: Path, steps: int, every: int, seed: int = 0, hold: int = 10) -
     col.contacts(data)
     table = col.table
     own = copy.copy(table)  # `kernel`'s: a scratch, warm-start cache and arena of its own
-    own._new_skip(1 << 16)  # room for any step's pairs, and their contacts
-    own._new_out(_km.MAX_PER_PAIR * own.pair_mult << 16)
+    own._new_out(_km.MAX_PER_PAIR * own.pair_mult << 16)  # room for any step's contacts
+    skip = np.empty(1 << 16, np.bool_)
     ctrls = cm._random_controls(model, steps, seed, hold)
     split = {k: [] for k in ("first", "call", "replayed", "broad", "contacts_of", "kernel", "fixed")}
     fields = ("xpos", "xquat", "xmat", "geom_xpos", "geom_xmat")  # what the two phases read
@@ -86,8 +86,8 @@ def profile(path: Path, steps: int, every: int, seed: int = 0, hold: int = 10) -
         def kernel(p):
             # the profile's own copy of the table (its arena's rows are never handed out): its
             # first free row reset at each call
-            own._ctx[_km.C_OUT_NEXT] = 0
-            return _c._bound(p, xpos, xmat, own._ctx_addr)
+            own._out[6][_km.A_NEXT] = 0
+            return _c._bound(p, xpos, xmat, skip, own._ctx_addr, own._out[7])
 
         split["kernel"].append(_best(lambda: kernel(pairs)))
         fixed = _best(lambda: kernel(pairs[:0]))
