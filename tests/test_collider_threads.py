@@ -1,4 +1,5 @@
-"""One `collide.mujoco.Collider`, two threads, two MjData: each thread gets its own data's contacts.
+"""One `collide.mujoco.Collider`, two threads, two MjData: each thread gets its own data's contacts;
+and a child forked while a thread of its parent was inside a call can call it (2026-11-30).
 
 Found by the adversarial review (2026-11-29): ``Collider._poses`` published the last MjData's
 views and the MjData itself in two stores (``_views``, then ``_checked``) and ``contacts`` read
@@ -10,6 +11,8 @@ tracer) puts a switch point on every line, which this test installs to make the 
 
 from __future__ import annotations
 
+import os
+import signal
 import threading
 import time
 
@@ -55,3 +58,28 @@ def test_two_threads_two_datas_one_collider():
         threading.settrace(None)
     assert [e for _, e in got] == [[], []]
     assert [w for w, _ in got] == [0, 0]
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="os.fork: POSIX only")
+def test_a_forked_child_calls_while_its_parent_held_the_lock():
+    # A thread inside `pairs` at an os.fork() holds the broad phase's lock, and does not exist in
+    # the child: the child gets a new lock (`collide.broadphase._new_locks`), else its first call
+    # waited forever. The parent's thread is played here by holding the lock across the fork.
+    m, datas = scattered_boxes()
+    col = cm.Collider(m)
+    ref = _signature(col.contacts(datas[0]))
+    lock = col.broadphase.broadphase._lock  # collide.mujoco.BroadPhase -> collide.BroadPhase
+    lock.acquire()
+    try:
+        pid = os.fork()
+        if pid == 0:  # the child: a call, its answer checked, then out without pytest's teardown
+            code = 1
+            try:
+                signal.alarm(60)  # still waiting after a minute: killed, the test fails
+                code = 0 if _signature(col.contacts(datas[0])) == ref else 2
+            finally:
+                os._exit(code)
+    finally:
+        lock.release()
+    _, status = os.waitpid(pid, 0)
+    assert os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0, f"the child: wait status {status}"

@@ -28,7 +28,9 @@ bodies) and their AABBs, for drawing them, debugging a pair, or feeding another 
 
 from __future__ import annotations
 
+import os
 import threading
+import weakref
 
 import numpy as np
 
@@ -45,6 +47,20 @@ from ._batch import Batch
 from .swept import SweptCalls
 
 __all__ = ["BroadPhase", "KinematicTree", "WorldBounds", "check_pose_values", "world_planes"]
+
+# Every BroadPhase, for a forked child to give each a new lock: a thread of the parent inside
+# `pairs` at the fork holds the lock, and that thread does not exist in the child, whose calls
+# would wait for it forever (the fork of a process with threads copies only the forking one).
+_instances: weakref.WeakSet = weakref.WeakSet()
+
+
+def _new_locks() -> None:
+    for bp in list(_instances):
+        bp._lock = threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_new_locks)
 
 _STAT_NAMES = ("subtree_tests", "body_aabb_tests", "body_sphere_tests", "body_obb_tests",
                "geom_sphere_tests", "geom_obb_tests", "plane_tests", "pairs", "geom_aabb_tests", "reused")
@@ -140,6 +156,7 @@ class BroadPhase(SweptCalls):
         self._step = _kstep.step_function()
         self._step_bound = None  # see bind
         self._lock = threading.Lock()  # see pairs
+        _instances.add(self)  # a new lock in a forked child (`_new_locks`)
         self._bound = None
         self._set_buffers(4 * L + 64, 4 * G + 64)
         self._new_arena(ARENA_ROWS)
