@@ -590,7 +590,8 @@ NARENA = len(ARENA_FIELDS)
 # `plane_convex`, `plane_mesh`, `polytope_contacts`, `collide._kernels.warm.distance_warm`, ...).
 # A callee that states none is compiled with the flags of the first caller that compiles it, and
 # numba compiles (and caches) one version a signature whatever the flags: left to inherit them,
-# `box_box` kept the counting of whichever kernel reached it first (stonehenge's step 1.2x slower).
+# `box_box` kept the counting of whichever kernel reached it first (a slower box-box step;
+# tests/bench/contacts.txt, block "session 49").
 @njit(**NO_NRT)
 def collide_bound(pairs, xpos, xmat, skipped, addr, arena):
     """`collide_pairs` on a table's packed buffers and workspace, into an output arena (the per-step call).
