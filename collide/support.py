@@ -22,7 +22,7 @@ from ._kernels.support import CONE, CYLINDER, ELLIPSOID, POINTS
 from .convex import Cone, Cylinder, Ellipsoid
 from .pointcloud import PointCloud
 
-__all__ = ["CLIMB_MIN", "SupportData", "support_data"]
+__all__ = ["CLIMB_MIN", "SupportData", "rolling_radius", "support_data"]
 
 # Hull vertex count above which supports climb the vertex graph instead of scanning
 # (tests/bench/distance.py measures both sides of it).
@@ -126,6 +126,36 @@ def _cloud_data(cloud: PointCloud) -> SupportData:
     return SupportData(POINTS, prm, pts, nbr_start, nbr, size)
 
 
+# `rolling_radius`'s margin below the smallest radius of curvature: the rounding of ``c * c / a``
+# (a few ulps) must not put the ball above it, where the core's support formula stops being one.
+_ROLLING_SHRINK = 1e-9
+
+
+def rolling_radius(radii) -> float:
+    """The ball radius an ellipsoid's core is shrunk by: ``(1 - 1e-9) c^2 / a``.
+
+    An ellipsoid with semi-axes ``a >= b >= c`` has no principal radius of curvature below
+    ``c^2 / a`` (at the ends of its longest axis), so a ball of any radius ``rho`` up to it rolls
+    freely inside it (Blaschke's rolling theorem) and the ellipsoid is ``E' ⊕ ball(rho)``, with
+    ``E'`` its inner parallel body: support function ``h_E - rho``, support point ``s_E(u) - rho u``
+    for a unit ``u`` (`collide._kernels.support.support`). The narrow phase then runs GJK and
+    EPA on ``E'`` and adds ``rho`` as it adds a sphere's or capsule's radius: a penetration shallower
+    than the two balls together leaves the cores apart, which GJK settles without EPA.
+
+    Parameters
+    ----------
+    radii : (3,) array_like of float
+        The semi-axes, positive.
+
+    Returns
+    -------
+    float
+    """
+    r = np.asarray(radii, dtype=np.float64)
+    lo, hi = float(r.min()), float(r.max())
+    return (1.0 - _ROLLING_SHRINK) * lo * lo / hi
+
+
 def support_data(shape) -> SupportData:
     """The support data of a `PointCloud`, `Cylinder`, `Cone` or `Ellipsoid` (cached per cloud).
 
@@ -155,6 +185,6 @@ def support_data(shape) -> SupportData:
         prm = np.array([shape.radius, shape.height, 0.0, 0.0])
         return SupportData(CONE, prm, empty, _NO_ADJ, _NO_ADJ, 0.5 * math.hypot(2.0 * shape.radius, shape.height))
     if isinstance(shape, Ellipsoid):
-        prm = np.array([shape.radii[0], shape.radii[1], shape.radii[2], 0.0])
+        prm = np.array([shape.radii[0], shape.radii[1], shape.radii[2], rolling_radius(shape.radii)])
         return SupportData(ELLIPSOID, prm, empty, _NO_ADJ, _NO_ADJ, float(np.linalg.norm(shape.radii)))
     raise ValueError(f"shape: expected a PointCloud, Cylinder, Cone or Ellipsoid, got {type(shape).__name__}")

@@ -9,11 +9,14 @@ cases it is about (separated, touching, penetrating, degenerate).
 
 import math
 
+import numba
 import numpy as np
 import pytest
 
 import collide
 from collide import Cone, Cylinder, Ellipsoid, PointCloud, testing
+from collide._kernels import distance as kd
+from collide._kernels.support import support
 from collide.support import CLIMB_MIN, support_data
 from collide.testing.surfaces import random_rotation
 
@@ -343,6 +346,90 @@ def test_primitives_against_closed_forms():
         key = (type(sh).__name__, bool(true < 0))
         counts[key] = counts.get(key, 0) + 1
     assert len(counts) == 6 and min(counts.values()) >= 20, counts
+
+
+@numba.njit(cache=True)
+def _supports(shape, dirs, pts):
+    for i in range(dirs.shape[0]):
+        support(shape, dirs[i, 0], dirs[i, 1], dirs[i, 2], -1, pts[i])
+
+
+def _support_points(data, dirs) -> np.ndarray:
+    # The kernel's support points of a shape at the identity pose, one per row of dirs.
+    pts = np.empty_like(dirs)
+    _supports(data.posed(np.eye(3), np.zeros(3)), dirs, pts)
+    return pts
+
+
+def _support_violation(data, dirs) -> float:
+    # Largest u . s(v) - u . s(u) over the direction pairs: positive where the kernel's support
+    # points are no support function's (the core they describe is not convex).
+    pts = _support_points(data, dirs)
+    h = np.einsum("ij,ij->i", dirs, pts)
+    return float(((dirs @ pts.T) - h[:, None]).max())
+
+
+def _with_ball(data, rho):
+    # The same support data with the ball radius prm[3] set to rho.
+    out = support_data(Ellipsoid(data.prm[:3]))
+    object.__setattr__(out, "prm", np.array([*data.prm[:3], rho]))
+    return out
+
+
+def test_an_ellipsoid_is_its_rolling_core_plus_the_ball():
+    # The ellipsoid's core (`rolling_radius`): support points s_E(u) - rho u, whose support values
+    # plus rho are the ellipsoid's, and which are a convex set's (no direction's support point
+    # beaten along another's direction). A ball above the smallest radius of curvature c^2 / a
+    # breaks the second, which shows the check can fail.
+    rng = np.random.default_rng(21)
+    dirs = rng.normal(size=(1500, 3))
+    # and directions crowded about each axis, where the core is sharpest about the longest
+    near = np.vstack([np.roll(np.column_stack([np.ones(200), rng.normal(size=(200, 2)) * 0.05]), k, axis=1)
+                      for k in range(3)])
+    dirs = np.vstack([dirs, near])
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    for radii in ([1.0, 1.0, 1.0], [0.3, 0.3, 0.3], [2.0, 1.0, 0.5], [1.0, 0.05, 0.02], [1e-3, 4e-3, 2e-3]):
+        radii = np.array(radii)[rng.permutation(3)]
+        data = support_data(Ellipsoid(radii))
+        rho = data.prm[3]
+        assert rho == pytest.approx(radii.min() ** 2 / radii.max(), rel=1e-8)
+        scale = float(radii.max())
+        assert _support_violation(data, dirs) <= 1e-14 * scale, radii
+        core, full = _support_points(data, dirs), _support_points(_with_ball(data, 0.0), dirs)
+        assert np.allclose(core + rho * dirs, full, rtol=0.0, atol=1e-14 * scale)
+        if radii.min() < radii.max():
+            over = _with_ball(data, 1.1 * radii.min() ** 2 / radii.max())
+            assert _support_violation(over, dirs) > 1e-9 * scale, radii
+
+
+def test_a_shallow_penetration_of_ellipsoids_needs_no_epa():
+    # Within the two rolling balls the cores stay apart: GJK answers (the kernel's penetrating
+    # flag off), and the depth is the closed form's (a sphere in an ellipsoid).
+    rng = np.random.default_rng(22)
+    seen = 0
+    for _ in range(200):
+        radii = rng.uniform(0.2, 1.0, 3)
+        sh = Ellipsoid(radii)
+        rho = support_data(sh).prm[3]
+        R, t = random_rotation(rng), rng.normal(size=3)
+        u = rng.normal(size=3)
+        u /= np.linalg.norm(u)
+        rad = rng.uniform(0.05, 0.3)
+        # a sphere centre on the ray along u, its depth in the ellipsoid below rho + rad
+        local = u * float(1.0 / np.linalg.norm(u / radii))  # on the surface
+        local = local - u * rng.uniform(-0.1, 0.9) * min(rho + rad, 0.5 * radii.min())
+        true = testing.point_signed_distance(sh, local) - rad
+        ball = PointCloud([R @ local + t], rad)
+        out = np.empty(kd.OUT_SIZE)
+        sa, sb = support_data(sh).posed(R, t), support_data(ball).posed(np.eye(3), np.zeros(3))
+        size = support_data(sh).size + support_data(ball).size
+        kd.pair_distance(sa, sb, 1e-12 * size, np.zeros(3), -1, -1, 128, out)
+        assert abs(out[kd.OUT_DISTANCE] - true) <= 1e-9 * size
+        assert out[kd.OUT_LOWER] - 1e-13 <= true <= out[kd.OUT_UPPER] + 1e-13
+        if true < 0 and -true < rho + rad - 1e-6:
+            assert out[kd.OUT_PENETRATING] == 0.0, (true, rho, rad)
+            seen += 1
+    assert seen > 50
 
 
 def test_ellipsoid_against_a_large_box_face():

@@ -167,8 +167,9 @@ def _extent(s, u0, u1, u2):
     if kind == CYLINDER:
         e = prm[1] * abs(l2) + prm[0] * math.sqrt(l0 * l0 + l1 * l1)
         return -e, e
-    if kind == ELLIPSOID:
-        e = math.sqrt((prm[0] * l0) ** 2 + (prm[1] * l1) ** 2 + (prm[2] * l2) ** 2)
+    if kind == ELLIPSOID:  # the core: the ellipsoid less its rolling ball (`collide.support.rolling_radius`)
+        e = math.sqrt((prm[0] * l0) ** 2 + (prm[1] * l1) ** 2 + (prm[2] * l2) ** 2) \
+            - prm[3] * math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
         return -e, e
     return np.nan, np.nan
 

@@ -7,7 +7,7 @@ A *shape* here is a flat tuple the narrow-phase kernels pass around unchanged (D
 - ``kind`` : int64, one of `POINTS`, `CYLINDER`, `CONE`, `ELLIPSOID`;
 - ``prm`` : ``(4,) float64``: the primitive's parameters (cylinder ``radius, half_height``; cone
   ``radius, height``; ellipsoid ``rx, ry, rz``) and, last, the ball radius added to the core
-  (``prm[3]``, the `PointCloud` radius; the kernels here never read it);
+  (``prm[3]``: the `PointCloud` radius; an ellipsoid's rolling radius, `collide.support.rolling_radius`);
 - ``pts`` : ``(n, 3) float64``: the core's points in the shape frame (``POINTS`` only; ``(0, 3)``
   otherwise);
 - ``nbr_start`` : ``(n + 1,) int32`` and ``nbr`` : ``(m,) int32``: the hull's vertex adjacency in
@@ -15,8 +15,10 @@ A *shape* here is a flat tuple the narrow-phase kernels pass around unchanged (D
   hill-climbing; a ``nbr_start`` of length below 2 means "scan every point";
 - ``rot`` : ``(3, 3) float64`` and ``pos`` : ``(3,) float64``: the pose, world = ``rot @ x + pos``.
 
-The core is ``hull(pts)`` or the primitive's solid; the full set is the core ⊕ ball(``prm[3]``)
-(Box2D's proxy form), whose radius the distance kernels add after GJK/EPA ran on the cores.
+The core is ``hull(pts)``, the cylinder's or cone's solid, or the ellipsoid's inner parallel body at
+distance ``prm[3]`` (the ellipsoid is that core ⊕ ball(``prm[3]``): `collide.support.rolling_radius`);
+the full set is the core ⊕ ball(``prm[3]``) (Box2D's proxy form), whose radius the distance kernels
+add after GJK/EPA ran on the cores. Only the ellipsoid's support reads ``prm[3]``.
 
 The support of ``rot @ K + pos`` is ``rot @ s_K(rot^T d) + pos`` for *any* linear ``rot``
 (``h_{RK}(d) = h_K(R^T d)``), so a rotation off by rounding still gives the exact support of the
@@ -144,19 +146,21 @@ def support(shape, d0, d1, d2, hint, out):
             x = 0.0
             y = 0.0
             z = 0.0
-    else:  # ELLIPSOID: D^2 l / |D l| with D = diag(radii)
+    else:  # ELLIPSOID less its rolling ball: D^2 l / |D l| - rho l / |l|, D = diag(radii), rho = prm[3]
         a = prm[0]
         b = prm[1]
         c = prm[2]
+        rho = prm[3]
         q = math.sqrt((a * l0) ** 2 + (b * l1) ** 2 + (c * l2) ** 2)
         if q > 0.0:
-            x = a * a * l0 / q
-            y = b * b * l1 / q
-            z = c * c * l2 / q
+            ll = rho / math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
+            x = a * a * l0 / q - ll * l0
+            y = b * b * l1 / q - ll * l1
+            z = c * c * l2 / q - ll * l2
         else:
             x = 0.0
             y = 0.0
-            z = c
+            z = c - rho
     for k in range(3):
         out[k] = rot[k, 0] * x + rot[k, 1] * y + rot[k, 2] * z + pos[k]
     return idx
