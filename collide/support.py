@@ -145,7 +145,7 @@ def rolling_radius(radii) -> float:
     Parameters
     ----------
     radii : (3,) array_like of float
-        The semi-axes, positive.
+        The semi-axes, non-negative (zero ones: a flat ellipsoid, whose ball is 0).
 
     Returns
     -------
@@ -153,6 +153,8 @@ def rolling_radius(radii) -> float:
     """
     r = np.asarray(radii, dtype=np.float64)
     lo, hi = float(r.min()), float(r.max())
+    if not hi > 0.0:  # a point (all radii zero): its own core
+        return 0.0
     return (1.0 - _ROLLING_SHRINK) * lo * lo / hi
 
 

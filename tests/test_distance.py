@@ -402,6 +402,17 @@ def test_an_ellipsoid_is_its_rolling_core_plus_the_ball():
             assert _support_violation(over, dirs) > 1e-9 * scale, radii
 
 
+def test_flat_and_point_ellipsoids_have_no_ball():
+    # A radius of zero (a disk, a segment, a point) leaves no ball to roll: rho 0, and the
+    # distances those of the flat shapes (helper-52: all zeros divided by zero).
+    assert support_data(Ellipsoid([0.0, 0.0, 0.0])).prm[3] == 0.0
+    assert support_data(Ellipsoid([1.0, 1.0, 0.0])).prm[3] == 0.0
+    r = collide.distance(Ellipsoid([0.0, 0.0, 0.0]), PointCloud([[1.0, 0.0, 0.0]], 0.25))
+    assert r.distance == pytest.approx(0.75, abs=1e-12)
+    r = collide.distance(Ellipsoid([2.0, 1.0, 0.0]), PointCloud([[0.0, 0.0, 1.0]], 0.25))
+    assert r.distance == pytest.approx(0.75, abs=1e-12)
+
+
 def test_a_shallow_penetration_of_ellipsoids_needs_no_epa():
     # Within the two rolling balls the cores stay apart: GJK answers (the kernel's penetrating
     # flag off), and the depth is the closed form's (a sphere in an ellipsoid).
