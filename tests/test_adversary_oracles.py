@@ -3,6 +3,8 @@
 `collide.testing.signed_excess` (cf33f59) measured an outside point against the triangles whose
 facet plane has the point on its outer side only; Qhull's plane of a sliver facet (a cloud of
 near-duplicate points) can be far off, which dropped the nearest triangle.
+`collide.testing.point_signed_distance` of an ellipsoid lost its digits near a near-sphere's centre
+(helper-52, 2026-11-30).
 """
 
 from __future__ import annotations
@@ -116,3 +118,28 @@ def test_mesh_spans_equal_all_triangles_on_edge_rays():
         got, want = T._mesh_spans(tri, o, d), T._mesh_spans_all(tri, o, d)
         assert np.isfinite(want[0]).any(axis=1).sum() > 50  # rays with real spans
         assert _spans_equal(got, want), trial
+
+
+def test_ellipsoid_oracle_near_a_near_spheres_centre():
+    # `collide.testing.point_signed_distance` of an ellipsoid (Eberly's root) computed r_i^2 + t
+    # where t is -r_min^2 to within the point's offset: near a near-sphere's centre it lost every
+    # digit (helper-52: -1.0000888 for a unit near-sphere). The support function bounds the truth
+    # from below, sd(p) >= max over unit u of u . p - h(u), on sampled directions, and the point
+    # cannot be deeper than the shortest radius.
+    from collide import Ellipsoid
+    from collide.testing import point_signed_distance
+
+    rng = np.random.default_rng(31)
+    U = rng.normal(size=(20000, 3))
+    U /= np.linalg.norm(U, axis=1, keepdims=True)
+    for radii in ([1.0, 0.999999, 0.999998], [1.0, 1.0, 1.0 + 1e-12], [0.5, 0.5, 0.1], [2.0, 0.01, 0.5]):
+        r = np.array(radii)
+        m = int(np.argmin(r))
+        for k in range(400):
+            p = rng.normal(size=3) * [1e-12, 1e-8, 1e-5, 0.1, 0.5, 3.0][k % 6]
+            if k % 2:
+                p[m] *= 1e-6  # near the plane of the shortest axis
+            d = point_signed_distance(Ellipsoid(r), p)
+            bound = float(np.max(U @ p - np.linalg.norm(U * r, axis=1)))
+            assert d >= bound - 1e-12, (radii, p, d, bound)
+            assert d >= -r.min() * (1.0 + 1e-12), (radii, p, d)

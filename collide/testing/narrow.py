@@ -182,18 +182,22 @@ def _segment_2d(p, a, b):
 
 def _ellipsoid_sd(r: np.ndarray, y: np.ndarray) -> float:
     # Eberly's method: the closest boundary point is x_i = r_i^2 y_i / (r_i^2 + t) for the root t
-    # of F(t) = sum (r_i y_i / (r_i^2 + t))^2 - 1, unique on t > -min r_i^2, where F decreases;
-    # F >= 0 at -r_m^2 + r_m |y_m| (its m term alone is >= 1) and F <= 0 at -r_m^2 + |r y|.
+    # of F(t) = sum (r_i y_i / (r_i^2 + t))^2 - 1, unique on t > -min r_i^2, where F decreases.
+    # Solved for u = t + r_m^2 > 0 (r_m the shortest radius), with r_i^2 + t = (r_i - r_m)(r_i + r_m)
+    # + u: r_i^2 + t computed as such lost every digit near a near-sphere's centre, where t is
+    # -r_m^2 to within the point's tiny offset (helper-52: -1.0000888 for a unit near-sphere).
+    # F >= 0 at u = r_m |y_m| (its m term alone is 1) and F <= 0 at u = |r y|.
     y = np.abs(y)
     m = int(np.argmin(r))
     if not (np.all(r > 0) and y[m] > 0):
         raise ValueError("needs radii > 0 and a point off the plane of the shortest axis")
+    delta = (r - r[m]) * (r + r[m])  # r_i^2 - r_m^2 >= 0, exact where r_i == r_m
 
-    def F(t):
-        return float(np.sum((r * y / (r * r + t)) ** 2) - 1.0)
+    def F(u):
+        return float(np.sum((r * y / (delta + u)) ** 2) - 1.0)
 
-    lo = -r[m] ** 2 + r[m] * y[m]
-    hi = -r[m] ** 2 + float(np.linalg.norm(r * y))
+    lo = r[m] * y[m]
+    hi = float(np.linalg.norm(r * y))
     for _ in range(2000):
         mid = 0.5 * (lo + hi)
         if not lo < mid < hi:
@@ -202,8 +206,8 @@ def _ellipsoid_sd(r: np.ndarray, y: np.ndarray) -> float:
             lo = mid
         else:
             hi = mid
-    t = 0.5 * (lo + hi)
-    x = r * r * y / (r * r + t)
+    u = 0.5 * (lo + hi)
+    x = r * r * y / (delta + u)
     d = float(np.linalg.norm(x - y))
     return -d if float(np.sum((y / r) ** 2)) < 1.0 else d
 
