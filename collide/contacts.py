@@ -414,7 +414,7 @@ def narrow_phase(table: GeomTable, pairs, geom_xpos, geom_xmat) -> Contacts:
     ----------
     table : GeomTable
     pairs : (K, 2) array_like of int
-        Geom ids (a broad phase's output), lower first.
+        Geom ids (a broad phase's output), lower first; an empty list is no pairs.
     geom_xpos : (G, 3) array_like of float
     geom_xmat : (G, 9) or (G, 3, 3) array_like of float
         World poses of every geom (MuJoCo's ``data.geom_xpos``, ``data.geom_xmat``).
@@ -430,6 +430,8 @@ def narrow_phase(table: GeomTable, pairs, geom_xpos, geom_xmat) -> Contacts:
         of a geom in a pair (naming it).
     """
     P = np.asarray(pairs)
+    if P.ndim == 1 and P.size == 0:  # no pairs, as an empty list: the empty (0, 2)
+        P = P.reshape(0, 2)
     if P.ndim != 2 or P.shape[1] != 2 or (P.size and not np.issubdtype(P.dtype, np.integer)):
         raise ValueError(f"pairs: expected a (K, 2) integer array, got shape {P.shape}, dtype {P.dtype}")
     _check_ids(table, P)  # before narrowing to int32 (2**32 + 1 would become 1)

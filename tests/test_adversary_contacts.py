@@ -132,6 +132,24 @@ def test_narrow_phase_checks_ids_before_narrowing_to_int32():
             cc.narrow_phase(t, np.array(bad, np.int64), d.geom_xpos, d.geom_xmat)
 
 
+def test_narrow_phase_of_no_pairs_is_the_empty_result():
+    # An empty list of pairs (a user's broad phase found none) is no pairs, not a wrongly shaped
+    # array; a wrongly shaped empty one still is.
+    m = mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><geom type="plane" size="1 1 1"/>'
+        '<body pos="0 0 0.09"><freejoint/><geom type="sphere" size="0.1"/></body></worldbody></mujoco>')
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    t = cc.GeomTable(m)
+    for empty in ([], (), np.zeros(0, np.int64), np.zeros((0, 2), np.int32)):
+        c = cc.narrow_phase(t, empty, d.geom_xpos, d.geom_xmat)
+        assert len(c) == 0 and c.geom.shape == (0, 2) and c.pos.shape == (0, 3)
+    for bad in (np.zeros((0, 3), np.int32), [[]]):
+        with pytest.raises(ValueError, match="pairs"):
+            cc.narrow_phase(t, bad, d.geom_xpos, d.geom_xmat)
+    assert len(cc.narrow_phase(t, [[0, 1]], d.geom_xpos, d.geom_xmat)) == 1  # and the real contact
+
+
 def test_shared_empty_contacts_cannot_be_changed_through_its_arrays():
     # Every call without contacts returns the table's one empty Contacts: resizing one of its
     # arrays in place (it owned its data) made every later empty result 5 rows long.
