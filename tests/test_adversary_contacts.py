@@ -118,14 +118,19 @@ def test_contacts_of_checks_geom_ids(scene):
     assert _same(cc.contacts_of(t, P.astype(np.int32), xpos, xmat), ref)  # still works after
 
 
-def test_narrow_phase_checks_ids_before_narrowing_to_int32():
-    # 2**32 + 1 narrowed to int32 is 1: checked after the cast, the pair (0, 1) was collided.
+def _sphere_sunk_in_plane():
+    # (GeomTable, MjData) of a sphere 1 cm into a plane: geoms (0, 1) make one contact.
     m = mujoco.MjModel.from_xml_string(
         '<mujoco><worldbody><geom type="plane" size="1 1 1"/>'
         '<body pos="0 0 0.09"><freejoint/><geom type="sphere" size="0.1"/></body></worldbody></mujoco>')
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
-    t = cc.GeomTable(m)
+    return cc.GeomTable(m), d
+
+
+def test_narrow_phase_checks_ids_before_narrowing_to_int32():
+    # 2**32 + 1 narrowed to int32 is 1: checked after the cast, the pair (0, 1) was collided.
+    t, d = _sphere_sunk_in_plane()
     assert len(cc.narrow_phase(t, np.array([[0, 1]]), d.geom_xpos, d.geom_xmat)) == 1  # a real contact
     for bad in ([[0, 2**32 + 1]], [[-2**32, 1]], [[2**32, 2**32 + 1]]):
         with pytest.raises(ValueError, match="pairs"):
@@ -135,12 +140,7 @@ def test_narrow_phase_checks_ids_before_narrowing_to_int32():
 def test_narrow_phase_of_no_pairs_is_the_empty_result():
     # An empty list of pairs (a user's broad phase found none) is no pairs, not a wrongly shaped
     # array; a wrongly shaped empty one still is.
-    m = mujoco.MjModel.from_xml_string(
-        '<mujoco><worldbody><geom type="plane" size="1 1 1"/>'
-        '<body pos="0 0 0.09"><freejoint/><geom type="sphere" size="0.1"/></body></worldbody></mujoco>')
-    d = mujoco.MjData(m)
-    mujoco.mj_forward(m, d)
-    t = cc.GeomTable(m)
+    t, d = _sphere_sunk_in_plane()
     for empty in ([], (), np.zeros(0, np.int64), np.zeros((0, 2), np.int32)):
         c = cc.narrow_phase(t, empty, d.geom_xpos, d.geom_xmat)
         assert len(c) == 0 and c.geom.shape == (0, 2) and c.pos.shape == (0, 3)
