@@ -10,6 +10,7 @@ only: whatever it holds, the answers stay certified. Pairs that never penetrate 
 from __future__ import annotations
 
 import copy
+import math
 import pickle
 
 import mujoco
@@ -20,7 +21,8 @@ import collide.mujoco as cm
 from collide._kernels import epa as ke
 from collide._kernels.manifold import CONTACT_TOL
 from collide._kernels.support import POINTS
-from collide._kernels.warm import WARM_HITS, WARM_KEYS, WARM_LEN, WARM_ROWS, WARM_SLOTS, WARM_TRIES, warm_slot
+from collide._kernels.warm import (SEP_LEN, SEP_ROW, SEP_SLOTS, WARM_HITS, WARM_KEYS, WARM_LEN, WARM_ROWS,
+                                   WARM_SLOTS, WARM_TRIES, warm_slot)
 from contact_check import MODELS
 
 SCENES = sorted(p.name for p in MODELS.iterdir() if (p / "scene.xml").is_file()) if MODELS.is_dir() else []
@@ -29,6 +31,16 @@ needs_models = pytest.mark.skipif(not SCENES, reason=f"the test models are not p
 
 def _cache(col: cm.Collider) -> np.ndarray:
     return col.table._wsi[-WARM_LEN:]  # the scratch's tail (`collide._kernels.manifold.scratch_sizes`)
+
+
+def _sep(col: cm.Collider) -> np.ndarray:
+    # the separation cache, before the warm-start cache: (SEP_SLOTS, SEP_ROW) int64
+    return col.table._wsi[-WARM_LEN - SEP_LEN:-WARM_LEN].reshape(SEP_SLOTS, SEP_ROW)
+
+
+def _empty(col: cm.Collider) -> None:
+    # both caches emptied: the call after is cold
+    col.table._wsi[-WARM_LEN - SEP_LEN:] = 0
 
 
 def _deepest(c) -> dict:
@@ -80,7 +92,7 @@ def test_warm_agrees_with_cold(scene):
         if warm is None:
             warm, cold = cm.Collider(model), cm.Collider(model)
         cw = warm.contacts(data)
-        _cache(cold)[:] = 0
+        _empty(cold)
         cc = cold.contacts(data)
         _compare(cw, cc, warm.table.size)
         n += len(cc)
@@ -133,7 +145,7 @@ def test_garbage_cache_still_certified():
         cw = warm.contacts(data)
         if kind != 2:
             read += cache[WARM_TRIES] - t0
-        _cache(cold)[:] = 0
+        _empty(cold)
         _compare(cw, cold.contacts(data), warm.table.size)
         steps += 1
     assert steps == 120 and read > 1000  # garbage rows were read
@@ -226,3 +238,154 @@ def test_copies_get_their_own_cache():
     for t in (copy.copy(col.table), copy.deepcopy(col.table), pickle.loads(pickle.dumps(col.table))):
         assert not np.shares_memory(t._wsi, col.table._wsi)
         assert not np.any(t._wsi[-WARM_LEN:])
+
+
+# ---- the separation cache (`collide._kernels.warm.sep_test`): pairs kept apart along a direction
+
+def _sep_shape(rng, k):
+    # a convex set of each kind the narrow phase runs GJK on: a point cloud with a radius (a mesh,
+    # a box), a flat and a collinear cloud, and the exact curved primitives
+    from collide import Cone, Cylinder, Ellipsoid, PointCloud
+    j = k % 6
+    if j == 0:
+        return PointCloud(rng.normal(size=(30, 3)), rng.uniform(0.0, 0.2))
+    if j == 1:
+        return PointCloud(rng.normal(size=(12, 3)) * [1.0, 1.0, 0.0], 0.0)  # flat
+    if j == 2:
+        return PointCloud(np.outer(rng.normal(size=5), rng.normal(size=3)), rng.uniform(0.0, 0.3))  # collinear
+    if j == 3:
+        return Cylinder(rng.uniform(0.2, 1.0), rng.uniform(0.2, 1.0))
+    if j == 4:
+        return Cone(rng.uniform(0.2, 1.0), rng.uniform(0.2, 2.0))
+    return Ellipsoid(rng.uniform(0.2, 1.0, 3))
+
+
+def test_separation_rows_are_certificates():
+    """A row's direction settles a pair only when the pair is apart beyond ``thr``: random pairs
+    of every kind at their exact distance ``D``, ``thr`` just below, at and above it (down to 1e-12
+    of the size), directions the exact normal tilted by 0 to 1e-2 rad, reversed, and garbage
+    (zero, NaN, huge): whenever `sep_test` answers apart, ``thr`` is below the exact distance's
+    certified upper bound, and the kept row (`sep_keep`) of the exact answer settles the pair
+    while ``thr`` stays a little below ``D``."""
+    from collide._kernels import distance as kd
+    from collide._kernels import warm as kw
+    from collide.support import support_data
+    from collide.testing.surfaces import random_rotation
+
+    rng = np.random.default_rng(52)
+    sep = np.zeros(SEP_LEN, np.int64)
+    sepf = sep.view(np.float64)
+    pa, pb = np.zeros(3), np.zeros(3)
+    out = np.empty(kd.OUT_SIZE)
+    key = 12345
+    o = warm_slot(key) * SEP_ROW
+    answers = {True: 0, False: 0}
+    kept = 0
+    for k in range(600):
+        da, db = support_data(_sep_shape(rng, k)), support_data(_sep_shape(rng, k // 6))
+        ra, rb = random_rotation(rng), random_rotation(rng)
+        ta = rng.normal(size=3)
+        tb = ta + rng.normal(size=3) * rng.uniform(0.5, 4.0)
+        sa, sb = da.posed(ra, ta), db.posed(rb, tb)
+        size = da.size + db.size
+        kd.pair_distance(sa, sb, 1e-12 * size, np.zeros(3), -1, -1, 128, out)
+        D, upper, n = out[kd.OUT_DISTANCE], out[kd.OUT_UPPER], out[kd.OUT_NORMAL:kd.OUT_NORMAL + 3].copy()
+        exact = out.copy()
+        for delta in (1e-2, 1e-9, 1e-12, 0.0, -1e-12, -1e-3):
+            thr = D - delta * size
+            for tilt in (0.0, 1e-8, 1e-4, 1e-2, math.pi, -1.0, -2.0, -3.0):
+                if tilt == -1.0:
+                    u = np.zeros(3)
+                elif tilt == -2.0:
+                    u = np.full(3, np.nan)
+                elif tilt == -3.0:
+                    u = n * 1e300
+                else:
+                    w = np.cross(n, rng.normal(size=3))
+                    u = math.cos(tilt) * n + math.sin(tilt) * w / np.linalg.norm(w)
+                sep[o] = key
+                sepf[o + 1:o + 4] = u
+                sep[o + 4] = int(rng.integers(-2**62, 2**62))  # any hints
+                apart = kw.sep_test(sep, sepf, key, sa, sb, thr, pa, pb)
+                answers[apart] += 1
+                if apart:
+                    assert thr < upper and tilt >= 0.0, (k, delta, tilt, D, thr)
+        if D > 0.0:  # the row kept from the exact answer settles the pair below D
+            kw.sep_keep(sep, sepf, key, exact)
+            kept += kw.sep_test(sep, sepf, key, sa, sb, D - 1e-6 * size, pa, pb)
+        sep[o] = key + 1  # another pair's row: not read
+        assert not kw.sep_test(sep, sepf, key, sa, sb, -1e300, pa, pb)
+    assert answers[True] > 1000 and answers[False] > 1000 and kept > 400, (answers, kept)
+
+
+def _apart_rows(col: cm.Collider, pairs, G: int) -> set:
+    # the pairs of the call that hold a row of the separation cache
+    rows = _sep(col)
+    keys = {g1 * G + g2 + 1 for g1, g2 in pairs.tolist()}
+    return {int(rows[s, 0]) for s in range(SEP_SLOTS) if rows[s, 0] in keys}
+
+
+@needs_models
+def test_separation_rows_settle_the_pairs_that_stay_apart():
+    """shadow_hand (curved geoms and meshes, mostly apart): the pairs that GJK found apart hold
+    rows, none in contact does, and the contacts are a cold call's bit for bit; the same state
+    again is settled by the rows (read, not rewritten: a mark in their directions survives)."""
+    col = cold = None
+    for model, data in _steps("shadow_hand", 120):
+        if col is None:
+            col, cold = cm.Collider(model), cm.Collider(model)
+            G = model.ngeom
+        _cache(col)[:] = 0  # no kept polytope: its answers differ from a cold call's by the tolerance
+        c = col.contacts(data)
+        _empty(cold)
+        cc = cold.contacts(data)
+        for f in ("geom", "dist", "pos", "normal", "margin"):
+            assert np.array_equal(getattr(c, f), getattr(cc, f)), f
+        pairs = col.pairs(data)
+        touching = {g1 * G + g2 + 1 for g1, g2 in c.geom.tolist()}
+        held = _apart_rows(col, pairs, G)
+        assert not held & touching
+    assert len(c) > 0 and len(held) > 5  # real contacts, and pairs held apart
+    rows = _sep(col)
+    rowsf = rows.view(np.float64)
+    scale = 1.0 + 2.0 ** -30  # a mark: GJK's normals are unit within rounding
+    for s in range(SEP_SLOTS):
+        if rows[s, 0] in held:
+            rowsf[s, 1:4] *= scale
+    marked = rowsf[:, 1:4].copy()
+    again = col.contacts(data)
+    _compare(again, c, col.table.size)
+    settled = sum(1 for s in range(SEP_SLOTS) if rows[s, 0] in held and np.array_equal(rowsf[s, 1:4], marked[s]))
+    assert settled >= 0.9 * len(held), (settled, len(held))
+
+
+@needs_models
+def test_garbage_separation_rows_still_certified():
+    """Every candidate pair's key set, with random directions (some settle pairs: they are
+    separating planes of pairs far enough apart), garbage ones and random hints: the contacts are
+    a cold call's, bit for bit."""
+    rng = np.random.default_rng(5)
+    col = cold = None
+    steps = n = 0
+    for model, data in _steps("shadow_hand", 90, seed=2):
+        if col is None:
+            col, cold = cm.Collider(model), cm.Collider(model)
+            G = model.ngeom
+        rows = _sep(col)
+        rowsf = rows.view(np.float64)
+        for g1, g2 in col.pairs(data).tolist():
+            key = g1 * G + g2 + 1
+            s = warm_slot(key)
+            rows[s, 0] = key
+            u = rng.normal(size=3)
+            rowsf[s, 1:4] = (u / np.linalg.norm(u)) if steps % 3 else rng.choice([0.0, np.nan, 1e300, 0.6], 3)
+            rows[s, 4] = int(rng.integers(-2**62, 2**62))
+        _cache(col)[:] = 0  # no kept polytope: its answers differ from a cold call's by the tolerance
+        cw = col.contacts(data)
+        _empty(cold)
+        cc = cold.contacts(data)
+        for f in ("geom", "dist", "pos", "normal", "margin"):
+            assert np.array_equal(getattr(cw, f), getattr(cc, f)), f
+        n += len(cc)
+        steps += 1
+    assert steps == 90 and n > 50

@@ -158,8 +158,10 @@ def pair_distance_within(sa, sb, tol, cutoff, d0, hint_a, hint_b, max_iter, out,
         Cap on GJK iterations and on EPA's polytope vertices.
     out : (16,) float64
         Receives, by slot (the ``OUT_*`` constants): distance, lower, upper, point_a (3),
-        point_b (3), normal (3, unit, from A to B), penetrating (1.0 when the cores overlap and
-        EPA ran), iterations (GJK's plus EPA's; 0 when ``entry`` answered), hint_a, hint_b.
+        point_b (3), normal (3, unit, from A to B; when GJK stopped at ``cutoff``, the direction
+        whose support values showed it: a separating plane's), penetrating (1.0 when the cores
+        overlap and EPA ran), iterations (GJK's plus EPA's; 0 when ``entry`` answered), hint_a,
+        hint_b.
     entry : (ENTRY,) int64, optional
         The pair's row of a warm-start cache (`collide._kernels.epa`'s ``E_*``), for two point
         clouds (``POINTS``) only: when it holds a polytope, `collide._kernels.epa.epa_warm` tries
@@ -251,7 +253,7 @@ def pair_distance_within(sa, sb, tol, cutoff, d0, hint_a, hint_b, max_iter, out,
                 pa[k] = res[3 + k]
                 pb[k] = res[6 + k]
             gap = math.sqrt((pb[0] - pa[0]) ** 2 + (pb[1] - pa[1]) ** 2 + (pb[2] - pa[2]) ** 2)
-    if gap > 0.0 and 1.0 / gap < cond:
+    if gap > 0.0 and 1.0 / gap < cond and not lower > cutoff + r:
         for k in range(3):
             nrm[k] = sign * (pb[k] - pa[k])
     ln = math.sqrt(nrm[0] ** 2 + nrm[1] ** 2 + nrm[2] ** 2)

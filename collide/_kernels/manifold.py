@@ -55,7 +55,8 @@ from .plane import (PLANE_FACE_TOL, RULE_CYLINDER, RULE_POINTS, RULE_SUPPORT, RU
                     _support_minus, plane_convex, plane_mesh, reduce_four)
 from .polytope import EDGE_TOL, FACE_TOL, _edge_in_face, _touching_faces, _world_face, polytope_contacts
 from .support import POINTS, support
-from .warm import WARM_KEYS, WARM_LEN, distance_warm, warm_claim, warm_slot
+from .warm import (SEP_LEN, WARM_KEYS, WARM_LEN, distance_warm, sep_forget, sep_keep, sep_test, warm_claim,
+                   warm_slot)
 
 # This module's own names, and those of the routines moved out of it (plane, polytope), which
 # importers of `collide._kernels.manifold` still read here.
@@ -158,7 +159,8 @@ def scratch_sizes(cap, fmax):
     ni = 0
     for n in _SCRATCH_INT:
         ni += n
-    return nf, ni + WARM_LEN  # then the warm-start cache (`collide._kernels.warm`), never cleared
+    # then the separation cache and the warm-start cache (`collide._kernels.warm`), never cleared
+    return nf, ni + SEP_LEN + WARM_LEN
 
 
 # Inlined: called once a `collide_bound` call, where a call returning its 22 views cost more
@@ -168,9 +170,10 @@ def carve_scratch(wsf, wsi, cap, fmax):
     """`collide_pairs`' scratch as views of two flat workspaces (`scratch_sizes` long at least).
 
     Returns the tuple ``(cand, dep, sel, res, bnrm, bws, seg, pcand, pdep, face1, face2, poly, tmp,
-    cand1, cand2, cnrm1, cnrm2, pa, pb, nv, out, d0, cache)``; ``sel`` and ``d0`` are zeroed (``d0``
-    is GJK's cold start, zeros), ``cache`` (`collide._kernels.warm`, the rest of ``wsi``) is kept
-    across calls, the rest is written before it is read.
+    cand1, cand2, cnrm1, cnrm2, pa, pb, nv, out, d0, sep, sepf, cache)``; ``sel`` and ``d0`` are zeroed
+    (``d0`` is GJK's cold start, zeros), ``sep`` (``sepf`` the same memory as float64) and ``cache``
+    (`collide._kernels.warm`'s separation and warm-start caches, the rest of ``wsi``) are kept across
+    calls, the rest is written before it is read.
     """
     (n_cand, n_dep, n_res, n_bnrm, n_bws, n_seg, n_pcand, n_pdep, n_face1, n_face2, n_poly, n_tmp, n_cnrm1,
      n_cnrm2, n_pa, n_pb, n_nv, n_out, n_d0) = _scratch_lengths(cap, fmax)
@@ -218,9 +221,12 @@ def carve_scratch(wsf, wsi, cap, fmax):
     sel[:] = 0
     cand1 = wsi[n_sel:n_sel + n_cand1]
     cand2 = wsi[n_sel + n_cand1:n_sel + n_cand1 + n_cand2]
-    cache = wsi[n_sel + n_cand1 + n_cand2:]  # shorter than WARM_LEN (`_scratch`): no warm start
+    rest = wsi[n_sel + n_cand1 + n_cand2:]
+    ns = SEP_LEN if rest.shape[0] >= SEP_LEN + WARM_LEN else 0  # shorter (`_scratch`): no cache, cold
+    sep = rest[:ns]
+    cache = rest[ns:]
     return (cand, dep, sel, res, bnrm, bws, seg, pcand, pdep, face1, face2, poly, tmp, cand1, cand2, cnrm1, cnrm2,
-            pa, pb, nv, out, d0, cache)
+            pa, pb, nv, out, d0, sep, sep.view(np.float64), cache)
 
 
 @njit(cache=True)
@@ -243,7 +249,7 @@ def _scratch(pts_num, f_vnum):
     # `collide_pairs`' scratch, allocated once a call (`collide_bound` takes a workspace instead).
     cap, fmax = scratch_caps(pts_num, f_vnum)
     nf, ni = scratch_sizes(cap, fmax)
-    return carve_scratch(np.empty(nf), np.empty(ni - WARM_LEN, np.int64), cap, fmax)  # no cache: cold
+    return carve_scratch(np.empty(nf), np.empty(ni - SEP_LEN - WARM_LEN, np.int64), cap, fmax)  # no cache: cold
 
 
 @njit(cache=True, inline="always")
@@ -439,7 +445,7 @@ def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
     out_geom, out_dist, out_pos, out_normal, out_margin, skipped = outs
     G = cls.shape[0]
     (cand, dep, sel, res, bnrm, bws, seg, pcand, pdep, face1, face2, poly, tmp, cand1, cand2, cnrm1, cnrm2, pa, pb,
-     nv, out, d0, cache) = ws
+     nv, out, d0, sep, sepf, cache) = ws
     pfaces = (hv_adr, hv_num, hv, f_adr, f_num, f_normal, f_vadr, f_vnum, f_vidx)
     scratch = (cand, dep, sel, res, bnrm, bws, pcand, pdep)
     k = 0
@@ -482,13 +488,22 @@ def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
             # GJK stops once the pair is certainly beyond its contact distance (by the tolerance:
             # the converged distance would exceed thr too), as MuJoCo's GJK at its dist_cutoff
             tol = CONTACT_TOL * (size[g1] + size[g2])
-            # the warm start across calls (`collide._kernels.warm`), for two point clouds that
-            # GJK/EPA decide (not two spheres or capsules: `distance.segment_distance`) and only
-            # once they penetrated: any other pair takes the cold query, after one key look-up
+            # the caches across calls (`collide._kernels.warm`), for pairs that GJK/EPA decide
+            # (not two spheres or capsules, whose closed form, `distance.segment_distance`, is
+            # as cheap as the test): a pair last found apart is settled by its last separating
+            # direction when that still shows it apart; two point clouds last found penetrating
+            # try their kept polytope. Any other pair takes the cold query, after the look-ups.
+            # (A GJK started from the kept direction, which has just failed, was no faster over
+            # the models: tests/bench/contacts.txt, session 52.)
             key = 0
-            if (kind[g1] == POINTS and kind[g2] == POINTS and max(pts_num[g1], pts_num[g2]) > 2
-                    and cache.shape[0] >= WARM_LEN):
-                key = g1 * G + g2 + 1
+            skey = 0
+            if kind[g1] != POINTS or kind[g2] != POINTS or max(pts_num[g1], pts_num[g2]) > 2:
+                if sep.shape[0] == SEP_LEN:
+                    skey = g1 * G + g2 + 1
+                    if sep_test(sep, sepf, skey, s1, s2, thr, pa, pb):
+                        continue
+                if kind[g1] == POINTS and kind[g2] == POINTS and cache.shape[0] >= WARM_LEN:
+                    key = g1 * G + g2 + 1
             if key != 0 and cache[WARM_KEYS + warm_slot(key)] == key:
                 distance_warm(s1, s2, tol, thr + tol, d0, out, cache, key)
             else:
@@ -497,7 +512,11 @@ def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
                     warm_claim(cache, key)
             d = out[OUT_DISTANCE]
             if d > thr:
+                if skey != 0:
+                    sep_keep(sep, sepf, skey, out)
                 continue
+            if skey != 0:
+                sep_forget(sep, skey)
             if d < 0.0 and not thr > 0.0 and _polytope(t1) and _polytope(t2) and f_num[g1] > 0 and f_num[g2] > 0:
                 # two polytopes in penetration without a margin: MuJoCo's multi-contact of faces
                 for q in range(3):

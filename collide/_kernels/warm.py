@@ -24,12 +24,20 @@ from __future__ import annotations
 
 from numba import njit
 
-from ._ptr import NO_NRT
-from .distance import OUT_ITERATIONS, OUT_PENETRATING, pair_distance_within
-from .epa import E_NV, ENTRY
+import math
 
-__all__ = ["WARM_HITS", "WARM_KEYS", "WARM_LEN", "WARM_ROWS", "WARM_SLOTS", "WARM_TRIES", "distance_warm",
-           "warm_claim", "warm_slot"]
+import numpy as np
+
+from ._ptr import NO_NRT
+from .distance import (OUT_HINT_A, OUT_HINT_B, OUT_ITERATIONS, OUT_NORMAL, OUT_PENETRATING, ROUNDING,
+                       pair_distance_within)
+from .epa import E_NV, ENTRY
+from .support import support
+
+__all__ = ["SEP_LEN", "SEP_ROW", "SEP_SLOTS", "WARM_HITS", "WARM_KEYS", "WARM_LEN", "WARM_ROWS", "WARM_SLOTS",
+           "WARM_TRIES", "distance_warm", "sep_forget", "sep_keep", "sep_test", "warm_claim", "warm_slot"]
+
+_EPS = float(np.finfo(np.float64).eps)
 
 WARM_SLOTS = 1024  # a power of two (`warm_slot` masks)
 WARM_HITS, WARM_TRIES, WARM_KEYS = 0, 1, 2
@@ -70,3 +78,87 @@ def distance_warm(sa, sb, tol, cutoff, d0, out, cache, key):
         cache[WARM_HITS] += 1
     elif out[OUT_PENETRATING] != 1.0:  # apart (or degenerate): back to the cold query
         cache[WARM_KEYS + j] = 0
+
+
+# The separation cache: the pairs found apart beyond their contact distance, each with the
+# direction that showed it (GJK's normal) and its climbs' end vertices. Two convex sets whose
+# supports along one direction ``n`` leave a gap, ``min n.B - max n.A - r_a - r_b > thr``, are
+# farther apart than ``thr`` (a separating plane; the bound holds for any ``n``), so a pair that
+# barely moved since its last call is settled by two support points, without GJK: the
+# separating-axis cache of Rabbitz ("Fast collision detection of moving convex polyhedra",
+# Graphics Gems IV, 1994) on GJK's direction. A pair the direction no longer settles runs the
+# cold query, as without the cache (so its contacts are the cold call's, bit for bit), and keeps
+# its new direction if apart; a pair in contact frees its row. ``SEP_SLOTS`` rows of ``SEP_ROW``
+# int64, a hash of the pair's key a slot (another pair hashed there takes it over): the key, the
+# direction's three float64 (their bits), the climbs' start vertices (``hint_a | hint_b << 32``).
+# Whatever a row holds, `sep_test` certifies what it answers: the cache costs time, never
+# correctness.
+SEP_SLOTS = 1024  # a power of two (`warm_slot` masks)
+SEP_ROW = 5
+SEP_LEN = SEP_SLOTS * SEP_ROW
+
+
+@njit(**NO_NRT)
+def sep_test(sep, sepf, key, sa, sb, thr, pa, pb):
+    """Whether pair ``key``'s row in the separation cache shows it apart beyond ``thr``.
+
+    Parameters
+    ----------
+    sep : (SEP_LEN,) int64
+        The cache; ``sepf`` the same memory as float64.
+    key : int
+        The pair's key (``g1 * G + g2 + 1``).
+    sa, sb : tuple
+        Shape tuples (`collide._kernels.support`), ``prm[3]`` the ball radius.
+    thr : float
+        The pair's contact distance.
+    pa, pb : (3,) float64
+        Scratch.
+
+    Returns
+    -------
+    bool
+        True when the row is the pair's and the support points along its direction leave a gap
+        beyond ``thr``, less the rounding allowance of `collide._kernels.distance.ROUNDING`: the
+        pair makes no contact. False otherwise (no row, another pair's, a garbage direction, or
+        the gap too small): the caller decides the pair as without the cache.
+    """
+    o = warm_slot(key) * SEP_ROW
+    if sep[o] != key:
+        return False
+    n0, n1, n2 = sepf[o + 1], sepf[o + 2], sepf[o + 3]
+    nn = n0 * n0 + n1 * n1 + n2 * n2
+    if not 0.25 < nn < 4.0:  # also NaN: a direction near unit length, as kept (a garbage row: none)
+        return False
+    code = sep[o + 4]
+    ha = support(sa, n0, n1, n2, code & 0xFFFFFFFF, pa)
+    hb = support(sb, -n0, -n1, -n2, code >> 32, pb)
+    gap = (n0 * (pb[0] - pa[0]) + n1 * (pb[1] - pa[1]) + n2 * (pb[2] - pa[2])) / math.sqrt(nn)
+    ra = sa[1][3]
+    rb = sb[1][3]
+    scale = max(abs(pa[0]), abs(pa[1]), abs(pa[2]), abs(pb[0]), abs(pb[1]), abs(pb[2])) + ra + rb
+    if not gap - ra - rb - ROUNDING * _EPS * scale > thr:
+        return False
+    sep[o + 4] = (ha & 0xFFFFFFFF) | (hb << 32)  # the climbs' ends: next call's starts
+    return True
+
+
+@njit(**NO_NRT)
+def sep_keep(sep, sepf, key, out):
+    """Keep the direction and hints of a pair found apart (``out``: `pair_distance_within`'s)."""
+    o = warm_slot(key) * SEP_ROW
+    sep[o] = key
+    for k in range(3):
+        sepf[o + 1 + k] = out[OUT_NORMAL + k]
+    ha = out[OUT_HINT_A]
+    hb = out[OUT_HINT_B]
+    sep[o + 4] = (int(ha) if 0.0 <= ha < 2.0 ** 31 else 0xFFFFFFFF) | ((int(hb) if 0.0 <= hb < 2.0 ** 31 else -1)
+                                                                         << 32)
+
+
+@njit(cache=True, inline="always")
+def sep_forget(sep, key):
+    """Free pair ``key``'s row of the separation cache (if it holds it): the pair is in contact."""
+    o = warm_slot(key) * SEP_ROW
+    if sep[o] == key:
+        sep[o] = 0
