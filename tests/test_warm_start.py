@@ -306,15 +306,15 @@ def test_separation_rows_are_certificates():
                 sep[o] = key
                 sepf[o + 1:o + 4] = u
                 sep[o + 4] = int(rng.integers(-2**62, 2**62))  # any hints
-                apart = kw.sep_test(sep, sepf, key, sa, sb, thr, pa, pb)
+                apart = kw.sep_test(sep, key, sa, sb, thr, pa, pb)
                 answers[apart] += 1
                 if apart:
                     assert thr < upper and tilt >= 0.0, (k, delta, tilt, D, thr)
         if D > 0.0:  # the row kept from the exact answer settles the pair below D
-            kw.sep_keep(sep, sepf, key, exact)
-            kept += kw.sep_test(sep, sepf, key, sa, sb, D - 1e-6 * size, pa, pb)
+            kw.sep_keep(sep, key, exact)
+            kept += kw.sep_test(sep, key, sa, sb, D - 1e-6 * size, pa, pb)
         sep[o] = key + 1  # another pair's row: not read
-        assert not kw.sep_test(sep, sepf, key, sa, sb, -1e300, pa, pb)
+        assert not kw.sep_test(sep, key, sa, sb, -1e300, pa, pb)
     assert answers[True] > 1000 and answers[False] > 1000 and kept > 400, (answers, kept)
 
 

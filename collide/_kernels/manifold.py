@@ -170,10 +170,10 @@ def carve_scratch(wsf, wsi, cap, fmax):
     """`collide_pairs`' scratch as views of two flat workspaces (`scratch_sizes` long at least).
 
     Returns the tuple ``(cand, dep, sel, res, bnrm, bws, seg, pcand, pdep, face1, face2, poly, tmp,
-    cand1, cand2, cnrm1, cnrm2, pa, pb, nv, out, d0, sep, sepf, cache)``; ``sel`` and ``d0`` are zeroed
-    (``d0`` is GJK's cold start, zeros), ``sep`` (``sepf`` the same memory as float64) and ``cache``
-    (`collide._kernels.warm`'s separation and warm-start caches, the rest of ``wsi``) are kept across
-    calls, the rest is written before it is read.
+    cand1, cand2, cnrm1, cnrm2, pa, pb, nv, out, d0, sep, cache)``; ``sel`` and ``d0`` are zeroed
+    (``d0`` is GJK's cold start, zeros), ``sep`` and ``cache`` (`collide._kernels.warm`'s separation
+    and warm-start caches, the rest of ``wsi``) are kept across calls, the rest is written before it
+    is read.
     """
     (n_cand, n_dep, n_res, n_bnrm, n_bws, n_seg, n_pcand, n_pdep, n_face1, n_face2, n_poly, n_tmp, n_cnrm1,
      n_cnrm2, n_pa, n_pb, n_nv, n_out, n_d0) = _scratch_lengths(cap, fmax)
@@ -226,7 +226,7 @@ def carve_scratch(wsf, wsi, cap, fmax):
     sep = rest[:ns]
     cache = rest[ns:]
     return (cand, dep, sel, res, bnrm, bws, seg, pcand, pdep, face1, face2, poly, tmp, cand1, cand2, cnrm1, cnrm2,
-            pa, pb, nv, out, d0, sep, sep.view(np.float64), cache)
+            pa, pb, nv, out, d0, sep, cache)
 
 
 @njit(cache=True)
@@ -445,7 +445,7 @@ def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
     out_geom, out_dist, out_pos, out_normal, out_margin, skipped = outs
     G = cls.shape[0]
     (cand, dep, sel, res, bnrm, bws, seg, pcand, pdep, face1, face2, poly, tmp, cand1, cand2, cnrm1, cnrm2, pa, pb,
-     nv, out, d0, sep, sepf, cache) = ws
+     nv, out, d0, sep, cache) = ws
     pfaces = (hv_adr, hv_num, hv, f_adr, f_num, f_normal, f_vadr, f_vnum, f_vidx)
     scratch = (cand, dep, sel, res, bnrm, bws, pcand, pdep)
     k = 0
@@ -500,7 +500,7 @@ def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
             if kind[g1] != POINTS or kind[g2] != POINTS or max(pts_num[g1], pts_num[g2]) > 2:
                 if sep.shape[0] == SEP_LEN:
                     skey = g1 * G + g2 + 1
-                    if sep_test(sep, sepf, skey, s1, s2, thr, pa, pb):
+                    if sep_test(sep, skey, s1, s2, thr, pa, pb):
                         continue
                 if kind[g1] == POINTS and kind[g2] == POINTS and cache.shape[0] >= WARM_LEN:
                     key = g1 * G + g2 + 1
@@ -513,7 +513,7 @@ def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
             d = out[OUT_DISTANCE]
             if d > thr:
                 if skey != 0:
-                    sep_keep(sep, sepf, skey, out)
+                    sep_keep(sep, skey, out)
                 continue
             if skey != 0:
                 sep_forget(sep, skey)

@@ -99,13 +99,13 @@ SEP_LEN = SEP_SLOTS * SEP_ROW
 
 
 @njit(**NO_NRT)
-def sep_test(sep, sepf, key, sa, sb, thr, pa, pb):
+def sep_test(sep, key, sa, sb, thr, pa, pb):
     """Whether pair ``key``'s row in the separation cache shows it apart beyond ``thr``.
 
     Parameters
     ----------
     sep : (SEP_LEN,) int64
-        The cache; ``sepf`` the same memory as float64.
+        The cache.
     key : int
         The pair's key (``g1 * G + g2 + 1``).
     sa, sb : tuple
@@ -126,6 +126,7 @@ def sep_test(sep, sepf, key, sa, sb, thr, pa, pb):
     o = warm_slot(key) * SEP_ROW
     if sep[o] != key:
         return False
+    sepf = sep.view(np.float64)
     n0, n1, n2 = sepf[o + 1], sepf[o + 2], sepf[o + 3]
     nn = n0 * n0 + n1 * n1 + n2 * n2
     if not 0.25 < nn < 4.0:  # also NaN: a direction near unit length, as kept (a garbage row: none)
@@ -144,9 +145,10 @@ def sep_test(sep, sepf, key, sa, sb, thr, pa, pb):
 
 
 @njit(**NO_NRT)
-def sep_keep(sep, sepf, key, out):
+def sep_keep(sep, key, out):
     """Keep the direction and hints of a pair found apart (``out``: `pair_distance_within`'s)."""
     o = warm_slot(key) * SEP_ROW
+    sepf = sep.view(np.float64)
     sep[o] = key
     for k in range(3):
         sepf[o + 1 + k] = out[OUT_NORMAL + k]
@@ -156,7 +158,7 @@ def sep_keep(sep, sepf, key, out):
                                                                          << 32)
 
 
-@njit(cache=True, inline="always")
+@njit(**NO_NRT)
 def sep_forget(sep, key):
     """Free pair ``key``'s row of the separation cache (if it holds it): the pair is in contact."""
     o = warm_slot(key) * SEP_ROW
