@@ -494,7 +494,7 @@ def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
             # direction when that still shows it apart; two point clouds last found penetrating
             # try their kept polytope. Any other pair takes the cold query, after the look-ups.
             # (A GJK started from the kept direction, which has just failed, was no faster over
-            # the models: tests/bench/contacts.txt, session 52.)
+            # the models: tests/bench/contacts.txt, session 51.)
             key = 0
             skey = 0
             if kind[g1] != POINTS or kind[g2] != POINTS or max(pts_num[g1], pts_num[g2]) > 2:
