@@ -143,3 +143,46 @@ def test_ellipsoid_oracle_near_a_near_spheres_centre():
             bound = float(np.max(U @ p - np.linalg.norm(U * r, axis=1)))
             assert d >= bound - 1e-12, (radii, p, d, bound)
             assert d >= -r.min() * (1.0 + 1e-12), (radii, p, d)
+
+
+def test_ellipsoid_oracle_on_the_plane_of_the_shortest_axis():
+    # A point with y = 0 on the shortest axis (or on every one of two equal shortest axes) has its
+    # own case of Eberly's method (F's limit at t = -r_min^2 decides it); the oracle raised there.
+    # Against the surface's nearest point found by a dense sampling refined by scipy (|d|), and
+    # against the same point moved 1e-9 off the plane (the general case: continuity).
+    from scipy.optimize import minimize
+
+    from collide import Ellipsoid
+    from collide.testing import point_signed_distance
+
+    rng = np.random.default_rng(33)
+    th, ph = np.meshgrid(np.linspace(0, np.pi, 301), np.linspace(0, 2 * np.pi, 601), indexing="ij")
+    grid = np.stack([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)], axis=-1).reshape(-1, 3)
+    seen = {"in": 0, "out": 0, "centre": 0}
+    for radii in ([1.0, 0.7, 0.3], [0.3, 1.0, 0.7], [1.0, 0.4, 0.4], [0.5, 0.5, 0.5], [2.0, 1.9, 0.05]):
+        r = np.array(radii)
+        short = np.isclose(r, r.min())
+        surf = grid * r
+        for k in range(30):
+            p = rng.normal(size=3) * [0.05, 0.3, 1.0, 2.0][k % 4]
+            p[short] = 0.0
+            if k == 0:
+                p[:] = 0.0  # the centre
+            d = point_signed_distance(Ellipsoid(r), p)
+            assert np.isfinite(d)
+            i = int(np.argmin(np.linalg.norm(surf - p, axis=1)))
+            t0, f0 = np.arccos(np.clip(grid[i, 2], -1, 1)), np.arctan2(grid[i, 1], grid[i, 0])
+
+            def dist(a):
+                x = r * [np.sin(a[0]) * np.cos(a[1]), np.sin(a[0]) * np.sin(a[1]), np.cos(a[0])]
+                return float(np.linalg.norm(x - p))
+
+            best = minimize(dist, [t0, f0], method="Nelder-Mead", options=dict(xatol=1e-12, fatol=1e-14)).fun
+            assert abs(abs(d) - best) <= 1e-8 * (1.0 + best), (radii, p, d, best)
+            inside = np.sum((p / r) ** 2) < 1.0
+            assert (d < 0) == inside
+            seen["centre" if k == 0 else ("in" if inside else "out")] += 1
+            q = p.copy()
+            q[int(np.argmin(r))] = 1e-9
+            assert abs(point_signed_distance(Ellipsoid(r), q) - d) <= 1e-7, (radii, p)
+    assert seen["in"] > 20 and seen["out"] > 20 and seen["centre"] == 5, seen

@@ -186,17 +186,35 @@ def _ellipsoid_sd(r: np.ndarray, y: np.ndarray) -> float:
     # Solved for u = t + r_m^2 > 0 (r_m the shortest radius), with r_i^2 + t = (r_i - r_m)(r_i + r_m)
     # + u: r_i^2 + t computed as such lost every digit near a near-sphere's centre, where t is
     # -r_m^2 to within the point's tiny offset (helper-52: -1.0000888 for a unit near-sphere).
-    # F >= 0 at u = r_m |y_m| (its m term alone is 1) and F <= 0 at u = |r y|.
+    # A shortest axis i with y_i > 0 makes F >= 0 at u = r_i y_i (its term alone is 1), and F <= 0
+    # at u = |r y|. A point on the plane of every shortest axis (y_i = 0 there; Eberly 2013,
+    # "Distance from a point to an ellipse, an ellipsoid, or a hyperellipsoid", the case y_2 = 0):
+    # F's limit at u = 0+ is G = sum over the other axes of (r_i y_i / delta_i)^2 - 1; G > 0: the
+    # root is on (0, |r y|); G <= 0 (an interior point near the centre): u = 0, the other axes'
+    # x_i = r_i^2 y_i / delta_i and the rest of the unit sum on a shortest axis.
     y = np.abs(y)
+    if not np.all(r > 0):
+        raise ValueError("needs radii > 0")
     m = int(np.argmin(r))
-    if not (np.all(r > 0) and y[m] > 0):
-        raise ValueError("needs radii > 0 and a point off the plane of the shortest axis")
-    delta = (r - r[m]) * (r + r[m])  # r_i^2 - r_m^2 >= 0, exact where r_i == r_m
+    delta = (r - r[m]) * (r + r[m])  # r_i^2 - r_m^2 >= 0, exact (zero) where r_i == r_m
+    short = delta == 0.0
+    inside = float(np.sum((y / r) ** 2)) < 1.0
 
     def F(u):
         return float(np.sum((r * y / (delta + u)) ** 2) - 1.0)
 
-    lo = r[m] * y[m]
+    if np.any(y[short] > 0):
+        lo = float(np.max(r[short] * y[short]))
+    else:
+        o = ~short
+        x = np.zeros(3)
+        x[o] = r[o] ** 2 * y[o] / delta[o]
+        rest = 1.0 - float(np.sum((x[o] / r[o]) ** 2))
+        if rest >= 0.0:
+            x[m] = r[m] * math.sqrt(rest)
+            d = float(np.linalg.norm(x - y))
+            return -d if inside else d
+        lo = 0.0
     hi = float(np.linalg.norm(r * y))
     for _ in range(2000):
         mid = 0.5 * (lo + hi)
@@ -209,7 +227,7 @@ def _ellipsoid_sd(r: np.ndarray, y: np.ndarray) -> float:
     u = 0.5 * (lo + hi)
     x = r * r * y / (delta + u)
     d = float(np.linalg.norm(x - y))
-    return -d if float(np.sum((y / r) ** 2)) < 1.0 else d
+    return -d if inside else d
 
 
 def point_signed_distance(shape, point) -> float:
