@@ -325,6 +325,19 @@ def _apart_rows(col: cm.Collider, pairs, G: int) -> set:
     return {int(rows[s, 0]) for s in range(SEP_SLOTS) if rows[s, 0] in keys}
 
 
+def _as_cold(col: cm.Collider, cold: cm.Collider, data):
+    # col's contacts with its kept polytopes dropped (their answers differ from a cold call's by
+    # the tolerance) and its separation rows kept, against cold's with both caches emptied: bit
+    # for bit the same. Returns col's.
+    _cache(col)[:] = 0
+    c = col.contacts(data)
+    _empty(cold)
+    cc = cold.contacts(data)
+    for f in ("geom", "dist", "pos", "normal", "margin"):
+        assert np.array_equal(getattr(c, f), getattr(cc, f)), f
+    return c
+
+
 @needs_models
 def test_separation_rows_settle_the_pairs_that_stay_apart():
     """shadow_hand (curved geoms and meshes, mostly apart): the pairs that GJK found apart hold
@@ -335,12 +348,7 @@ def test_separation_rows_settle_the_pairs_that_stay_apart():
         if col is None:
             col, cold = cm.Collider(model), cm.Collider(model)
             G = model.ngeom
-        _cache(col)[:] = 0  # no kept polytope: its answers differ from a cold call's by the tolerance
-        c = col.contacts(data)
-        _empty(cold)
-        cc = cold.contacts(data)
-        for f in ("geom", "dist", "pos", "normal", "margin"):
-            assert np.array_equal(getattr(c, f), getattr(cc, f)), f
+        c = _as_cold(col, cold, data)
         pairs = col.pairs(data)
         touching = {g1 * G + g2 + 1 for g1, g2 in c.geom.tolist()}
         held = _apart_rows(col, pairs, G)
@@ -380,12 +388,6 @@ def test_garbage_separation_rows_still_certified():
             u = rng.normal(size=3)
             rowsf[s, 1:4] = (u / np.linalg.norm(u)) if steps % 3 else rng.choice([0.0, np.nan, 1e300, 0.6], 3)
             rows[s, 4] = int(rng.integers(-2**62, 2**62))
-        _cache(col)[:] = 0  # no kept polytope: its answers differ from a cold call's by the tolerance
-        cw = col.contacts(data)
-        _empty(cold)
-        cc = cold.contacts(data)
-        for f in ("geom", "dist", "pos", "normal", "margin"):
-            assert np.array_equal(getattr(cw, f), getattr(cc, f)), f
-        n += len(cc)
+        n += len(_as_cold(col, cold, data))
         steps += 1
     assert steps == 90 and n > 50
