@@ -1,4 +1,5 @@
-"""The warm-start cache of the narrow phase across calls (numba): one row a penetrating geom pair.
+"""The narrow phase's caches across calls (numba): the warm-start cache, one row a penetrating geom
+pair, and the separation cache, one row a pair found apart (its own section below).
 
 Issue 46 expects warm-started queries where the poses barely moved. A penetrating pair of point
 clouds (meshes, boxes as GJK/EPA sees them) in resting contact is the same pair at nearly the same
@@ -22,11 +23,10 @@ before use and certifies its answer or declines, so the cache costs time, never 
 
 from __future__ import annotations
 
-from numba import njit
-
 import math
 
 import numpy as np
+from numba import njit
 
 from ._ptr import NO_NRT
 from .distance import (OUT_HINT_A, OUT_HINT_B, OUT_ITERATIONS, OUT_NORMAL, OUT_PENETRATING, ROUNDING,
