@@ -8,7 +8,8 @@ marked (scaled by ``1 + 2**-30``: GJK's normals are unit within rounding); after
 still marked was read and not rewritten: its pair was settled without GJK. Printed per scene, over
 the steps, the candidate pairs GJK decides (not two spheres or capsules, not a plane or two boxes)
 that held a row before the call, by outcome: settled, decided again by GJK and apart (its row
-rewritten), in contact (its row freed); and those without a row.
+rewritten), in contact (its row freed); and those without a row (which also counts the pairs that
+the bounding-ball test turns away before GJK: they never take a row).
 """
 
 from __future__ import annotations
