@@ -133,19 +133,15 @@ def _from_out(out: np.ndarray) -> Distance:
 # numba compiles a kernel once per combination of its arguments' types, writeable flags and
 # layouts included (a full GJK + EPA each time: tests/bench/compile_log.py). `query` has one
 # signature: every array reaches it float64 (the descriptors int64), C-contiguous, aligned and
-# writable. Checking that in Python cost more than the rest of the call, so the dispatcher checks
-# it: once `query` has its one signature (the first call, made on copies in that form, compiles
-# or loads it), its compiling is disabled, and a pose of any other form finds no match and
-# raises TypeError, whereupon it is copied into that form (`_pose`) and the call made again.
+# writable; anything else is copied into that form first (`_pose`), and
 # tests/test_distance_inputs.py checks that no accepted input adds a signature.
 _EYE = np.eye(3)
 _ZERO = np.zeros(3)
 _COLD = np.zeros(_kd.OUT_SIZE)  # a "previous result" with a zero normal: a cold start
 _COLD[[_kd.OUT_HINT_A, _kd.OUT_HINT_B]] = -1.0
 _F64 = np.dtype(np.float64)
+_ND = np.ndarray
 _empty, _query, _OUT_SIZE = np.empty, _kd.query, _kd.OUT_SIZE  # bound once: looked up every call
-_closed = False  # `_query` has its signature and compiles no other
-_closed_lock = threading.Lock()
 
 
 def _pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -158,22 +154,6 @@ def _pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
     else:
         rot, pos = as_affine(pose, name=name)
     return np.array(rot, dtype=np.float64, order="C"), np.array(pos, dtype=np.float64, order="C")
-
-
-def _copied_call(desc_a: int, desc_b: int, ra, ta, rb, tb, size_a: float, size_b: float, tol: float,
-                 w: np.ndarray, max_iterations: int, out: np.ndarray) -> tuple:
-    # `_query` on copies of the poses in its one form (`_pose`): (its code, the copies). The first
-    # call compiles it (or loads it from numba's cache); then no other signature may be compiled.
-    global _closed
-    ra, ta = _pose((ra, ta), "pose_a")
-    rb, tb = _pose((rb, tb), "pose_b")
-    err = _query(desc_a, desc_b, ra, ta, rb, tb, size_a, size_b, ORTHONORMAL_TOL, _LIMIT, tol, w, max_iterations,
-                 out)
-    if not _closed:
-        with _closed_lock:
-            _query.disable_compile()
-            _closed = True
-    return err, ra, ta, rb, tb
 
 
 def _raise(err: int, name: str, rot: np.ndarray, pos: np.ndarray, size: float) -> None:
@@ -287,19 +267,19 @@ def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = _T
         eb = _described(b, "b")
     _, _, desc_a, size_a = ea
     _, _, desc_b, size_b = eb
-    # Any (rotation, translation) tuple goes to the kernel as it is: the dispatcher refuses the
-    # arrays that are not in its one form, and they are copied into it then (below).
+    # The common case without copies or conversions: (rotation, translation) ndarrays in
+    # `query`'s one form (their shapes are the kernel's first check).
     if pose_a is None:
         ra, ta = _EYE, _ZERO
-    elif type(pose_a) is tuple and len(pose_a) == 2:
-        ra, ta = pose_a
-    else:
+    elif not (type(pose_a) is tuple and len(pose_a) == 2 and type(ra := pose_a[0]) is _ND
+              and type(ta := pose_a[1]) is _ND and ra.dtype is _F64 and ta.dtype is _F64 and ra.ndim == 2
+              and ta.ndim == 1 and ra.flags.carray and ta.flags.carray):
         ra, ta = _pose(pose_a, "pose_a")
     if pose_b is None:
         rb, tb = _EYE, _ZERO
-    elif type(pose_b) is tuple and len(pose_b) == 2:
-        rb, tb = pose_b
-    else:
+    elif not (type(pose_b) is tuple and len(pose_b) == 2 and type(rb := pose_b[0]) is _ND
+              and type(tb := pose_b[1]) is _ND and rb.dtype is _F64 and tb.dtype is _F64 and rb.ndim == 2
+              and tb.ndim == 1 and rb.flags.carray and tb.flags.carray):
         rb, tb = _pose(pose_b, "pose_b")
     if warm is None:
         w = _COLD
@@ -319,17 +299,8 @@ def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = _T
                                                       and 4 <= max_iterations <= 100_000):
         max_iterations = as_count(max_iterations, "max_iterations", 4, 100_000)
     out = _empty(_OUT_SIZE)
-    tol = tolerance * (size_a + size_b)
-    err = -1
-    if _closed:
-        try:
-            err = _query(desc_a, desc_b, ra, ta, rb, tb, size_a, size_b, ORTHONORMAL_TOL, _LIMIT, tol, w,
-                         max_iterations, out)
-        except (TypeError, ValueError):  # numba's: no compiled match, a pose in another form (copied below)
-            pass
-    if err < 0:
-        err, ra, ta, rb, tb = _copied_call(desc_a, desc_b, ra, ta, rb, tb, size_a, size_b, tol, w,
-                                           max_iterations, out)
+    err = _query(desc_a, desc_b, ra, ta, rb, tb, size_a, size_b, ORTHONORMAL_TOL, _LIMIT,
+                 tolerance * (size_a + size_b), w, max_iterations, out)
     if err:
         if err < 10:
             _raise(err, "pose_a", ra, ta, size_a)
