@@ -343,7 +343,8 @@ class Collider:
             Nearest point on ``g1`` then on ``g2``, world frame, when ``dist < distmax``; else zeros.
         """
         xpos, xmat = self._poses(data)
-        return _contacts.geom_distance(self.table, g1, g2, xpos, xmat, distmax)
+        g1, g2, distmax = _contacts._distance_args(self.table, g1, g2, distmax)
+        return _contacts._geom_distance(self.table, g1, g2, xpos, xmat, distmax)
 
     # ------------------------------------------------------------------------------------------
     # Many configurations: check_batch

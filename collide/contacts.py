@@ -608,25 +608,44 @@ def geom_distance(table: GeomTable, g1: int, g2: int, geom_xpos, geom_xmat, dist
     ValueError
         A bad id, a height field or SDF geom (not supported), a non-finite pose or ``distmax``.
     """
+    g1, g2, distmax = _distance_args(table, g1, g2, distmax)
+    xpos, xmat = _poses(table, geom_xpos, geom_xmat)
+    if not (xpos.flags.behaved and xmat.flags.behaved):  # the kernel's one signature: aligned, writable
+        xpos, xmat = xpos.copy(), xmat.copy()
+    return _geom_distance(table, g1, g2, xpos, xmat, distmax)
+
+
+def _distance_args(table: GeomTable, g1, g2, distmax) -> tuple[int, int, float]:
+    # `geom_distance`'s ids and cap checked: (g1, g2, distmax) as ints and a float, or the ValueError.
     G = table.ngeom
-    for name, g in (("g1", g1), ("g2", g2)):
-        if not (isinstance(g, (int, np.integer)) and 0 <= int(g) < G):
-            raise ValueError(f"{name}: expected a geom id in [0, {G}), got {g!r}")
-    if int(g1) == int(g2):
-        raise ValueError(f"g1, g2: the same geom ({int(g1)})")
-    distmax = float(distmax)
+    if not (type(g1) is int and type(g2) is int and 0 <= g1 < G and 0 <= g2 < G and g1 != g2):
+        for name, g in (("g1", g1), ("g2", g2)):
+            if not (isinstance(g, (int, np.integer)) and 0 <= int(g) < G):
+                raise ValueError(f"{name}: expected a geom id in [0, {G}), got {g!r}")
+        g1, g2 = int(g1), int(g2)
+        if g1 == g2:
+            raise ValueError(f"g1, g2: the same geom ({g1})")
+    if type(distmax) is not float:
+        distmax = float(distmax)
     if not math.isfinite(distmax):
         raise ValueError(f"distmax: must be finite, got {distmax}")
-    xpos, xmat = _poses(table, geom_xpos, geom_xmat)
-    out = np.zeros(7)
-    err = _km.pair_signed_distance(int(g1), int(g2), xpos, xmat, *table.shape_args(), out)
-    if err == 2:
-        raise ValueError(f"g1, g2: geom {int(g1) if table.cls[int(g1)] == _km.SKIPPED else int(g2)} is a height "
-                         "field or SDF, which the narrow phase does not collide")
-    if err == 3:
-        raise ValueError(f"geom_xpos/geom_xmat: non-finite pose (NaN or inf) of geom {int(g1)} or {int(g2)}")
-    fromto = np.zeros(6)
-    if err == 1 or not out[0] < distmax:
-        return distmax, fromto
-    fromto[:] = out[1:7]
-    return float(out[0]), fromto
+    return g1, g2, distmax
+
+
+def _geom_distance(table: GeomTable, g1: int, g2: int, xpos: np.ndarray, xmat: np.ndarray,
+                   distmax: float) -> tuple[float, np.ndarray]:
+    # `geom_distance` unchecked: the arguments as `_distance_args` returns them, and xpos (G, 3),
+    # xmat (G, 3, 3) float64, C-contiguous, aligned and writable (`_poses`' views of an MjData's
+    # arrays are); the kernel reads the table's buffers through its context.
+    out = np.empty(7)
+    err = _km.pair_signed_distance_bound(g1, g2, xpos, xmat, table._ctx_addr, out)
+    if err:
+        if err == 2:
+            raise ValueError(f"g1, g2: geom {g1 if table.cls[g1] == _km.SKIPPED else g2} is a height "
+                             "field or SDF, which the narrow phase does not collide")
+        if err == 3:
+            raise ValueError(f"geom_xpos/geom_xmat: non-finite pose (NaN or inf) of geom {g1} or {g2}")
+        return distmax, np.zeros(6)  # two planes
+    if not out[0] < distmax:
+        return distmax, np.zeros(6)
+    return float(out[0]), out[1:7]

@@ -65,7 +65,8 @@ __all__ = [
     "T_HFIELD", "T_MESH", "T_PLANE", "T_SPHERE", "CONVEX_PAIR", "F_DIST", "F_END", "F_MARGIN", "F_NORMAL",
     "F_POS", "N_SLOTS", "SLOT_BUFFER", "SLOT_COLS", "BUFFER_DTYPES", "TI_HEADER", "carve_scratch",
     "ARENA_FIELDS", "CTX_FIELDS", "NARENA", "NCTX", "OUT_FULL", "collide_bound", "collide_pairs", "pair_margins",
-    "scratch_caps", "scratch_sizes", "pair_signed_distance", "plane_box_contacts",
+    "scratch_caps", "scratch_sizes", "pair_signed_distance", "pair_signed_distance_bound",
+    "plane_box_contacts",
     # re-exported
     "BOX_MAX", "BOX_WS", "EDGE_TOL", "FACE_TOL", "OUT_DISTANCE", "OUT_NORMAL", "OUT_POINT_A", "OUT_POINT_B",
     "OUT_SIZE", "PLANE_FACE_TOL", "RULE_CYLINDER", "RULE_POINTS", "RULE_SUPPORT", "RULE_VERTICES",
@@ -686,6 +687,29 @@ def collide_bound(pairs, xpos, xmat, skipped, addr, arena):
         return n
     out[A_NEXT] = row + n
     return (row << 32) | n
+
+
+@njit(cache=True)
+def pair_signed_distance_bound(g1, g2, xpos, xmat, addr, out):
+    """`pair_signed_distance` on a table's packed buffers (``mj_geomDistance``'s per-call form).
+
+    ``addr`` is the table's context (as `collide_bound` takes it); its tables are read as views,
+    so a call passes six arguments where `pair_signed_distance` takes eighteen (numba's dispatch
+    pays for each). ``g1``, ``g2`` must be geom ids of the table and ``xpos`` ``(G, 3)``,
+    ``xmat`` ``(G, 3, 3)`` its poses, C-contiguous: nothing is checked. Returns and ``out`` as
+    `pair_signed_distance`.
+    """
+    ctx = view_of(i64_ptr(addr), NCTX)
+    tf = view_of(f64_ptr(ctx[C_TF]), ctx[C_TF_LEN])
+    ti = view_of(i64_ptr(ctx[C_TI]), ctx[C_TI_LEN])
+    t8 = view_of(i8_ptr(ctx[C_T8]), ctx[C_T8_LEN])
+    t32 = view_of(i32_ptr(ctx[C_T32]), ctx[C_T32_LEN])
+    return pair_signed_distance(g1, g2, xpos, xmat, _slot(t8, ti, S_CLS), _slot(ti, ti, S_KIND),
+                                _slot2(tf, ti, S_PRM), _slot2(tf, ti, S_PTS), _slot(ti, ti, S_PTS_ADR),
+                                _slot(ti, ti, S_PTS_NUM), _slot(t32, ti, S_NBR_START),
+                                _slot(ti, ti, S_NBR_START_ADR), _slot(ti, ti, S_NBR_START_NUM),
+                                _slot(t32, ti, S_NBR), _slot(ti, ti, S_NBR_ADR), _slot(ti, ti, S_NBR_NUM),
+                                _slot(tf, ti, S_SIZE), out)
 
 
 @njit(cache=True)
