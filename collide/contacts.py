@@ -638,7 +638,7 @@ def _geom_distance(table: GeomTable, g1: int, g2: int, xpos: np.ndarray, xmat: n
     # xmat (G, 3, 3) float64, C-contiguous, aligned and writable (`_poses`' views of an MjData's
     # arrays are); the kernel reads the table's buffers through its context.
     out = np.empty(7)
-    err = _km.pair_signed_distance_bound(g1, g2, xpos, xmat, table._ctx_addr, out)
+    err = _km.pair_signed_distance_bound(g1, g2, xpos, xmat, table._ctx_addr, distmax, out)
     if err:
         if err == 2:
             raise ValueError(f"g1, g2: geom {g1 if table.cls[g1] == _km.SKIPPED else g2} is a height "

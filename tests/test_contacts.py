@@ -256,6 +256,26 @@ def test_geom_distance_is_mj_geomDistance():
     assert plane_pair.geom_distance(mujoco.MjData(plane_pair.model), 0, 1, 2.0)[0] == 2.0
 
 
+def test_geoms_a_denormal_distance_apart_are_answered():
+    # GJK's first direction is the difference of the two geoms' centres; 1e-300 apart, its squared
+    # length underflowed and the kernels raised ZeroDivisionError (an adversarial review found it).
+    model = _model('<body mocap="true"><geom type="ellipsoid" size="0.1 0.2 0.3"/></body>'
+                   '<body><freejoint/><geom type="cylinder" size="0.1 0.2"/></body>')
+    data = mujoco.MjData(model)
+    col = cm.Collider(model)
+    want = None
+    for e in (0.0, 1e-300, 1e-200, 1e-160):
+        data.qpos[0:3] = [e, 0.0, 0.0]
+        mujoco.mj_forward(model, data)
+        c = col.contacts(data)
+        d, _ = col.geom_distance(data, 0, 1, 1.0)
+        batch = col.check_batch(data.qpos[None], distance=True)
+        assert len(c) == 1 and c.dist[0] < -0.1 and bool(batch.in_collision[0]), e  # a real overlap
+        got = (c.dist[0], d, batch.min_distance[0])
+        want = got if want is None else want
+        assert np.allclose(got, want, rtol=0, atol=1e-12), (e, got, want)
+
+
 def test_hfield_pairs_are_reported_skipped():
     model = mujoco.MjModel.from_xml_string(
         '<mujoco><asset><hfield name="h" nrow="3" ncol="3" size="1 1 0.1 0.1" '

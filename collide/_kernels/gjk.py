@@ -320,8 +320,13 @@ def gjk_within(sa, sb, d0, hints, tol, cutoff, max_iter, W, WA, WB, lam, v, dirn
     dx, dy, dz = d0[0], d0[1], d0[2]
     if dx == 0.0 and dy == 0.0 and dz == 0.0:
         dx, dy, dz = sb[6][0] - sa[6][0], sb[6][1] - sa[6][1], sb[6][2] - sa[6][2]
-        if dx == 0.0 and dy == 0.0 and dz == 0.0:
-            dx = 1.0
+    # Scaled up where its squared length would underflow (positions 1e-160 apart, a tiny warm
+    # normal): its length divides the first lower bound. The direction is what counts.
+    m = max(abs(dx), abs(dy), abs(dz))
+    if m == 0.0:
+        dx = 1.0
+    elif m < 1e-100:
+        dx, dy, dz = dx / m, dy / m, dz / m
     n = 0
     lower = -math.inf
     scale = 0.0

@@ -690,14 +690,14 @@ def collide_bound(pairs, xpos, xmat, skipped, addr, arena):
 
 
 @njit(cache=True)
-def pair_signed_distance_bound(g1, g2, xpos, xmat, addr, out):
+def pair_signed_distance_bound(g1, g2, xpos, xmat, addr, cutoff, out):
     """`pair_signed_distance` on a table's packed buffers (``mj_geomDistance``'s per-call form).
 
     ``addr`` is the table's context (as `collide_bound` takes it); its tables are read as views,
-    so a call passes six arguments where `pair_signed_distance` takes eighteen (numba's dispatch
+    so a call passes seven arguments where `pair_signed_distance` takes eighteen (numba's dispatch
     pays for each). ``g1``, ``g2`` must be geom ids of the table and ``xpos`` ``(G, 3)``,
-    ``xmat`` ``(G, 3, 3)`` its poses, C-contiguous: nothing is checked. Returns and ``out`` as
-    `pair_signed_distance`.
+    ``xmat`` ``(G, 3, 3)`` its poses, C-contiguous: nothing is checked. Returns, ``cutoff`` and
+    ``out`` as `pair_signed_distance`.
     """
     ctx = view_of(i64_ptr(addr), NCTX)
     tf = view_of(f64_ptr(ctx[C_TF]), ctx[C_TF_LEN])
@@ -709,12 +709,12 @@ def pair_signed_distance_bound(g1, g2, xpos, xmat, addr, out):
                                 _slot(ti, ti, S_PTS_NUM), _slot(t32, ti, S_NBR_START),
                                 _slot(ti, ti, S_NBR_START_ADR), _slot(ti, ti, S_NBR_START_NUM),
                                 _slot(t32, ti, S_NBR), _slot(ti, ti, S_NBR_ADR), _slot(ti, ti, S_NBR_NUM),
-                                _slot(tf, ti, S_SIZE), out)
+                                _slot(tf, ti, S_SIZE), out, cutoff)
 
 
 @njit(cache=True)
 def pair_signed_distance(g1, g2, xpos, xmat, cls, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr,
-                         nbr_start_num, nbr, nbr_adr, nbr_num, size, out):
+                         nbr_start_num, nbr, nbr_adr, nbr_num, size, out, cutoff=math.inf):
     """Signed distance of geoms ``g1`` and ``g2`` and the nearest points (for ``mj_geomDistance``).
 
     Parameters
@@ -722,6 +722,9 @@ def pair_signed_distance(g1, g2, xpos, xmat, cls, kind, prm, pts, pts_adr, pts_n
     (see `collide_pairs`)
     out : (7,) float64
         Receives ``dist`` and ``fromto`` (a point on ``g1``, a point on ``g2``, world frame).
+    cutoff : float, default inf
+        GJK stops once the pair is certainly farther than this (``dist`` then exceeds it, and the
+        points are not the nearest): ``mj_geomDistance``'s ``distmax``.
 
     Returns
     -------
@@ -758,7 +761,7 @@ def pair_signed_distance(g1, g2, xpos, xmat, cls, kind, prm, pts, pts_adr, pts_n
     s2 = _shape(g2, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr,
                 nbr_num, xpos, xmat)
     res = np.empty(OUT_SIZE)
-    pair_distance(s1, s2, 1e-12 * (size[g1] + size[g2]), np.zeros(3), -1, -1, 128, res)
+    pair_distance_within(s1, s2, 1e-12 * (size[g1] + size[g2]), cutoff, np.zeros(3), -1, -1, 128, res)
     out[0] = res[OUT_DISTANCE]
     for q in range(3):
         out[1 + q] = res[OUT_POINT_A + q]
