@@ -645,7 +645,7 @@ def _geom_distance(table: GeomTable, g1: int, g2: int, xpos: np.ndarray, xmat: n
                              "field or SDF, which the narrow phase does not collide")
         if err == 3:
             raise ValueError(f"geom_xpos/geom_xmat: non-finite pose (NaN or inf) of geom {g1} or {g2}")
-        return distmax, np.zeros(6)  # two planes
+        return distmax, np.zeros(6)  # two planes, or bounding balls beyond distmax
     if not out[0] < distmax:
         return distmax, np.zeros(6)
     return float(out[0]), out[1:7]

@@ -697,14 +697,22 @@ def pair_signed_distance_bound(g1, g2, xpos, xmat, addr, cutoff, out):
     so a call passes seven arguments where `pair_signed_distance` takes eighteen (numba's dispatch
     pays for each). ``g1``, ``g2`` must be geom ids of the table and ``xpos`` ``(G, 3)``,
     ``xmat`` ``(G, 3, 3)`` its poses, C-contiguous: nothing is checked. Returns, ``cutoff`` and
-    ``out`` as `pair_signed_distance`.
+    ``out`` as `pair_signed_distance`, and 4 (``out`` not written) when the geoms' bounding balls
+    are farther apart than ``cutoff`` (as ``mj_geomDistance`` first tests them).
     """
     ctx = view_of(i64_ptr(addr), NCTX)
     tf = view_of(f64_ptr(ctx[C_TF]), ctx[C_TF_LEN])
     ti = view_of(i64_ptr(ctx[C_TI]), ctx[C_TI_LEN])
     t8 = view_of(i8_ptr(ctx[C_T8]), ctx[C_T8_LEN])
     t32 = view_of(i32_ptr(ctx[C_T32]), ctx[C_T32_LEN])
-    return pair_signed_distance(g1, g2, xpos, xmat, _slot(t8, ti, S_CLS), _slot(ti, ti, S_KIND),
+    cls = _slot(t8, ti, S_CLS)
+    if cls[g1] == CONVEX and cls[g2] == CONVEX and _finite_pose(xpos, xmat, g1) and _finite_pose(xpos, xmat, g2):
+        rbound = _slot(tf, ti, S_RBOUND)
+        cc = math.sqrt((xpos[g2, 0] - xpos[g1, 0]) ** 2 + (xpos[g2, 1] - xpos[g1, 1]) ** 2
+                       + (xpos[g2, 2] - xpos[g1, 2]) ** 2)
+        if cc - rbound[g1] - rbound[g2] > cutoff:
+            return 4
+    return pair_signed_distance(g1, g2, xpos, xmat, cls, _slot(ti, ti, S_KIND),
                                 _slot2(tf, ti, S_PRM), _slot2(tf, ti, S_PTS), _slot(ti, ti, S_PTS_ADR),
                                 _slot(ti, ti, S_PTS_NUM), _slot(t32, ti, S_NBR_START),
                                 _slot(ti, ti, S_NBR_START_ADR), _slot(ti, ti, S_NBR_START_NUM),
