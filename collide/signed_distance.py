@@ -285,6 +285,8 @@ def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = _T
         w = _COLD
     elif type(warm) is Distance:
         w = warm._out  # its normal and hints, read by the kernel
+        if not w.flags.carray:  # an unpickled one's buffer may be read-only: `query`'s one form
+            w = np.array(w, dtype=np.float64, order="C")
     else:
         w = np.zeros(_kd.OUT_SIZE)
         w[_kd.OUT_NORMAL:_kd.OUT_NORMAL + 3] = as_array(warm, "warm", (3,))

@@ -210,6 +210,19 @@ def test_distance_is_an_immutable_value_that_pickles_and_warm_starts():
         assert abs(collide.distance(a, b, None, pose2, warm=w).distance - cold.distance) <= 1e-12
 
 
+def test_a_read_only_warm_result_is_copied_not_compiled_for():
+    # pickle protocol 5 with out-of-band buffers received as bytes (as ray and dask deliver arrays)
+    # gives a Distance over a read-only buffer: the call copies it into the kernel's one form.
+    a = PointCloud([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], 0.1)
+    pose = (np.eye(3), np.array([3.0, 0.2, 0.0]))
+    r = collide.distance(a, a, None, pose)
+    bufs = []
+    w = pickle.loads(pickle.dumps(r, protocol=5, buffer_callback=bufs.append), buffers=[bytes(b.raw()) for b in bufs])
+    assert not w._out.flags.writeable
+    assert _fields(collide.distance(a, a, None, pose, warm=w)) == _fields(collide.distance(a, a, None, pose, warm=r))
+    assert len(kd.query.signatures) == 1, kd.query.signatures
+
+
 def test_the_shape_cache_survives_eviction_and_fresh_shapes():
     # More distinct shapes than the cache holds, each against the closed form of two spheres.
     rng = np.random.default_rng(4)
