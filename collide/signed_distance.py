@@ -149,8 +149,14 @@ def _pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
     # ValueError naming what is wrong with it. Finiteness, rigidity and range are the kernel's
     # checks (`_raise`).
     if isinstance(pose, tuple) and len(pose) == 2:
-        rot = as_array(pose[0], f"{name} rotation", (3, 3))
-        pos = as_array(pose[1], f"{name} translation", (3,))
+        rot, pos = pose
+        if (type(rot) is _ND and type(pos) is _ND and rot.shape == (3, 3) and pos.shape == (3,)
+                and rot.dtype.kind in "fiub" and pos.dtype.kind in "fiub"):
+            # arrays of real numbers, shaped right (a transposed rotation, float32, read-only):
+            # one copy each; their finiteness is the kernel's check
+            return np.array(rot, dtype=np.float64, order="C"), np.array(pos, dtype=np.float64, order="C")
+        rot = as_array(rot, f"{name} rotation", (3, 3))
+        pos = as_array(pos, f"{name} translation", (3,))
     else:
         rot, pos = as_affine(pose, name=name)
     return np.array(rot, dtype=np.float64, order="C"), np.array(pos, dtype=np.float64, order="C")
