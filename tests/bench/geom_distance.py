@@ -3,13 +3,13 @@
     python tests/bench/geom_distance.py [--pairs N] [--scenes NAME ...] [--out FILE]
 
 Per scene in ../shared/models: 100 steps of random controls (as tests/bench/contacts.py drives
-them), then ``N`` random geom pairs that both libraries answer (no height field or SDF, not two
-planes, not excluded by nothing: any two geoms), each timed as the mean CPU time of a call over
-~10 ms, with ``distmax`` 1.0 (both return the distance when it is below that). Printed per scene:
-the median over the pairs of ours and MuJoCo's time per call, their ratio, the share of the
-pairs closer than ``distmax``, and the largest |ours - MuJoCo| over those (MuJoCo's CCD stops at
-its ``ccd_tolerance``, ours at 1e-12 of the sizes). The median of the ratios over the scenes
-closes the table.
+them), then ``N`` random geom pairs that both libraries answer (any two geoms but height fields,
+SDFs and two planes; the contact filters do not apply to a distance), each timed as the mean CPU
+time of a call over ~10 ms (distance.py's `_per_call`), with ``distmax`` 1.0 (both return the
+distance when it is below that). Printed per scene: the median over the pairs of ours and
+MuJoCo's time per call, their ratio, the share of the pairs closer than ``distmax``, and the
+largest |ours - MuJoCo| over those (MuJoCo's CCD stops at its ``ccd_tolerance``, ours at 1e-12 of
+the sizes). The median of the ratios over the scenes closes the table.
 """
 
 from __future__ import annotations
@@ -26,22 +26,9 @@ import numpy as np
 
 import collide.mujoco as cm
 from _machine import cpu as _cpu  # noqa: E402 (tests/bench is the script's folder)
+from distance import _per_call  # noqa: E402 (the mean CPU time of a call, as distance.py times it)
 
 MODELS = Path(__file__).resolve().parents[2] / ".." / "shared" / "models"
-_clock = time.process_time  # CPU time: the machine is shared
-
-
-def _per_call(fn, budget=0.01):
-    fn()
-    reps = 5
-    while True:
-        t = _clock()
-        for _ in range(reps):
-            fn()
-        dt = _clock() - t
-        if dt > budget or reps > 1_000_000:
-            return dt / reps
-        reps *= 4
 
 
 def bench_scene(path: Path, pairs: int, seed: int = 0) -> dict:
@@ -68,8 +55,8 @@ def bench_scene(path: Path, pairs: int, seed: int = 0) -> dict:
             continue
         d_ours, _ = col.geom_distance(data, g1, g2, 1.0)
         d_mj = mujoco.mj_geomDistance(model, data, g1, g2, 1.0, fromto)
-        t_ours = _per_call(lambda: col.geom_distance(data, g1, g2, 1.0))
-        t_mj = _per_call(lambda: mujoco.mj_geomDistance(model, data, g1, g2, 1.0, fromto))
+        t_ours = _per_call(lambda: col.geom_distance(data, g1, g2, 1.0), 0.01)
+        t_mj = _per_call(lambda: mujoco.mj_geomDistance(model, data, g1, g2, 1.0, fromto), 0.01)
         near = d_mj < 1.0
         rows.append((t_ours, t_mj, near, abs(d_ours - d_mj) if near else 0.0))
     a = np.array(rows)
