@@ -398,6 +398,9 @@ def _poses(table: GeomTable, geom_xpos, geom_xmat) -> tuple[np.ndarray, np.ndarr
     G = table.ngeom
     xpos = np.asarray(geom_xpos)
     xmat = np.asarray(geom_xmat)
+    for name, a in (("geom_xpos", xpos), ("geom_xmat", xmat)):
+        if a.dtype.kind == "c":  # numpy's cast to float64 would drop the imaginary part with a warning
+            raise ValueError(f"{name}: complex values are not coordinates (got dtype {a.dtype})")
     if xpos.shape != (G, 3):
         raise ValueError(f"geom_xpos: expected shape ({G}, 3), got {xpos.shape}")
     if xmat.shape not in ((G, 9), (G, 3, 3)):
@@ -620,13 +623,19 @@ def _distance_args(table: GeomTable, g1, g2, distmax) -> tuple[int, int, float]:
     G = table.ngeom
     if not (type(g1) is int and type(g2) is int and 0 <= g1 < G and 0 <= g2 < G and g1 != g2):
         for name, g in (("g1", g1), ("g2", g2)):
-            if not (isinstance(g, (int, np.integer)) and 0 <= int(g) < G):
+            if not (isinstance(g, (int, np.integer)) and not isinstance(g, bool) and 0 <= int(g) < G):
                 raise ValueError(f"{name}: expected a geom id in [0, {G}), got {g!r}")
         g1, g2 = int(g1), int(g2)
         if g1 == g2:
             raise ValueError(f"g1, g2: the same geom ({g1})")
     if type(distmax) is not float:
-        distmax = float(distmax)
+        # a real number: not a bool, a string or a complex (float() would read "0.5" and True)
+        if not isinstance(distmax, (int, float, np.integer, np.floating)) or isinstance(distmax, bool):
+            raise ValueError(f"distmax: expected a number, got {distmax!r}")
+        try:
+            distmax = float(distmax)
+        except OverflowError:
+            raise ValueError(f"distmax: must be finite, got {distmax!r}") from None
     if not math.isfinite(distmax):
         raise ValueError(f"distmax: must be finite, got {distmax}")
     return g1, g2, distmax

@@ -276,6 +276,36 @@ def test_geoms_a_denormal_distance_apart_are_answered():
         assert np.allclose(got, want, rtol=0, atol=1e-12), (e, got, want)
 
 
+def test_geom_distance_at_a_distmax_of_the_distance_is_the_full_querys():
+    # GJK stops at distmax and bounding balls beyond it answer at once: neither may decide a pair
+    # whose distance is distmax to the last bits otherwise than the full query (an adversarial
+    # review found box pairs a rounding below distmax cut off, and their points' last bits moved).
+    rng = np.random.default_rng(12)
+    kinds = ['type="box" size="0.07 0.05 0.09"', 'type="cylinder" size="0.05 0.08"', 'type="sphere" size="0.06"',
+             'type="capsule" size="0.04 0.1"', 'type="ellipsoid" size="0.05 0.07 0.04"']
+    checked = 0
+    for trial in range(40):
+        k1, k2 = kinds[trial % 5], kinds[(trial // 5) % 5]
+        model = _model(f'<body><freejoint/><geom {k1}/></body><body><freejoint/><geom {k2}/></body>')
+        data = mujoco.MjData(model)
+        for j in (0, 7):
+            data.qpos[j:j + 3] = rng.uniform(-0.15, 0.15, 3)
+            data.qpos[j + 3:j + 7] = _rand_quat(rng)
+        data.qpos[9] = data.qpos[2] + rng.uniform(0.35, 0.5)  # apart: the bounding balls' radii are <= 0.14
+        mujoco.mj_forward(model, data)
+        col = cm.Collider(model)
+        full, pts = col.geom_distance(data, 0, 1, 1e300)
+        assert 0.0 < full < 1.0
+        for distmax in (full, np.nextafter(full, 2.0), np.nextafter(full, 0.0), full * (1 + 1e-15), full * (1 - 1e-15)):
+            d, fromto = col.geom_distance(data, 0, 1, distmax)
+            if full < distmax:
+                assert d == full and np.array_equal(fromto, pts), (trial, distmax)
+            else:
+                assert d == distmax and not fromto.any(), (trial, distmax)
+            checked += 1
+    assert checked == 200
+
+
 def test_hfield_pairs_are_reported_skipped():
     model = mujoco.MjModel.from_xml_string(
         '<mujoco><asset><hfield name="h" nrow="3" ncol="3" size="1 1 0.1 0.1" '
@@ -312,6 +342,16 @@ def test_bad_input_names_it():
         cc.narrow_phase(col.table, np.array([[1, 0]]), data.geom_xpos, data.geom_xmat)
     with pytest.raises(ValueError, match="geom_xmat"):
         cc.narrow_phase(col.table, np.array([[0, 1]]), data.geom_xpos, np.zeros((2, 4)))
+    with pytest.raises(ValueError, match="geom_xpos: complex"):
+        cc.geom_distance(col.table, 0, 1, data.geom_xpos + 0j, data.geom_xmat, 1.0)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    for g1, g2, distmax, what in ((True, 1, 1.0, "g1"), (0, np.True_, 1.0, "g2"), (0, 1, True, "distmax"),
+                                  (0, 1, "0.5", "distmax"), (0, 1, None, "distmax"), (0, 1, 1j, "distmax"),
+                                  (0, 1, 10 ** 400, "distmax"), (0, 1, [1.0], "distmax"), (0, 1, np.nan, "distmax")):
+        with pytest.raises(ValueError, match=what):
+            col.geom_distance(data, g1, g2, distmax)
+    assert col.geom_distance(data, np.int64(0), 1, np.float32(2.0))[0] == col.geom_distance(data, 0, 1, 2.0)[0]
 
 
 def test_pairs_are_the_broad_phases():

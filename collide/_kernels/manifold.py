@@ -48,7 +48,7 @@ import numpy as np
 from numba import njit
 
 from ._ptr import NO_NRT, bool_ptr, check_span, f64_ptr, i8_ptr, i32_ptr, i64_ptr, view_of
-from .distance import (OUT_DISTANCE, OUT_NORMAL, OUT_PENETRATING, OUT_POINT_A, OUT_POINT_B, OUT_SIZE,
+from .distance import (OUT_DISTANCE, OUT_NORMAL, OUT_PENETRATING, OUT_POINT_A, OUT_POINT_B, OUT_SIZE, ROUNDING,
                        pair_distance, pair_distance_within)
 from .faces import BOX_MAX, BOX_WS, box_box, clip_faces
 from .plane import (PLANE_FACE_TOL, RULE_CYLINDER, RULE_POINTS, RULE_SUPPORT, RULE_VERTICES, _plane_cylinder,
@@ -76,6 +76,8 @@ __all__ = [
 
 # Geom classes (`collide.contacts.GeomTable.cls`).
 PLANE, CONVEX, SKIPPED = 0, 1, 2
+
+_EPS = float(np.finfo(np.float64).eps)
 
 # Most contacts per pair: a box-box face manifold's (MuJoCo 4 keeps every clipped corner).
 MAX_PER_PAIR = BOX_MAX
@@ -706,8 +708,16 @@ def pair_signed_distance_bound(g1, g2, xpos, xmat, addr, cutoff, out):
     t8 = view_of(i8_ptr(ctx[C_T8]), ctx[C_T8_LEN])
     t32 = view_of(i32_ptr(ctx[C_T32]), ctx[C_T32_LEN])
     cls = _slot(t8, ti, S_CLS)
+    size = _slot(tf, ti, S_SIZE)
     if cls[g1] == CONVEX and cls[g2] == CONVEX and _finite_pose(xpos, xmat, g1) and _finite_pose(xpos, xmat, g2):
         rbound = _slot(tf, ti, S_RBOUND)
+        # Either early answer must be the full query's: a pair is only cut off when it is beyond
+        # ``cutoff`` by more than the query's tolerance and the rounding of its coordinates (a
+        # cutoff of exactly the distance would otherwise decide by the last bits).
+        reach = rbound[g1] + rbound[g2]
+        for q in range(3):
+            reach += abs(xpos[g1, q]) + abs(xpos[g2, q])
+        cutoff += 2e-12 * (size[g1] + size[g2]) + ROUNDING * _EPS * reach
         cc = math.sqrt((xpos[g2, 0] - xpos[g1, 0]) ** 2 + (xpos[g2, 1] - xpos[g1, 1]) ** 2
                        + (xpos[g2, 2] - xpos[g1, 2]) ** 2)
         if cc - rbound[g1] - rbound[g2] > cutoff:
@@ -717,7 +727,7 @@ def pair_signed_distance_bound(g1, g2, xpos, xmat, addr, cutoff, out):
                                 _slot(ti, ti, S_PTS_NUM), _slot(t32, ti, S_NBR_START),
                                 _slot(ti, ti, S_NBR_START_ADR), _slot(ti, ti, S_NBR_START_NUM),
                                 _slot(t32, ti, S_NBR), _slot(ti, ti, S_NBR_ADR), _slot(ti, ti, S_NBR_NUM),
-                                _slot(tf, ti, S_SIZE), out, cutoff)
+                                size, out, cutoff)
 
 
 @njit(cache=True)
