@@ -700,7 +700,9 @@ def pair_signed_distance_bound(g1, g2, xpos, xmat, addr, cutoff, out):
     pays for each). ``g1``, ``g2`` must be geom ids of the table and ``xpos`` ``(G, 3)``,
     ``xmat`` ``(G, 3, 3)`` its poses, C-contiguous: nothing is checked. Returns, ``cutoff`` and
     ``out`` as `pair_signed_distance`, and 4 (``out`` not written) when the geoms' bounding balls
-    are farther apart than ``cutoff`` (as ``mj_geomDistance`` first tests them).
+    are farther apart than ``cutoff`` (as ``mj_geomDistance`` first tests them). Both early
+    answers (that one and GJK's cutoff) take a pair only when it is beyond ``cutoff`` by more
+    than the query's tolerance and rounding, so a pair at ``cutoff`` gets the full query's answer.
     """
     ctx = view_of(i64_ptr(addr), NCTX)
     tf = view_of(f64_ptr(ctx[C_TF]), ctx[C_TF_LEN])
