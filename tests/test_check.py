@@ -59,6 +59,20 @@ def _model(body: str, extra: str = "", option: str = "") -> mujoco.MjModel:
         f"<mujoco><option {option}/><worldbody>{body}</worldbody>{extra}</mujoco>")
 
 
+def test_geoms_a_denormal_distance_apart_are_checked():
+    # GJK's first direction is the difference of the two geoms' centres; 1e-300 apart, its squared
+    # length underflowed and the kernels raised ZeroDivisionError (tests/test_contacts.py has the
+    # contacts' and geom_distance's side).
+    model = _model('<body mocap="true"><geom type="ellipsoid" size="0.1 0.2 0.3"/></body>'
+                   '<body><freejoint/><geom type="cylinder" size="0.1 0.2"/></body>')
+    col = cm.Collider(model)
+    q = np.tile(model.qpos0, (4, 1))
+    q[:, 0] = (0.0, 1e-300, 1e-200, 1e-160)
+    r = col.check_batch(q, distance=True)
+    assert r.in_collision.all()  # a real overlap in every row
+    assert np.allclose(r.min_distance, r.min_distance[0], rtol=0, atol=1e-12) and r.min_distance[0] < -0.1
+
+
 def mujoco_active(model, data, q) -> tuple[np.ndarray, list]:
     """MuJoCo's answer per configuration: an active contact after mj_kinematics + mj_collision,
     and (deepest dist - includemargin, g1, g2) of each configuration's deepest contact."""
