@@ -76,11 +76,15 @@ def as_points(value, name: str = "points") -> np.ndarray:
 
 
 def _as_finite(value, name: str) -> float:
-    # A finite real number (not a string, not a bool: radius=True meant nothing).
-    if isinstance(value, (str, bytes, bool, np.bool_)):
+    # A finite real number (not a string, not a bool: radius=True meant nothing; not a complex,
+    # whose imaginary part float() would drop; not an array, which float() reads if it has one element).
+    if isinstance(value, (str, bytes, bool, np.bool_, complex, np.complexfloating)) or (
+            isinstance(value, np.ndarray) and value.ndim):
         raise ValueError(f"{name}: expected a number, got {value!r}")
     try:
         r = float(value)
+    except OverflowError:  # an int beyond float's range (10**400)
+        raise ValueError(f"{name}: must be finite, got {value!r}") from None
     except (TypeError, ValueError):
         raise ValueError(f"{name}: expected a number, got {value!r}") from None
     if not np.isfinite(r):

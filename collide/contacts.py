@@ -35,6 +35,7 @@ from . import faces as _faces
 from . import shapes as _shapes
 from ._kernels import manifold as _km
 from ._kernels import plane as _kp
+from ._validate import _as_finite
 from .convex import Cylinder, Ellipsoid
 from .support import support_data
 
@@ -628,16 +629,8 @@ def _distance_args(table: GeomTable, g1, g2, distmax) -> tuple[int, int, float]:
         g1, g2 = int(g1), int(g2)
         if g1 == g2:
             raise ValueError(f"g1, g2: the same geom ({g1})")
-    if type(distmax) is not float:
-        # a real number: not a bool, a string or a complex (float() would read "0.5" and True)
-        if not isinstance(distmax, (int, float, np.integer, np.floating)) or isinstance(distmax, bool):
-            raise ValueError(f"distmax: expected a number, got {distmax!r}")
-        try:
-            distmax = float(distmax)
-        except OverflowError:
-            raise ValueError(f"distmax: must be finite, got {distmax!r}") from None
-    if not math.isfinite(distmax):
-        raise ValueError(f"distmax: must be finite, got {distmax}")
+    if type(distmax) is not float or not math.isfinite(distmax):
+        distmax = _as_finite(distmax, "distmax")
     return g1, g2, distmax
 
 

@@ -348,7 +348,8 @@ def test_bad_input_names_it():
     mujoco.mj_forward(model, data)
     for g1, g2, distmax, what in ((True, 1, 1.0, "g1"), (0, np.True_, 1.0, "g2"), (0, 1, True, "distmax"),
                                   (0, 1, "0.5", "distmax"), (0, 1, None, "distmax"), (0, 1, 1j, "distmax"),
-                                  (0, 1, 10 ** 400, "distmax"), (0, 1, [1.0], "distmax"), (0, 1, np.nan, "distmax")):
+                                  (0, 1, 10 ** 400, "distmax"), (0, 1, [1.0], "distmax"), (0, 1, np.nan, "distmax"),
+                                  (0, 1, np.complex128(1.0), "distmax"), (0, 1, np.array([1.0]), "distmax")):
         with pytest.raises(ValueError, match=what):
             col.geom_distance(data, g1, g2, distmax)
     assert col.geom_distance(data, np.int64(0), 1, np.float32(2.0))[0] == col.geom_distance(data, 0, 1, 2.0)[0]

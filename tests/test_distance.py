@@ -317,6 +317,29 @@ def test_iteration_cap_widens_the_bracket_but_never_breaks_it():
     assert widened > 5
 
 
+def test_centres_a_denormal_distance_apart_are_answered():
+    # GJK's first direction is the difference of the two positions; 1e-300 apart, its squared
+    # length underflowed and the kernel raised ZeroDivisionError (an adversarial review found it).
+    tet = PointCloud([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], 0.1)
+    rot = random_rotation(np.random.default_rng(3))
+    converged = 0
+    for b in (PointCloud([[3, 0, 0]], 0.2), PointCloud([[3, 0, 0], [3, 1, 0]], 0.1),
+              PointCloud(tet.points + 3, 0.1), Cylinder(0.2, 0.3), Ellipsoid([0.3, 0.2, 0.1])):
+        for r in (np.eye(3), rot):
+            want = collide.distance(tet, b, (r, np.zeros(3)), (r, np.zeros(3)))
+            for e in (1e-300, 1e-200, 1e-160):
+                for t in ([e, 0.0, 0.0], [0.0, e, -e]):
+                    for pa, pb in (((r, np.zeros(3)), (r, np.array(t))), ((r, np.array(t)), (r, np.zeros(3)))):
+                        got = collide.distance(tet, b, pa, pb)
+                        # the same sets up to 1e-160: the brackets overlap, equal answers where converged
+                        assert got.lower <= want.upper + 1e-12 and want.lower <= got.upper + 1e-12, (b, e, t)
+                        if want.gap < 1e-9:
+                            assert abs(got.distance - want.distance) <= 1e-9, (b, e, t)
+                            converged += 1
+    assert converged >= 40  # most of them (a cylinder deep in the tetrahedron can reach EPA's cap)
+
+
+
 # ---------------------------------------------------------------------------- curved primitives
 
 def _random_primitive(rng, k):
@@ -587,28 +610,6 @@ def _reference(a, pose_a, b, pose_b):
 
 
 # ------------------------------------------------------------------------------------ bad input
-
-def test_centres_a_denormal_distance_apart_are_answered():
-    # GJK's first direction is the difference of the two positions; 1e-300 apart, its squared
-    # length underflowed and the kernel raised ZeroDivisionError (an adversarial review found it).
-    tet = PointCloud([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], 0.1)
-    rot = random_rotation(np.random.default_rng(3))
-    converged = 0
-    for b in (PointCloud([[3, 0, 0]], 0.2), PointCloud([[3, 0, 0], [3, 1, 0]], 0.1),
-              PointCloud(tet.points + 3, 0.1), Cylinder(0.2, 0.3), Ellipsoid([0.3, 0.2, 0.1])):
-        for r in (np.eye(3), rot):
-            want = collide.distance(tet, b, (r, np.zeros(3)), (r, np.zeros(3)))
-            for e in (1e-300, 1e-200, 1e-160):
-                for t in ([e, 0.0, 0.0], [0.0, e, -e]):
-                    for pa, pb in (((r, np.zeros(3)), (r, np.array(t))), ((r, np.array(t)), (r, np.zeros(3)))):
-                        got = collide.distance(tet, b, pa, pb)
-                        # the same sets up to 1e-160: the brackets overlap, equal answers where converged
-                        assert got.lower <= want.upper + 1e-12 and want.lower <= got.upper + 1e-12, (b, e, t)
-                        if want.gap < 1e-9:
-                            assert abs(got.distance - want.distance) <= 1e-9, (b, e, t)
-                            converged += 1
-    assert converged >= 40  # most of them (a cylinder deep in the tetrahedron can reach EPA's cap)
-
 
 def test_bad_input_raises_value_errors_naming_it():
     a = PointCloud(BOX)
