@@ -311,7 +311,8 @@ def test_iteration_cap_widens_the_bracket_but_never_breaks_it():
         R, t = random_rotation(rng), rng.normal(size=3)
         p = rng.normal(size=3) * 0.8
         true = testing.point_signed_distance(sh, R.T @ (p - t))
-        r = collide.distance(sh, PointCloud([p]), (R, t), max_iterations=4)
+        # the point twice: a one-point ball has a closed form (no iteration, no cap)
+        r = collide.distance(sh, PointCloud([p, p]), (R, t), max_iterations=4)
         assert r.lower - 1e-12 <= true <= r.upper + 1e-12
         widened += r.gap > 1e-6
     assert widened > 5
@@ -369,6 +370,93 @@ def test_primitives_against_closed_forms():
         key = (type(sh).__name__, bool(true < 0))
         counts[key] = counts.get(key, 0) + 1
     assert len(counts) == 6 and min(counts.values()) >= 20, counts
+
+
+def test_a_ball_and_a_curved_primitive_are_answered_in_closed_form():
+    # collide._kernels.point_distance: a one-point core against a cylinder, cone or ellipsoid,
+    # outside, touching and inside (deep ones included), both argument orders, at
+    # collide.distance's own tolerance: the closed form answers (one iteration) within 1e-12 of
+    # the size, the bracket holds, the witnesses lie on the two surfaces.
+    rng = np.random.default_rng(12)
+    counts = {}
+    fallback = 0
+    for k in range(1500):
+        sh = _random_primitive(rng, k)
+        R, t = random_rotation(rng), rng.normal(size=3)
+        local = rng.normal(size=3) * rng.choice([0.05, 0.3, 1.0])
+        rad = (0.0, 0.01, 0.2)[k % 3]
+        sd = testing.point_signed_distance(sh, local)
+        if k % 5 == 0:  # touching: moved onto the surface along the oracle's gradient
+            h = 1e-7
+            grad = np.array([testing.point_signed_distance(sh, local + h * e)
+                             - testing.point_signed_distance(sh, local - h * e) for e in np.eye(3)]) / (2 * h)
+            local = local - (sd - rad) * grad / np.linalg.norm(grad)
+            sd = testing.point_signed_distance(sh, local)
+        true = sd - rad
+        ball = PointCloud([R @ local + t], rad)
+        a_first = k % 2 == 0
+        r = collide.distance(sh, ball, (R, t)) if a_first else collide.distance(ball, sh, None, (R, t))
+        world = _rounding(t, local)
+        _check_result(r, true, 1.0, world, tol=1e-12)
+        fallback += r.iterations != 1
+        # the witnesses: the primitive's on its surface, the ball's on the ball's
+        pk, pb = (r.point_a, r.point_b) if a_first else (r.point_b, r.point_a)
+        assert abs(testing.point_signed_distance(sh, R.T @ (pk - t))) <= 1e-9 + world
+        assert abs(np.linalg.norm(pb - ball.points[0]) - rad) <= 1e-9 + world
+        key = (type(sh).__name__, "touching" if abs(true) < 1e-9 else "inside" if sd < 0 else "apart")
+        counts[key] = counts.get(key, 0) + 1
+    assert len(counts) == 9 and min(counts.values()) >= 20, counts
+    assert fallback <= 15, fallback  # an ellipsoid's point on a symmetry plane of it runs EPA
+
+
+def test_a_ball_deep_in_a_cylinder_or_cone_has_the_exact_depth():
+    # Centred in a cylinder whose radius is less than its half height, a ball's nearest
+    # directions form a circle: EPA's polytope reached its cap with a bracket 3e-4 wide and
+    # reported the polytope's face. The closed form is exact there, and on the axis of a cone.
+    for sh, true in ((Cylinder(0.2, 0.3), -0.2), (Cylinder(0.3, 0.2), -0.2), (Cone(0.3, 0.3), None)):
+        for off in (0.0, 1e-9, 1e-3):
+            local = np.array([off, 0.0, 0.05 if isinstance(sh, Cone) else 0.0])
+            exact = testing.point_signed_distance(sh, local) - 0.01
+            if true is not None:
+                assert exact == pytest.approx(true - 0.01 + (off if sh.radius < sh.half_height else 0.0), abs=1e-15)
+            r = collide.distance(sh, PointCloud([local], 0.01))
+            assert r.iterations == 1 and r.gap < 1e-14 and abs(r.distance - exact) < 1e-15, (sh, off, r)
+
+
+def test_a_ball_and_a_primitive_under_a_rotation_off_by_rounding():
+    # The sets are rot @ core + pos plus the core's ball, as the support functions define them,
+    # whatever rot's rounding: a rotation scaled by 1 + s (within collide.distance's
+    # orthonormality tolerance) scales the core by 1 + s, and the bracket must hold for that set
+    # (GJK/EPA's and the closed form's alike).
+    rng = np.random.default_rng(13)
+    for k in range(300):
+        sh = _random_primitive(rng, k)
+        s = rng.choice([-4e-7, 4e-7])
+        R, t = random_rotation(rng) * (1 + s), rng.normal(size=3)
+        local = rng.normal(size=3) * rng.choice([0.05, 0.3])
+        p = R @ local + t
+        true = (1 + s) * testing.point_signed_distance(sh, local) - 0.01
+        if isinstance(sh, Ellipsoid):
+            # the set is rot @ core + its ball, the ball not scaled: the scaled ellipsoid's inner
+            # parallel body at s rho (support data's rolling radius rho)
+            true += s * support_data(sh).prm[3]
+        r = collide.distance(sh, PointCloud([p], 0.01), (R, t))
+        assert r.lower - 1e-13 <= true <= r.upper + 1e-13, (sh, r, true)
+
+
+def test_degenerate_primitives_against_a_ball():
+    # A segment (zero radius), a disk (zero height), a flat cone and a needle: valid shapes,
+    # answered (in closed form or by GJK/EPA) within the bracket. (A flat ellipsoid: GJK/EPA,
+    # test_flat_and_point_ellipsoids_have_no_ball.)
+    rng = np.random.default_rng(14)
+    shapes = (Cylinder(0.0, 0.3), Cylinder(0.3, 0.0), Cone(0.3, 0.0), Cone(0.0, 0.3))
+    for sh in shapes:
+        for _ in range(40):
+            R, t = random_rotation(rng), rng.normal(size=3)
+            local = rng.normal(size=3) * 0.3
+            true = testing.point_signed_distance(sh, local) - 0.05
+            r = collide.distance(sh, PointCloud([R @ local + t], 0.05), (R, t))
+            _check_result(r, true, 1.0, _rounding(t, local), tol=1e-9)
 
 
 @numba.njit(cache=True)

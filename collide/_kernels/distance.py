@@ -22,6 +22,7 @@ from numba import njit
 from ._ptr import f64_ptr, i32_ptr, i64_ptr, view_of
 from .epa import CONVERGED, DEGENERATE, E_NV, epa, epa_warm
 from .gjk import _FLOOR, OVERLAP, gjk_within
+from .point_distance import point_distance
 from .support import POINTS
 
 _EPS = float(np.finfo(np.float64).eps)
@@ -126,6 +127,29 @@ def segment_distance(sa, sb, tol, out):
 
 
 @njit(cache=True)
+def _ball_primitive(sk, sp, k_first, tol, out):
+    # `pair_distance`'s answer for a ball (sp) and a cylinder, cone or ellipsoid (sk) from
+    # `collide._kernels.point_distance` (closed form), when certified within tol; k_first: sk is A.
+    res = np.empty(9)
+    found, d, lower, upper, cores = point_distance(sk, sp, tol, ROUNDING, res)
+    if not found:
+        return False
+    out[OUT_DISTANCE] = d
+    out[OUT_LOWER] = lower
+    out[OUT_UPPER] = upper
+    ia, ib, sg = (0, 3, 1.0) if k_first else (3, 0, -1.0)
+    for k in range(3):
+        out[OUT_POINT_A + k] = res[ia + k]
+        out[OUT_POINT_B + k] = res[ib + k]
+        out[OUT_NORMAL + k] = sg * res[6 + k]
+    out[OUT_PENETRATING] = 1.0 if cores else 0.0
+    out[OUT_ITERATIONS] = 1
+    out[OUT_HINT_A] = -1
+    out[OUT_HINT_B] = -1
+    return True
+
+
+@njit(cache=True)
 def pair_distance(sa, sb, tol, d0, hint_a, hint_b, max_iter, out):
     """Signed distance of two posed shapes (core ⊕ ball), its witnesses and a certified bracket:
     `pair_distance_within` with no cutoff (parameters as there)."""
@@ -171,6 +195,12 @@ def pair_distance_within(sa, sb, tol, cutoff, d0, hint_a, hint_b, max_iter, out,
     """
     if sa[0] == POINTS and sb[0] == POINTS and sa[2].shape[0] <= 2 and sb[2].shape[0] <= 2:
         if segment_distance(sa, sb, tol, out):  # spheres and capsules: no iteration
+            return
+    elif sa[0] != POINTS and sb[0] == POINTS and sb[2].shape[0] == 1:
+        if _ball_primitive(sa, sb, True, tol, out):  # a ball and a cylinder, cone or ellipsoid
+            return
+    elif sb[0] != POINTS and sa[0] == POINTS and sa[2].shape[0] == 1:
+        if _ball_primitive(sb, sa, False, tol, out):
             return
     simplex = np.zeros((3, 4, 3))  # W, WA, WB: GJK weighs all four rows (zero weights included)
     W = simplex[0]
