@@ -201,7 +201,7 @@ def test_the_narrow_phase_kernel_depends_on_the_modules_it_was_split_into():
             for p in _cache.dependency_files(str(PACKAGE / "_kernels" / "manifold.py"))}
     assert deps == {"_kernels/manifold.py", "_kernels/plane.py", "_kernels/polytope.py", "_kernels/faces.py",
                     "_kernels/distance.py", "_kernels/gjk.py", "_kernels/epa.py", "_kernels/support.py",
-                    "_kernels/warm.py",
+                    "_kernels/warm.py", "_kernels/point_distance.py",
                     "_kernels/_ptr.py", "_checked.py"}  # _ptr.borrow, and the checked mode it reads
 
 
