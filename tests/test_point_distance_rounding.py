@@ -52,3 +52,18 @@ def _bracket_holds(shape, local, points):
         r = collide.distance(shape, PointCloud([R @ local] * points), (R, np.zeros(3)))
         assert r.lower <= r.upper, (r.lower, r.upper)
         assert r.lower - allowance <= true <= r.upper + allowance, (r.lower, true, r.upper, r.iterations)
+
+
+@pytest.mark.parametrize("shape", [
+    Ellipsoid([1e-60, 1.0, 1.0]),  # the secular function's e^3 underflows (any axis below ~1e-54)
+    Ellipsoid([1e-60, 1e-60, 1e-60]),
+    Cone(1e-170, 1e-170),  # the slant's squared length underflows
+])
+@pytest.mark.parametrize("local", [[0.5, 0.2, -0.1], [0.0, 0.0, 0.0], [2e-60, 0.0, 0.0]])
+def test_tiny_primitives_against_a_ball_do_not_raise(shape, local):
+    # collide._kernels.point_distance raised ZeroDivisionError (numba's float division by zero)
+    # where GJK/EPA (the point twice) answers; through collide.mujoco.Collider too (contacts,
+    # geom_distance; check_batch(distance=True) raised SystemError).
+    ref = collide.distance(shape, PointCloud([local, local], 0.1))
+    r = collide.distance(shape, PointCloud([local], 0.1))
+    assert abs(r.distance - ref.distance) <= 1e-12 and r.lower <= ref.upper and ref.lower <= r.upper
