@@ -423,6 +423,26 @@ def test_a_ball_deep_in_a_cylinder_or_cone_has_the_exact_depth():
             assert r.iterations == 1 and r.gap < 1e-14 and abs(r.distance - exact) < 1e-15, (sh, off, r)
 
 
+def test_a_ball_at_an_ellipsoids_centre_or_on_its_symmetry_planes_is_exact():
+    # Eberly's degenerate case (no root of the secular equation beyond the pole: the point on
+    # the plane of the shortest axis, near the centre): EPA reached its cap there, 1e-4 wide;
+    # the degenerate foot and the S-lemma's bound are exact. A point 1e-25 off a near-sphere's
+    # centre, whose root is next to the pole, is solved too.
+    for radii in ([0.3, 0.2, 0.1], [0.2, 0.2, 0.1], [0.2, 0.2, 0.2], [0.3, 0.1, 0.1], [1.0, 1.0, 1.0 + 1e-15]):
+        sh = Ellipsoid(radii)
+        for local in ([0.0, 0.0, 0.0], [1e-3, 0.0, 0.0], [0.05, 0.0, 0.0], [0.0, 0.03, 0.0], [1e-25, 0.0, 1e-25]):
+            exact = testing.point_signed_distance(sh, np.array(local)) - 0.01
+            r = collide.distance(sh, PointCloud([local], 0.01))
+            assert r.iterations == 1 and r.gap < 1e-13, (radii, local, r)
+            assert abs(r.distance - exact) < 1e-13 and r.lower - 1e-15 <= exact <= r.upper + 1e-15, (radii, local)
+
+
+def test_a_flat_cone_is_a_disk():
+    # A cone of height 0: its slant plane is its base's, which no longer bounds the radius.
+    r = collide.distance(Cone(0.5, 0.0), PointCloud([[3.0, 0.0, 0.0]]))
+    assert r.distance == pytest.approx(2.5, abs=1e-14) and r.lower <= 2.5 <= r.upper
+
+
 def test_a_ball_and_a_primitive_under_a_rotation_off_by_rounding():
     # The sets are rot @ core + pos plus the core's ball, as the support functions define them,
     # whatever rot's rounding: a rotation scaled by 1 + s (within collide.distance's

@@ -130,7 +130,7 @@ def segment_distance(sa, sb, tol, out):
 def _ball_primitive(sk, sp, k_first, tol, out):
     # `pair_distance`'s answer for a ball (sp) and a cylinder, cone or ellipsoid (sk) from
     # `collide._kernels.point_distance` (closed form), when certified within tol; k_first: sk is A.
-    res = np.empty(9)
+    res = np.empty(18)
     found, d, lower, upper, cores = point_distance(sk, sp, tol, ROUNDING, res)
     if not found:
         return False

@@ -13,25 +13,31 @@ closed form, computed here in the primitive's frame:
 * ellipsoid: the foot ``x_i = a_i^2 p_i / (a_i^2 + t)`` at the root ``t`` of
   ``F(t) = sum (a_i p_i / (a_i^2 + t))^2 - 1``, decreasing and convex on ``(-min a_i^2, inf)``,
   where it has one root (Eberly 2013, "Distance from a point to an ellipse, an ellipsoid, or a
-  hyperellipsoid"), found by Newton's method kept inside a bracket.
+  hyperellipsoid"), found by Newton's method kept inside a bracket; an interior point on the
+  plane of the shortest axes near the centre, where F has no root there, takes Eberly's
+  degenerate foot.
 
 The answer is then certified as `collide._kernels.distance.segment_distance` certifies its own,
-in the world frame and for the sets as the support functions define them (``rot @ K + pos``,
-whatever the rounding of ``rot``):
+in the world frame and for the sets as the support functions define them (``rot @ core + pos``
+plus the core's ball, whatever the rounding of ``rot``):
 
 * lower: the support values along the normal ``n`` found (``min n.B - max n.A``, the separating
   axis bound, valid for every ``n``, penetrating or not);
 * upper, apart: the distance between the point and the foot, a point of the primitive;
 * upper, overlapping: a ball about the point inside the primitive. For a cylinder or cone, the
-  ball of the depth (an interior point's nearest face is at that depth); for an ellipsoid, the
-  rolling ball: a ball of radius ``rho <= c^2 / a`` (its rolling radius,
-  `collide.support.rolling_radius`) touching the surface at the foot from inside lies inside
-  it (Blaschke's rolling theorem), which certifies a depth up to ``rho``. The ball is carried to
-  the world through ``rot``, shrunk by ``rot``'s least singular value and the point's rounding.
+  ball of the depth (an interior point's nearest face is at that depth). For an ellipsoid, the
+  larger of two: the rolling ball, of radius ``rho <= c^2 / a`` (its rolling radius,
+  `collide.support.rolling_radius`), touching the surface at the foot from inside, lies inside
+  it (Blaschke's rolling theorem); and the S-lemma's bound, for one quadratic constraint an
+  exact duality: every multiplier ``mu`` in ``(-min a_i^2, 0]`` gives
+  ``depth^2 >= |mu| (1 - sum p_i^2 / (a_i^2 + mu))``, the depth itself at the root's ``mu``.
+  The ball is carried to the world through ``rot``, shrunk by ``rot``'s least singular value
+  and the point's rounding.
 
-Where the two bounds are farther apart than the tolerance (a deep ellipsoid overlap, a point on
-a cylinder's edge where the normal is poorly known, a flat ellipsoid, a rotation far from
-orthonormal), nothing is written and the caller runs GJK/EPA, as for two segments.
+Where the two bounds are farther apart than the tolerance (a point on a cylinder's rim where
+the normal is poorly known, a flat ellipsoid, a rotation far from orthonormal) or cross,
+nothing is written and the caller runs GJK/EPA, as for two segments; so do primitives below
+``1e-100``, whose squared sizes underflow.
 """
 
 from __future__ import annotations
@@ -45,6 +51,16 @@ from .gjk import _FLOOR
 from .support import CONE, CYLINDER, ELLIPSOID, support
 
 _EPS = float(np.finfo(np.float64).eps)
+
+# Primitives no larger than this (1e-100) are left to GJK/EPA: their squared dimensions
+# underflow (the ellipsoid's support function squares its radii).
+_TINY = 1e-100
+
+@njit(cache=True, inline="always")
+def _norm(x, y, z):
+    # |(x, y, z)| without the squares' underflow (a distance of 1e-300 is not 0) or overflow
+    return math.hypot(math.hypot(x, y), z)
+
 
 @njit(cache=True, inline="always")
 def _local(rot, pos, p0, p1, p2):
@@ -65,13 +81,21 @@ def _world(rot, pos, x0, x1, x2):
 @njit(cache=True)
 def _sigma(rot):
     # (a lower bound of rot's least singular value, rot's defect e: its R^T R's largest entry
-    # off the identity); R^T R's eigenvalues lie within 3 e of 1 (Gershgorin).
+    # off the identity). Gershgorin on G = R^T R: its least eigenvalue is at least
+    # min_i (G_ii - sum_{j != i} |G_ij|), tight for a rotation scaled by rounding.
+    lam = math.inf
     e = 0.0
     for i in range(3):
+        row = 0.0
         for j in range(3):
-            s = rot[0, i] * rot[0, j] + rot[1, i] * rot[1, j] + rot[2, i] * rot[2, j]
-            e = max(e, abs(s - (1.0 if i == j else 0.0)))
-    return math.sqrt(max(0.0, 1.0 - 3.0 * e)) * (1.0 - 4.0 * _EPS), e
+            g = rot[0, i] * rot[0, j] + rot[1, i] * rot[1, j] + rot[2, i] * rot[2, j]
+            e = max(e, abs(g - (1.0 if i == j else 0.0)))
+            if i == j:
+                row += g
+            else:
+                row -= abs(g)
+        lam = min(lam, row)
+    return math.sqrt(max(0.0, lam * (1.0 - 8.0 * _EPS))) * (1.0 - 4.0 * _EPS), e
 
 
 @njit(cache=True)
@@ -118,7 +142,7 @@ def _cone(r, h, l0, l1, l2, foot, nrm):
     sn0, sn1 = h / ln, r / ln
     ds = sn0 * rho + sn1 * l2 - r * h / ln
     db = -l2  # the base's plane, outward normal (0, -1)
-    if ds <= 0.0 and db <= 0.0:  # inside
+    if ds <= 0.0 and db <= 0.0 and rho <= r:  # inside (rho <= r: implied unless the cone is flat)
         if -db <= -ds:
             foot[0], foot[1], foot[2] = l0, l1, 0.0
             nrm[0], nrm[1], nrm[2] = 0.0, 0.0, -1.0
@@ -130,7 +154,7 @@ def _cone(r, h, l0, l1, l2, foot, nrm):
     # outside: the nearer of the base segment and the slant segment
     bq = min(max(rho, 0.0), r)
     b2 = (rho - bq) ** 2 + l2 * l2
-    t = ((rho - r) * (-r) + l2 * h) / (ln * ln)  # along the slant from (r, 0) to (0, h)
+    t = (l2 * sn0 - (rho - r) * sn1) / ln  # along the slant from (r, 0) to (0, h) (ln * ln may underflow)
     t = min(max(t, 0.0), 1.0)
     sr, sz = r - t * r, t * h
     s2 = (rho - sr) ** 2 + (l2 - sz) ** 2
@@ -159,55 +183,54 @@ def _secular(q0, q1, q2, c0, c1, c2, u):
     # u = t + b_m (b_m the least b_i) with b_i + t = c_i + u, c_i = b_i - b_m computed as
     # (a_i - a_m)(a_i + a_m): exact where a_i is a_m, and no digit lost near a near-sphere's
     # centre, where t is -b_m to within the point's offset (collide.testing's oracle does the
-    # same). +inf, -inf where a denominator is not positive (F's pole).
+    # same). +inf, -inf where a denominator is not positive or its cube underflows (F's pole).
     e0, e1, e2 = c0 + u, c1 + u, c2 + u
-    if not (e0 > 0.0 and e1 > 0.0 and e2 > 0.0):
+    g0, g1, g2 = e0 * e0 * e0, e1 * e1 * e1, e2 * e2 * e2
+    if not (g0 > 0.0 and g1 > 0.0 and g2 > 0.0):
         return math.inf, -math.inf
     s = q0 / (e0 * e0) + q1 / (e1 * e1) + q2 / (e2 * e2)
-    return s, -2.0 * (q0 / (e0 * e0 * e0) + q1 / (e1 * e1 * e1) + q2 / (e2 * e2 * e2))
-
-
-# Relative rounding of F + 1 as `_secular` computes it (each term's few roundings): F's sign
-# beyond it is certain.
-_F_MARGIN = 64.0 * _EPS
+    return s, -2.0 * (q0 / g0 + q1 / g1 + q2 / g2)
 
 
 @njit(cache=True)
 def _ellipsoid(a, l0, l1, l2, foot, nrm):
     # Foot on the ellipsoid (semi-axes a (3,)) and its outward normal; returns (signed distance,
-    # inside, found, depth): not found for a flat ellipsoid or a root that does not settle (an
-    # interior point on the plane of a shortest axis, near the centre: Eberly's degenerate case);
-    # ``depth`` a certified lower bound of an interior point's depth (0 when none), from the
-    # root's bracket: F decreases on t > -b_m and the depth |t| |p_i / (b_i + t)| grows as t
-    # decreases there, so F(t_hi) < 0 < F(t_lo) puts the root, and the depth, between them.
-    a0, a1, a2 = a[0], a[1], a[2]
-    if not (a0 > 0.0 and a1 > 0.0 and a2 > 0.0):
+    # inside, found, depth): not found for a flat ellipsoid (or one too thin for the solve's
+    # floats) or a root that does not settle; ``depth`` a certified lower bound of an interior
+    # point's depth (0 when none). Solved on the ellipsoid divided by its longest axis (no
+    # underflow of a small one's powers), the answers scaled back.
+    amax = max(a[0], a[1], a[2])
+    if not (min(a[0], a[1], a[2]) > 0.0 and _TINY < amax < math.inf):
         return 0.0, False, False, 0.0
+    a0, a1, a2 = a[0] / amax, a[1] / amax, a[2] / amax
+    m0, m1, m2 = l0 / amax, l1 / amax, l2 / amax
     am = min(a0, a1, a2)
     bm = am * am
+    if not bm > 0.0:
+        return 0.0, False, False, 0.0
     c0, c1, c2 = (a0 - am) * (a0 + am), (a1 - am) * (a1 + am), (a2 - am) * (a2 + am)
-    s = (l0 / a0) ** 2 + (l1 / a1) ** 2 + (l2 / a2) ** 2
+    s = (m0 / a0) ** 2 + (m1 / a1) ** 2 + (m2 / a2) ** 2
     inside = s < 1.0
-    q0, q1, q2 = (a0 * l0) ** 2, (a1 * l1) ** 2, (a2 * l2) ** 2
-    if inside:  # the root's u in (0, b_m)
+    q0, q1, q2 = (a0 * m0) ** 2, (a1 * m1) ** 2, (a2 * m2) ** 2
+    if inside:  # the root's u = t + b_m in (0, b_m)
         lo, hi = 0.0, bm
     else:  # in (b_m, b_m + a_max |p|): there every term is at most a_max^2 |p|^2 / t^2
-        lo, hi = bm, bm + max(a0, a1, a2) * math.sqrt(l0 * l0 + l1 * l1 + l2 * l2)
-    rooted = False  # a u with F certainly > 0 seen: the root is in the interval
+        lo, hi = bm, bm + math.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
     u = bm  # t = 0
-    for _ in range(100):
+    for _ in range(200):
         f1, fp = _secular(q0, q1, q2, c0, c1, c2, u)
         f = f1 - 1.0
         if f == 0.0:
             break
         if f > 0.0:
             lo = u
-            rooted = rooted or f > _F_MARGIN * f1
         else:
             hi = u
-        un = u - f / fp if fp < 0.0 and math.isfinite(fp) and math.isfinite(f) else 0.5 * (lo + hi)
+        un = u - f / fp if fp < 0.0 and math.isfinite(fp) and math.isfinite(f) else lo
         if not lo < un < hi:
-            un = 0.5 * (lo + hi)
+            # bisected, geometrically while lo is 0 or far below hi (a root near 0: a point
+            # near a near-sphere's centre, where halving would take a step per bit)
+            un = hi * 1e-3 if lo == 0.0 else (math.sqrt(lo * hi) if lo < 0.25 * hi else 0.5 * (lo + hi))
             if not lo < un < hi:
                 break
         if abs(un - u) <= 4.0 * _EPS * u:
@@ -217,30 +240,50 @@ def _ellipsoid(a, l0, l1, l2, foot, nrm):
     e0, e1, e2 = c0 + u, c1 + u, c2 + u
     if not (e0 > 0.0 and e1 > 0.0 and e2 > 0.0):
         return 0.0, inside, False, 0.0
-    x0, x1, x2 = a0 * a0 * l0 / e0, a1 * a1 * l1 / e1, a2 * a2 * l2 / e2
+    x0, x1, x2 = a0 * a0 * m0 / e0, a1 * a1 * m1 / e1, a2 * a2 * m2 / e2
     sx = (x0 / a0) ** 2 + (x1 / a1) ** 2 + (x2 / a2) ** 2
+    if inside and not sx >= 1.0 - 1e-6:
+        # Eberly's degenerate case: the point on the plane of the shortest axes, near the
+        # centre (F < 0 up to the pole): the other axes' x_i = b_i p_i / c_i, the rest of the
+        # unit sum on a shortest axis
+        x0, x1, x2 = (a0 * a0 * m0 / c0 if c0 > 0.0 else 0.0, a1 * a1 * m1 / c1 if c1 > 0.0 else 0.0,
+                      a2 * a2 * m2 / c2 if c2 > 0.0 else 0.0)
+        rest = 1.0 - ((x0 / a0) ** 2 + (x1 / a1) ** 2 + (x2 / a2) ** 2)
+        if not rest >= 0.0:
+            return 0.0, inside, False, 0.0
+        if c0 == 0.0:
+            x0 = math.copysign(a0 * math.sqrt(rest), m0)
+        elif c1 == 0.0:
+            x1 = math.copysign(a1 * math.sqrt(rest), m1)
+        else:
+            x2 = math.copysign(a2 * math.sqrt(rest), m2)
+        sx = (x0 / a0) ** 2 + (x1 / a1) ** 2 + (x2 / a2) ** 2
     if not abs(sx - 1.0) <= 1e-6:
         return 0.0, inside, False, 0.0
     k = 1.0 / math.sqrt(sx)  # onto the surface
-    foot[0], foot[1], foot[2] = x0 * k, x1 * k, x2 * k
-    g0, g1, g2 = foot[0] / (a0 * a0), foot[1] / (a1 * a1), foot[2] / (a2 * a2)
+    x0, x1, x2 = x0 * k, x1 * k, x2 * k
+    g0, g1, g2 = x0 / (a0 * a0), x1 / (a1 * a1), x2 / (a2 * a2)
     gl = math.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
+    if not gl > 0.0:
+        return 0.0, inside, False, 0.0
     nrm[0], nrm[1], nrm[2] = g0 / gl, g1 / gl, g2 / gl
-    d = math.sqrt((l0 - foot[0]) ** 2 + (l1 - foot[1]) ** 2 + (l2 - foot[2]) ** 2)
+    foot[0], foot[1], foot[2] = x0 * amax, x1 * amax, x2 * amax
+    d = _norm(m0 - x0, m1 - x1, m2 - x2) * amax
     if not inside:
         return d, False, True, 0.0
-    depth = 0.0
-    if rooted:
-        step = 16.0 * _EPS * u
-        for _ in range(40):  # u_hi: the nearest u above the root found with F certainly < 0
-            uh = min(u + step, bm)
-            f1, _ = _secular(q0, q1, q2, c0, c1, c2, uh)
-            if f1 < 1.0 - _F_MARGIN:
-                e0, e1, e2 = c0 + uh, c1 + uh, c2 + uh
-                el = math.sqrt((l0 / e0) ** 2 + (l1 / e1) ** 2 + (l2 / e2) ** 2)
-                depth = (bm - uh) * el * (1.0 - _F_MARGIN)  # |t| |p_i / (b_i + t)|
-                break
-            step *= 4.0
+    # The depth's certified lower bound, by the S-lemma (one quadratic constraint: exact
+    # duality): every multiplier mu in (-b_m, 0] gives depth^2 >= |mu| (1 - sum p_i^2 / (b_i + mu)),
+    # the minimum over x of |x - p|^2 + mu (x^T D^-2 x - 1), whose matrix I + mu D^-2 is then
+    # positive definite; at the root's mu (and as mu -> -b_m in the degenerate case, a
+    # shortest axis' term 0/0 then 0) it is the depth itself. Here mu = u - b_m, b_i + mu = e_i,
+    # with the rounding of |mu|, of each term and of 1 - S allowed for.
+    e0, e1, e2 = c0 + u, c1 + u, c2 + u
+    t0 = m0 * m0 / e0 if m0 != 0.0 else 0.0
+    t1 = m1 * m1 / e1 if m1 != 0.0 else 0.0
+    t2 = m2 * m2 / e2 if m2 != 0.0 else 0.0
+    ssum = t0 + t1 + t2
+    phi = (bm - u - 2.0 * _EPS * bm) * (1.0 - ssum - 16.0 * _EPS * (1.0 + ssum))
+    depth = math.sqrt(phi) * (1.0 - 4.0 * _EPS) * amax if phi > 0.0 else 0.0
     return -d, True, True, depth
 
 
@@ -261,9 +304,10 @@ def point_distance(sk, sp, tol, rounding, res):
     rounding : float
         `collide._kernels.distance.ROUNDING`: the bounds' rounding allowance, in eps times the
         largest coordinate.
-    res : (9,) float64
+    res : (18,) float64
         Receives, on success, the primitive's witness point (3), the ball's (3), and the unit
-        normal from the primitive to the ball (3), world frame.
+        normal from the primitive to the ball (3), world frame; the rest is scratch (the
+        caller's one allocation).
 
     Returns
     -------
@@ -282,11 +326,12 @@ def point_distance(sk, sp, tol, rounding, res):
     # the ball's centre, as `collide._kernels.support.support` poses a point
     p0, p1, p2 = _world(prot, ppos, pts[0, 0], pts[0, 1], pts[0, 2])
     l0, l1, l2 = _local(rot, pos, p0, p1, p2)
-    buf = np.empty(9)
-    foot = buf[0:3]
-    nl = buf[3:6]
-    w = buf[6:9]
+    foot = res[9:12]
+    nl = res[12:15]
+    w = res[15:18]
     depth = 0.0
+    if not max(prm[0], prm[1], prm[2]) > _TINY:
+        return False, 0.0, 0.0, 0.0, False  # a primitive whose support squares underflow: GJK/EPA
     if kind == CYLINDER:
         sd, inside, ok = _cylinder(prm[0], prm[1], l0, l1, l2, foot, nl)
         sd -= rk  # of the core: the full set is the core and its ball
@@ -319,27 +364,31 @@ def point_distance(sk, sp, tol, rounding, res):
     # lower: the separating-axis bound along n (from the primitive to the ball), the support
     # values of the primitive's core plus its ball and of the ball
     support(sk, n0, n1, n2, -1, w)
+    scale = max(scale, abs(w[0]), abs(w[1]), abs(w[2]))  # n . w rounds at w's size
     lower = (n0 * p0 + n1 * p1 + n2 * p2) - (n0 * w[0] + n1 * w[1] + n2 * w[2]) - rk - rp
     if not inside:  # upper: the distance between the two witnesses' centres less the radii
-        upper = math.sqrt((p0 - k0) ** 2 + (p1 - k1) ** 2 + (p2 - k2) ** 2) - rp
+        upper = _norm(p0 - k0, p1 - k1, p2 - k2) - rp
     else:
         # upper: a ball about the point inside the primitive (module docstring)
         x0, x1, x2 = _world(rot, pos, l0, l1, l2)
-        e = math.sqrt((x0 - p0) ** 2 + (x1 - p1) ** 2 + (x2 - p2) ** 2)  # the point's round trip
+        e = _norm(x0 - p0, x1 - p1, x2 - p2)  # the point's round trip
         smin, defect = _sigma(rot)
         if kind == ELLIPSOID:
             # the rolling ball about the core's foot, in the world; then the root's depth, in
             # the ellipsoid shrunk by what rot's scale takes from its ball
-            inner = rk - math.sqrt((p0 - c0) ** 2 + (p1 - c1) ** 2 + (p2 - c2) ** 2)
+            inner = rk - _norm(p0 - c0, p1 - c1, p2 - c2)
             if depth > 0.0:
                 inner = max(inner, smin * (depth - 4.0 * defect * rk) - e)
         else:
             inner = smin * -(sd + rk) - e + rk  # the core's depth, carried; then its ball
         upper = -inner - rp
+    # converged as GJK/EPA's test has it (before the rounding allowance both then add)
+    if not upper - lower <= max(tol, _FLOOR * scale):
+        return False, 0.0, 0.0, 0.0, False
     slack = rounding * _EPS * (scale + rk + rp)
     lower -= slack
     upper += slack
-    if not upper - lower <= max(tol, _FLOOR * scale):
+    if not lower <= upper:  # bounds crossed beyond the rounding allowance: no certificate here
         return False, 0.0, 0.0, 0.0, False
     res[0], res[1], res[2] = k0, k1, k2
     res[3], res[4], res[5] = p0 - rp * n0, p1 - rp * n1, p2 - rp * n2
