@@ -242,10 +242,21 @@ def _ellipsoid(a, l0, l1, l2, foot, nrm):
         return 0.0, inside, False, 0.0
     x0, x1, x2 = a0 * a0 * m0 / e0, a1 * a1 * m1 / e1, a2 * a2 * m2 / e2
     sx = (x0 / a0) ** 2 + (x1 / a1) ** 2 + (x2 / a2) ** 2
-    if inside and not sx >= 1.0 - 1e-6:
-        # Eberly's degenerate case: the point on the plane of the shortest axes, near the
-        # centre (F < 0 up to the pole): the other axes' x_i = b_i p_i / c_i, the rest of the
-        # unit sum on a shortest axis
+    # Eberly's degenerate case: an interior point on the plane of the shortest axes (those
+    # coordinates 0), near the centre: F's limit at the pole, the other axes' sum, at most 0
+    # (no root beyond the pole: the iteration's u is none). Decided by that limit, not by the
+    # foot's residue, which a u next to the pole leaves small.
+    degenerate = False
+    if inside:
+        pole = 0.0
+        for ci, qi in ((c0, q0), (c1, q1), (c2, q2)):
+            if ci > 0.0:
+                pole += qi / (ci * ci)
+            elif qi != 0.0:
+                pole = math.inf  # a shortest axis' coordinate not 0: its term has the pole
+        degenerate = pole <= 1.0
+    if degenerate:
+        # the other axes' x_i = b_i p_i / c_i, the rest of the unit sum on a shortest axis
         x0, x1, x2 = (a0 * a0 * m0 / c0 if c0 > 0.0 else 0.0, a1 * a1 * m1 / c1 if c1 > 0.0 else 0.0,
                       a2 * a2 * m2 / c2 if c2 > 0.0 else 0.0)
         rest = 1.0 - ((x0 / a0) ** 2 + (x1 / a1) ** 2 + (x2 / a2) ** 2)
@@ -282,8 +293,11 @@ def _ellipsoid(a, l0, l1, l2, foot, nrm):
     t1 = m1 * m1 / e1 if m1 != 0.0 else 0.0
     t2 = m2 * m2 / e2 if m2 != 0.0 else 0.0
     ssum = t0 + t1 + t2
-    phi = (bm - u - 2.0 * _EPS * bm) * (1.0 - ssum - 16.0 * _EPS * (1.0 + ssum))
-    depth = math.sqrt(phi) * (1.0 - 4.0 * _EPS) * amax if phi > 0.0 else 0.0
+    f_mu = bm - u - 2.0 * _EPS * bm  # |mu|, less its rounding
+    f_s = 1.0 - ssum - 16.0 * _EPS * (1.0 + ssum)
+    # both factors positive (near the surface each may round below 0, and two negatives would
+    # multiply to a positive bound)
+    depth = math.sqrt(f_mu * f_s) * (1.0 - 4.0 * _EPS) * amax if f_mu > 0.0 and f_s > 0.0 else 0.0
     return -d, True, True, depth
 
 
