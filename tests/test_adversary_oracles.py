@@ -186,3 +186,16 @@ def test_ellipsoid_oracle_on_the_plane_of_the_shortest_axis():
             q[int(np.argmin(r))] = 1e-9
             assert abs(point_signed_distance(Ellipsoid(r), q) - d) <= 1e-7, (radii, p)
     assert seen["in"] > 20 and seen["out"] > 20 and seen["centre"] == 5, seen
+
+
+def test_cone_oracle_on_a_flat_cone_and_a_needle():
+    # `collide.testing.point_signed_distance` of a cone read its slant plane as bounding the
+    # radius and the height, which a flat cone (height 0: a disk) or a needle (radius 0: a
+    # segment) does not: it called points far beside the disk or above the needle inside (a
+    # review of the closed form, collide._kernels.point_distance, found it).
+    from collide import Cone
+    from collide.testing import point_signed_distance
+    assert point_signed_distance(Cone(0.5, 0.0), [3.0, 0.0, 0.0]) == pytest.approx(2.5, abs=1e-15)
+    assert point_signed_distance(Cone(0.0, 1.0), [0.0, 0.0, 5.0]) == pytest.approx(4.0, abs=1e-15)
+    assert point_signed_distance(Cone(0.0, 1.0), [0.0, 0.0, 0.5]) == 0.0
+    assert point_signed_distance(Cone(0.5, 1.0), [0.1, 0.0, 0.2]) < 0.0  # a proper cone's inside as before

@@ -252,7 +252,8 @@ def point_signed_distance(shape, point) -> float:
         q = (rho, p[2])
         base = _segment_2d(q, (0.0, 0.0), (R, 0.0))
         slant = _segment_2d(q, (R, 0.0), (0.0, H))
-        inside = p[2] >= 0 and rho * H + p[2] * R <= R * H
+        # (the height and radius bounds are implied unless the cone is flat or a needle)
+        inside = 0 <= p[2] <= H and rho <= R and rho * H + p[2] * R <= R * H
         if inside:
             return -min(base, slant)
         return min(base, slant, _segment_2d(q, (0.0, 0.0), (0.0, H)))
