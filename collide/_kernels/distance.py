@@ -1,7 +1,10 @@
 """Signed distance of two posed convex shapes, with a certified bracket (numba driver).
 
 GJK (`collide._kernels.gjk`) runs on the cores; when they overlap, EPA (`collide._kernels.epa`)
-takes GJK's simplex. The balls are added afterwards (the core ⊕ ball form, DESIGN.md Wave 2):
+takes GJK's simplex. Two kinds of pair are tried in closed form first, with the same kind of
+certificate, and go to GJK/EPA only where it is wider than the tolerance: two segments (spheres
+and capsules, `segment_distance`) and a ball against a cylinder, cone or ellipsoid
+(`collide._kernels.point_distance`). The balls are added afterwards (the core ⊕ ball form, DESIGN.md Wave 2):
 with ``C`` the cores' difference and ``r = r_a + r_b``, ``h_{C ⊕ B(r)}(u) = h_C(u) + r`` for every
 unit ``u``, so the signed distance of the full sets is exactly the cores' minus ``r``, and the
 witness points move by their radius along the normal.

@@ -56,6 +56,7 @@ _EPS = float(np.finfo(np.float64).eps)
 # underflow (the ellipsoid's support function squares its radii).
 _TINY = 1e-100
 
+
 @njit(cache=True, inline="always")
 def _norm(x, y, z):
     # |(x, y, z)| without the squares' underflow (a distance of 1e-300 is not 0) or overflow
