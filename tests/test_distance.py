@@ -318,6 +318,25 @@ def test_iteration_cap_widens_the_bracket_but_never_breaks_it():
     assert widened > 5
 
 
+def test_epas_inner_ball_holds_for_a_point_on_a_curved_surface():
+    # EPA's upper bound (an inner ball) took each triangle's distance from s2d's nearest point,
+    # an upper bound of that distance: on the slivers near a cylinder's side it certified a point
+    # on the surface 3.5e-9 deep (a review of the closed form found it with a rotation scaled by
+    # rounding; the scale was not the cause). The point given twice: GJK/EPA, not the closed form.
+    sh = Cylinder(70.4652542415379, 72.93955220729312)
+    local = np.array([-54.78445667162621, 44.31721293717924, 51.53025639231434])
+    Q = np.array([[-0.43569485143967523, -0.839712262595373, 0.3241192874173316],
+                  [0.8280454908179727, -0.5150971751784155, -0.22139459175697862],
+                  [0.3528606829401399, 0.1719250306679516, 0.9197451398430122]])
+    assert abs(testing.point_signed_distance(sh, local)) < 1e-13
+    for s in (0.0, 4.9e-7, -4.9e-7):
+        R = Q * (1 + s)
+        p = R @ local
+        r = collide.distance(PointCloud([p, p]), sh, None, (R, np.zeros(3)))
+        assert r.iterations > 1 and r.lower - 1e-12 <= 0.0 <= r.upper + 1e-12, (s, r)
+        assert r.upper >= -1e-12, (s, r)
+
+
 def test_centres_a_denormal_distance_apart_are_answered():
     # GJK's first direction is the difference of the two positions; 1e-300 apart, its squared
     # length underflowed and the kernel raised ZeroDivisionError (an adversarial review found it).

@@ -14,8 +14,9 @@ The bracket of the cores' signed distance ``sd = -depth``:
   number 1) and no triangle comes within ``r`` of the origin, every point of the ball of radius
   ``r`` about the origin has winding number 1 (the ball misses the surface, so the number is
   constant on it), and a point of nonzero winding number lies in the hull of the vertices, hence
-  in ``C``: ``sd <= -r``. ``r`` is measured on the triangles themselves (a face's plane offset
-  is only used where its rounding bound already clears the minimum), so the tiny slivers EPA
+  in ``C``: ``sd <= -r``. ``r`` is bounded on the triangles themselves, each by the plane through its
+  computed nearest point (`_tri_lower`; a face's plane offset is only used where its rounding
+  bound already clears the minimum), so the tiny slivers EPA
   makes near a curved surface, whose planes rounding leaves ill-defined, cost nothing. A polytope
   that fails the check gives no upper bound here: the caller keeps GJK's ``|v|``.
 
@@ -123,6 +124,30 @@ def _solid_angle(V, a, b, c):
     den = la * lb * lc + (ax * bx + ay * by + az * bz) * lc + (ax * cx + ay * cy + az * cz) * lb \
         + (bx * cx + by * cy + bz * cz) * la
     return 2.0 * math.atan2(det, den)
+
+
+@njit(cache=True)
+def _tri_lower(V, a, b, c, vertex_err):
+    # A certified lower bound of the origin's distance to triangle (a, b, c), for the upper
+    # bound's inner ball. s2d's nearest point q is a point of the triangle, so |q| bounds that
+    # distance from above, not below: on the slivers EPA makes near a curved surface its weights
+    # are off by far more than vertex_err, and |q| over-claimed the ball (a point on a
+    # cylinder's side was certified 3.5e-9 deep, 5e-11 of the size). The plane through q with
+    # normal q / |q| separates instead: the least n . V over the vertices, which is |q| at the
+    # exact nearest point, less the vertices' and the products' rounding.
+    l0, l1, l2, d2 = s2d(V, a, b, c)
+    q0 = l0 * V[a, 0] + l1 * V[b, 0] + l2 * V[c, 0]
+    q1 = l0 * V[a, 1] + l1 * V[b, 1] + l2 * V[c, 1]
+    q2 = l0 * V[a, 2] + l1 * V[b, 2] + l2 * V[c, 2]
+    nq = math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
+    if not nq > 0.0:
+        return -math.inf
+    m = math.inf
+    big = 0.0
+    for x in (a, b, c):
+        m = min(m, (q0 * V[x, 0] + q1 * V[x, 1] + q2 * V[x, 2]) / nq)
+        big = max(big, abs(V[x, 0]) + abs(V[x, 1]) + abs(V[x, 2]))
+    return m - vertex_err - 8.0 * _EPS * big
 
 
 @njit(cache=True)
@@ -546,8 +571,7 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res, keep=None):
         if not bound > 0.0:
             front = False
         if bound < inner:
-            _, _, _, d2 = s2d(V, a, b, c)
-            bound = max(bound, math.sqrt(d2) - vertex_err)
+            bound = max(bound, _tri_lower(V, a, b, c, vertex_err))
             inner = min(inner, bound)
     upper = math.inf
     if inner > 0.0:
@@ -716,8 +740,7 @@ def epa_warm(sa, sb, entry, tol, res):
         if not bound > 0.0:
             return WARM_MISS, scale
         if bound < inner:
-            _, _, _, d2 = s2d(V, a, b, c)
-            bound = max(bound, math.sqrt(d2) - vertex_err)
+            bound = max(bound, _tri_lower(V, a, b, c, vertex_err))
             inner = min(inner, bound)
     if not inner > 0.0:
         return WARM_MISS, scale
