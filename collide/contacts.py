@@ -37,7 +37,7 @@ from ._kernels import manifold as _km
 from ._kernels import plane as _kp
 from ._validate import _as_finite
 from .convex import Cylinder, Ellipsoid
-from .support import support_data
+from .support import SIZE_MAX, SIZE_MIN, support_data
 
 __all__ = ["Contacts", "GEOM_TYPES", "GeomTable", "contacts_of", "geom_distance", "narrow_phase"]
 
@@ -217,6 +217,9 @@ class GeomTable:
                 sd = support_data(shape)
             except ValueError as exc:
                 raise ValueError(f"model: geom {g}: {exc}") from None
+            if not SIZE_MIN <= sd.size <= SIZE_MAX:  # (`collide.support.SIZE_MIN`'s comment)
+                raise ValueError(f"model: geom {g}: size {sd.size:.3g} is outside [{SIZE_MIN:.3g}, {SIZE_MAX:.3g}], "
+                                 "the sizes the narrow phase supports (scale the model)")
             self.rule[g], self.below[g], self.kind[g], self.prm[g] = rule, below, sd.kind, sd.prm
             self.size[g] = sd.size
             if t == CYLINDER:

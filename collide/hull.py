@@ -132,7 +132,9 @@ def hull_indices(points: np.ndarray) -> np.ndarray:
         return np.unique([int(np.argmin(local[:, 0])), int(np.argmax(local[:, 0]))])
     if n <= rank + 1:
         return np.arange(n)
-    local = local[:, :rank] / spread[:rank]
+    # (a spread of 0 is kept as 1: subnormal clouds have dimensions the noise estimate keeps
+    # that rounded to nothing, and 0/0 made NaN coordinates for Qhull)
+    local = local[:, :rank] / np.where(spread[:rank] > 0.0, spread[:rank], 1.0)
     try:
         return np.sort(ConvexHull(local).vertices)
     except (QhullError, ValueError):

@@ -9,11 +9,15 @@ The result's ``lower <= true signed distance <= upper`` always holds (up to the 
 allowance the kernel adds outwards): ``lower`` comes from a separating direction's support
 values, ``upper`` from the witness points (apart) or a certified inner ball of the Minkowski
 difference (overlapping). When an iteration cap stops the search early the bracket is wider,
-never wrong; ``distance`` is the estimate the witnesses give, inside the bracket.
+never wrong; ``distance`` is the estimate the witnesses give, inside the bracket. A pair far
+from unit size (sizes summing below 2**-100 or above 2**100) is queried scaled by a power of two,
+which is exact, so that no product of its lengths under- or overflows: the bracket holds at every
+scale.
 """
 
 from __future__ import annotations
 
+import math
 import threading
 
 import numpy as np
@@ -21,7 +25,8 @@ import numpy as np
 from . import hull as _hull
 from ._kernels import distance as _kd
 from ._validate import as_affine, as_array, as_count, as_positive
-from .support import support_data
+from ._kernels.support import ELLIPSOID
+from .support import SIZE_MAX, SIZE_MIN, SupportData, rolling_radius, support_data
 
 __all__ = ["Distance", "ORTHONORMAL_TOL", "distance"]
 
@@ -39,7 +44,8 @@ class Distance:
     distance : float
         Signed distance: the gap when apart, minus the penetration depth when overlapping.
     point_a, point_b : (3,) float64
-        Witness points on A and on B, world frame: ``point_b - point_a == distance * normal``.
+        Witness points on A and on B, world frame: ``point_b - point_a`` is ``distance * normal``
+        up to rounding once converged, and never farther from it than the bracket's width.
     normal : (3,) float64
         Unit direction from A to B: translating B by ``-distance * normal`` makes the sets touch.
     lower, upper : float
@@ -199,6 +205,12 @@ def _described(shape, name: str) -> tuple:
         data = support_data(shape)
     except ValueError as exc:  # an empty cloud, coordinates out of range, an unknown type
         raise ValueError(f"shape {name}: {str(exc).removeprefix('shape: ')}") from None
+    return _entry(shape, data, id(shape))
+
+
+def _entry(shape, data: SupportData, key) -> tuple:
+    # `_described`'s cache entry of a shape's support data, under ``key`` (the shape's id, or
+    # its id and a scale: `_scaled`).
     desc = np.zeros(_kd.DESC_SIZE, np.int64)
     desc[_kd.DESC_KIND] = data.kind
     for n_slot, slot, arr, dtype in ((_kd.DESC_NPTS, _kd.DESC_PTS, data.points, _F64),
@@ -217,8 +229,72 @@ def _described(shape, name: str) -> tuple:
     with _shapes_lock:
         while len(_shapes) >= _CACHE_SIZE:
             _shapes.pop(next(iter(_shapes)), None)  # the oldest
-        _shapes[id(shape)] = entry
+        _shapes[key] = entry
     return entry
+
+
+# Pairs whose sizes sum outside `collide.support.SIZE_MIN`..``SIZE_MAX`` are queried scaled by a
+# power of two (`_query_scaled`; the range's comment says why).
+_SIZE_LO, _SIZE_HI = SIZE_MIN, SIZE_MAX
+
+
+def _scaled(shape, entry: tuple, k: int) -> tuple:
+    # `_described`'s entry of ``shape`` scaled by 2**k (exact, barring underflow), cached.
+    key = (id(shape), k)
+    hit = _shapes.get(key)
+    if hit is not None and hit[0] is shape:
+        return hit
+    data = entry[1][0]
+    prm = np.ldexp(data.prm, k)
+    if data.kind == ELLIPSOID:  # its rolling ball stays below the curvature radius once rounded
+        prm[3] = rolling_radius(prm[:3])
+    scaled = SupportData(data.kind, prm, np.ldexp(data.points, k), data.nbr_start, data.nbr,
+                         math.ldexp(data.size, k))
+    return _entry(shape, scaled, key)
+
+
+def _reach(entry: tuple) -> float:
+    # The largest coordinate of a shape in its own frame plus its radius: how far it reaches from
+    # its origin, per axis (for a primitive at most twice its size: a cone's apex is at its height).
+    data = entry[1][0]
+    if len(data.points) == 0:
+        return 2.0 * data.size
+    return float(np.abs(data.points).max()) + float(data.prm[3])
+
+
+def _query_scaled(a, b, ea: tuple, eb: tuple, ra, ta, rb, tb, w, tolerance: float,
+                  max_iterations: int) -> tuple[np.ndarray, int]:
+    # `query` on a pair far from unit size: the pair and its poses' translations scaled by 2**k,
+    # k chosen to bring the farthest coordinate the pair reaches to [1/2, 1), and the
+    # lengths of the answer scaled back (exact, both ways, but where a length underflows: its
+    # bounds are then rounded outwards). Rotations, normals and iteration counts are unchanged.
+    size_a, size_b = ea[3], eb[3]
+    k = 0
+    if type(ta) is _ND and type(tb) is _ND and ta.shape == (3,) and tb.shape == (3,):
+        # each shape's reach from the world origin, not its size: a ball of radius 1e-200 at
+        # (1, 0, 0) of its own frame is a tiny shape far from the origin, left unscaled
+        m = max(_reach(ea) + float(np.abs(ta).max()), _reach(eb) + float(np.abs(tb).max()))
+        if math.isfinite(m) and m > 0.0 and not _SIZE_LO <= m <= _SIZE_HI:
+            k = -math.frexp(m)[1]
+    out = _empty(_OUT_SIZE)
+    if k == 0:  # tiny shapes far from the origin, or a pose the kernel refuses
+        return out, _query(ea[2], eb[2], ra, ta, rb, tb, size_a, size_b, ORTHONORMAL_TOL, _LIMIT,
+                           tolerance * (size_a + size_b), w, max_iterations, out)
+    sa, sb = _scaled(a, ea, k), _scaled(b, eb, k)
+    # the coordinate limit scaled too where scaling down (scaling up, the pair is far inside it)
+    limit = math.ldexp(_LIMIT, k) if k < 0 else _LIMIT
+    err = _query(sa[2], sb[2], ra, np.ldexp(ta, k), rb, np.ldexp(tb, k), sa[3], sb[3], ORTHONORMAL_TOL,
+                 limit, tolerance * (sa[3] + sb[3]), w, max_iterations, out)
+    if err:
+        return out, err
+    for i in (_kd.OUT_POINT_A, _kd.OUT_POINT_B):
+        out[i:i + 3] = np.ldexp(out[i:i + 3], -k)
+    out[_kd.OUT_DISTANCE] = math.ldexp(out[_kd.OUT_DISTANCE], -k)
+    for i, away in ((_kd.OUT_LOWER, -math.inf), (_kd.OUT_UPPER, math.inf)):
+        v = float(out[i])
+        back = math.ldexp(v, -k)
+        out[i] = back if math.ldexp(back, k) == v else math.nextafter(back, away)
+    return out, 0
 
 
 _TOLERANCE, _MAX_ITERATIONS = 1e-12, 128  # the defaults (known valid: not checked again)
@@ -306,9 +382,13 @@ def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = _T
     if max_iterations is not _MAX_ITERATIONS and not (type(max_iterations) is int
                                                       and 4 <= max_iterations <= 100_000):
         max_iterations = as_count(max_iterations, "max_iterations", 4, 100_000)
-    out = _empty(_OUT_SIZE)
-    err = _query(desc_a, desc_b, ra, ta, rb, tb, size_a, size_b, ORTHONORMAL_TOL, _LIMIT,
-                 tolerance * (size_a + size_b), w, max_iterations, out)
+    size = size_a + size_b
+    if _SIZE_LO <= size <= _SIZE_HI:
+        out = _empty(_OUT_SIZE)
+        err = _query(desc_a, desc_b, ra, ta, rb, tb, size_a, size_b, ORTHONORMAL_TOL, _LIMIT,
+                     tolerance * size, w, max_iterations, out)
+    else:
+        out, err = _query_scaled(a, b, ea, eb, ra, ta, rb, tb, w, tolerance, max_iterations)
     if err:
         if err < 10:
             _raise(err, "pose_a", ra, ta, size_a)

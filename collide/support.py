@@ -22,11 +22,20 @@ from ._kernels.support import CONE, CYLINDER, ELLIPSOID, POINTS
 from .convex import Cone, Cylinder, Ellipsoid
 from .pointcloud import PointCloud
 
-__all__ = ["CLIMB_MIN", "SupportData", "rolling_radius", "support_data"]
+__all__ = ["CLIMB_MIN", "SIZE_MAX", "SIZE_MIN", "SupportData", "rolling_radius", "support_data"]
 
 # Hull vertex count above which supports climb the vertex graph instead of scanning
 # (tests/bench/distance.py measures both sides of it).
 CLIMB_MIN = 32
+
+# The sizes (`SupportData.size`) the distance kernels answer directly. GJK's and EPA's
+# sub-determinants and rounding allowances are products of up to three lengths and more: far from
+# unit size they under- or overflow, and brackets came out inverted or wrong (pairs scaled by
+# 2**-525 and 2**275; at 1e-60 and 1e60 m a box-ellipsoid contact was 4 % off, at 1e110 m a
+# penetrating pair was missed: reviews of 2026-11-30). `collide.distance` queries a pair outside
+# it scaled by a power of two; `collide.contacts.GeomTable` refuses a model's geom outside it.
+# The range keeps a wide margin to where the errors start.
+SIZE_MIN, SIZE_MAX = 2.0 ** -100, 2.0 ** 100
 
 # Clouds whose data is kept (keyed by identity; PointCloud is immutable).
 _CACHE_SIZE = 1024
@@ -121,7 +130,9 @@ def _cloud_data(cloud: PointCloud) -> SupportData:
             if adj is not None:
                 pts, nbr_start, nbr = adj
     pts = np.ascontiguousarray(pts, dtype=np.float64)
-    size = 0.5 * float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))) + cloud.radius
+    # math.hypot, not a norm's sqrt of squares: those underflow for a cloud of size 1e-160 (its
+    # size came out 0, and `collide.signed_distance` did not see how small the pair was)
+    size = 0.5 * math.hypot(*(pts.max(axis=0) - pts.min(axis=0)).tolist()) + cloud.radius
     prm = np.array([0.0, 0.0, 0.0, cloud.radius])
     return SupportData(POINTS, prm, pts, nbr_start, nbr, size)
 
@@ -182,11 +193,17 @@ def support_data(shape) -> SupportData:
     empty = np.zeros((0, 3))
     if isinstance(shape, Cylinder):
         prm = np.array([shape.radius, shape.half_height, 0.0, 0.0])
-        return SupportData(CYLINDER, prm, empty, _NO_ADJ, _NO_ADJ, math.hypot(shape.radius, shape.half_height))
-    if isinstance(shape, Cone):
+        data = SupportData(CYLINDER, prm, empty, _NO_ADJ, _NO_ADJ, math.hypot(shape.radius, shape.half_height))
+    elif isinstance(shape, Cone):
         prm = np.array([shape.radius, shape.height, 0.0, 0.0])
-        return SupportData(CONE, prm, empty, _NO_ADJ, _NO_ADJ, 0.5 * math.hypot(2.0 * shape.radius, shape.height))
-    if isinstance(shape, Ellipsoid):
+        data = SupportData(CONE, prm, empty, _NO_ADJ, _NO_ADJ, 0.5 * math.hypot(2.0 * shape.radius, shape.height))
+    elif isinstance(shape, Ellipsoid):
         prm = np.array([shape.radii[0], shape.radii[1], shape.radii[2], rolling_radius(shape.radii)])
-        return SupportData(ELLIPSOID, prm, empty, _NO_ADJ, _NO_ADJ, float(np.linalg.norm(shape.radii)))
-    raise ValueError(f"shape: expected a PointCloud, Cylinder, Cone or Ellipsoid, got {type(shape).__name__}")
+        data = SupportData(ELLIPSOID, prm, empty, _NO_ADJ, _NO_ADJ, math.hypot(*shape.radii.tolist()))
+    else:
+        raise ValueError(f"shape: expected a PointCloud, Cylinder, Cone or Ellipsoid, got {type(shape).__name__}")
+    # (a cloud's coordinates are checked by `_hull.require_bounded`)
+    if not data.size <= _hull.MAX_COORDINATE:
+        raise ValueError(f"shape: the {type(shape).__name__.lower()}'s size {data.size:.3g} is beyond "
+                         f"{_hull.MAX_COORDINATE:g} (squared distances would overflow float64)")
+    return data

@@ -360,6 +360,129 @@ def test_centres_a_denormal_distance_apart_are_answered():
 
 
 
+def _scaled_shape(kind, prm, s):
+    if kind == 0:
+        return Cylinder(prm[0] * s, prm[1] * s)
+    if kind == 1:
+        return Cone(prm[0] * s, prm[1] * s)
+    if kind == 2:
+        return Ellipsoid(np.array(prm[:3]) * s)
+    if kind == 3:
+        return PointCloud(prm[3] * s, prm[4] * s)
+    return PointCloud(np.zeros((1, 3)), prm[0] * s)  # a sphere: the closed forms
+
+
+def test_the_bracket_holds_at_every_scale():
+    # GJK's and EPA's products of lengths underflowed for pairs below ~1e-150 (the bracket came
+    # out inverted: lower 1.9e-200 above upper 8e-214) and over- or underflowed above ~1e82
+    # (lower above the true distance); a cloud's size itself underflowed to 0 below 1e-160. A pair
+    # far from unit size is now queried scaled by a power of two: the answer is the unit pair's,
+    # scaled, and the polytope oracle's distance (scaled exactly) lies in every bracket.
+    rng = np.random.default_rng(11)
+    polys = []
+    for k in range(16):
+        pa = rng.normal(size=(int(rng.integers(1, 12)), 3))
+        pb = rng.normal(size=(int(rng.integers(1, 12)), 3))
+        off = rng.normal(size=3)
+        pb = pb + off * rng.uniform(0, 4) / np.linalg.norm(off)
+        ra = float(rng.uniform(0, 0.5)) if k % 3 == 0 else 0.0
+        rb = float(rng.uniform(0, 0.5)) if k % 4 == 0 else 0.0
+        polys.append((pa, pb, ra, rb, testing.polytope_signed_distance(pa, pb, ra, rb)))
+    prims = []
+    for k in range(25):
+        kinds = (k % 5, (k // 5) % 5)
+        prms = [[*rng.uniform(0.2, 1.5, 3), rng.normal(size=(5, 3)), rng.uniform(0, 0.3)] for _ in kinds]
+        poses = [(random_rotation(rng), rng.normal(size=3)) for _ in kinds]
+        unit = collide.distance(*(_scaled_shape(kd_, p, 1.0) for kd_, p in zip(kinds, prms)), *poses)
+        prims.append((kinds, prms, poses, unit))
+    for e in (-1060, -1000, -700, -525, -300, -101, -99, 0, 99, 101, 275, 325, 450):
+        s = 2.0 ** e
+        slack = 1e-12 + 64 * 2.0 ** -1074 / s  # at 2**-1060 the inputs themselves are rounded
+        for pa, pb, ra, rb, true in polys:
+            size = 4.0 + np.abs(pa).max() + np.abs(pb).max()
+            r = collide.distance(PointCloud(pa * s, ra * s), PointCloud(pb * s, rb * s))
+            assert r.lower <= r.upper, (e, r)
+            assert r.lower / s <= true + slack * size and r.upper / s >= true - slack * size, (e, r, true)
+            if e > -1000:  # not where the lengths themselves are subnormal
+                assert abs(r.distance / s - true) <= 1e-12 * size, (e, r, true)
+        for kinds, prms, poses, unit in prims:
+            r = collide.distance(*(_scaled_shape(kd_, p, s) for kd_, p in zip(kinds, prms)),
+                                 *((rot, pos * s) for rot, pos in poses))
+            assert r.lower <= r.upper, (e, kinds, r)
+            # the unit pair's bracket, scaled: the two overlap (both hold the true distance)
+            assert r.lower / s <= unit.upper + slack and r.upper / s >= unit.lower - slack, (e, kinds, r, unit)
+            if e > -1000:
+                assert math.isclose(r.distance / s, unit.distance, rel_tol=1e-12, abs_tol=1e-12), (e, kinds, r, unit)
+                np.testing.assert_allclose(r.normal, unit.normal, atol=1e-9)
+                np.testing.assert_allclose(r.point_a / s, unit.point_a, rtol=1e-12, atol=1e-12)
+
+
+def test_a_scaled_query_refuses_what_the_unit_one_refuses():
+    # the scaled path (a pair of size 1e-120) checks the poses as the plain one does, and the
+    # coordinate limit against the unscaled pair; after an error the same shapes still work
+    a, b = PointCloud(np.eye(3) * 1e-120, 0.0), Cylinder(1e-120, 2e-120)
+    with pytest.raises(ValueError, match="pose_a: non-finite"):
+        collide.distance(a, b, (np.eye(3), np.array([np.nan, 0.0, 0.0])))
+    with pytest.raises(ValueError, match="pose_b: the rotation is not orthonormal"):
+        collide.distance(a, b, None, (2.0 * np.eye(3), np.zeros(3)))
+    with pytest.raises(ValueError, match="pose_b"):
+        collide.distance(a, b, None, (np.eye(3), np.zeros(4)))
+    big = PointCloud(np.vstack([np.eye(3), -np.eye(3)]) * 1e149, 0.0)
+    with pytest.raises(ValueError, match="pose_b: the translation puts the shape at"):
+        collide.distance(big, big, None, (np.eye(3), np.array([0.0, 0.0, 9.5e149])))
+    r = collide.distance(a, b, None, (np.eye(3), np.array([0.0, 0.0, 1e-119])))
+    assert 0.0 < r.lower <= r.upper < 1e-119
+    assert collide.distance(big, big).distance < 0.0
+    # a primitive too large for the kernels is named as the shape, not as its pose
+    with pytest.raises(ValueError, match="shape a: the cylinder's size 2e\\+150 is beyond"):
+        collide.distance(Cylinder(2e150, 1.0), b)
+
+
+def test_the_scale_is_chosen_from_where_the_shapes_reach():
+    # (review) a scale from the sizes alone took a ball of radius 1e-200 at (1, 0, 0) of its own
+    # frame for a tiny pair and scaled it up to inf; two bare points (size 0) were not scaled, and
+    # 1e-200 apart their bracket was inverted
+    for ra, rb, ca, cb, true in ((1e-200, 1e-200, [1.0, 0, 0], [2.0, 0, 0], 1.0 - 2e-200),
+                                 (1e-300, 1e-300, [0.0, 0, 0], [1e10, 0, 0], 1e10),
+                                 (0.0, 0.0, [1e150, 0, 0], [0.0, 0, 0], 1e150),
+                                 (0.0, 0.0, [1e-200, 0, 0], [0.0, 2e-200, 0], math.sqrt(5) * 1e-200),
+                                 (0.0, 0.0, [3e-320, 0, 0], [0.0, 0, 0], 3e-320)):
+        r = collide.distance(PointCloud([ca], ra), PointCloud([cb], rb))
+        assert r.lower <= true <= r.upper, (ca, cb, r)
+        assert math.isclose(r.distance, true, rel_tol=1e-12), (ca, cb, r)
+
+
+def test_the_witnesses_are_the_distance_along_the_normal_within_the_bracket():
+    # Distance's contract at a loose tolerance too: point_b - point_a is distance * normal up to
+    # the bracket's width (EPA's witnesses on curved primitives differ by up to half of it)
+    rng = np.random.default_rng(12)
+    wide = 0
+    for tol in (1e-12, 1e-6, 1e-3):
+        for k in range(60):
+            kinds = (k % 5, (k // 5) % 5)
+            prms = [[*rng.uniform(0.2, 1.5, 3), rng.normal(size=(5, 3)), rng.uniform(0, 0.3)] for _ in kinds]
+            poses = [(random_rotation(rng), rng.normal(size=3) * rng.uniform(0.2, 2.0)) for _ in kinds]
+            r = collide.distance(*(_scaled_shape(kd_, p, 1.0) for kd_, p in zip(kinds, prms)), *poses, tolerance=tol)
+            size = 8.0
+            miss = float(np.linalg.norm(r.point_b - r.point_a - r.distance * r.normal))
+            assert miss <= r.gap + 1e-13 * size, (tol, kinds, r, miss)
+            wide += r.gap > 1e-9
+    assert wide >= 20  # loose brackets were exercised
+
+
+def test_a_warm_direction_of_any_length_starts_the_search():
+    # a warm direction of 1e155 overflowed GJK's squares: the bracket of an overlapping pair came
+    # out inverted (lower -1.7e-14 against a true -0.231)
+    a = PointCloud(np.vstack([np.eye(3), -np.eye(3)]), 0.0)
+    b = PointCloud(np.vstack([np.eye(3), -np.eye(3)]) * 0.5 + [0.2, 0.1, 0.0], 0.0)
+    cold = collide.distance(a, b)
+    assert cold.distance < -0.1
+    for w in ([1e155, 0, 0], [1e300, 1e300, 0], [1e-300, 0, 0], [5e-324, 0, 0], [0, -3.0, 1e200]):
+        r = collide.distance(a, b, warm=np.array(w, float))
+        assert r.lower <= r.upper and r.lower <= cold.upper + 1e-12 and cold.lower <= r.upper + 1e-12, (w, r)
+        assert abs(r.distance - cold.distance) <= 1e-12, (w, r)
+
+
 # ---------------------------------------------------------------------------- curved primitives
 
 def _random_primitive(rng, k):
