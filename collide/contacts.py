@@ -134,7 +134,15 @@ class GeomTable:
     model : mujoco.MjModel or an object with its attribute names
         Read once: ``geom_type``, ``geom_size``, ``geom_dataid``, ``mesh_vertadr``,
         ``mesh_vertnum``, ``mesh_vert``, ``geom_margin``, ``geom_gap``, ``pair_geom1``,
-        ``pair_geom2``, ``pair_margin``, ``pair_gap``, ``opt.enableflags``, ``opt.o_margin``.
+        ``pair_geom2``, ``pair_margin``, ``pair_gap``, ``opt.enableflags``, ``opt.o_margin``, and
+        ``geom_contype``, ``geom_conaffinity`` where it has them.
+
+    Raises
+    ------
+    ValueError
+        For a geom the narrow phase cannot take, naming it: `collide.support.support_data`'s
+        errors, or a size outside `collide.support.SIZE_MIN` .. ``SIZE_MAX`` (a geom that never
+        collides is kept then, and refused only by the calls that query it).
 
     Attributes
     ----------
@@ -199,6 +207,8 @@ class GeomTable:
         self.nbr_start_adr, self.nbr_start_num = np.zeros(G, np.int64), np.zeros(G, np.int64)
         self.nbr_adr, self.nbr_num = np.zeros(G, np.int64), np.zeros(G, np.int64)
         npts = nns = nnb = 0
+        never = _never_collides(model, G)
+        self._outside = np.zeros(G, np.bool_)
         for g in range(G):
             t = int(types[g])
             if t == PLANE:
@@ -218,8 +228,9 @@ class GeomTable:
             except ValueError as exc:
                 raise ValueError(f"model: geom {g}: {exc}") from None
             if not SIZE_MIN <= sd.size <= SIZE_MAX:  # (`collide.support.SIZE_MIN`'s comment)
-                raise ValueError(f"model: geom {g}: size {sd.size:.3g} is outside [{SIZE_MIN:.3g}, {SIZE_MAX:.3g}], "
-                                 "the sizes the narrow phase supports (scale the model)")
+                if not never[g]:
+                    raise ValueError(f"model: geom {g}{_named(model, g)}: {_outside_message(sd.size)} (scale the model)")
+                self._outside[g] = True  # a geom that never collides: refused only where queried
             self.rule[g], self.below[g], self.kind[g], self.prm[g] = rule, below, sd.kind, sd.prm
             self.size[g] = sd.size
             if t == CYLINDER:
@@ -260,6 +271,7 @@ class GeomTable:
         self.faces = _faces.FaceTable([_polytope(model, g, int(types[g]), sizes[g]) for g in range(G)])
         self._pack()
         self._any_skipped = bool(np.any(self.cls == _km.SKIPPED))
+        self._any_outside = bool(self._outside.any())
         self._no_skipped = _no_rows((2,), np.int32)  # a read-only view, never resized in place (`_empty_contacts`)
         self._per_pair = _km.MAX_PER_PAIR * self.pair_mult
         self._skip = np.empty(0, np.bool_)  # `contacts_of`'s skipped flags where no geom is skipped
@@ -453,6 +465,35 @@ def narrow_phase(table: GeomTable, pairs, geom_xpos, geom_xmat) -> Contacts:
 def _check_ids(table: GeomTable, P: np.ndarray) -> None:
     if len(P) and (P.min() < 0 or P.max() >= table.ngeom or np.any(P[:, 0] >= P[:, 1])):
         raise ValueError(f"pairs: geom ids must be in [0, {table.ngeom}) with the lower id first")
+    if table._any_outside and len(P) and table._outside[P].any():
+        g = int(P[table._outside[P]][0])
+        raise ValueError(f"pairs: geom {g}: {_outside_message(table.size[g])}")
+
+
+def _never_collides(model, G: int) -> np.ndarray:
+    # (G,) bool: the geoms that no pair of MuJoCo's collides (contype and conaffinity 0, in no
+    # <pair>); all False for a model object without those arrays.
+    contype, conaffinity = getattr(model, "geom_contype", None), getattr(model, "geom_conaffinity", None)
+    if contype is None or conaffinity is None:
+        return np.zeros(G, np.bool_)
+    never = (np.asarray(contype).reshape(G) == 0) & (np.asarray(conaffinity).reshape(G) == 0)
+    never[np.asarray(model.pair_geom1, dtype=np.int64)] = False
+    never[np.asarray(model.pair_geom2, dtype=np.int64)] = False
+    return never
+
+
+def _named(model, g: int) -> str:
+    # " ('name')" of geom g where the model names it, else "".
+    try:
+        name = model.geom(g).name
+    except Exception:  # a model object without mujoco's accessors
+        return ""
+    return f" ('{name}')" if name else ""
+
+
+def _outside_message(size: float) -> str:
+    return (f"size {size:.3g} is outside [{SIZE_MIN:.3g}, {SIZE_MAX:.3g}], the sizes the narrow phase "
+            "supports")
 
 
 def contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.ndarray) -> Contacts:
@@ -634,6 +675,9 @@ def _distance_args(table: GeomTable, g1, g2, distmax) -> tuple[int, int, float]:
             raise ValueError(f"g1, g2: the same geom ({g1})")
     if type(distmax) is not float or not math.isfinite(distmax):
         distmax = _as_finite(distmax, "distmax")
+    if table._any_outside and (table._outside[g1] or table._outside[g2]):
+        g = g1 if table._outside[g1] else g2
+        raise ValueError(f"g1, g2: geom {g}: {_outside_message(table.size[g])} (scale the model)")
     return g1, g2, distmax
 
 

@@ -238,6 +238,10 @@ def _entry(shape, data: SupportData, key) -> tuple:
 _SIZE_LO, _SIZE_HI = SIZE_MIN, SIZE_MAX
 
 
+# `_query_scaled`'s widening of a bound scaled down: 16 * 2**-1074 (the smallest subnormal).
+_WIDEN = math.ldexp(16.0, -1074)
+
+
 def _scaled(shape, entry: tuple, k: int) -> tuple:
     # `_described`'s entry of ``shape`` scaled by 2**k (exact, barring underflow), cached.
     key = (id(shape), k)
@@ -292,6 +296,13 @@ def _query_scaled(a, b, ea: tuple, eb: tuple, ra, ta, rb, tb, w, tolerance: floa
     out[_kd.OUT_DISTANCE] = math.ldexp(out[_kd.OUT_DISTANCE], -k)
     for i, away in ((_kd.OUT_LOWER, -math.inf), (_kd.OUT_UPPER, math.inf)):
         v = float(out[i])
+        if k < 0:
+            # scaled down, a coordinate or parameter below 2**(-1022 - k) lost bits (or became 0):
+            # the pair queried is the scaled one moved by less than 2**-1074 a coordinate, so its
+            # distance by less than 4 * 2**-1074 (review: a 1e120 cylinder 1e-300 thick answered
+            # [0, 0] for a true 2e-300); the bound is widened by that, at least to the next float
+            w = v + math.copysign(_WIDEN, away)
+            v = w if w != v else math.nextafter(v, away)
         back = math.ldexp(v, -k)
         out[i] = back if math.ldexp(back, k) == v else math.nextafter(back, away)
     return out, 0

@@ -316,8 +316,31 @@ def test_a_model_far_from_unit_size_is_refused_or_answered_to_scale():
         np.testing.assert_allclose(gd2, gd, rtol=0, atol=1e-9)
         assert abs(mind2 - mind) <= 1e-9
     for s in (1e-60, 1e60, 1e110):
-        with pytest.raises(ValueError, match="model: geom 0: size .* is outside .* the sizes the narrow phase"):
+        with pytest.raises(ValueError, match="model: geom 0.*: size .* is outside .* the sizes the narrow phase"):
             cm.Collider(_scaled_scene(s))
+
+
+def test_a_geom_out_of_range_that_never_collides_is_refused_only_where_queried():
+    # (review) a marker of 1e-31 with contype = conaffinity = 0 refused the whole model; now it
+    # is kept, the model works, and only a query of that geom is refused, naming it
+    model = _model('<geom name="marker" type="sphere" size="1e-31" contype="0" conaffinity="0"/>'
+                   '<body><freejoint/><geom name="ball" type="sphere" size="0.1"/></body>'
+                   '<geom name="floor" type="plane" size="1 1 1"/>')
+    data = mujoco.MjData(model)
+    data.qpos[2] = 0.09
+    mujoco.mj_forward(model, data)
+    col = cm.Collider(model)
+    c = col.contacts(data)
+    assert len(c) == 1 and abs(c.dist[0] + 0.01) < 1e-9  # the ball on the floor
+    with pytest.raises(ValueError, match="geom 0: size 1e-31 is outside"):
+        col.geom_distance(data, 0, 1, 1.0)
+    with pytest.raises(ValueError, match="pairs: geom 0: size 1e-31 is outside"):
+        cc.contacts_of(col.table, np.array([[0, 1]], np.int32), data.geom_xpos, data.geom_xmat)
+    assert col.geom_distance(data, 1, 2, 1.0)[0] == pytest.approx(-0.01, abs=1e-9)  # still works
+    bad = _model('<geom name="speck" type="sphere" size="1e-31"/>'
+                 '<body><freejoint/><geom type="sphere" size="0.1"/></body>')
+    with pytest.raises(ValueError, match=r"model: geom 0 \('speck'\): size 1e-31 is outside"):
+        cm.Collider(bad)
 
 
 def test_geom_distance_at_a_distmax_of_the_distance_is_the_full_querys():

@@ -404,11 +404,13 @@ def query(desc_a, desc_b, rot_a, pos_a, rot_b, pos_b, size_a, size_b, ortho_tol,
         if not (math.isfinite(d0[0]) and math.isfinite(d0[1]) and math.isfinite(d0[2])):
             d0[:] = 0.0
         elif d0[0] != 0.0 or d0[1] != 0.0 or d0[2] != 0.0:
-            # Scaled to a largest entry of one: GJK squares it (a direction of 1e155 overflowed,
-            # and the bracket came out inverted; 1e-320 underflowed).
+            # Scaled to a largest entry of one where GJK's squares of it would under- or overflow
+            # (a direction of 1e155 inverted the bracket), and only there: a warm start from a
+            # unit normal stays what it was.
             big = max(abs(d0[0]), abs(d0[1]), abs(d0[2]))
-            for k in range(3):
-                d0[k] = d0[k] / big
+            if not 2.0 ** -300 <= big <= 2.0 ** 300:
+                for k in range(3):
+                    d0[k] = d0[k] / big
             # A hint out of range (a hand-built Distance's) makes a cold climb; a float beyond
             # int64 (or NaN) is not converted at all.
             if -2.0 < warm[OUT_HINT_A] < 2.0 ** 31:
