@@ -130,9 +130,14 @@ def _cloud_data(cloud: PointCloud) -> SupportData:
             if adj is not None:
                 pts, nbr_start, nbr = adj
     pts = np.ascontiguousarray(pts, dtype=np.float64)
-    # math.hypot, not a norm's sqrt of squares: those underflow for a cloud of size 1e-160 (its
-    # size came out 0, and `collide.signed_distance` did not see how small the pair was)
-    size = 0.5 * math.hypot(*(pts.max(axis=0) - pts.min(axis=0)).tolist()) + cloud.radius
+    # The norm's squares underflow for a cloud of size 1e-160 (its size came out 0, and
+    # `collide.signed_distance` did not see how small the pair was): math.hypot there, the norm
+    # elsewhere (so that every other size, and every answer, is what it was bit for bit).
+    extent = pts.max(axis=0) - pts.min(axis=0)
+    diag = float(np.linalg.norm(extent))
+    if diag < 2.0 ** -480:
+        diag = math.hypot(*extent.tolist())
+    size = 0.5 * diag + cloud.radius
     prm = np.array([0.0, 0.0, 0.0, cloud.radius])
     return SupportData(POINTS, prm, pts, nbr_start, nbr, size)
 
@@ -199,7 +204,9 @@ def support_data(shape) -> SupportData:
         data = SupportData(CONE, prm, empty, _NO_ADJ, _NO_ADJ, 0.5 * math.hypot(2.0 * shape.radius, shape.height))
     elif isinstance(shape, Ellipsoid):
         prm = np.array([shape.radii[0], shape.radii[1], shape.radii[2], rolling_radius(shape.radii)])
-        data = SupportData(ELLIPSOID, prm, empty, _NO_ADJ, _NO_ADJ, math.hypot(*shape.radii.tolist()))
+        diag = float(np.linalg.norm(shape.radii))  # as for a cloud: math.hypot where it underflows
+        data = SupportData(ELLIPSOID, prm, empty, _NO_ADJ, _NO_ADJ,
+                           diag if diag >= 2.0 ** -480 else math.hypot(*shape.radii.tolist()))
     else:
         raise ValueError(f"shape: expected a PointCloud, Cylinder, Cone or Ellipsoid, got {type(shape).__name__}")
     # (a cloud's coordinates are checked by `_hull.require_bounded`)
