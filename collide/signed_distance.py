@@ -233,11 +233,6 @@ def _entry(shape, data: SupportData, key) -> tuple:
     return entry
 
 
-# Pairs whose sizes sum outside `collide.support.SIZE_MIN`..``SIZE_MAX`` are queried scaled by a
-# power of two (`_query_scaled`; the range's comment says why).
-_SIZE_LO, _SIZE_HI = SIZE_MIN, SIZE_MAX
-
-
 # `_query_scaled`'s widening of a bound scaled down: 16 * 2**-1074 (the smallest subnormal).
 _WIDEN = math.ldexp(16.0, -1074)
 
@@ -278,7 +273,7 @@ def _query_scaled(a, b, ea: tuple, eb: tuple, ra, ta, rb, tb, w, tolerance: floa
         # each shape's reach from the world origin, not its size: a ball of radius 1e-200 at
         # (1, 0, 0) of its own frame is a tiny shape far from the origin, left unscaled
         m = max(_reach(ea) + float(np.abs(ta).max()), _reach(eb) + float(np.abs(tb).max()))
-        if math.isfinite(m) and m > 0.0 and not _SIZE_LO <= m <= _SIZE_HI:
+        if math.isfinite(m) and m > 0.0 and not SIZE_MIN <= m <= SIZE_MAX:
             k = -math.frexp(m)[1]
     out = _empty(_OUT_SIZE)
     if k == 0:  # tiny shapes far from the origin, or a pose the kernel refuses
@@ -301,8 +296,8 @@ def _query_scaled(a, b, ea: tuple, eb: tuple, ra, ta, rb, tb, w, tolerance: floa
             # the pair queried is the scaled one moved by less than 2**-1074 a coordinate, so its
             # distance by less than 4 * 2**-1074 (review: a 1e120 cylinder 1e-300 thick answered
             # [0, 0] for a true 2e-300); the bound is widened by that, at least to the next float
-            w = v + math.copysign(_WIDEN, away)
-            v = w if w != v else math.nextafter(v, away)
+            widened = v + math.copysign(_WIDEN, away)
+            v = widened if widened != v else math.nextafter(v, away)
         back = math.ldexp(v, -k)
         out[i] = back if math.ldexp(back, k) == v else math.nextafter(back, away)
     return out, 0
@@ -394,7 +389,7 @@ def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = _T
                                                       and 4 <= max_iterations <= 100_000):
         max_iterations = as_count(max_iterations, "max_iterations", 4, 100_000)
     size = size_a + size_b
-    if _SIZE_LO <= size <= _SIZE_HI:
+    if SIZE_MIN <= size <= SIZE_MAX:  # else scaled by a power of two (`collide.support.SIZE_MIN`)
         out = _empty(_OUT_SIZE)
         err = _query(desc_a, desc_b, ra, ta, rb, tb, size_a, size_b, ORTHONORMAL_TOL, _LIMIT,
                      tolerance * size, w, max_iterations, out)

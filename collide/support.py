@@ -37,6 +37,10 @@ CLIMB_MIN = 32
 # The range keeps a wide margin to where the errors start.
 SIZE_MIN, SIZE_MAX = 2.0 ** -100, 2.0 ** 100
 
+# Below this a vector's norm (the square root of its squares) underflows: sizes take math.hypot
+# there, and the norm above it, as before (the same sizes bit for bit).
+_NORM_MIN = 2.0 ** -480
+
 # Clouds whose data is kept (keyed by identity; PointCloud is immutable).
 _CACHE_SIZE = 1024
 _cache: OrderedDict = OrderedDict()
@@ -130,12 +134,11 @@ def _cloud_data(cloud: PointCloud) -> SupportData:
             if adj is not None:
                 pts, nbr_start, nbr = adj
     pts = np.ascontiguousarray(pts, dtype=np.float64)
-    # The norm's squares underflow for a cloud of size 1e-160 (its size came out 0, and
-    # `collide.signed_distance` did not see how small the pair was): math.hypot there, the norm
-    # elsewhere (so that every other size, and every answer, is what it was bit for bit).
+    # (a cloud of size 1e-160 had size 0 by the norm: `collide.signed_distance` did not see how
+    # small the pair was)
     extent = pts.max(axis=0) - pts.min(axis=0)
     diag = float(np.linalg.norm(extent))
-    if diag < 2.0 ** -480:
+    if diag < _NORM_MIN:
         diag = math.hypot(*extent.tolist())
     size = 0.5 * diag + cloud.radius
     prm = np.array([0.0, 0.0, 0.0, cloud.radius])
@@ -204,9 +207,9 @@ def support_data(shape) -> SupportData:
         data = SupportData(CONE, prm, empty, _NO_ADJ, _NO_ADJ, 0.5 * math.hypot(2.0 * shape.radius, shape.height))
     elif isinstance(shape, Ellipsoid):
         prm = np.array([shape.radii[0], shape.radii[1], shape.radii[2], rolling_radius(shape.radii)])
-        diag = float(np.linalg.norm(shape.radii))  # as for a cloud: math.hypot where it underflows
+        diag = float(np.linalg.norm(shape.radii))
         data = SupportData(ELLIPSOID, prm, empty, _NO_ADJ, _NO_ADJ,
-                           diag if diag >= 2.0 ** -480 else math.hypot(*shape.radii.tolist()))
+                           diag if diag >= _NORM_MIN else math.hypot(*shape.radii.tolist()))
     else:
         raise ValueError(f"shape: expected a PointCloud, Cylinder, Cone or Ellipsoid, got {type(shape).__name__}")
     # (a cloud's coordinates are checked by `_hull.require_bounded`)
