@@ -30,6 +30,7 @@ from typing import Sequence
 
 import numpy as np
 
+from . import hull as _hull
 from . import shapes as _shapes
 from . import volumes as _volumes
 from ._kernels.bounds import ORTHO_TOL as _KERNEL_ORTHO_TOL
@@ -83,9 +84,8 @@ ROTATION_SLACK = 8.0 * POSE_ORTHO_TOL
 MARGIN_SLACK = 4.0 * ROTATION_SLACK
 # Geoms whose extent (points' spread or radius) is below this, but not zero, are refused: the
 # kernels compare squared distances, which underflow below ~1.5e-154 (the square root of float64's
-# smallest normal number), so two touching 1e-162 boxes could be culled. The mirror of the
-# 1e150 coordinate limit; a single point of radius 0 (size 0) stays valid.
-MIN_GEOM_SIZE = 1e-150
+# smallest normal number), so two touching 1e-162 boxes could be culled. `collide.hull.MIN_EXTENT`.
+MIN_GEOM_SIZE = _hull.MIN_EXTENT
 
 
 def _guarded(obb: _volumes.OBB, sphere: _volumes.Sphere):

@@ -238,6 +238,7 @@ def deform(cloud: PointCloud, f, bound: float | None = None, tolerance: float = 
         return PointCloud.empty()
     K = _hull.hull_vertices(cloud.with_radius_as_points().points if cloud.radius > 0 else cloud.points)
     _hull.require_bounded(K, "cloud")
+    _hull.require_not_tiny(K, "cloud")
     size = _size(K)
     M = _bound_of(f, K, bound)
     if M is None and guaranteed:

@@ -19,8 +19,8 @@ from scipy.spatial import ConvexHull, QhullError
 from ._validate import as_array, as_count, as_points, as_radius
 
 __all__ = [
-    "FLAT_TOL", "MAX_BALL_LEVEL", "MAX_COORDINATE", "affine_basis", "ball_polytope", "clip_hull",
-    "hull_indices", "hull_vertices", "intersect_hulls", "minkowski_ball", "require_bounded",
+    "FLAT_TOL", "MAX_BALL_LEVEL", "MAX_COORDINATE", "MIN_EXTENT", "affine_basis", "ball_polytope", "clip_hull",
+    "hull_indices", "hull_vertices", "intersect_hulls", "minkowski_ball", "require_bounded", "require_not_tiny",
 ]
 
 # Relative size of a singular value, against the largest, below which a direction is treated as
@@ -32,6 +32,22 @@ FLAT_TOL = 1e-12
 # distances and SVDs overflow float64 beyond about 1e154 (at 1e306 the mean of a cloud overflowed
 # and hull reduction collapsed it to one point, silently; found 2026-11-22).
 MAX_COORDINATE = 1e150
+
+# Smallest non-zero extent (largest spread of the points, plus the radius) the routines whose
+# error terms square a length accept (the broad phase's geoms, `collide.swept`, `collide.deform`):
+# squares of lengths below ~1.5e-154 underflow (a swept cloud of 1e-163 lost its deviation term,
+# a deformed one its interpolation error: review, 2026-11-30). The mirror of `MAX_COORDINATE`; a
+# single point of radius 0 (extent 0) stays valid.
+MIN_EXTENT = 1e-150
+
+
+def require_not_tiny(points: np.ndarray, what: str, radius: float = 0.0) -> None:
+    """Raise ValueError, naming ``what``, when ``points`` ``(n, 3)`` (non-empty) spread, plus
+    ``radius``, to a non-zero extent below `MIN_EXTENT`."""
+    extent = float(np.ptp(points, axis=0).max()) + radius
+    if 0.0 < extent < MIN_EXTENT:
+        raise ValueError(f"{what}: extent {extent:.3g} is below {MIN_EXTENT:g}, the smallest non-zero one "
+                         "supported (squared lengths would underflow float64; scale the input)")
 
 
 # Finest ball polytope: 10 * 4**level + 2 points, 163 842 at level 7 (each level four times the
@@ -299,6 +315,11 @@ def _solid(points: np.ndarray) -> bool:
     return bool(widths[2] >= 1e-4 * widths[0])
 
 
+# `intersect_hulls`: the smallest extent of one set, relative to the other's, that manifold3d is
+# given (well above where its hulls collapse, ~2**-260).
+_MANIFOLD_MIN_RATIO = 2.0 ** -100
+
+
 def intersect_hulls(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Vertices of ``hull(a) ∩ hull(b)``: manifold3d for solid hulls, exact clipping otherwise.
 
@@ -335,11 +356,19 @@ def intersect_hulls(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     center = 0.5 * (np.minimum(lo, hi) + np.maximum(lo, hi))
     a = hull_vertices(a - center)
     b = hull_vertices(b - center)
-    size = max(float(np.ptp(a, axis=0).max()), float(np.ptp(b, axis=0).max()))
-    if size > 0.0 and _solid(a) and _solid(b):
+    ext_a, ext_b = float(np.ptp(a, axis=0).max()), float(np.ptp(b, axis=0).max())
+    size = max(ext_a, ext_b)
+    # manifold3d takes both scaled by the larger's size: a set below ~2**-260 of it collapsed in
+    # its hull (a 5e-82 cube intersected with a unit one came back as 4 of its corners, a 5e-82
+    # ball hung or crashed the process: review, 2026-11-30), so such a pair is clipped instead,
+    # the smaller set by the larger's halfspaces (the result then lies in the smaller, as tight)
+    comparable = min(ext_a, ext_b) >= _MANIFOLD_MIN_RATIO * size
+    if size > 0.0 and comparable and _solid(a) and _solid(b):
         inter = _manifold_hull(a / size) ^ _manifold_hull(b / size)
         if not inter.is_empty():
             return np.array(inter.to_mesh64().vert_properties[:, :3], dtype=np.float64) * size + center
+    if not comparable and ext_b < ext_a:
+        a, b = b, a
     try:
         normals, offsets = _halfspaces(b, eps)
     except (QhullError, ValueError):

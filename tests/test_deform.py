@@ -228,3 +228,18 @@ def test_bad_cloud_and_map_types():
         deformations.twist(float("inf"))
     with pytest.raises(ValueError, match="curvature"):
         deformations.bend(float("nan"))
+
+
+def test_a_cloud_too_small_for_its_error_terms_is_refused():
+    # (review) a cube of half side 2**-540 (1e-163) was deformed with no interpolation error (its
+    # squared spans underflowed) and a deformed point lay outside the bound; below
+    # collide.hull.MIN_EXTENT it is refused now, and a single point (extent 0) still works
+    cube = np.array(list(itertools.product((-1.0, 1.0), repeat=3)))
+    with pytest.raises(ValueError, match="cloud: extent .* is below 1e-150"):
+        collide.deform(PointCloud(cube * 2.0 ** -540), deformations.twist(1.5 * 2.0 ** 540))
+    with pytest.raises(ValueError, match="cloud: extent .* is below 1e-150"):
+        collide.deform(PointCloud([[0.0, 0.0, 0.0]], 1e-160), deformations.twist(1.0))
+    point = collide.deform(PointCloud([[1.0, 2.0, 3.0]]), deformations.twist(1.0))
+    assert len(point.points) == 1
+    ok = collide.deform(PointCloud(cube * 1e-140), deformations.twist(1e140), tolerance=1e-2)
+    assert np.abs(ok.points).max() <= 1e-139

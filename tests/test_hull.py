@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.optimize import linprog
 
-from collide import PointCloud, hull
+from collide import PointCloud, hull, intersection
 
 
 def _in_hull(points: np.ndarray, query: np.ndarray, tol: float = 1e-9) -> bool:
@@ -203,6 +203,30 @@ def test_intersect_hulls_small_clouds_far_from_the_origin():
     dirs /= np.linalg.norm(dirs, axis=1)[:, None]
     # Tolerance: 1e-12 of the coordinates (7e-6 absolute here is far above; use 1e-8).
     assert np.all((samples @ dirs.T).max(axis=0) <= (out @ dirs.T).max(axis=0) + 1e-8)
+
+
+def test_intersect_hulls_of_a_tiny_set_and_a_large_one_keeps_the_tiny_one():
+    # (review) manifold3d, given both scaled by the larger's size, collapsed a set 2**-270 of it:
+    # a 5e-82 cube in a unit one came back as 4 of its corners, and a 5e-82 ball hung or crashed
+    # the process. Such a pair is clipped now; the tiny set lies inside the larger one here, so
+    # the intersection is the tiny set itself, every vertex kept.
+    cube = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    for e in (-250, -270, -330, -495):
+        s = 2.0 ** e
+        for big in (cube, cube * 2.0 ** -e):  # the tiny one in a unit cube, and in a huge one
+            for a, b in ((cube * s, big), (big, cube * s)):
+                out = hull.intersect_hulls(a, b)
+                assert len(out) >= 8, e
+                for corner in cube * s:
+                    assert np.abs(out - corner).max(axis=1).min() <= 1e-12 * s, (e, corner)
+                assert np.abs(out).max() <= s * (1 + 1e-9), e
+        # the ball of radius s in the unit cube: its bound holds the ball (support along any
+        # direction at least s), and it stays that small
+        r = intersection(PointCloud([[0.0, 0.0, 0.0]], s), PointCloud(cube))
+        dirs = np.random.default_rng(3).normal(size=(200, 3))
+        dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+        support = (r.points @ dirs.T).max(axis=0) + r.radius
+        assert support.min() >= s * (1 - 1e-12) and support.max() <= 2 * s, e
 
 
 def test_small_cloud_far_from_the_origin_is_not_a_single_point():

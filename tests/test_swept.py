@@ -121,3 +121,18 @@ def test_bad_arguments():
         shapes.box([1, 1, 1]).swept(p, p, max_angle=float("nan"))
     with pytest.raises(ValueError, match="cloud"):
         collide.swept(np.zeros((2, 3)), p, p)
+
+
+def test_a_cloud_too_small_for_its_error_terms_is_refused():
+    # (review) at 1e-163 the rotation's deviation term (a norm's squares) underflowed to 0 and
+    # an intermediate position lay outside the swept cloud; below collide.hull.MIN_EXTENT such a
+    # cloud is refused now, and a single point (extent 0) still sweeps
+    p0 = (np.eye(3), np.zeros(3))
+    p1 = (Rotation.from_rotvec([0.0, 0.0, 2.0]).as_matrix(), np.zeros(3))
+    cube = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    with pytest.raises(ValueError, match="cloud: extent .* is below 1e-150"):
+        collide.swept(PointCloud(cube * 1e-163), p0, p1)
+    with pytest.raises(ValueError, match="cloud: extent .* is below 1e-150"):
+        collide.swept(PointCloud([[1.0, 0.0, 0.0]], 1e-160), p0, p1)
+    assert not collide.swept(PointCloud([[1.0, 0.0, 0.0]]), p0, p1).is_empty
+    assert not collide.swept(PointCloud(cube * 1e-140), p0, p1).is_empty
