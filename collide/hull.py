@@ -316,8 +316,12 @@ def _solid(points: np.ndarray) -> bool:
 
 
 # `intersect_hulls`: the smallest extent of one set, relative to the other's, that manifold3d is
-# given (well above where its hulls collapse, ~2**-260).
-_MANIFOLD_MIN_RATIO = 2.0 ** -100
+# given. Its result is off by ~1e-13 of the larger set (its own precision), which is that much
+# relative to the smaller one only when the two are comparable: a ball 2**-40 the size of a box,
+# straddling its face, came back without a third of its half (0.9 of its radius), and a set
+# 2**-270 of the other collapsed or hung (reviews, 2026-11-30). Below this the pair is clipped
+# exactly, a constant factor slower.
+_MANIFOLD_MIN_RATIO = 2.0 ** -10
 
 
 def intersect_hulls(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -358,9 +362,7 @@ def intersect_hulls(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     b = hull_vertices(b - center)
     ext_a, ext_b = float(np.ptp(a, axis=0).max()), float(np.ptp(b, axis=0).max())
     size = max(ext_a, ext_b)
-    # manifold3d takes both scaled by the larger's size: a set below ~2**-260 of it collapsed in
-    # its hull (a 5e-82 cube intersected with a unit one came back as 4 of its corners, a 5e-82
-    # ball hung or crashed the process: review, 2026-11-30), so such a pair is clipped instead,
+    # sets of very different sizes are clipped, not given to manifold3d (`_MANIFOLD_MIN_RATIO`):
     # the smaller set by the larger's halfspaces (the result then lies in the smaller, as tight)
     comparable = min(ext_a, ext_b) >= _MANIFOLD_MIN_RATIO * size
     if size > 0.0 and comparable and _solid(a) and _solid(b):

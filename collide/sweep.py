@@ -114,7 +114,9 @@ def swept(cloud: PointCloud, pose0, pose1, max_angle: float = math.pi / 4) -> Po
         m = max(1, math.ceil(angle / max_angle))
         if angle > 0.0:
             axis = turn / angle
-            rho = float(np.linalg.norm(Y - np.outer(Y @ axis, axis), axis=1).max()) + cloud.radius
+            # hypot, not a norm's squares: a point 1e-200 off the axis had rho 0, and its arc was lost
+            off = Y - np.outer(Y @ axis, axis)
+            rho = float(np.hypot(np.hypot(off[:, 0], off[:, 1]), off[:, 2]).max()) + cloud.radius
             deviation = max(deviation, sweep_deviation(rho, angle, m))
         for j in range(m + 1):
             s = j / m

@@ -229,6 +229,20 @@ def test_intersect_hulls_of_a_tiny_set_and_a_large_one_keeps_the_tiny_one():
         assert support.min() >= s * (1 - 1e-12) and support.max() <= 2 * s, e
 
 
+def test_intersect_hulls_of_a_small_ball_straddling_a_face_keeps_its_half():
+    # (review) a ball 2**-40 the size of a box, straddling its face, went to manifold3d, whose
+    # ~1e-13 of the box cost the half ball a third of its extent: (0, h, 0) lay 0.9 h outside
+    box = np.array([[x, y, z] for x in (-2.0, 0.0) for y in (-1.0, 1.0) for z in (-1.0, 1.0)])
+    for e in (-12, -20, -40, -90):
+        h = 2.0 ** e
+        ball = hull.minkowski_ball(np.zeros((1, 3)), h, 2)
+        for a, b in ((ball, box), (box, ball)):
+            out = hull.intersect_hulls(a, b)
+            for p in ([0.0, h, 0.0], [0.0, -h, 0.0], [0.0, 0.0, h], [0.0, 0.0, -h], [-h, 0.0, 0.0]):
+                assert _in_hull(out / h, np.array([p]) / h), (e, p)  # (in units of h: the LP's tolerance)
+            assert np.abs(out).max() <= 2 * h, e
+
+
 def test_small_cloud_far_from_the_origin_is_not_a_single_point():
     # Regression: affine_basis called any spread below 1e-12 * |centre| a single point (7e-6 at
     # 7e6, thousands of ulps), so reduced() collapsed a 1e-5-wide cloud to one point.

@@ -136,3 +136,15 @@ def test_a_cloud_too_small_for_its_error_terms_is_refused():
         collide.swept(PointCloud([[1.0, 0.0, 0.0]], 1e-160), p0, p1)
     assert not collide.swept(PointCloud([[1.0, 0.0, 0.0]]), p0, p1).is_empty
     assert not collide.swept(PointCloud(cube * 1e-140), p0, p1).is_empty
+    # (review) a single point 1e-200 off the axis had its distance to it by a norm's squares,
+    # 0: its arc was lost. Every position of it lies in the swept cloud now.
+    for x in (1e-200, 1e-300):
+        s = collide.swept(PointCloud([[x, 0.0, 0.0]]), p0, p1)
+        for t in np.linspace(0.0, 1.0, 21):
+            q = Rotation.from_rotvec([0.0, 0.0, 2.0 * t]).apply([x, 0.0, 0.0])
+            d = s.points - q
+            # the nearest point of hull(points) is within radius of q: here a vertex or an edge's
+            # point; the hull's support along q's direction bounds it from the outside
+            u = q / np.linalg.norm(q / x) / x
+            assert (s.points @ u).max() + s.radius >= q @ u - 1e-12 * x, (x, t)
+            assert np.abs(d).min() <= 10 * x
