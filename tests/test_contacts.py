@@ -276,50 +276,6 @@ def test_geoms_a_denormal_distance_apart_are_answered():
         assert np.allclose(got, want, rtol=0, atol=1e-12), (e, got, want)
 
 
-def _scaled_scene(s: float) -> mujoco.MjModel:
-    # an ellipsoid and a cylinder pressed into a box, every length times s (explicit inertias:
-    # MuJoCo's own from the geoms would be refused at the extreme scales; the box in a body of its
-    # own: MuJoCo's compiler moves a geom offset below 1e-15 onto its body's frame)
-    f = lambda *v: " ".join(repr(float(x) * s) for x in v)  # noqa: E731
-    inertial = '<inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>'
-    return mujoco.MjModel.from_xml_string(f"""<mujoco>
-      <compiler inertiafromgeom="false" boundmass="0" boundinertia="0"/>
-      <worldbody>
-        <body pos="{f(0, 0, -0.1)}"><geom type="box" size="{f(2, 2, 0.1)}"/></body>
-        <body pos="{f(0.33, 0.33, 0.05)}"><freejoint/>{inertial}
-          <geom type="ellipsoid" size="{f(0.12, 0.08, 0.1)}" euler="10 20 30"/></body>
-        <body pos="{f(-0.3, 0, 0.07)}" euler="30 60 0"><freejoint/>{inertial}
-          <geom type="cylinder" size="{f(0.05, 0.1)}"/></body>
-      </worldbody></mujoco>""")
-
-
-def test_a_model_far_from_unit_size_is_refused_or_answered_to_scale():
-    # (review) at 1e60 m a box-ellipsoid depth came out 4 % off, at 1e110 m a penetrating
-    # cylinder was missed: GJK's and EPA's products of lengths over- or underflow there. Such a
-    # model is now refused, naming the geom; inside the range the answers scale with the model.
-    def answers(s):
-        model = _scaled_scene(s)
-        data = mujoco.MjData(model)
-        mujoco.mj_forward(model, data)
-        col = cm.Collider(model)
-        c = col.contacts(data)
-        order = np.lexsort(c.geom.T[::-1])
-        return (c.geom[order], c.dist[order] / s,
-                [col.geom_distance(data, 0, g, 10 * s)[0] / s for g in (1, 2)],
-                col.check_batch(data.qpos[None], distance=True).min_distance[0] / s)
-    geom, dist, gd, mind = answers(1.0)
-    assert len(geom) >= 2 and (dist < -0.01).all() and min(gd) < -0.01  # real overlaps
-    for s in (2.0 ** -90, 2.0 ** 90):
-        g2, d2, gd2, mind2 = answers(s)
-        np.testing.assert_array_equal(g2, geom)
-        np.testing.assert_allclose(d2, dist, rtol=0, atol=1e-9)
-        np.testing.assert_allclose(gd2, gd, rtol=0, atol=1e-9)
-        assert abs(mind2 - mind) <= 1e-9
-    for s in (1e-60, 1e60, 1e110):
-        with pytest.raises(ValueError, match="model: geom 0.*: size .* is outside .* the sizes the narrow phase"):
-            cm.Collider(_scaled_scene(s))
-
-
 def test_a_geom_out_of_range_that_never_collides_is_refused_only_where_queried():
     # (review) a marker of 1e-31 with contype = conaffinity = 0 refused the whole model; now it
     # is kept, the model works, and only a query of that geom is refused, naming it
