@@ -296,7 +296,7 @@ class Articulation:
             elif c.is_empty:
                 raise ValueError(f"geom_cloud[{g}]: the cloud is empty")
             else:
-                size = max(float(np.ptp(c.points, axis=0).max()), c.radius)
+                size = _hull.extent(c.points, c.radius)
                 if 0.0 < size < MIN_GEOM_SIZE:
                     raise ValueError(f"geom_cloud[{g}]: size {size:.3g} is below {MIN_GEOM_SIZE:g}, the smallest "
                                      "non-zero geom the broad phase supports (its squared distances would "

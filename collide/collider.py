@@ -341,6 +341,12 @@ class Collider:
             ``min(signed distance, distmax)`` (the exact distance: no margins are involved).
         fromto : (6,) float64
             Nearest point on ``g1`` then on ``g2``, world frame, when ``dist < distmax``; else zeros.
+
+        Raises
+        ------
+        ValueError
+            As `collide.contacts.geom_distance`: a bad id, a height field or SDF geom, a geom
+            outside the narrow phase's sizes, a non-finite pose or ``distmax``.
         """
         xpos, xmat = self._poses(data)
         g1, g2, distmax = _contacts._distance_args(self.table, g1, g2, distmax)

@@ -39,7 +39,7 @@ from ._validate import _as_finite
 from .convex import Cylinder, Ellipsoid
 from .support import SIZE_MAX, SIZE_MIN, support_data
 
-__all__ = ["Contacts", "GEOM_TYPES", "GeomTable", "contacts_of", "geom_distance", "narrow_phase"]
+__all__ = ["Contacts", "GEOM_TYPES", "GeomTable", "contacts_of", "geom_distance", "narrow_phase", "never_collides"]
 
 # MuJoCo's geom types (mjtGeom; tests/test_contacts.py checks them against the bindings).
 PLANE, HFIELD, SPHERE, CAPSULE, ELLIPSOID, CYLINDER, BOX, MESH, SDF = range(9)
@@ -207,7 +207,7 @@ class GeomTable:
         self.nbr_start_adr, self.nbr_start_num = np.zeros(G, np.int64), np.zeros(G, np.int64)
         self.nbr_adr, self.nbr_num = np.zeros(G, np.int64), np.zeros(G, np.int64)
         npts = nns = nnb = 0
-        never = _never_collides(model, G)
+        never = never_collides(model, G)
         self._outside = np.zeros(G, np.bool_)
         for g in range(G):
             t = int(types[g])
@@ -445,8 +445,9 @@ def narrow_phase(table: GeomTable, pairs, geom_xpos, geom_xmat) -> Contacts:
     Raises
     ------
     ValueError
-        Wrong shapes, a geom id out of range or a pair not lower-id first, or a non-finite pose
-        of a geom in a pair (naming it).
+        Wrong shapes, a geom id out of range or a pair not lower-id first, a geom the table keeps
+        outside `collide.support.SIZE_MIN` .. ``SIZE_MAX`` (one that never collides), or a
+        non-finite pose of a geom in a pair (naming it).
     """
     P = np.asarray(pairs)
     if P.ndim == 1 and P.size == 0:  # no pairs, as an empty list: the empty (0, 2)
@@ -470,9 +471,20 @@ def _check_ids(table: GeomTable, P: np.ndarray) -> None:
         raise ValueError(f"pairs: geom {g}: {_outside_message(table.size[g])}")
 
 
-def _never_collides(model, G: int) -> np.ndarray:
-    # (G,) bool: the geoms that no pair of MuJoCo's collides (contype and conaffinity 0, in no
-    # <pair>); all False for a model object without those arrays.
+def never_collides(model, G: int) -> np.ndarray:
+    """The geoms no pair of MuJoCo's collides: contype and conaffinity 0, and in no ``<pair>``.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel or an object with its attribute names
+    G : int
+        The number of geoms.
+
+    Returns
+    -------
+    (G,) bool
+        All False for a model object without ``geom_contype`` and ``geom_conaffinity``.
+    """
     contype, conaffinity = getattr(model, "geom_contype", None), getattr(model, "geom_conaffinity", None)
     if contype is None or conaffinity is None:
         return np.zeros(G, np.bool_)
@@ -654,7 +666,9 @@ def geom_distance(table: GeomTable, g1: int, g2: int, geom_xpos, geom_xmat, dist
     Raises
     ------
     ValueError
-        A bad id, a height field or SDF geom (not supported), a non-finite pose or ``distmax``.
+        A bad id, a height field or SDF geom (not supported), a geom outside
+        `collide.support.SIZE_MIN` .. ``SIZE_MAX`` (one that never collides, kept by the table), a
+        non-finite pose or ``distmax``.
     """
     g1, g2, distmax = _distance_args(table, g1, g2, distmax)
     xpos, xmat = _poses(table, geom_xpos, geom_xmat)

@@ -220,8 +220,10 @@ def deform(cloud: PointCloud, f, bound: float | None = None, tolerance: float = 
     Raises
     ------
     ValueError
-        Naming the argument: not a PointCloud, ``f`` not callable or returning the wrong shape or
-        non-finite values, a negative or non-finite ``bound`` or ``tolerance``, no bound known.
+        Naming the argument: not a PointCloud, a cloud beyond `collide.hull.MAX_COORDINATE` or
+        of non-zero extent below `collide.hull.MIN_EXTENT`, ``f`` not callable or returning the
+        wrong shape or non-finite values, a negative or non-finite ``bound`` or ``tolerance``, no
+        bound known.
     """
     if not isinstance(cloud, PointCloud):
         raise ValueError(f"cloud: expected a PointCloud, got {type(cloud).__name__}")

@@ -19,7 +19,7 @@ from scipy.spatial import ConvexHull, QhullError
 from ._validate import as_array, as_count, as_points, as_radius
 
 __all__ = [
-    "FLAT_TOL", "MAX_BALL_LEVEL", "MAX_COORDINATE", "MIN_EXTENT", "affine_basis", "ball_polytope", "clip_hull",
+    "FLAT_TOL", "MAX_BALL_LEVEL", "MAX_COORDINATE", "MIN_EXTENT", "affine_basis", "ball_polytope", "clip_hull", "extent",
     "hull_indices", "hull_vertices", "intersect_hulls", "minkowski_ball", "require_bounded", "require_not_tiny",
 ]
 
@@ -33,7 +33,7 @@ FLAT_TOL = 1e-12
 # and hull reduction collapsed it to one point, silently; found 2026-11-22).
 MAX_COORDINATE = 1e150
 
-# Smallest non-zero extent (largest spread of the points, plus the radius) the routines whose
+# Smallest non-zero `extent` (the points' largest spread or the radius) the routines whose
 # error terms square a length accept (the broad phase's geoms, `collide.swept`, `collide.deform`):
 # squares of lengths below ~1.5e-154 underflow (a swept cloud of 1e-163 lost its deviation term,
 # a deformed one its interpolation error: review, 2026-11-30). The mirror of `MAX_COORDINATE`; a
@@ -41,12 +41,27 @@ MAX_COORDINATE = 1e150
 MIN_EXTENT = 1e-150
 
 
+def extent(points: np.ndarray, radius: float = 0.0) -> float:
+    """A cloud's extent: the larger of its points' largest spread along an axis and its radius.
+
+    Parameters
+    ----------
+    points : (n, 3) float64, non-empty
+    radius : float
+
+    Returns
+    -------
+    float
+    """
+    return max(float(np.ptp(points, axis=0).max()), radius)
+
+
 def require_not_tiny(points: np.ndarray, what: str, radius: float = 0.0) -> None:
-    """Raise ValueError, naming ``what``, when ``points`` ``(n, 3)`` (non-empty) spread, plus
-    ``radius``, to a non-zero extent below `MIN_EXTENT`."""
-    extent = float(np.ptp(points, axis=0).max()) + radius
-    if 0.0 < extent < MIN_EXTENT:
-        raise ValueError(f"{what}: extent {extent:.3g} is below {MIN_EXTENT:g}, the smallest non-zero one "
+    """Raise ValueError, naming ``what``, when the `extent` of ``points`` ``(n, 3)`` (non-empty)
+    and ``radius`` is non-zero and below `MIN_EXTENT`."""
+    ext = extent(points, radius)
+    if 0.0 < ext < MIN_EXTENT:
+        raise ValueError(f"{what}: extent {ext:.3g} is below {MIN_EXTENT:g}, the smallest non-zero one "
                          "supported (squared lengths would underflow float64; scale the input)")
 
 

@@ -10,9 +10,10 @@ allowance the kernel adds outwards): ``lower`` comes from a separating direction
 values, ``upper`` from the witness points (apart) or a certified inner ball of the Minkowski
 difference (overlapping). When an iteration cap stops the search early the bracket is wider,
 never wrong; ``distance`` is the estimate the witnesses give, inside the bracket. A pair far
-from unit size (sizes summing below 2**-100 or above 2**100) is queried scaled by a power of two,
-which is exact, so that no product of its lengths under- or overflows: the bracket holds at every
-scale.
+from unit size (sizes summing below 2**-100 or above 2**100) whose coordinates are far from unit
+size too is queried scaled by a power of two, which is exact, so that no product of its lengths
+under- or overflows: the bracket holds at every scale. (Tiny shapes far from the origin are
+answered to their coordinates' rounding.)
 """
 
 from __future__ import annotations
@@ -338,7 +339,8 @@ def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = _T
     Raises
     ------
     ValueError
-        For an empty cloud, a non-finite or non-rigid pose, an unknown shape type, or bad options.
+        For an empty cloud, a shape or pose reaching beyond `collide.hull.MAX_COORDINATE`, a
+        non-finite or non-rigid pose, an unknown shape type, or bad options.
 
     Examples
     --------

@@ -33,7 +33,8 @@ CLIMB_MIN = 32
 # unit size they under- or overflow, and brackets came out inverted or wrong (pairs scaled by
 # 2**-525 and 2**275; at 1e-60 and 1e60 m a box-ellipsoid contact was 4 % off, at 1e110 m a
 # penetrating pair was missed: reviews of 2026-11-30). `collide.distance` queries a pair outside
-# it scaled by a power of two; `collide.contacts.GeomTable` refuses a model's geom outside it.
+# it scaled by a power of two; `collide.contacts.GeomTable` refuses a model's geom outside it
+# (one that never collides is kept, and refused where queried).
 # The range keeps a wide margin to where the errors start.
 SIZE_MIN, SIZE_MAX = 2.0 ** -100, 2.0 ** 100
 
@@ -183,7 +184,8 @@ def support_data(shape) -> SupportData:
     Raises
     ------
     ValueError
-        For an empty cloud, coordinates beyond `collide.hull.MAX_COORDINATE`, or another type.
+        For an empty cloud, coordinates (or a primitive's size) beyond
+        `collide.hull.MAX_COORDINATE`, or another type.
     """
     if isinstance(shape, PointCloud):
         key = id(shape)

@@ -87,8 +87,9 @@ def swept(cloud: PointCloud, pose0, pose1, max_angle: float = math.pi / 4) -> Po
     Raises
     ------
     ValueError
-        Naming the argument: not a PointCloud, a pose that is not a rotation and a translation,
-        non-finite entries, ``max_angle`` not in ``(0, pi]``.
+        Naming the argument: not a PointCloud, a cloud of non-zero extent below
+        `collide.hull.MIN_EXTENT`, a pose that is not a rotation and a translation, non-finite
+        entries, ``max_angle`` not in ``(0, pi]``.
     """
     if not isinstance(cloud, PointCloud):
         raise ValueError(f"cloud: expected a PointCloud, got {type(cloud).__name__}")

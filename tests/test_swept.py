@@ -140,11 +140,11 @@ def test_a_cloud_too_small_for_its_error_terms_is_refused():
     # 0: its arc was lost. Every position of it lies in the swept cloud now.
     for x in (1e-200, 1e-300):
         s = collide.swept(PointCloud([[x, 0.0, 0.0]]), p0, p1)
+        dirs = np.random.default_rng(5).normal(size=(100, 3))
+        dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+        support = (s.points / x @ dirs.T).max(axis=0) + s.radius / x  # in units of x
         for t in np.linspace(0.0, 1.0, 21):
-            q = Rotation.from_rotvec([0.0, 0.0, 2.0 * t]).apply([x, 0.0, 0.0])
-            d = s.points - q
-            # the nearest point of hull(points) is within radius of q: here a vertex or an edge's
-            # point; the hull's support along q's direction bounds it from the outside
-            u = q / np.linalg.norm(q / x) / x
-            assert (s.points @ u).max() + s.radius >= q @ u - 1e-12 * x, (x, t)
-            assert np.abs(d).min() <= 10 * x
+            q = Rotation.from_rotvec([0.0, 0.0, 2.0 * t]).apply([1.0, 0.0, 0.0])
+            # q (in units of x) is in the swept cloud: below its support along every direction
+            assert np.all(q @ dirs.T <= support + 1e-12), (x, t)
+        assert support.max() <= 2.0  # and the cloud stays near the arc

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..contacts import never_collides
+
 from ._convert import (_CANDIDATE, _KINDS, _MISSED, _MUJOCO, _OURS, _SPHERE, _T, _quat_xyzw, _rgba8,
                        _vertex_normals)
 
@@ -37,11 +39,7 @@ class _Scene:
         rr, m, rec = self.rr, self.model, self.rec
         rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)  # MuJoCo's z is up
         gtype = np.asarray(m.geom_type)
-        explicit = np.zeros(self.ngeom, bool)
-        explicit[np.asarray(m.pair_geom1, dtype=np.int64)] = True
-        explicit[np.asarray(m.pair_geom2, dtype=np.int64)] = True
-        collides = (np.asarray(m.geom_contype) != 0) | (np.asarray(m.geom_conaffinity) != 0) | explicit
-        self.geom_collides = collides
+        self.geom_collides = collides = ~never_collides(m, self.ngeom)
         rgba = np.array(m.geom_rgba, dtype=np.float64)
         matid = np.asarray(m.geom_matid)
         has_mat = matid >= 0
