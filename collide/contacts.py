@@ -229,7 +229,8 @@ class GeomTable:
                 raise ValueError(f"model: geom {g}: {exc}") from None
             if not SIZE_MIN <= sd.size <= SIZE_MAX:  # (`collide.support.SIZE_MIN`'s comment)
                 if not never[g]:
-                    raise ValueError(f"model: geom {g}{_named(model, g)}: {_outside_message(sd.size)} (scale the model)")
+                    raise ValueError(f"model: geom {g}{_named(model, g)}: {_outside_message(sd.size)} "
+                                     "(scale the model)")
                 self._outside[g] = True  # a geom that never collides: refused only where queried
             self.rule[g], self.below[g], self.kind[g], self.prm[g] = rule, below, sd.kind, sd.prm
             self.size[g] = sd.size

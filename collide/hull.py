@@ -19,8 +19,9 @@ from scipy.spatial import ConvexHull, QhullError
 from ._validate import as_array, as_count, as_points, as_radius
 
 __all__ = [
-    "FLAT_TOL", "MAX_BALL_LEVEL", "MAX_COORDINATE", "MIN_EXTENT", "affine_basis", "ball_polytope", "clip_hull", "extent",
-    "hull_indices", "hull_vertices", "intersect_hulls", "minkowski_ball", "require_bounded", "require_not_tiny",
+    "FLAT_TOL", "MAX_BALL_LEVEL", "MAX_COORDINATE", "MIN_EXTENT", "affine_basis", "ball_polytope", "clip_hull",
+    "extent", "hull_indices", "hull_vertices", "intersect_hulls", "minkowski_ball", "require_bounded",
+    "require_not_tiny",
 ]
 
 # Relative size of a singular value, against the largest, below which a direction is treated as

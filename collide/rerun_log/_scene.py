@@ -7,7 +7,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..contacts import never_collides
-
 from ._convert import (_CANDIDATE, _KINDS, _MISSED, _MUJOCO, _OURS, _SPHERE, _T, _quat_xyzw, _rgba8,
                        _vertex_normals)
 
