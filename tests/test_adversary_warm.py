@@ -23,7 +23,7 @@ from scipy.spatial.transform import Rotation
 import collide.mujoco as cm
 from collide import contacts as cc
 from collide._kernels import epa as ke
-from collide._kernels.distance import OUT_ITERATIONS, OUT_LOWER, OUT_UPPER, pair_distance_within
+from collide._kernels.distance import OUT_ITERATIONS, OUT_LOWER, OUT_UPPER, WS_F, WS_I, pair_distance_within
 from collide._kernels.manifold import CONTACT_TOL
 from collide._kernels.warm import SEP_LEN, WARM_HITS, WARM_KEYS, WARM_LEN, WARM_ROWS, WARM_TRIES
 from collide.pointcloud import PointCloud
@@ -205,8 +205,9 @@ def test_kept_rows_against_the_exact_distance():
             sA, sB = _shape(sa, ra.as_matrix(), pa), _shape(sb, rb.as_matrix(), pb)
             had = entry[ke.E_NV] > 0
             ow, oc = np.zeros(16), np.zeros(16)
-            pair_distance_within(sA, sB, tol, 10.0, np.zeros(3), -1, -1, 128, ow, entry)
-            pair_distance_within(sA, sB, tol, 10.0, np.zeros(3), -1, -1, 128, oc)
+            fws, iws = np.empty(WS_F), np.empty(WS_I, np.int64)  # the scratch
+            pair_distance_within(sA, sB, tol, 10.0, np.zeros(3), -1, -1, 128, ow, fws, iws, entry)
+            pair_distance_within(sA, sB, tol, 10.0, np.zeros(3), -1, -1, 128, oc, fws, iws)
             if not (had and ow[OUT_ITERATIONS] == 0):
                 continue
             hits += 1
@@ -256,7 +257,8 @@ def test_star_shaped_rows_give_a_normal_of_the_depth():
             if np.cross(V[b] - V[a], V[c] - V[a]) @ V[a] < 0:
                 b, c = c, b
             row[ke.E_FACE + m] = a | (b << 8) | (c << 16)
-        st, _ = ke.epa_warm(_shape(sa, EYE, pos), sB, row, tol, res)
+        st, _ = ke.epa_warm(_shape(sa, EYE, pos), sB, row, tol, res, np.empty(ke.WARM_F),
+                              np.empty(ke.WARM_I, np.int64))
         if st != ke.CONVERGED:
             continue
         answered += 1

@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from collide import Cylinder, Ellipsoid, PointCloud
-from collide._kernels.distance import (OUT_DISTANCE, OUT_ITERATIONS, OUT_LOWER, OUT_SIZE, OUT_UPPER, pair_distance,
-                                       pair_distance_within)
+from collide._kernels.distance import (OUT_DISTANCE, OUT_ITERATIONS, OUT_LOWER, OUT_SIZE, OUT_UPPER, WS_F, WS_I,
+                                       pair_distance, pair_distance_within)
 from collide.support import support_data
 from collide.testing.surfaces import random_rotation
 
@@ -33,6 +33,7 @@ def test_cutoff_changes_nothing_within_it_and_bounds_beyond():
     rng = np.random.default_rng(46)
     full = np.empty(OUT_SIZE)
     cut = np.empty(OUT_SIZE)
+    fws, iws = np.empty(WS_F), np.empty(WS_I, np.int64)  # the scratch
     z = np.zeros(3)
     within = beyond = fewer = 0
     for i in range(600):
@@ -43,7 +44,7 @@ def test_cutoff_changes_nothing_within_it_and_bounds_beyond():
         tol = 1e-9 * (a.size + b.size)
         pair_distance(sa, sb, tol, z, -1, -1, 128, full)
         cutoff = full[OUT_DISTANCE] + rng.uniform(-1.0, 1.0)
-        pair_distance_within(sa, sb, tol, cutoff, z, -1, -1, 128, cut)
+        pair_distance_within(sa, sb, tol, cutoff, z, -1, -1, 128, cut, fws, iws)
         if full[OUT_UPPER] <= cutoff:
             # the truth is below the cutoff, so GJK's lower bound never passes it: the same answer
             assert np.array_equal(full, cut, equal_nan=True), (i, full, cut)

@@ -202,23 +202,24 @@ def test_tetrahedron_rows_inside_out_are_declined():
             row[ke.E_FACE + k] = a | (b << 8) | (c << 16)
 
     res = np.empty(13)
+    ws = (np.empty(ke.WARM_F), np.empty(ke.WARM_I, np.int64))  # epa_warm's scratch
     # orient the faces outward as the kernel defines it (counter-clockwise from outside)
     fs = []
     for a, b, c in faces:
         n = np.cross(pts_a[b] - pts_a[a], pts_a[c] - pts_a[a])
         fs.append((a, b, c) if n @ pts_a[a] > 0 else (a, c, b))
     fill(fs)
-    st, _ = ke.epa_warm(shape(pts_a, [0, 0, 0]), shape(pts_b, [0, 0, 0]), row, 1e-9, res)
+    st, _ = ke.epa_warm(shape(pts_a, [0, 0, 0]), shape(pts_b, [0, 0, 0]), row, 1e-9, res, *ws)
     assert st == ke.CONVERGED or st == ke.WARM_MISS  # converged only where a face is the hull's
-    st_out, _ = ke.epa_warm(shape(pts_a, [0, 0, 0]), shape(pts_b, [5, 0, 0]), row, 1e9, res)
+    st_out, _ = ke.epa_warm(shape(pts_a, [0, 0, 0]), shape(pts_b, [5, 0, 0]), row, 1e9, res, *ws)
     assert st_out == ke.WARM_MISS  # origin outside: faces behind it
     fill(fs[:-1])
-    assert ke.epa_warm(shape(pts_a, [0, 0, 0]), shape(pts_b, [0, 0, 0]), row, 1e9, res)[0] == ke.WARM_MISS
+    assert ke.epa_warm(shape(pts_a, [0, 0, 0]), shape(pts_b, [0, 0, 0]), row, 1e9, res, *ws)[0] == ke.WARM_MISS
     fill(fs)
     row[ke.E_VERT] = 5  # out of A's range
-    assert ke.epa_warm(shape(pts_a, [0, 0, 0]), shape(pts_b, [0, 0, 0]), row, 1e9, res)[0] == ke.WARM_MISS
+    assert ke.epa_warm(shape(pts_a, [0, 0, 0]), shape(pts_b, [0, 0, 0]), row, 1e9, res, *ws)[0] == ke.WARM_MISS
     fill(fs)
-    st, _ = ke.epa_warm(shape(pts_a, [0, 0, 0]), shape(pts_b, [0, 0, 0]), row, 1e9, res)
+    st, _ = ke.epa_warm(shape(pts_a, [0, 0, 0]), shape(pts_b, [0, 0, 0]), row, 1e9, res, *ws)
     assert st == ke.CONVERGED and res[1] < 0 and res[0] <= res[1] + 1e-12  # a loose tolerance: certified
     # the bracket holds: the true depth of the origin in hull(pts_a) (its nearest face plane)
     from scipy.spatial import ConvexHull

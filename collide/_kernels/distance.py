@@ -22,8 +22,8 @@ import math
 import numpy as np
 from numba import njit
 
-from ._ptr import f64_ptr, i32_ptr, i64_ptr, view_of
-from .epa import CONVERGED, DEGENERATE, E_NV, epa, epa_warm
+from ._ptr import NO_NRT, f64_ptr, i32_ptr, i64_ptr, view_of
+from .epa import CONVERGED, DEGENERATE, E_NV, WARM_F, WARM_I, epa, epa_warm
 from .gjk import _FLOOR, OVERLAP, gjk_within
 from .point_distance import point_distance
 from .support import POINTS
@@ -51,8 +51,8 @@ def _endpoints(shape, e):
             e[j, k] = rot[k, 0] * pts[i, 0] + rot[k, 1] * pts[i, 1] + rot[k, 2] * pts[i, 2] + pos[k]
 
 
-@njit(cache=True)
-def segment_distance(sa, sb, tol, out):
+@njit(**NO_NRT)
+def segment_distance(sa, sb, tol, out, e):
     """`pair_distance` of two cores of at most two points each (spheres and capsules), closed form.
 
     The closest points of two segments (Ericson 2005, "Real-Time Collision Detection", §5.1.9,
@@ -60,9 +60,9 @@ def segment_distance(sa, sb, tol, out):
     direction between them, ``min n.B - max n.A`` (support values) is a lower bound of the cores'
     distance and ``|pb - pa|`` an upper bound. Returns False, writing nothing, when the two are
     not within ``tol`` (rounding near parallel segments) or the cores nearly touch (the normal
-    of ``pb - pa`` would be poorly known there): the caller runs GJK/EPA instead.
+    of ``pb - pa`` would be poorly known there): the caller runs GJK/EPA instead. ``e`` ``(4, 3)
+    float64``: scratch for the end points.
     """
-    e = np.empty((4, 3))
     _endpoints(sa, e[0:2])
     _endpoints(sb, e[2:4])
     d10, d11, d12 = e[1, 0] - e[0, 0], e[1, 1] - e[0, 1], e[1, 2] - e[0, 2]
@@ -129,11 +129,11 @@ def segment_distance(sa, sb, tol, out):
     return True
 
 
-@njit(cache=True)
-def _ball_primitive(sk, sp, k_first, tol, out):
+@njit(**NO_NRT)
+def _ball_primitive(sk, sp, k_first, tol, out, res):
     # `pair_distance`'s answer for a ball (sp) and a cylinder, cone or ellipsoid (sk) from
     # `collide._kernels.point_distance` (closed form), when certified within tol; k_first: sk is A.
-    res = np.empty(18)
+    # res: (18,) scratch.
     found, d, lower, upper, cores = point_distance(sk, sp, tol, ROUNDING, res)
     if not found:
         return False
@@ -152,16 +152,52 @@ def _ball_primitive(sk, sp, k_first, tol, out):
     return True
 
 
-@njit(cache=True)
+# With reference counting even where its caller has none (it allocates).
+@njit(cache=True, _nrt=True)
 def pair_distance(sa, sb, tol, d0, hint_a, hint_b, max_iter, out):
     """Signed distance of two posed shapes (core ⊕ ball), its witnesses and a certified bracket:
-    `pair_distance_within` with no cutoff (parameters as there)."""
-    pair_distance_within(sa, sb, tol, math.inf, d0, hint_a, hint_b, max_iter, out)
+    `pair_distance_within` with no cutoff, on scratch allocated here (parameters as there)."""
+    pair_distance_within(sa, sb, tol, math.inf, d0, hint_a, hint_b, max_iter, out, np.empty(WS_F),
+                         np.empty(WS_I, np.int64))
 
 
-# With reference counting even where its caller has none (it allocates; `collide._kernels.manifold.collide_bound`).
-@njit(cache=True, _nrt=True)
-def pair_distance_within(sa, sb, tol, cutoff, d0, hint_a, hint_b, max_iter, out, entry=None):
+# `pair_distance_within`'s scratch, float64 (``WS_F``): GJK's simplex W, WA, WB ((3, 4, 3)) and its lam,
+# dirn, v, pa, pb ((5, 4)), zeroed each call (GJK weighs all four rows, zero weights included);
+# then EPA's result (13), the normal (3), the segments' end points ((4, 3)), the closed form's
+# result (18), `collide._kernels.epa.epa_warm`'s scratch. int64 (``WS_I``): the climbs' hints and
+# the simplex's vertex indices (10), `epa_warm`'s.
+_WS_SIMPLEX = 0
+_WS_VEC = _WS_SIMPLEX + 36
+_WS_RES = _WS_VEC + 20
+_WS_NRM = _WS_RES + 13
+_WS_SEG = _WS_NRM + 3
+_WS_BALL = _WS_SEG + 12
+_WS_WARM = _WS_BALL + 18
+WS_F = _WS_WARM + WARM_F
+WS_I = 10 + WARM_I
+
+
+@njit(**NO_NRT)
+def _closed_form(sa, sb, tol, out, fws):
+    # `pair_distance_within`'s answer in closed form, where it has one certified within tol (True,
+    # ``out`` filled; False: GJK/EPA decide). Its own function: inlined into its caller, the two
+    # closed forms made the GJK query of every other pair slower (tests/bench/distance.txt).
+    if sa[0] == POINTS and sb[0] == POINTS and sa[2].shape[0] <= 2 and sb[2].shape[0] <= 2:
+        # spheres and capsules: no iteration
+        return segment_distance(sa, sb, tol, out, fws[_WS_SEG:_WS_SEG + 12].reshape((4, 3)))
+    if sa[0] != POINTS and sb[0] == POINTS and sb[2].shape[0] == 1:
+        # a ball and a cylinder, cone or ellipsoid
+        return _ball_primitive(sa, sb, True, tol, out, fws[_WS_BALL:_WS_BALL + 18])
+    if sb[0] != POINTS and sa[0] == POINTS and sa[2].shape[0] == 1:
+        return _ball_primitive(sb, sa, False, tol, out, fws[_WS_BALL:_WS_BALL + 18])
+    return False
+
+
+# Compiled without reference counting (`collide._kernels._ptr.NO_NRT`), as every function it calls but `epa`
+# (which allocates): in a counting function each array of the two shape tuples cost an atomic increment and
+# decrement a call.
+@njit(**NO_NRT)
+def pair_distance_within(sa, sb, tol, cutoff, d0, hint_a, hint_b, max_iter, out, fws, iws, entry=None):
     """Signed distance of two posed shapes (core ⊕ ball), its witnesses and a certified bracket.
 
     Parameters
@@ -195,40 +231,38 @@ def pair_distance_within(sa, sb, tol, cutoff, d0, hint_a, hint_b, max_iter, out,
         it first and its certified answer is the result (no GJK, no EPA); after GJK and EPA it
         receives their polytope (or is emptied). A hint only: whatever it holds, the result is
         certified as without it.
+    fws : (WS_F,) float64
+    iws : (WS_I,) int64
+        Scratch (layout above), written before it is read.
     """
-    if sa[0] == POINTS and sb[0] == POINTS and sa[2].shape[0] <= 2 and sb[2].shape[0] <= 2:
-        if segment_distance(sa, sb, tol, out):  # spheres and capsules: no iteration
-            return
-    elif sa[0] != POINTS and sb[0] == POINTS and sb[2].shape[0] == 1:
-        if _ball_primitive(sa, sb, True, tol, out):  # a ball and a cylinder, cone or ellipsoid
-            return
-    elif sb[0] != POINTS and sa[0] == POINTS and sa[2].shape[0] == 1:
-        if _ball_primitive(sb, sa, False, tol, out):
-            return
-    simplex = np.zeros((3, 4, 3))  # W, WA, WB: GJK weighs all four rows (zero weights included)
+    if _closed_form(sa, sb, tol, out, fws):
+        return
+    for i in range(_WS_RES):
+        fws[i] = 0.0
+    simplex = fws[_WS_SIMPLEX:_WS_VEC].reshape((3, 4, 3))
     W = simplex[0]
     WA = simplex[1]
     WB = simplex[2]
-    vec = np.zeros((5, 4))
+    vec = fws[_WS_VEC:_WS_RES].reshape((5, 4))
     lam = vec[0]
     dirn = vec[1]
     v = vec[2, :3]
     pa = vec[3, :3]
     pb = vec[4, :3]
+    res = fws[_WS_RES:_WS_RES + 13]
     # With ``entry`` (a separate compilation: without it, none of this is in the code): its
     # polytope first; GJK then also records its simplex's vertex indices (``hints[2:]``) for EPA
     # to keep. Without, the cold query as it always was.
     warm = False
     s = 0.0
     if entry is None:
-        hints = np.empty(2, np.int64)
+        hints = iws[0:2]
     else:
-        hints = np.empty(10, np.int64)
+        hints = iws[0:10]
         if sa[0] != POINTS or sb[0] != POINTS:
             entry[E_NV] = 0  # a kept vertex is a point of C only for two point clouds
         elif entry[E_NV] > 0:
-            res = np.empty(13)
-            st, s = epa_warm(sa, sb, entry, tol, res)
+            st, s = epa_warm(sa, sb, entry, tol, res, fws[_WS_WARM:_WS_WARM + WARM_F], iws[10:10 + WARM_I])
             warm = st == CONVERGED
     hints[0] = hint_a
     hints[1] = hint_b
@@ -255,7 +289,8 @@ def pair_distance_within(sa, sb, tol, cutoff, d0, hint_a, hint_b, max_iter, out,
     # The normal: the simplex feature's (GJK's last search direction) or the witnesses'
     # difference, whichever is better conditioned: the feature's is precise at a gap at
     # rounding level, where pb - pa is not; a tiny sliver's normal is not (its conditioning).
-    nrm = dirn[:3].copy()
+    nrm = fws[_WS_NRM:_WS_NRM + 3]
+    nrm[0], nrm[1], nrm[2] = dirn[0], dirn[1], dirn[2]
     cond = dirn[3]
     sign = 1.0  # pb - pa points along the normal when apart, against it when overlapping
     estimate = gap
@@ -264,7 +299,6 @@ def pair_distance_within(sa, sb, tol, cutoff, d0, hint_a, hint_b, max_iter, out,
         if warm:
             st = CONVERGED
         else:
-            res = np.empty(13)
             if entry is None:
                 st, s, it = epa(sa, sb, W, WA, WB, n, hints, tol, max_iter, lower, res)
             else:
@@ -397,7 +431,9 @@ def query(desc_a, desc_b, rot_a, pos_a, rot_b, pos_b, size_a, size_b, ortho_tol,
     if err:
         return 10 + err
     hint_a = hint_b = -1
-    d0 = np.zeros(3)
+    fws = np.empty(WS_F + 3)  # the distance's scratch, then the first search direction
+    d0 = fws[WS_F:]
+    d0[:] = 0.0
     if warm.shape[0] == OUT_SIZE:
         for k in range(3):
             d0[k] = warm[OUT_NORMAL + k]
@@ -417,6 +453,6 @@ def query(desc_a, desc_b, rot_a, pos_a, rot_b, pos_b, size_a, size_b, ortho_tol,
                 hint_a = int(warm[OUT_HINT_A])
             if -2.0 < warm[OUT_HINT_B] < 2.0 ** 31:
                 hint_b = int(warm[OUT_HINT_B])
-    pair_distance(_described(desc_a, rot_a, pos_a), _described(desc_b, rot_b, pos_b), tol, d0, hint_a, hint_b,
-                  max_iter, out)
+    pair_distance_within(_described(desc_a, rot_a, pos_a), _described(desc_b, rot_b, pos_b), tol, math.inf, d0,
+                         hint_a, hint_b, max_iter, out, fws[:WS_F], np.empty(WS_I, np.int64))
     return 0

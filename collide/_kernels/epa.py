@@ -40,6 +40,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ._ptr import NO_NRT
 from .gjk import s2d
 from .support import support
 
@@ -58,9 +59,13 @@ WARM_NV, WARM_NF = 16, 28
 E_NV, E_NF, E_VERT = 0, 1, 2
 E_FACE = E_VERT + WARM_NV
 ENTRY = E_FACE + WARM_NF
+# `epa_warm`'s scratch: float64 V, VA, VB (WARM_NV, 3), fn (WARM_NF, 3), fo, fl (WARM_NF,), two
+# support points (6); int64 fv (WARM_NF, 3), two edge masks (WARM_NV,), two climb hints.
+WARM_F = 3 * (3 * WARM_NV + WARM_NF) + 2 * WARM_NF + 6
+WARM_I = 3 * WARM_NF + 2 * WARM_NV + 2
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _support_c(sa, sb, d0, d1, d2, hints, pa, pb):
     # Support point of C = A - B along d; returns (w0, w1, w2, scale of the world points).
     hints[0] = support(sa, d0, d1, d2, hints[0], pa)
@@ -71,7 +76,7 @@ def _support_c(sa, sb, d0, d1, d2, hints, pa, pb):
     return pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2], s
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _add_vertex(V, VA, VB, nv, w0, w1, w2, pa, pb):
     V[nv, 0], V[nv, 1], V[nv, 2] = w0, w1, w2
     for k in range(3):
@@ -80,7 +85,7 @@ def _add_vertex(V, VA, VB, nv, w0, w1, w2, pa, pb):
     return nv + 1
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _plane(V, a, b, c, out):
     # Unit normal of face (a, b, c) (counter-clockwise seen from outside) into out[0:3];
     # returns (offset, |cross|).
@@ -97,7 +102,7 @@ def _plane(V, a, b, c, out):
     return out[0] * V[a, 0] + out[1] * V[a, 1] + out[2] * V[a, 2], ln
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _offset_error(V, a, b, c, ln, vertex_err):
     # Bound on how far the plane offset of face (a, b, c) can move when each vertex moves by up
     # to vertex_err (rounding of the supports and of the subtraction): the normal turns by up to
@@ -111,7 +116,7 @@ def _offset_error(V, a, b, c, ln, vertex_err):
     return 4.0 * vertex_err * (1.0 + m * el / ln) + 8.0 * _EPS * m
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _solid_angle(V, a, b, c):
     # Signed solid angle of triangle (a, b, c) seen from the origin (Van Oosterom & Strackee 1983).
     ax, ay, az = V[a, 0], V[a, 1], V[a, 2]
@@ -126,7 +131,7 @@ def _solid_angle(V, a, b, c):
     return 2.0 * math.atan2(det, den)
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _tri_lower(V, a, b, c, vertex_err):
     # A certified lower bound of the origin's distance to triangle (a, b, c), for the upper
     # bound's inner ball. s2d's nearest point q is a point of the triangle, so |q| bounds that
@@ -150,7 +155,7 @@ def _tri_lower(V, a, b, c, vertex_err):
     return m - vertex_err - 8.0 * _EPS * big
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _nearest_triangle(V, fv, fo, nf, near, f):
     # Among the faces whose plane is within ``near`` of the origin (a dead face's offset is +inf:
     # never one, whatever ``near``), the triangle nearest the origin: (face, barycentric weights of
@@ -165,7 +170,7 @@ def _nearest_triangle(V, fv, fo, nf, near, f):
     return f, la, lb, lc, best
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _witness(V, VA, VB, fv, fn, fl, f, la, lb, lc, res):
     # The witness of face f's point (la, lb, lc) into res[3:13]: that point carried to A and B,
     # the face's normal and its conditioning (`epa`'s ``res``).
@@ -180,7 +185,7 @@ def _witness(V, VA, VB, fv, fn, fl, f, la, lb, lc, res):
     res[12] = el / fl[f] if fl[f] > 0.0 else math.inf
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _new_face(V, fv, fn, fo, fl, slot, a, b, c):
     fv[slot, 0], fv[slot, 1], fv[slot, 2] = a, b, c
     off, ln = _plane(V, a, b, c, fn[slot])
@@ -189,7 +194,7 @@ def _new_face(V, fv, fn, fo, fl, slot, a, b, c):
     return ln
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _link(fv, fa, f, g):
     # Make faces f and g neighbours across their shared edge (f has (x, y), g has (y, x)).
     for i in range(3):
@@ -200,10 +205,11 @@ def _link(fv, fa, f, g):
                 fa[g, j] = f
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _tetrahedron(V, fv, fa, fn, fo, fl, p, q, r, s):
-    # Faces 0..3 of the tetrahedron on vertices p, q, r, s, oriented outwards.
-    e = np.empty(3)
+    # Faces 0..3 of the tetrahedron on vertices p, q, r, s, oriented outwards. The plane of
+    # (p, q, r) goes to face 0's normal, which `_new_face` writes afterwards.
+    e = fn[0]
     off, ln = _plane(V, p, q, r, e)
     if e[0] * V[s, 0] + e[1] * V[s, 1] + e[2] * V[s, 2] > off:
         q, r = r, q  # s must be behind face (p, q, r)
@@ -217,10 +223,11 @@ def _tetrahedron(V, fv, fa, fn, fo, fl, p, q, r, s):
     return 4
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _bipyramid(V, fv, fa, fn, fo, fl, p, q, r, top, bottom):
-    # Faces 0..5: triangle (p, q, r) with apexes on both sides, oriented outwards.
-    e = np.empty(3)
+    # Faces 0..5: triangle (p, q, r) with apexes on both sides, oriented outwards (the plane of
+    # (p, q, r) in face 0's normal, as in `_tetrahedron`).
+    e = fn[0]
     off, ln = _plane(V, p, q, r, e)
     if e[0] * V[top, 0] + e[1] * V[top, 1] + e[2] * V[top, 2] < off:
         q, r = r, q  # top must be in front of (p, q, r)
@@ -236,7 +243,7 @@ def _bipyramid(V, fv, fa, fn, fo, fl, p, q, r, top, bottom):
     return 6
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _horizon(V, nv, fv, fa, fn, fo, nf, f, seen, forced, stack, hz, tiny, vis):
     # Flood the faces visible from vertex nv (or forced visible) from face f; their horizon
     # edges (a, b, kept face) into hz, the visible faces into vis. Returns (the edge count, -1
@@ -273,7 +280,7 @@ def _horizon(V, nv, fv, fa, fn, fo, nf, f, seen, forced, stack, hz, tiny, vis):
     return nh, nvis
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _expand(V, nv, fv, fa, fn, fo, fl, alive, nf, f, seen, forced, stack, hz, tiny, hp, vis):
     # Replace the faces visible from vertex nv (a connected set grown from face f) by a cone of
     # new faces over their horizon. A cone face that would be degenerate (its edges parallel
@@ -362,7 +369,8 @@ def _expand(V, nv, fv, fa, fn, fo, fl, alive, nf, f, seen, forced, stack, hz, ti
     return nf
 
 
-@njit(cache=True)
+# With reference counting, which its caller (`collide._kernels.distance._pair_distance`) has not: it allocates.
+@njit(cache=True, _nrt=True)
 def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res, keep=None):
     """Penetration depth of two overlapping cores from GJK's final simplex.
 
@@ -408,24 +416,54 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res, keep=None):
     """
     mv = max(max_vertices, 6)
     mf = 2 * mv
-    # Uninitialised (zeroing them cost more than the rest of a typical call): every entry is
-    # written before it is read; face arrays are only read below the face count ``nf``.
-    # One allocation per element type: float64 V, VA, VB (mv, 3), fn (mf, 3), hp (mf, 5) (the
-    # cone faces' planes: normal, offset, |cross|), fo, fl (mf,), pa, pb (3,); int64 fv, fa, vi
-    # (mf, 3), hz (mf, 5: horizon edge a, b, kept face, new slot, next edge), stack, vis (mf,);
-    # bool alive, seen, forced (mf,).
-    fbuf = np.empty(9 * mv + 10 * mf + 6)
+    # Its buffers, allocated here (uninitialised: zeroing them cost more than the rest of a typical
+    # call; every entry is written before it is read, face arrays only below the face count), and
+    # the algorithm in `_epa`, compiled without reference counting (`collide._kernels._ptr.NO_NRT`:
+    # the views it takes of them cost nothing there).
+    fbuf = np.empty(_EPA_F_FIXED + _EPA_F_VERTEX * mv + _EPA_F_FACE * mf)
+    ibuf = np.empty(_EPA_I_FACE * mf, np.int64)
+    bbuf = np.empty((3, mf), np.bool_)
+    return _epa(sa, sb, W, WA, WB, n, hints, tol, mv, lower, res, fbuf, ibuf, bbuf, keep)
+
+
+@njit(**NO_NRT)
+def _cross(a, b, out):
+    # out = a x b, (3,) each (numpy's np.cross, term for term).
+    out[0] = a[1] * b[2] - a[2] * b[1]
+    out[1] = a[2] * b[0] - a[0] * b[2]
+    out[2] = a[0] * b[1] - a[1] * b[0]
+
+
+# `_epa`'s buffers, per vertex and face of its polytope (``mv`` vertices, ``mf = 2 mv`` faces):
+# float64 V, VA, VB (mv, 3); fn (mf, 3), hp (mf, 5) (the cone faces' planes: normal, offset,
+# |cross|), fo, fl (mf,); then fixed: pa, pb, best_n and the degenerate simplex's directions d, e,
+# u, t, x (3 each). int64 fv, fa, vi (mf, 3), hz (mf, 5: horizon edge a, b, kept face, new slot,
+# next edge), stack, vis (mf,). bool alive, seen, forced (mf,).
+_EPA_F_VERTEX, _EPA_F_FACE, _EPA_F_FIXED = 9, 10, 24
+_EPA_I_FACE = 16
+
+
+@njit(**NO_NRT)
+def _epa(sa, sb, W, WA, WB, n, hints, tol, mv, lower, res, fbuf, ibuf, bbuf, keep):
+    # `epa` on its buffers (``mv`` polytope vertices at most; layout above).
+    mf = 2 * mv
     V = fbuf[0:3 * mv].reshape((mv, 3))
     VA = fbuf[3 * mv:6 * mv].reshape((mv, 3))
     VB = fbuf[6 * mv:9 * mv].reshape((mv, 3))
-    o = 9 * mv
+    o = _EPA_F_VERTEX * mv
     fn = fbuf[o:o + 3 * mf].reshape((mf, 3))
     hp = fbuf[o + 3 * mf:o + 8 * mf].reshape((mf, 5))
     fo = fbuf[o + 8 * mf:o + 9 * mf]
     fl = fbuf[o + 9 * mf:o + 10 * mf]
-    pa = fbuf[o + 10 * mf:o + 10 * mf + 3]
-    pb = fbuf[o + 10 * mf + 3:o + 10 * mf + 6]
-    ibuf = np.empty(16 * mf, np.int64)
+    o += _EPA_F_FACE * mf
+    pa = fbuf[o:o + 3]
+    pb = fbuf[o + 3:o + 6]
+    best_n = fbuf[o + 6:o + 9]
+    d = fbuf[o + 9:o + 12]
+    e = fbuf[o + 12:o + 15]
+    u = fbuf[o + 15:o + 18]
+    t = fbuf[o + 18:o + 21]
+    x = fbuf[o + 21:o + 24]
     fv = ibuf[0:3 * mf].reshape((mf, 3))
     fa = ibuf[3 * mf:6 * mf].reshape((mf, 3))
     vi = ibuf[6 * mf:9 * mf].reshape((mf, 3))  # with ``keep``: each vertex's indices in A, B (columns 0, 1)
@@ -434,7 +472,6 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res, keep=None):
     vis = ibuf[15 * mf:16 * mf]
     if keep is not None:
         keep[E_NV] = 0
-    bbuf = np.empty((3, mf), np.bool_)
     alive = bbuf[0]
     seen = bbuf[1]
     forced = bbuf[2]
@@ -446,43 +483,59 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res, keep=None):
         for k in range(3):
             scale = max(scale, abs(WA[i, k]), abs(WB[i, k]))
     nv = n
-    best_n = np.zeros(3)
+    best_n[0] = best_n[1] = 0.0
     best_n[2] = 1.0
     # Blow a lower-dimensional simplex up to a full polytope around the origin (Ericson §9.5.1):
     # supports along directions off its affine hull; none found means C is that thin there.
+    # (Vectors element by element, in the buffer's slots: nothing is allocated here.)
     if nv == 1:
         for ax in range(6):
-            d = np.zeros(3)
+            d[0] = d[1] = d[2] = 0.0
             d[ax % 3] = 1.0 if ax < 3 else -1.0
             w0, w1, w2, s = _support_c(sa, sb, d[0], d[1], d[2], hints, pa, pb)
             scale = max(scale, s)
             if -(d[0] * w0 + d[1] * w1 + d[2] * w2) > lower:
                 lower = -(d[0] * w0 + d[1] * w1 + d[2] * w2)
-                best_n[:] = d
+                best_n[0], best_n[1], best_n[2] = d[0], d[1], d[2]
             if math.sqrt((w0 - V[0, 0]) ** 2 + (w1 - V[0, 1]) ** 2 + (w2 - V[0, 2]) ** 2) > tol:
                 nv = _add_vertex(V, VA, VB, nv, w0, w1, w2, pa, pb)
                 if keep is not None:
                     vi[nv - 1, 0], vi[nv - 1, 1] = hints[0], hints[1]
                 break
     if nv == 2:
-        e = V[1] - V[0]
-        e /= math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2)
-        k = np.argmin(np.abs(e))
-        u = np.zeros(3)
-        u[k] = 1.0
-        u = np.cross(e, u)
-        u /= math.sqrt(u[0] ** 2 + u[1] ** 2 + u[2] ** 2)
-        t = np.cross(e, u)
+        # e the segment's unit direction; u, t unit and perpendicular to it and to each other
+        for q in range(3):
+            e[q] = V[1, q] - V[0, q]
+        le = math.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2)
+        for q in range(3):
+            e[q] /= le
+        k = 0  # the axis least along e (the first of equals)
+        if abs(e[1]) < abs(e[k]):
+            k = 1
+        if abs(e[2]) < abs(e[k]):
+            k = 2
+        x[0] = x[1] = x[2] = 0.0
+        x[k] = 1.0
+        _cross(e, x, u)
+        lu = math.sqrt(u[0] ** 2 + u[1] ** 2 + u[2] ** 2)
+        for q in range(3):
+            u[q] /= lu
+        _cross(e, u, t)
         for r in range(6):
             ang = r * math.pi / 3.0
-            d = math.cos(ang) * u + math.sin(ang) * t
+            ca = math.cos(ang)
+            sn = math.sin(ang)
+            for q in range(3):
+                d[q] = ca * u[q] + sn * t[q]
             w0, w1, w2, s = _support_c(sa, sb, d[0], d[1], d[2], hints, pa, pb)
             scale = max(scale, s)
             if -(d[0] * w0 + d[1] * w1 + d[2] * w2) > lower:
                 lower = -(d[0] * w0 + d[1] * w1 + d[2] * w2)
-                best_n[:] = d
-            x = np.array([w0 - V[0, 0], w1 - V[0, 1], w2 - V[0, 2]])
-            x -= (x[0] * e[0] + x[1] * e[1] + x[2] * e[2]) * e
+                best_n[0], best_n[1], best_n[2] = d[0], d[1], d[2]
+            x[0], x[1], x[2] = w0 - V[0, 0], w1 - V[0, 1], w2 - V[0, 2]
+            xe = x[0] * e[0] + x[1] * e[1] + x[2] * e[2]
+            for q in range(3):
+                x[q] -= xe * e[q]
             if math.sqrt(x[0] ** 2 + x[1] ** 2 + x[2] ** 2) > tol:
                 nv = _add_vertex(V, VA, VB, nv, w0, w1, w2, pa, pb)
                 if keep is not None:
@@ -490,17 +543,18 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res, keep=None):
                 break
     nf = 0
     if nv == 3:
-        nrm = np.empty(3)
+        nrm = u
         off, ln = _plane(V, 0, 1, 2, nrm)
         sides = 0
         for sgn in (1.0, -1.0):
-            d = sgn * nrm
+            for q in range(3):
+                d[q] = sgn * nrm[q]
             w0, w1, w2, s = _support_c(sa, sb, d[0], d[1], d[2], hints, pa, pb)
             scale = max(scale, s)
             h = d[0] * w0 + d[1] * w1 + d[2] * w2
             if -h > lower:
                 lower = -h
-                best_n[:] = d
+                best_n[0], best_n[1], best_n[2] = d[0], d[1], d[2]
             if h - sgn * off > tol:
                 nv = _add_vertex(V, VA, VB, nv, w0, w1, w2, pa, pb)
                 if keep is not None:
@@ -597,7 +651,7 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res, keep=None):
     return status, scale, it
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _keep(keep, vi, fv, alive, nf, nv, remap):
     # The live faces and the vertices they use, renumbered, into the cache row ``keep`` (left
     # empty when they do not fit or a vertex has no point-cloud index).
@@ -626,8 +680,8 @@ def _keep(keep, vi, fv, alive, nf, nv, remap):
     keep[E_NV] = m  # last: the row is whole
 
 
-@njit(cache=True)
-def epa_warm(sa, sb, entry, tol, res):
+@njit(**NO_NRT)
+def epa_warm(sa, sb, entry, tol, res, fws, iws):
     """EPA's answer from a kept polytope (``entry``, the ``E_*`` row `epa` keeps) at new poses.
 
     The polytope's vertices are rebuilt from their vertex indices in the two point clouds at the
@@ -650,6 +704,9 @@ def epa_warm(sa, sb, entry, tol, res):
         As `epa` takes it.
     res : (13,) float64
         As `epa` fills it, on `CONVERGED` only.
+    fws : (WARM_F,) float64
+    iws : (WARM_I,) int64
+        Scratch (its caller's: nothing is allocated here).
 
     Returns
     -------
@@ -666,19 +723,19 @@ def epa_warm(sa, sb, entry, tol, res):
     pts_b, rot_b, pos_b = sb[2], sb[5], sb[6]
     na = pts_a.shape[0]
     nb = pts_b.shape[0]
-    fbuf = np.empty((3 * WARM_NV + WARM_NF, 3))
+    fbuf = fws[0:3 * (3 * WARM_NV + WARM_NF)].reshape((3 * WARM_NV + WARM_NF, 3))
     V = fbuf[0:WARM_NV]
     VA = fbuf[WARM_NV:2 * WARM_NV]
     VB = fbuf[2 * WARM_NV:3 * WARM_NV]
     fn = fbuf[3 * WARM_NV:]
-    obuf = np.empty((2, WARM_NF))
-    fo = obuf[0]
-    fl = obuf[1]
-    ibuf = np.empty(3 * WARM_NF + 2 * WARM_NV + 2, np.int64)
-    fv = ibuf[0:3 * WARM_NF].reshape((WARM_NF, 3))
-    outm = ibuf[3 * WARM_NF:3 * WARM_NF + WARM_NV]  # directed edges leaving each vertex, as bits
-    inm = ibuf[3 * WARM_NF + WARM_NV:3 * WARM_NF + 2 * WARM_NV]  # and entering it
-    hints = ibuf[3 * WARM_NF + 2 * WARM_NV:]
+    o = 3 * (3 * WARM_NV + WARM_NF)
+    fo = fws[o:o + WARM_NF]
+    fl = fws[o + WARM_NF:o + 2 * WARM_NF]
+    pp = fws[o + 2 * WARM_NF:o + 2 * WARM_NF + 6]
+    fv = iws[0:3 * WARM_NF].reshape((WARM_NF, 3))
+    outm = iws[3 * WARM_NF:3 * WARM_NF + WARM_NV]  # directed edges leaving each vertex, as bits
+    inm = iws[3 * WARM_NF + WARM_NV:3 * WARM_NF + 2 * WARM_NV]  # and entering it
+    hints = iws[3 * WARM_NF + 2 * WARM_NV:3 * WARM_NF + 2 * WARM_NV + 2]
     for i in range(nv):
         code = entry[E_VERT + i]
         ia = code & 0xFFFFFFFF
@@ -724,7 +781,6 @@ def epa_warm(sa, sb, entry, tol, res):
     code = entry[E_VERT + fv[f, 0]]
     hints[0] = code & 0xFFFFFFFF
     hints[1] = code >> 32
-    pp = np.empty(6)
     w0, w1, w2, s = _support_c(sa, sb, fn[f, 0], fn[f, 1], fn[f, 2], hints, pp[0:3], pp[3:6])
     scale = max(scale, s)
     h = fn[f, 0] * w0 + fn[f, 1] * w1 + fn[f, 2] * w2

@@ -25,6 +25,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ._ptr import NO_NRT
 from .support import support
 
 # Rounding floor of the tolerances, in units of the largest world coordinate seen.
@@ -34,12 +35,12 @@ _FLOOR = 16.0 * float(np.finfo(np.float64).eps)
 SEPARATED, OVERLAP, STALLED = 0, 1, 2
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _same_sign(a, b):
     return (a > 0.0 and b > 0.0) or (a < 0.0 and b < 0.0)
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _s1d(W, i, j):
     # Closest point of segment W[i] W[j] to the origin: (lambda_i, lambda_j, squared distance).
     t0 = W[j, 0] - W[i, 0]
@@ -56,7 +57,7 @@ def _s1d(W, i, j):
     return 1.0 - mu, mu, p0 * p0 + p1 * p1 + p2 * p2
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _area2(W, i, j, k, u, v, p_u, p_v, which):
     # Signed doubled area, in the (u, v) coordinate plane, of triangle (W[i], W[j], W[k]) with
     # vertex ``which`` (0, 1, 2) replaced by the point (p_u, p_v).
@@ -72,7 +73,7 @@ def _area2(W, i, j, k, u, v, p_u, p_v, which):
     return (bu - au) * (cv - av) - (bv - av) * (cu - au)
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def s2d(W, i, j, k):
     """Closest point of triangle ``(W[i], W[j], W[k])`` to the origin (Montanari et al. S2D).
 
@@ -135,7 +136,7 @@ def s2d(W, i, j, k):
     return b0, b1, b2, best
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _det3(W, i, j, k):
     # W[i] . (W[j] x W[k])
     return (W[i, 0] * (W[j, 1] * W[k, 2] - W[j, 2] * W[k, 1])
@@ -143,7 +144,7 @@ def _det3(W, i, j, k):
             + W[i, 2] * (W[j, 0] * W[k, 1] - W[j, 1] * W[k, 0]))
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _s3d(W, lam):
     # Closest point of tetrahedron W[0..3] to the origin (Montanari et al. S3D); fills lam[0:4]
     # and returns the squared distance (0 when the origin is inside).
@@ -170,7 +171,7 @@ def _s3d(W, lam):
     return best
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def closest(W, n, lam):
     """Closest point of the simplex ``W[:n]`` to the origin (signed volumes).
 
@@ -200,7 +201,7 @@ def closest(W, n, lam):
     return _s3d(W, lam)
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _push(W, WA, WB, n, pa, pb):
     for k in range(3):
         WA[n, k] = pa[k]
@@ -208,7 +209,7 @@ def _push(W, WA, WB, n, pa, pb):
         W[n, k] = pa[k] - pb[k]
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _compact(W, WA, WB, lam, n):
     # Keep the vertices with positive weight (the face the closest point lies on).
     m = 0
@@ -224,7 +225,7 @@ def _compact(W, WA, WB, lam, n):
     return m
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _direction(W, n, v):
     # Next search direction, -v, taken from the simplex's feature where that is more precise,
     # and its conditioning c (its angle is known to about c times the coordinates' rounding).
@@ -258,14 +259,14 @@ def _direction(W, n, v):
     return -v[0], -v[1], -v[2], 1.0 / lv if lv > 0.0 else math.inf
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def gjk(sa, sb, d0, hints, tol, max_iter, W, WA, WB, lam, v, dirn, pa, pb):
     """GJK distance of the cores of two posed shapes, with a certified lower bound: `gjk_within`
     with no cutoff (parameters and returns as there)."""
     return gjk_within(sa, sb, d0, hints, tol, math.inf, max_iter, W, WA, WB, lam, v, dirn, pa, pb)
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def gjk_within(sa, sb, d0, hints, tol, cutoff, max_iter, W, WA, WB, lam, v, dirn, pa, pb, idx=None):
     """GJK distance of the cores of two posed shapes, with a certified lower bound.
 

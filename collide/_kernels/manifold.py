@@ -49,7 +49,7 @@ from numba import njit
 
 from ._ptr import NO_NRT, bool_ptr, check_span, f64_ptr, i8_ptr, i32_ptr, i64_ptr, view_of
 from .distance import (OUT_DISTANCE, OUT_NORMAL, OUT_PENETRATING, OUT_POINT_A, OUT_POINT_B, OUT_SIZE, ROUNDING,
-                       pair_distance, pair_distance_within)
+                       WS_F, WS_I, pair_distance, pair_distance_within)
 from .faces import BOX_MAX, BOX_WS, box_box, clip_faces
 from .plane import (PLANE_FACE_TOL, RULE_CYLINDER, RULE_POINTS, RULE_SUPPORT, RULE_VERTICES, _plane_cylinder,
                     _support_minus, plane_convex, plane_mesh, reduce_four)
@@ -142,14 +142,16 @@ def _polytope(t):
 def _scratch_lengths(cap, fmax):
     # The float64 fields of `carve_scratch`, in order: their lengths (the one place the layout is
     # counted; `scratch_sizes` sums them, `carve_scratch` walks them). ``poly``/``tmp`` hold a
-    # face clipped by another: at most ``2 fmax + 8`` vertices.
+    # face clipped by another: at most ``2 fmax + 8`` vertices; ``dws`` is the signed distance's
+    # (`collide._kernels.distance.pair_distance_within`).
     npoly = 2 * fmax + 8
     return (3 * cap, cap, 4 * MAX_PER_PAIR, 3, BOX_WS, 6, 3 * fmax, fmax, 3 * fmax, 3 * fmax, 3 * npoly,
-            3 * npoly, 3 * 32, 3 * 32, 3, 3, 3, OUT_SIZE, 3)
+            3 * npoly, 3 * 32, 3 * 32, 3, 3, 3, OUT_SIZE, 3, WS_F)
 
 
-# The int64 fields of `carve_scratch`: ``sel`` (4), ``cand1`` and ``cand2`` (32 each).
-_SCRATCH_INT = (4, 32, 32)
+# The int64 fields of `carve_scratch`: ``sel`` (4), ``cand1`` and ``cand2`` (32 each), ``dwi`` (the signed
+# distance's).
+_SCRATCH_INT = (4, 32, 32, WS_I)
 
 
 @njit(cache=True)
@@ -173,13 +175,13 @@ def carve_scratch(wsf, wsi, cap, fmax):
     """`collide_pairs`' scratch as views of two flat workspaces (`scratch_sizes` long at least).
 
     Returns the tuple ``(cand, dep, sel, res, bnrm, bws, seg, pcand, pdep, face1, face2, poly, tmp,
-    cand1, cand2, cnrm1, cnrm2, pa, pb, nv, out, d0, sep, cache)``; ``sel`` and ``d0`` are zeroed
+    cand1, cand2, cnrm1, cnrm2, pa, pb, nv, out, d0, dws, dwi, sep, cache)``; ``sel`` and ``d0`` are zeroed
     (``d0`` is GJK's cold start, zeros), ``sep`` and ``cache`` (`collide._kernels.warm`'s separation
     and warm-start caches, the rest of ``wsi``) are kept across calls, the rest is written before it
     is read.
     """
     (n_cand, n_dep, n_res, n_bnrm, n_bws, n_seg, n_pcand, n_pdep, n_face1, n_face2, n_poly, n_tmp, n_cnrm1,
-     n_cnrm2, n_pa, n_pb, n_nv, n_out, n_d0) = _scratch_lengths(cap, fmax)
+     n_cnrm2, n_pa, n_pb, n_nv, n_out, n_d0, n_dws) = _scratch_lengths(cap, fmax)
     o = 0
     cand = wsf[o:o + n_cand].reshape((n_cand // 3, 3))
     o += n_cand
@@ -219,17 +221,24 @@ def carve_scratch(wsf, wsi, cap, fmax):
     o += n_out
     d0 = wsf[o:o + n_d0]
     d0[:] = 0.0
-    n_sel, n_cand1, n_cand2 = _SCRATCH_INT
+    o += n_d0
+    dws = wsf[o:o + n_dws]
+    n_sel, n_cand1, n_cand2, n_dwi = _SCRATCH_INT
     sel = wsi[0:n_sel]
     sel[:] = 0
-    cand1 = wsi[n_sel:n_sel + n_cand1]
-    cand2 = wsi[n_sel + n_cand1:n_sel + n_cand1 + n_cand2]
-    rest = wsi[n_sel + n_cand1 + n_cand2:]
+    o = n_sel
+    cand1 = wsi[o:o + n_cand1]
+    o += n_cand1
+    cand2 = wsi[o:o + n_cand2]
+    o += n_cand2
+    dwi = wsi[o:o + n_dwi]
+    o += n_dwi
+    rest = wsi[o:]
     ns = SEP_LEN if rest.shape[0] >= SEP_LEN + WARM_LEN else 0  # shorter (`_scratch`): no cache, cold
     sep = rest[:ns]
     cache = rest[ns:]
     return (cand, dep, sel, res, bnrm, bws, seg, pcand, pdep, face1, face2, poly, tmp, cand1, cand2, cnrm1, cnrm2,
-            pa, pb, nv, out, d0, sep, cache)
+            pa, pb, nv, out, d0, dws, dwi, sep, cache)
 
 
 @njit(cache=True)
@@ -448,7 +457,7 @@ def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
     out_geom, out_dist, out_pos, out_normal, out_margin, skipped = outs
     G = cls.shape[0]
     (cand, dep, sel, res, bnrm, bws, seg, pcand, pdep, face1, face2, poly, tmp, cand1, cand2, cnrm1, cnrm2, pa, pb,
-     nv, out, d0, sep, cache) = ws
+     nv, out, d0, dws, dwi, sep, cache) = ws
     pfaces = (hv_adr, hv_num, hv, f_adr, f_num, f_normal, f_vadr, f_vnum, f_vidx)
     scratch = (cand, dep, sel, res, bnrm, bws, pcand, pdep)
     k = 0
@@ -508,9 +517,9 @@ def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
                 if kind[g1] == POINTS and kind[g2] == POINTS and cache.shape[0] >= WARM_LEN:
                     key = g1 * G + g2 + 1
             if key != 0 and cache[WARM_KEYS + warm_slot(key)] == key:
-                distance_warm(s1, s2, tol, thr + tol, d0, out, cache, key)
+                distance_warm(s1, s2, tol, thr + tol, d0, out, cache, key, dws, dwi)
             else:
-                pair_distance_within(s1, s2, tol, thr + tol, d0, -1, -1, 128, out)
+                pair_distance_within(s1, s2, tol, thr + tol, d0, -1, -1, 128, out, dws, dwi)
                 if key != 0 and out[OUT_PENETRATING] == 1.0:
                     warm_claim(cache, key)
             d = out[OUT_DISTANCE]
@@ -781,7 +790,8 @@ def pair_signed_distance(g1, g2, xpos, xmat, cls, kind, prm, pts, pts_adr, pts_n
     s2 = _shape(g2, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr,
                 nbr_num, xpos, xmat)
     res = np.empty(OUT_SIZE)
-    pair_distance_within(s1, s2, 1e-12 * (size[g1] + size[g2]), cutoff, np.zeros(3), -1, -1, 128, res)
+    pair_distance_within(s1, s2, 1e-12 * (size[g1] + size[g2]), cutoff, np.zeros(3), -1, -1, 128, res,
+                         np.empty(WS_F), np.empty(WS_I, np.int64))
     out[0] = res[OUT_DISTANCE]
     for q in range(3):
         out[1 + q] = res[OUT_POINT_A + q]

@@ -47,6 +47,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ._ptr import NO_NRT
 from .gjk import _FLOOR
 from .support import CONE, CYLINDER, ELLIPSOID, support
 
@@ -79,7 +80,7 @@ def _world(rot, pos, x0, x1, x2):
             rot[2, 0] * x0 + rot[2, 1] * x1 + rot[2, 2] * x2 + pos[2])
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _sigma(rot):
     # (a lower bound of rot's least singular value, rot's defect e: its R^T R's largest entry
     # off the identity). Gershgorin on G = R^T R: its least eigenvalue is at least
@@ -99,7 +100,7 @@ def _sigma(rot):
     return math.sqrt(max(0.0, lam * (1.0 - 8.0 * _EPS))) * (1.0 - 4.0 * _EPS), e
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _cylinder(r, h, l0, l1, l2, foot, nrm):
     # Foot on the solid cylinder (radius r, half height h) and the outward normal there; returns
     # (signed distance, inside, well conditioned).
@@ -130,7 +131,7 @@ def _cylinder(r, h, l0, l1, l2, foot, nrm):
     return d, False, True
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _cone(r, h, l0, l1, l2, foot, nrm):
     # Foot on the solid cone (base radius r at z = 0, apex at z = h) and the outward normal
     # there, in the meridian half-plane (rho, z): the triangle (0, 0), (r, 0), (0, h).
@@ -193,7 +194,7 @@ def _secular(q0, q1, q2, c0, c1, c2, u):
     return s, -2.0 * (q0 / g0 + q1 / g1 + q2 / g2)
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _ellipsoid(a, l0, l1, l2, foot, nrm):
     # Foot on the ellipsoid (semi-axes a (3,)) and its outward normal; returns (signed distance,
     # inside, found, depth): not found for a flat ellipsoid (or one too thin for the solve's
@@ -302,7 +303,7 @@ def _ellipsoid(a, l0, l1, l2, foot, nrm):
     return -d, True, True, depth
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def point_distance(sk, sp, tol, rounding, res):
     """`collide._kernels.distance.pair_distance`'s answer for a ball and a cylinder, cone or
     ellipsoid, in closed form (module docstring), when it is certified within ``tol``.

@@ -37,11 +37,13 @@ import math
 
 from numba import njit
 
+from ._ptr import NO_NRT
+
 # Shape kinds (the ``kind`` slot of a shape tuple).
 POINTS, CYLINDER, CONE, ELLIPSOID = 0, 1, 2, 3
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _scan(pts, l0, l1, l2):
     # The point of pts with the largest l . x (first of equals).
     best = -math.inf
@@ -59,7 +61,7 @@ def _scan(pts, l0, l1, l2):
 SEEDS = 6
 
 
-@njit(cache=True)
+@njit(**NO_NRT)
 def _climb(pts, nbr_start, nbr, l0, l1, l2, hint):
     # Steepest ascent over the vertex graph from ``hint``; strictly increasing, so it stops.
     if 0 <= hint < pts.shape[0]:

@@ -62,18 +62,19 @@ def warm_claim(cache, key):
 
 
 @njit(**NO_NRT)
-def distance_warm(sa, sb, tol, cutoff, d0, out, cache, key):
+def distance_warm(sa, sb, tol, cutoff, d0, out, cache, key, fws, iws):
     """`collide._kernels.distance.pair_distance_within` (cold hill-climbs, 128 iterations) of the
     pair of key ``key``, which holds its slot of ``cache`` (``WARM_LEN`` int64), with its row:
     counts a polytope found in ``WARM_TRIES`` and an answer from it in ``WARM_HITS``; frees the
     slot when the pair no longer penetrates. Its own function, not inlined: the narrow phase's
-    pair loop stays as small for the pairs that never use the cache."""
+    pair loop stays as small for the pairs that never use the cache. ``fws``, ``iws``: the
+    distance's scratch (`collide._kernels.distance.WS_F`, ``WS_I``)."""
     j = warm_slot(key)
     o = WARM_ROWS + j * ENTRY
     row = cache[o:o + ENTRY]
     if row[E_NV] > 0:
         cache[WARM_TRIES] += 1
-    pair_distance_within(sa, sb, tol, cutoff, d0, -1, -1, 128, out, row)
+    pair_distance_within(sa, sb, tol, cutoff, d0, -1, -1, 128, out, fws, iws, row)
     if out[OUT_ITERATIONS] == 0:  # answered by its kept polytope
         cache[WARM_HITS] += 1
     elif out[OUT_PENETRATING] != 1.0:  # apart (or degenerate): back to the cold query
