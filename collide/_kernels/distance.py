@@ -42,17 +42,18 @@ ROUNDING = 64.0
 
 
 @njit(cache=True, inline="always")
-def _endpoints(shape, e):
-    # World end points of a core of 1 or 2 points, into e[0], e[1] (the same point twice for one).
+def _point(shape, j):
+    # World point j of a core's points (its last one for j past the end: a core of one point
+    # gives the same point twice), as three floats.
     pts, rot, pos = shape[2], shape[5], shape[6]
-    for j in range(2):
-        i = min(j, pts.shape[0] - 1)
-        for k in range(3):
-            e[j, k] = rot[k, 0] * pts[i, 0] + rot[k, 1] * pts[i, 1] + rot[k, 2] * pts[i, 2] + pos[k]
+    i = min(j, pts.shape[0] - 1)
+    return (rot[0, 0] * pts[i, 0] + rot[0, 1] * pts[i, 1] + rot[0, 2] * pts[i, 2] + pos[0],
+            rot[1, 0] * pts[i, 0] + rot[1, 1] * pts[i, 1] + rot[1, 2] * pts[i, 2] + pos[1],
+            rot[2, 0] * pts[i, 0] + rot[2, 1] * pts[i, 1] + rot[2, 2] * pts[i, 2] + pos[2])
 
 
 @njit(**NO_NRT)
-def segment_distance(sa, sb, tol, out, e):
+def segment_distance(sa, sb, tol, out):
     """`pair_distance` of two cores of at most two points each (spheres and capsules), closed form.
 
     The closest points of two segments (Ericson 2005, "Real-Time Collision Detection", §5.1.9,
@@ -60,14 +61,16 @@ def segment_distance(sa, sb, tol, out, e):
     direction between them, ``min n.B - max n.A`` (support values) is a lower bound of the cores'
     distance and ``|pb - pa|`` an upper bound. Returns False, writing nothing, when the two are
     not within ``tol`` (rounding near parallel segments) or the cores nearly touch (the normal
-    of ``pb - pa`` would be poorly known there): the caller runs GJK/EPA instead. ``e`` ``(4, 3)
-    float64``: scratch for the end points.
+    of ``pb - pa`` would be poorly known there): the caller runs GJK/EPA instead.
     """
-    _endpoints(sa, e[0:2])
-    _endpoints(sb, e[2:4])
-    d10, d11, d12 = e[1, 0] - e[0, 0], e[1, 1] - e[0, 1], e[1, 2] - e[0, 2]
-    d20, d21, d22 = e[3, 0] - e[2, 0], e[3, 1] - e[2, 1], e[3, 2] - e[2, 2]
-    r0, r1, r2 = e[0, 0] - e[2, 0], e[0, 1] - e[2, 1], e[0, 2] - e[2, 2]
+    # the end points, in scalars (an array of them cost a reshaped view, or an allocation)
+    a00, a01, a02 = _point(sa, 0)
+    a10, a11, a12 = _point(sa, 1)
+    b00, b01, b02 = _point(sb, 0)
+    b10, b11, b12 = _point(sb, 1)
+    d10, d11, d12 = a10 - a00, a11 - a01, a12 - a02
+    d20, d21, d22 = b10 - b00, b11 - b01, b12 - b02
+    r0, r1, r2 = a00 - b00, a01 - b01, a02 - b02
     a = d10 * d10 + d11 * d11 + d12 * d12
     c2 = d20 * d20 + d21 * d21 + d22 * d22
     f = d20 * r0 + d21 * r1 + d22 * r2
@@ -91,19 +94,17 @@ def segment_distance(sa, sb, tol, out, e):
             elif t > 1.0:
                 t = 1.0
                 s = min(max((b - c) / a, 0.0), 1.0)
-    scale = 0.0
-    for j in range(4):
-        for k in range(3):
-            scale = max(scale, abs(e[j, k]))
-    pa0, pa1, pa2 = e[0, 0] + s * d10, e[0, 1] + s * d11, e[0, 2] + s * d12
-    pb0, pb1, pb2 = e[2, 0] + t * d20, e[2, 1] + t * d21, e[2, 2] + t * d22
+    scale = max(abs(a00), abs(a01), abs(a02), abs(a10), abs(a11), abs(a12),
+                abs(b00), abs(b01), abs(b02), abs(b10), abs(b11), abs(b12))
+    pa0, pa1, pa2 = a00 + s * d10, a01 + s * d11, a02 + s * d12
+    pb0, pb1, pb2 = b00 + t * d20, b01 + t * d21, b02 + t * d22
     w = (pb0 - pa0, pb1 - pa1, pb2 - pa2)
     gap = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
     if not gap > 1e-6 * scale:
         return False
     n0, n1, n2 = w[0] / gap, w[1] / gap, w[2] / gap
-    ha = max(n0 * e[0, 0] + n1 * e[0, 1] + n2 * e[0, 2], n0 * e[1, 0] + n1 * e[1, 1] + n2 * e[1, 2])
-    hb = min(n0 * e[2, 0] + n1 * e[2, 1] + n2 * e[2, 2], n0 * e[3, 0] + n1 * e[3, 1] + n2 * e[3, 2])
+    ha = max(n0 * a00 + n1 * a01 + n2 * a02, n0 * a10 + n1 * a11 + n2 * a12)
+    hb = min(n0 * b00 + n1 * b01 + n2 * b02, n0 * b10 + n1 * b11 + n2 * b12)
     lower = hb - ha
     if gap - lower > max(tol, _FLOOR * scale):
         return False
@@ -163,15 +164,13 @@ def pair_distance(sa, sb, tol, d0, hint_a, hint_b, max_iter, out):
 
 # `pair_distance_within`'s scratch, float64 (``WS_F``): GJK's simplex W, WA, WB ((3, 4, 3)) and its lam,
 # dirn, v, pa, pb ((5, 4)), zeroed each call (GJK weighs all four rows, zero weights included);
-# then EPA's result (13), the normal (3), the segments' end points ((4, 3)), the closed form's
-# result (18), `collide._kernels.epa.epa_warm`'s scratch. int64 (``WS_I``): the climbs' hints and
-# the simplex's vertex indices (10), `epa_warm`'s.
+# then EPA's result (13), the normal (3), the closed form's result (18), `collide._kernels.epa.epa_warm`'s
+# scratch. int64 (``WS_I``): the climbs' hints and the simplex's vertex indices (10), `epa_warm`'s.
 _WS_SIMPLEX = 0
 _WS_VEC = _WS_SIMPLEX + 36
 _WS_RES = _WS_VEC + 20
 _WS_NRM = _WS_RES + 13
-_WS_SEG = _WS_NRM + 3
-_WS_BALL = _WS_SEG + 12
+_WS_BALL = _WS_NRM + 3
 _WS_WARM = _WS_BALL + 18
 WS_F = _WS_WARM + WARM_F
 WS_I = 10 + WARM_I
@@ -184,7 +183,7 @@ def _closed_form(sa, sb, tol, out, fws):
     # closed forms made the GJK query of every other pair slower (tests/bench/distance.txt).
     if sa[0] == POINTS and sb[0] == POINTS and sa[2].shape[0] <= 2 and sb[2].shape[0] <= 2:
         # spheres and capsules: no iteration
-        return segment_distance(sa, sb, tol, out, fws[_WS_SEG:_WS_SEG + 12].reshape((4, 3)))
+        return segment_distance(sa, sb, tol, out)
     if sa[0] != POINTS and sb[0] == POINTS and sb[2].shape[0] == 1:
         # a ball and a cylinder, cone or ellipsoid
         return _ball_primitive(sa, sb, True, tol, out, fws[_WS_BALL:_WS_BALL + 18])

@@ -369,7 +369,8 @@ def _expand(V, nv, fv, fa, fn, fo, fl, alive, nf, f, seen, forced, stack, hz, ti
     return nf
 
 
-# With reference counting, which its caller (`collide._kernels.distance._pair_distance`) has not: it allocates.
+# With reference counting, which its caller (`collide._kernels.distance.pair_distance_within`) has not: it
+# allocates.
 @njit(cache=True, _nrt=True)
 def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res, keep=None):
     """Penetration depth of two overlapping cores from GJK's final simplex.

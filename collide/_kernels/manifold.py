@@ -49,7 +49,7 @@ from numba import njit
 
 from ._ptr import NO_NRT, bool_ptr, check_span, f64_ptr, i8_ptr, i32_ptr, i64_ptr, view_of
 from .distance import (OUT_DISTANCE, OUT_NORMAL, OUT_PENETRATING, OUT_POINT_A, OUT_POINT_B, OUT_SIZE, ROUNDING,
-                       WS_F, WS_I, pair_distance, pair_distance_within)
+                       WS_F, WS_I, pair_distance, pair_distance_within, segment_distance)
 from .faces import BOX_MAX, BOX_WS, box_box, clip_faces
 from .plane import (PLANE_FACE_TOL, RULE_CYLINDER, RULE_POINTS, RULE_SUPPORT, RULE_VERTICES, _plane_cylinder,
                     _support_minus, plane_convex, plane_mesh, reduce_four)
@@ -509,7 +509,8 @@ def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
             # the models: tests/bench/contacts.txt, session 51.)
             key = 0
             skey = 0
-            if kind[g1] != POINTS or kind[g2] != POINTS or max(pts_num[g1], pts_num[g2]) > 2:
+            round_pair = kind[g1] == POINTS and kind[g2] == POINTS and max(pts_num[g1], pts_num[g2]) <= 2
+            if not round_pair:
                 if sep.shape[0] == SEP_LEN:
                     skey = g1 * G + g2 + 1
                     if sep_test(sep, skey, s1, s2, thr, pa, pb):
@@ -518,7 +519,7 @@ def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
                     key = g1 * G + g2 + 1
             if key != 0 and cache[WARM_KEYS + warm_slot(key)] == key:
                 distance_warm(s1, s2, tol, thr + tol, d0, out, cache, key, dws, dwi)
-            else:
+            elif not (round_pair and segment_distance(s1, s2, tol, out)):  # spheres and capsules: at once
                 pair_distance_within(s1, s2, tol, thr + tol, d0, -1, -1, 128, out, dws, dwi)
                 if key != 0 and out[OUT_PENETRATING] == 1.0:
                     warm_claim(cache, key)
