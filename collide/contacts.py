@@ -380,8 +380,12 @@ class GeomTable:
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
         # a scratch of its own (`copy.copy` shares the rest): the kernel's warm-start cache in it
-        # (`collide._kernels.warm`) is this table's alone, empty
-        self._wsf, self._wsi = np.zeros_like(self._wsf), np.zeros_like(self._wsi)
+        # (`collide._kernels.warm`) is this table's alone, empty; sized by this version's layout, not
+        # the pickled arrays' (a table pickled by an older version, whose scratch was shorter, made the
+        # kernel write past its end)
+        ti = self._tables[1]
+        nf, ni = _km.scratch_sizes(ti[2 * _km.N_SLOTS], ti[2 * _km.N_SLOTS + 1])
+        self._wsf, self._wsi = np.zeros(nf), np.zeros(ni, np.int64)
         self._bind()
         self._new_ctx()  # an arena of its own: a copy never writes into rows the original handed out
         # read-only views again (unpickled arrays own their data and are writeable)

@@ -393,6 +393,28 @@ def test_pairs_are_the_broad_phases():
     assert all(tuple(g) in keys for g in c.geom.tolist())
 
 
+def test_unpickled_table_sizes_its_scratch_by_this_version():
+    """A GeomTable pickled by an older version carries a kernel scratch of that version's size (one
+    shorter than today's made the kernel write past its end: a segfault, found by a review); the
+    unpickled table makes its scratch at this version's size, and its contacts are the original's."""
+    model = cm.default_scene(seed=2, objects=12)
+    data = mujoco.MjData(model)
+    for _ in range(50):
+        mujoco.mj_step(model, data)
+    col = cm.Collider(model)
+    pairs = col.pairs(data)
+    xmat = data.geom_xmat.reshape(-1, 3, 3)
+    before = cc.narrow_phase(col.table, pairs, data.geom_xpos, xmat)
+    assert len(before) > 0
+    state = col.table.__getstate__()
+    state["_wsf"], state["_wsi"] = state["_wsf"][:7].copy(), state["_wsi"][:5].copy()  # an old layout's
+    t = cc.GeomTable.__new__(cc.GeomTable)
+    t.__setstate__(state)
+    assert t._wsf.shape == col.table._wsf.shape and t._wsi.shape == col.table._wsi.shape
+    c = cc.narrow_phase(t, pairs, data.geom_xpos, xmat)
+    assert np.array_equal(c.geom, before.geom) and np.array_equal(c.dist, before.dist)
+
+
 def test_table_copies_own_their_buffers():
     """A copied or unpickled GeomTable: its attributes and kernel arguments are views of its own
     packed buffers (the kernel reads those), so an in-place edit of one reaches both of its

@@ -7,9 +7,9 @@ the tables give the median over pairs, in microseconds:
 - ``collide.distance``: the public call (pose checks, result object included);
 - ``kernel``: the public call's kernel, `collide._kernels.distance.query`, called from Python
   on its prebuilt arguments (numba's dispatch and the pose checks included);
-- ``in numba``: the distance it computes (`collide._kernels.distance.pair_distance`) in a
-  compiled loop (no Python at all), cold (no hint) and warm (the previous normal and support
-  vertices, the pose unchanged);
+- ``in numba``: the distance it computes (`collide._kernels.distance.pair_distance_within`, its
+  scratch allocated once) in a compiled loop (no Python at all), cold (no hint) and warm (the
+  previous normal and support vertices, the pose unchanged);
 - ``coal``: ``coal.distance`` on ``coal.Convex`` hulls of the same points (its Python call
   and a ``DistanceResult.clear()`` included: a result keeps the minimum over calls, and coal
   returns at once when it is not cleared), at its default GJK tolerance (1e-6) and at 1e-12;
@@ -50,8 +50,10 @@ _clock = time.process_time
 
 @njit(cache=True)
 def _loop(sa, sb, tol, d0, hint_a, hint_b, reps, out):
+    # the scratch allocated once, as the contact kernel's workspace holds it
+    fws, iws = np.empty(kd.WS_F), np.empty(kd.WS_I, np.int64)
     for _ in range(reps):
-        kd.pair_distance(sa, sb, tol, d0, hint_a, hint_b, 128, out)
+        kd.pair_distance_within(sa, sb, tol, np.inf, d0, hint_a, hint_b, 128, out, fws, iws)
 
 
 def _per_call(fn, budget=0.02):
