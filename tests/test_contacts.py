@@ -393,10 +393,9 @@ def test_pairs_are_the_broad_phases():
     assert all(tuple(g) in keys for g in c.geom.tolist())
 
 
-def test_unpickled_table_sizes_its_scratch_by_this_version():
-    """A GeomTable pickled by an older version carries a kernel scratch of that version's size (one
-    shorter than today's made the kernel write past its end: a segfault, found by a review); the
-    unpickled table makes its scratch at this version's size, and its contacts are the original's."""
+def _stepped_scene():
+    # The built-in scene after 50 steps: its Collider, broad-phase pairs, data, geom rotations and
+    # contacts (some: a test of them is a test with hits).
     model = cm.default_scene(seed=2, objects=12)
     data = mujoco.MjData(model)
     for _ in range(50):
@@ -406,6 +405,14 @@ def test_unpickled_table_sizes_its_scratch_by_this_version():
     xmat = data.geom_xmat.reshape(-1, 3, 3)
     before = cc.narrow_phase(col.table, pairs, data.geom_xpos, xmat)
     assert len(before) > 0
+    return col, pairs, data, xmat, before
+
+
+def test_unpickled_table_sizes_its_scratch_by_this_version():
+    """A GeomTable pickled by an older version carries a kernel scratch of that version's size (one
+    shorter than today's made the kernel write past its end: a segfault, found by a review); the
+    unpickled table makes its scratch at this version's size, and its contacts are the original's."""
+    col, pairs, data, xmat, before = _stepped_scene()
     state = col.table.__getstate__()
     state["_wsf"], state["_wsi"] = state["_wsf"][:7].copy(), state["_wsi"][:5].copy()  # an old layout's
     t = cc.GeomTable.__new__(cc.GeomTable)
@@ -422,15 +429,7 @@ def test_table_copies_own_their_buffers():
     import copy
     import pickle
 
-    model = cm.default_scene(seed=2, objects=12)
-    data = mujoco.MjData(model)
-    for _ in range(50):
-        mujoco.mj_step(model, data)
-    col = cm.Collider(model)
-    pairs = col.pairs(data)
-    xmat = data.geom_xmat.reshape(-1, 3, 3)
-    before = cc.narrow_phase(col.table, pairs, data.geom_xpos, xmat)
-    assert len(before) > 0
+    col, pairs, data, xmat, before = _stepped_scene()
     for t in (copy.copy(col.table), copy.deepcopy(col.table), pickle.loads(pickle.dumps(col.table))):
         if t.__dict__.get("_tables") is col.table._tables:
             t = copy.deepcopy(t)  # copy.copy shares the buffers by design; the rest own theirs
