@@ -22,6 +22,7 @@ import math
 import threading
 
 import numpy as np
+from numba import types as _nt
 
 from . import hull as _hull
 from ._kernels import distance as _kd
@@ -139,9 +140,13 @@ def _from_out(out: np.ndarray) -> Distance:
 
 # numba compiles a kernel once per combination of its arguments' types, writeable flags and
 # layouts included (a full GJK + EPA each time: tests/bench/compile_log.py). `query` has one
-# signature: every array reaches it float64 (the descriptors int64), C-contiguous, aligned and
-# writable; anything else is copied into that form first (`_pose`), and
-# tests/test_distance_inputs.py checks that no accepted input adds a signature.
+# signature, `_SIGNATURE`: every array float64, C-contiguous, aligned and writable (the
+# descriptors int64), and its dispatcher compiles nothing else (`disable_compile`). So `distance`
+# hands the poses over as they come: numba's dispatch, which types every argument anyway, raises
+# TypeError for an array of another dtype, layout or flags, or for anything that is not an array,
+# before the kernel runs; `distance` then converts them into that form (`_canonical`, copies; a
+# ValueError naming what is not a pose) and calls again. tests/test_distance_inputs.py checks that
+# every accepted form gives the canonical answer through the one signature.
 _EYE = np.eye(3)
 _ZERO = np.zeros(3)
 _COLD = np.zeros(_kd.OUT_SIZE)  # a "previous result" with a zero normal: a cold start
@@ -149,6 +154,33 @@ _COLD[[_kd.OUT_HINT_A, _kd.OUT_HINT_B]] = -1.0
 _F64 = np.dtype(np.float64)
 _ND = np.ndarray
 _empty, _query, _OUT_SIZE = np.empty, _kd.query, _kd.OUT_SIZE  # bound once: looked up every call
+_A1, _A2 = _nt.float64[::1], _nt.float64[:, ::1]
+_SIGNATURE = (_nt.int64, _nt.int64, _A2, _A1, _A2, _A1) + (_nt.float64,) * 5 + (_A1, _nt.int64, _A1)
+_loaded = False  # `query`'s one signature loaded and its dispatcher closed to any other (`_load_query`)
+_load_lock = threading.Lock()
+
+
+def _load_query() -> None:
+    # `query`'s one signature compiled, or loaded from numba's cache, then its dispatcher closed:
+    # on the first call. Until then no call hands `query` anything but that form (two threads
+    # making the first call at once: one loads, the other waits and finds it loaded).
+    global _loaded
+    with _load_lock:
+        if not _loaded:
+            _query.compile(_SIGNATURE)
+            _query.disable_compile()
+            _loaded = True
+
+
+def _canonical(pose_a, pose_b, w: np.ndarray) -> tuple:
+    # ``(ra, ta, rb, tb, w)`` in `query`'s one form (`_SIGNATURE`; copies), or the ValueError naming
+    # the pose that is not one; the kernel loaded. Finiteness, rigidity and range stay the kernel's
+    # checks (`_raise`).
+    ra, ta = (_EYE, _ZERO) if pose_a is None else _pose(pose_a, "pose_a")
+    rb, tb = (_EYE, _ZERO) if pose_b is None else _pose(pose_b, "pose_b")
+    if not w.flags.carray:  # an unpickled result's buffer may be read-only
+        w = np.array(w, dtype=np.float64, order="C")
+    return ra, ta, rb, tb, w
 
 
 def _pose(pose, name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -357,26 +389,24 @@ def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = _T
         eb = _described(b, "b")
     _, _, desc_a, size_a = ea
     _, _, desc_b, size_b = eb
-    # The common case without copies or conversions: (rotation, translation) ndarrays in
-    # `query`'s one form (their shapes are the kernel's first check).
+    # The poses as they come ((rotation, translation) pairs unpacked): `query`'s dispatch checks
+    # their form, `_canonical` converts them where it refuses one (a (4, 4) matrix at once).
     if pose_a is None:
         ra, ta = _EYE, _ZERO
-    elif not (type(pose_a) is tuple and len(pose_a) == 2 and type(ra := pose_a[0]) is _ND
-              and type(ta := pose_a[1]) is _ND and ra.dtype is _F64 and ta.dtype is _F64 and ra.ndim == 2
-              and ta.ndim == 1 and ra.flags.carray and ta.flags.carray):
+    elif type(pose_a) is tuple and len(pose_a) == 2:
+        ra, ta = pose_a
+    else:
         ra, ta = _pose(pose_a, "pose_a")
     if pose_b is None:
         rb, tb = _EYE, _ZERO
-    elif not (type(pose_b) is tuple and len(pose_b) == 2 and type(rb := pose_b[0]) is _ND
-              and type(tb := pose_b[1]) is _ND and rb.dtype is _F64 and tb.dtype is _F64 and rb.ndim == 2
-              and tb.ndim == 1 and rb.flags.carray and tb.flags.carray):
+    elif type(pose_b) is tuple and len(pose_b) == 2:
+        rb, tb = pose_b
+    else:
         rb, tb = _pose(pose_b, "pose_b")
     if warm is None:
         w = _COLD
     elif type(warm) is Distance:
         w = warm._out  # its normal and hints, read by the kernel
-        if not w.flags.carray:  # an unpickled one's buffer may be read-only: `query`'s one form
-            w = np.array(w, dtype=np.float64, order="C")
     else:
         w = np.zeros(_kd.OUT_SIZE)
         w[_kd.OUT_NORMAL:_kd.OUT_NORMAL + 3] = as_array(warm, "warm", (3,))
@@ -393,9 +423,19 @@ def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = _T
     size = size_a + size_b
     if SIZE_MIN <= size <= SIZE_MAX:  # else scaled by a power of two (`collide.support.SIZE_MIN`)
         out = _empty(_OUT_SIZE)
-        err = _query(desc_a, desc_b, ra, ta, rb, tb, size_a, size_b, ORTHONORMAL_TOL, _LIMIT,
-                     tolerance * size, w, max_iterations, out)
+        if not _loaded:
+            _load_query()
+        try:
+            err = _query(desc_a, desc_b, ra, ta, rb, tb, size_a, size_b, ORTHONORMAL_TOL, _LIMIT,
+                         tolerance * size, w, max_iterations, out)
+        except TypeError:  # an argument not in the kernel's one form
+            ra, ta, rb, tb, w = _canonical(pose_a, pose_b, w)
+            err = _query(desc_a, desc_b, ra, ta, rb, tb, size_a, size_b, ORTHONORMAL_TOL, _LIMIT,
+                         tolerance * size, w, max_iterations, out)
     else:
+        if not _loaded:
+            _load_query()
+        ra, ta, rb, tb, w = _canonical(pose_a, pose_b, w)
         out, err = _query_scaled(a, b, ea, eb, ra, ta, rb, tb, w, tolerance, max_iterations)
     if err:
         if err < 10:

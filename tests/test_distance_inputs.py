@@ -238,3 +238,43 @@ def test_the_shape_cache_survives_eviction_and_fresh_shapes():
     s, c, r = first  # evicted by now, and computed again
     assert collide.distance(s, PointCloud([[0.0, 0.0, 0.0]], 0.25)).distance == pytest.approx(
         math.hypot(*c) - r - 0.25, abs=1e-12)
+
+
+_FIRST_CALLS = r"""
+import sys, threading
+import numpy as np
+import collide
+from collide._kernels import distance as kd
+a = collide.PointCloud([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], 0.1)
+rot = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+poses = [(rot.astype(np.float32), np.array([2.5, 0.25, 0.0], np.float32)), (rot, np.array([2.5, 0.25, 0.0]))]
+got = [None, None]
+barrier = threading.Barrier(2)
+def first(i):
+    barrier.wait()
+    got[i] = collide.distance(a, a, None, poses[i]).distance
+ts = [threading.Thread(target=first, args=(i,)) for i in range(2)]
+[t.start() for t in ts]
+[t.join() for t in ts]
+sigs = kd.query.signatures
+after = collide.distance(a, a, None, (rot.T.copy().T, [2.5, 0.25, 0.0])).distance
+print(repr(got[0]), repr(got[1]), repr(after), len(sigs))
+"""
+
+
+def test_the_first_calls_load_one_signature_whatever_their_form():
+    # The kernel's dispatcher compiles nothing but its one signature (`signed_distance._load_query`):
+    # in a fresh process, two threads' first calls at once, one of them with float32 arrays (which
+    # numba would otherwise compile a second kernel for, a minute), then a transposed view and a
+    # list: one signature, and the answers of the canonical form.
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    run = subprocess.run([sys.executable, "-c", _FIRST_CALLS], capture_output=True, text=True, cwd=root, timeout=900)
+    assert run.returncode == 0, run.stderr[-2000:]
+    first32, first64, after, nsig = run.stdout.split()
+    assert int(nsig) == 1
+    assert float(first64) == float(after) and abs(float(first32) - float(first64)) < 1e-6
+    assert 0.0 < float(first64) < 2.0  # the pair is apart (a real query, not a refused one)
