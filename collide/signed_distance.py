@@ -143,8 +143,8 @@ def _from_out(out: np.ndarray) -> Distance:
 # signature, `_SIGNATURE`: every array float64, C-contiguous, aligned and writable (the
 # descriptors int64), and its dispatcher compiles nothing else (`disable_compile`). So `distance`
 # hands the poses over as they come: numba's dispatch, which types every argument anyway, raises
-# TypeError for an array of another dtype, layout or flags, or for anything that is not an array,
-# before the kernel runs; `distance` then converts them into that form (`_canonical`, copies; a
+# (TypeError, or another error of its typing) for an array of another dtype, layout or flags, or
+# for anything that is not an array, before the kernel runs; `distance` then converts them into that form (`_canonical`, copies; a
 # ValueError naming what is not a pose) and calls again. tests/test_distance_inputs.py checks that
 # every accepted form gives the canonical answer through the one signature.
 _EYE = np.eye(3)
@@ -178,8 +178,9 @@ def _canonical(pose_a, pose_b, w: np.ndarray) -> tuple:
     # checks (`_raise`).
     ra, ta = (_EYE, _ZERO) if pose_a is None else _pose(pose_a, "pose_a")
     rb, tb = (_EYE, _ZERO) if pose_b is None else _pose(pose_b, "pose_b")
-    if not w.flags.carray:  # an unpickled result's buffer may be read-only
-        w = np.array(w, dtype=np.float64, order="C")
+    if not (type(w) is _ND and w.dtype == _F64 and w.ndim == 1 and w.flags.carray):
+        # an unpickled result's buffer may be read-only (a crafted one of another dtype or shape)
+        w = np.array(w, dtype=np.float64, order="C").reshape(-1)
     return ra, ta, rb, tb, w
 
 
@@ -206,6 +207,8 @@ def _raise(err: int, name: str, rot: np.ndarray, pos: np.ndarray, size: float) -
     if err == 4:
         _pose((rot, pos), name)  # names the wrong shape
         raise AssertionError("unreachable: a pose of the right shapes")
+    # the values the kernel read (an ndarray subclass, a masked array among them, reaches it as is)
+    rot, pos = np.array(rot, dtype=np.float64), np.array(pos, dtype=np.float64)
     if err == 1:
         raise ValueError(f"{name}: non-finite value (NaN or inf) in the rotation or translation")
     if err == 2:
@@ -428,7 +431,10 @@ def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = _T
         try:
             err = _query(desc_a, desc_b, ra, ta, rb, tb, size_a, size_b, ORTHONORMAL_TOL, _LIMIT,
                          tolerance * size, w, max_iterations, out)
-        except TypeError:  # an argument not in the kernel's one form
+        except Exception:  # noqa: BLE001 - an argument not in the kernel's one form: converted, or named
+            # numba's dispatch refuses it with TypeError, or with another error of its typing of an
+            # odd object (NumbaTypeError for a masked array, which is no TypeError); the kernel
+            # itself raises nothing, and an error that is not the arguments' raises again below
             ra, ta, rb, tb, w = _canonical(pose_a, pose_b, w)
             err = _query(desc_a, desc_b, ra, ta, rb, tb, size_a, size_b, ORTHONORMAL_TOL, _LIMIT,
                          tolerance * size, w, max_iterations, out)

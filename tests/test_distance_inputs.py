@@ -9,6 +9,7 @@ poses (finite, rigid, in range, shaped (3, 3) and (3,)); a shape's hull data is 
 
 import math
 import pickle
+from unittest.mock import MagicMock
 
 import numpy as np
 import pytest
@@ -49,6 +50,11 @@ def _forms(rot, pos):
         "matrix subclass": (np.asmatrix(rot), pos),
         "big-endian": (rot.astype(">f8"), pos.astype(">f8")),
         "unaligned": (_unaligned(rot), _unaligned(pos)),
+        # numba refuses a masked array beside another odd argument with NumbaTypeError, which is no
+        # TypeError (helper-66's review of 38d0449)
+        "masked arrays": (np.ma.array(rot), np.ma.array(pos)),
+        "masked and a list": (np.ma.array(rot), pos.tolist()),
+        "read-only and masked": (ro_r, np.ma.array(pos)),
     }
 
 
@@ -127,6 +133,7 @@ BAD_POSES = [
     ("complex", (np.eye(3) * 1j, np.zeros(3)), "complex"),
     ("strings", (np.eye(3), ["a", "b", "c"]), "translation"),
     ("a number", 3.0, "shape"),
+    ("a mock", (np.eye(3), MagicMock()), "translation"),  # numba's typing of it raised KeyError (helper-66)
 ]
 
 
@@ -220,6 +227,17 @@ def test_a_read_only_warm_result_is_copied_not_compiled_for():
     w = pickle.loads(pickle.dumps(r, protocol=5, buffer_callback=bufs.append), buffers=[bytes(b.raw()) for b in bufs])
     assert not w._out.flags.writeable
     assert _fields(collide.distance(a, a, None, pose, warm=w)) == _fields(collide.distance(a, a, None, pose, warm=r))
+    assert len(kd.query.signatures) == 1, kd.query.signatures
+
+
+def test_a_warm_result_of_another_dtype_or_shape_is_converted():
+    # A crafted Distance over a float32, big-endian or (16, 1) buffer: converted, not a numba error.
+    a = PointCloud([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], 0.1)
+    pose = (np.eye(3), np.array([3.0, 0.2, 0.0]))
+    r = collide.distance(a, a, None, pose)
+    for buf in (r._out.astype(np.float32), r._out.astype(">f8"), r._out.reshape(-1, 1).copy()):
+        got = collide.distance(a, a, None, pose, warm=sd._from_out(buf))
+        assert abs(got.distance - r.distance) <= 1e-12
     assert len(kd.query.signatures) == 1, kd.query.signatures
 
 
