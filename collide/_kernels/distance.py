@@ -23,7 +23,7 @@ import numpy as np
 from numba import njit
 
 from ._ptr import NO_NRT, f64_ptr, i32_ptr, i64_ptr, view_of
-from .epa import CONVERGED, DEGENERATE, E_NV, WARM_F, WARM_I, epa, epa_warm
+from .epa import CONVERGED, DEGENERATE, E_NV, WARM_F, WARM_I, epa, epa_on, epa_sizes, epa_warm
 from .gjk import _FLOOR, OVERLAP, gjk_within
 from .point_distance import point_distance
 from .support import POINTS
@@ -166,6 +166,9 @@ def pair_distance(sa, sb, tol, d0, hint_a, hint_b, max_iter, out):
 # dirn, v, pa, pb ((5, 4)), zeroed each call (GJK weighs all four rows, zero weights included);
 # then EPA's result (13), the normal (3), the closed form's result (18), `collide._kernels.epa.epa_warm`'s
 # scratch. int64 (``WS_I``): the climbs' hints and the simplex's vertex indices (10), `epa_warm`'s.
+# Then, optionally (``WS_F_EPA``, ``WS_I_EPA`` long in all), EPA's own for a cap of `EPA_CAP` vertices
+# (`collide._kernels.epa.epa_on`): the narrow phase's workspace holds it, so that a penetrating pair
+# allocates nothing; shorter scratch (`query`'s, whose cap is its caller's) has EPA allocate its own.
 _WS_SIMPLEX = 0
 _WS_VEC = _WS_SIMPLEX + 36
 _WS_RES = _WS_VEC + 20
@@ -174,6 +177,9 @@ _WS_BALL = _WS_NRM + 3
 _WS_WARM = _WS_BALL + 18
 WS_F = _WS_WARM + WARM_F
 WS_I = 10 + WARM_I
+EPA_CAP = 128  # the narrow phase's cap on GJK iterations and EPA vertices
+WS_F_EPA = WS_F + epa_sizes.py_func(EPA_CAP)[0]
+WS_I_EPA = WS_I + epa_sizes.py_func(EPA_CAP)[1]
 
 
 @njit(**NO_NRT)
@@ -230,9 +236,10 @@ def pair_distance_within(sa, sb, tol, cutoff, d0, hint_a, hint_b, max_iter, out,
         it first and its certified answer is the result (no GJK, no EPA); after GJK and EPA it
         receives their polytope (or is emptied). A hint only: whatever it holds, the result is
         certified as without it.
-    fws : (WS_F,) float64
-    iws : (WS_I,) int64
-        Scratch (layout above), written before it is read.
+    fws : (WS_F,) or (WS_F_EPA,) float64
+    iws : (WS_I,) or (WS_I_EPA,) int64
+        Scratch (layout above), written before it is read; with EPA's part for ``max_iter``
+        (``WS_F_EPA``, ``WS_I_EPA`` at `EPA_CAP`), EPA allocates nothing.
     """
     if _closed_form(sa, sb, tol, out, fws):
         return
@@ -298,7 +305,14 @@ def pair_distance_within(sa, sb, tol, cutoff, d0, hint_a, hint_b, max_iter, out,
         if warm:
             st = CONVERGED
         else:
-            if entry is None:
+            nf, ni = epa_sizes(max_iter)
+            if fws.shape[0] >= WS_F + nf and iws.shape[0] >= WS_I + ni:  # EPA's scratch here
+                if entry is None:
+                    st, s, it = epa_on(sa, sb, W, WA, WB, n, hints, tol, max_iter, lower, res, fws[WS_F:], iws[WS_I:])
+                else:
+                    st, s, it = epa_on(sa, sb, W, WA, WB, n, hints, tol, max_iter, lower, res, fws[WS_F:],
+                                       iws[WS_I:], entry)
+            elif entry is None:
                 st, s, it = epa(sa, sb, W, WA, WB, n, hints, tol, max_iter, lower, res)
             else:
                 st, s, it = epa(sa, sb, W, WA, WB, n, hints, tol, max_iter, lower, res, entry)

@@ -416,14 +416,51 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res, keep=None):
     iterations : int
     """
     mv = max(max_vertices, 6)
-    mf = 2 * mv
     # Its buffers, allocated here (uninitialised: zeroing them cost more than the rest of a typical
     # call; every entry is written before it is read, face arrays only below the face count), and
     # the algorithm in `_epa`, compiled without reference counting (`collide._kernels._ptr.NO_NRT`:
-    # the views it takes of them cost nothing there).
-    fbuf = np.empty(_EPA_F_FIXED + _EPA_F_VERTEX * mv + _EPA_F_FACE * mf)
-    ibuf = np.empty(_EPA_I_FACE * mf, np.int64)
-    bbuf = np.empty((3, mf), np.bool_)
+    # the views it takes of them cost nothing there). `epa_on` runs it on its caller's scratch.
+    fws = np.empty(epa_sizes(mv)[0])
+    iws = np.empty(epa_sizes(mv)[1], np.int64)
+    return epa_on(sa, sb, W, WA, WB, n, hints, tol, mv, lower, res, fws, iws, keep)
+
+
+@njit(cache=True, inline="always")
+def epa_sizes(max_vertices):
+    """Float64 and int64 entries of `epa_on`'s scratch for a cap of ``max_vertices`` (at least 6
+    are used: `epa`'s floor)."""
+    mv = max(max_vertices, 6)
+    mf = 2 * mv
+    return _EPA_F_FIXED + _EPA_F_VERTEX * mv + _EPA_F_FACE * mf, _EPA_I_FACE * mf + (3 * mf + 7) // 8
+
+
+@njit(**NO_NRT)
+def epa_on(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res, fws, iws, keep=None):
+    """`epa` on the caller's scratch, ``fws`` float64 and ``iws`` int64, `epa_sizes` long at least
+    (nothing allocated: the narrow phase's workspace holds them). Scratch too short for the cap
+    lowers it to what fits (a capped answer, its bracket wider), and too short for 6 vertices
+    gives `DEGENERATE` (no polytope: ``upper`` ``+inf``): never a write past the end."""
+    mv = max(max_vertices, 6)
+    nf, ni = epa_sizes(mv)
+    if fws.shape[0] < nf or iws.shape[0] < ni:
+        # what fits: floats FIXED + 29 mv; ints 32 mv, then 6 mv bools packed 8 an entry (<= 33 mv)
+        mv = min(mv, (fws.shape[0] - _EPA_F_FIXED) // (_EPA_F_VERTEX + 2 * _EPA_F_FACE), iws.shape[0] // 33)
+    if mv < 6:
+        res[0], res[1], res[2] = lower, math.inf, 0.0
+        for k in range(3):
+            res[3 + k] = WA[0, k]
+            res[6 + k] = WB[0, k]
+            res[9 + k] = 0.0
+        res[11] = 1.0
+        res[12] = 0.0
+        if keep is not None:
+            keep[E_NV] = 0
+        return DEGENERATE, 0.0, 0
+    mf = 2 * mv
+    nf, ni = epa_sizes(mv)
+    fbuf = fws[:nf]
+    ibuf = iws[:_EPA_I_FACE * mf]
+    bbuf = iws[_EPA_I_FACE * mf:ni].view(np.bool_)[:3 * mf].reshape((3, mf))
     return _epa(sa, sb, W, WA, WB, n, hints, tol, mv, lower, res, fbuf, ibuf, bbuf, keep)
 
 

@@ -49,7 +49,7 @@ from numba import njit
 
 from ._ptr import NO_NRT, bool_ptr, check_span, f64_ptr, i8_ptr, i32_ptr, i64_ptr, view_of
 from .distance import (OUT_DISTANCE, OUT_NORMAL, OUT_PENETRATING, OUT_POINT_A, OUT_POINT_B, OUT_SIZE, ROUNDING,
-                       WS_F, WS_I, pair_distance, pair_distance_within, segment_distance)
+                       EPA_CAP, WS_F, WS_F_EPA, WS_I, WS_I_EPA, pair_distance, pair_distance_within, segment_distance)
 from .faces import BOX_MAX, BOX_WS, box_box, clip_faces
 from .plane import (PLANE_FACE_TOL, RULE_CYLINDER, RULE_POINTS, RULE_SUPPORT, RULE_VERTICES, _plane_cylinder,
                     _support_minus, plane_convex, plane_mesh, reduce_four)
@@ -143,15 +143,15 @@ def _scratch_lengths(cap, fmax):
     # The float64 fields of `carve_scratch`, in order: their lengths (the one place the layout is
     # counted; `scratch_sizes` sums them, `carve_scratch` walks them). ``poly``/``tmp`` hold a
     # face clipped by another: at most ``2 fmax + 8`` vertices; ``dws`` is the signed distance's
-    # (`collide._kernels.distance.pair_distance_within`).
+    # (`collide._kernels.distance.pair_distance_within`), EPA's included: a pair allocates nothing.
     npoly = 2 * fmax + 8
     return (3 * cap, cap, 4 * MAX_PER_PAIR, 3, BOX_WS, 6, 3 * fmax, fmax, 3 * fmax, 3 * fmax, 3 * npoly,
-            3 * npoly, 3 * 32, 3 * 32, 3, 3, 3, OUT_SIZE, 3, WS_F)
+            3 * npoly, 3 * 32, 3 * 32, 3, 3, 3, OUT_SIZE, 3, WS_F_EPA)
 
 
 # The int64 fields of `carve_scratch`: ``sel`` (4), ``cand1`` and ``cand2`` (32 each), ``dwi`` (the signed
-# distance's).
-_SCRATCH_INT = (4, 32, 32, WS_I)
+# distance's, EPA's included).
+_SCRATCH_INT = (4, 32, 32, WS_I_EPA)
 
 
 @njit(cache=True)
@@ -520,7 +520,7 @@ def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
             if key != 0 and cache[WARM_KEYS + warm_slot(key)] == key:
                 distance_warm(s1, s2, tol, thr + tol, d0, out, cache, key, dws, dwi)
             elif not (round_pair and segment_distance(s1, s2, tol, out)):  # spheres and capsules: at once
-                pair_distance_within(s1, s2, tol, thr + tol, d0, -1, -1, 128, out, dws, dwi)
+                pair_distance_within(s1, s2, tol, thr + tol, d0, -1, -1, EPA_CAP, out, dws, dwi)
                 if key != 0 and out[OUT_PENETRATING] == 1.0:
                     warm_claim(cache, key)
             d = out[OUT_DISTANCE]

@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit
 
 from ._ptr import NO_NRT
-from .distance import (OUT_HINT_A, OUT_HINT_B, OUT_ITERATIONS, OUT_NORMAL, OUT_PENETRATING, ROUNDING,
+from .distance import (EPA_CAP, OUT_HINT_A, OUT_HINT_B, OUT_ITERATIONS, OUT_NORMAL, OUT_PENETRATING, ROUNDING,
                        pair_distance_within)
 from .epa import E_NV, ENTRY
 from .support import support
@@ -63,18 +63,18 @@ def warm_claim(cache, key):
 
 @njit(**NO_NRT)
 def distance_warm(sa, sb, tol, cutoff, d0, out, cache, key, fws, iws):
-    """`collide._kernels.distance.pair_distance_within` (cold hill-climbs, 128 iterations) of the
+    """`collide._kernels.distance.pair_distance_within` (cold hill-climbs, `EPA_CAP` iterations) of the
     pair of key ``key``, which holds its slot of ``cache`` (``WARM_LEN`` int64), with its row:
     counts a polytope found in ``WARM_TRIES`` and an answer from it in ``WARM_HITS``; frees the
     slot when the pair no longer penetrates. Its own function, not inlined: the narrow phase's
     pair loop stays as small for the pairs that never use the cache. ``fws``, ``iws``: the
-    distance's scratch (`collide._kernels.distance.WS_F`, ``WS_I``)."""
+    distance's scratch (`collide._kernels.distance.WS_F_EPA`, ``WS_I_EPA``: EPA's included)."""
     j = warm_slot(key)
     o = WARM_ROWS + j * ENTRY
     row = cache[o:o + ENTRY]
     if row[E_NV] > 0:
         cache[WARM_TRIES] += 1
-    pair_distance_within(sa, sb, tol, cutoff, d0, -1, -1, 128, out, fws, iws, row)
+    pair_distance_within(sa, sb, tol, cutoff, d0, -1, -1, EPA_CAP, out, fws, iws, row)
     if out[OUT_ITERATIONS] == 0:  # answered by its kept polytope
         cache[WARM_HITS] += 1
     elif out[OUT_PENETRATING] != 1.0:  # apart (or degenerate): back to the cold query
