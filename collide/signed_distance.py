@@ -144,9 +144,10 @@ def _from_out(out: np.ndarray) -> Distance:
 # descriptors int64), and its dispatcher compiles nothing else (`disable_compile`). So `distance`
 # hands the poses over as they come: numba's dispatch, which types every argument anyway, raises
 # (TypeError, or another error of its typing) for an array of another dtype, layout or flags, or
-# for anything that is not an array, before the kernel runs; `distance` then converts them into that form (`_canonical`, copies; a
-# ValueError naming what is not a pose) and calls again. tests/test_distance_inputs.py checks that
-# every accepted form gives the canonical answer through the one signature.
+# for anything that is not an array, before the kernel runs; `distance` then converts them into
+# that form (`_canonical`, copies; a ValueError naming what is not a pose) and calls again.
+# tests/test_distance_inputs.py checks that every accepted form gives the canonical answer through
+# the one signature.
 _EYE = np.eye(3)
 _ZERO = np.zeros(3)
 _COLD = np.zeros(_kd.OUT_SIZE)  # a "previous result" with a zero normal: a cold start
@@ -174,8 +175,7 @@ def _load_query() -> None:
 
 def _canonical(pose_a, pose_b, w: np.ndarray) -> tuple:
     # ``(ra, ta, rb, tb, w)`` in `query`'s one form (`_SIGNATURE`; copies), or the ValueError naming
-    # the pose that is not one; the kernel loaded. Finiteness, rigidity and range stay the kernel's
-    # checks (`_raise`).
+    # the pose that is not one. Finiteness, rigidity and range stay the kernel's checks (`_raise`).
     ra, ta = (_EYE, _ZERO) if pose_a is None else _pose(pose_a, "pose_a")
     rb, tb = (_EYE, _ZERO) if pose_b is None else _pose(pose_b, "pose_b")
     if not (type(w) is _ND and w.dtype == _F64 and w.ndim == 1 and w.flags.carray):

@@ -420,9 +420,8 @@ def epa(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res, keep=None):
     # call; every entry is written before it is read, face arrays only below the face count), and
     # the algorithm in `_epa`, compiled without reference counting (`collide._kernels._ptr.NO_NRT`:
     # the views it takes of them cost nothing there). `epa_on` runs it on its caller's scratch.
-    fws = np.empty(epa_sizes(mv)[0])
-    iws = np.empty(epa_sizes(mv)[1], np.int64)
-    return epa_on(sa, sb, W, WA, WB, n, hints, tol, mv, lower, res, fws, iws, keep)
+    nf, ni = epa_sizes(mv)
+    return epa_on(sa, sb, W, WA, WB, n, hints, tol, mv, lower, res, np.empty(nf), np.empty(ni, np.int64), keep)
 
 
 @njit(cache=True, inline="always")
@@ -439,7 +438,8 @@ def epa_on(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res, fws, iws,
     """`epa` on the caller's scratch, ``fws`` float64 and ``iws`` int64, `epa_sizes` long at least
     (nothing allocated: the narrow phase's workspace holds them). Scratch too short for the cap
     lowers it to what fits (a capped answer, its bracket wider), and too short for 6 vertices
-    gives `DEGENERATE` (no polytope: ``upper`` ``+inf``): never a write past the end."""
+    gives `DEGENERATE` (no polytope: ``upper`` ``+inf``, the normal +z): never a write past the
+    end."""
     mv = max(max_vertices, 6)
     nf, ni = epa_sizes(mv)
     if fws.shape[0] < nf or iws.shape[0] < ni:
