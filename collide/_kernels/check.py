@@ -22,7 +22,10 @@ early takes more), for each configuration:
    overlap separates them), the pair of smallest bound first, then every pair whose bound is
    below the best distance so far.
 
-Nothing is allocated per configuration: each worker allocates its scratch once per call.
+Each worker allocates its scratch once per call, but for one thing: a pair's signed distance, where the
+decider needs it (two round cores, or a pair GJK left undecided: `collide._kernels.distance.pair_distance`),
+and each distance of step 3 (`pair_signed_distance`) allocate their scratch (and a penetrating pair EPA's) per
+pair; the contact kernel's take theirs from its workspace (`collide._kernels.distance.WS_F_EPA`).
 """
 
 from __future__ import annotations

@@ -435,8 +435,8 @@ def epa_sizes(max_vertices):
 
 @njit(**NO_NRT)
 def epa_on(sa, sb, W, WA, WB, n, hints, tol, max_vertices, lower, res, fws, iws, keep=None):
-    """`epa` on the caller's scratch, ``fws`` float64 and ``iws`` int64, `epa_sizes` long at least
-    (nothing allocated: the narrow phase's workspace holds them). Scratch too short for the cap
+    """`epa` on the caller's scratch, ``fws`` float64 and ``iws`` int64 (C-contiguous), `epa_sizes`
+    long at least (nothing allocated: the narrow phase's workspace holds them). Scratch too short for the cap
     lowers it to what fits (a capped answer, its bracket wider), and too short for 6 vertices
     gives `DEGENERATE` (no polytope: ``upper`` ``+inf``, the normal +z): never a write past the
     end."""
