@@ -924,3 +924,43 @@ def test_a_model_far_from_unit_size_is_refused_or_answered_to_scale():
     for s in (1e-60, 1e60, 1e110):
         with pytest.raises(ValueError, match="model: geom 0.*: size .* is outside .* the sizes the narrow phase"):
             cm.Collider(_scaled_scene(s))
+
+
+_ALLOCS = r"""
+import sys
+import mujoco, numba
+import numpy as np
+from numba.core.runtime import rtsys
+import collide.mujoco as cm
+from collide import testing
+numba.set_num_threads(1)
+model = mujoco.MjModel.from_xml_path(sys.argv[1])
+col = cm.Collider(model)
+rng = np.random.default_rng(0)
+counts = []
+for n in (64, 256):
+    q = testing.random_configurations(model, n, rng)
+    col.check_batch(q)  # loaded, bound
+    before = rtsys.get_allocation_stats().alloc
+    hits = int(col.check_batch(q).in_collision.sum())
+    counts.append((rtsys.get_allocation_stats().alloc - before, hits))
+print(*counts[0], *counts[1])
+"""
+
+
+@pytest.mark.skipif(not SCENES, reason=NO_MODELS)
+def test_deciding_allocates_per_call_not_per_configuration():
+    # numba's allocation counters (NUMBA_NRT_STATS=1, read at its start: a process of its own): a
+    # check_batch call allocates its workers' scratch, as many times for 256 configurations as for 64.
+    # humanoid's capsules are decided by their signed distance, which allocated its scratch per pair.
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, NUMBA_NRT_STATS="1")
+    run = subprocess.run([sys.executable, "-c", _ALLOCS, str(MODELS / "humanoid" / "scene.xml")], env=env,
+                         capture_output=True, text=True, timeout=900)
+    assert run.returncode == 0, run.stderr[-2000:]
+    a64, hits64, a256, hits256 = map(int, run.stdout.split())
+    assert hits64 > 0 and hits256 > hits64  # configurations in collision, decided
+    assert a64 == a256

@@ -3,7 +3,12 @@ EPA's buffers (`collide._kernels.distance.WS_F_EPA`, ``WS_I_EPA``), so that a pe
 allocates nothing per step; the answers are those of EPA on buffers of its own, and a scratch too
 short for the cap lowers it, never writing past its end."""
 
+import os
+import subprocess
+import sys
+
 import numpy as np
+import pytest
 from numba import njit
 
 from collide import testing
@@ -12,6 +17,7 @@ from collide._kernels.epa import CAPPED, CONVERGED, DEGENERATE, epa_on, epa_size
 from collide._kernels.gjk import OVERLAP, gjk_within
 from collide._kernels.support import POINTS
 from collide.testing.surfaces import random_rotation
+from contact_check import MODELS
 
 _E32 = np.zeros(0, np.int32)
 
@@ -95,3 +101,41 @@ def test_a_short_scratch_lowers_the_cap_and_never_writes_past_its_end():
             if nf < epa_sizes.py_func(6)[0] or ni < epa_sizes.py_func(6)[1]:
                 assert est == DEGENERATE and res[1] == np.inf  # no polytope: GJK's bracket
     assert statuses[CONVERGED] > 0 and statuses[DEGENERATE] > 0
+
+
+_STEPS = r"""
+import sys
+import mujoco
+from numba.core.runtime import rtsys
+import collide.mujoco as cm
+model = mujoco.MjModel.from_xml_path(sys.argv[1])
+col, data = cm.Collider(model), mujoco.MjData(model)
+mujoco.mj_forward(model, data)
+col.contacts(data)  # the first call: the tables bound, the kernels loaded
+ctrls = cm._random_controls(model, 300, 0, 10)
+allocs = penetrating = 0
+for step in range(300):
+    if step % 10 == 0 and len(ctrls):
+        data.ctrl[:] = ctrls[step // 10]
+    mujoco.mj_step(model, data)
+    before = rtsys.get_allocation_stats().alloc
+    c = col.contacts(data)
+    allocs += rtsys.get_allocation_stats().alloc - before
+    penetrating += int((c.dist < 0).sum())
+print(allocs, penetrating)
+"""
+
+
+@pytest.mark.skipif(not (MODELS / "cube_3x3x3" / "scene.xml").is_file(),
+                    reason=f"the test models are not present at {MODELS} (../shared/models)")
+def test_the_contact_kernel_allocates_nothing_per_step():
+    # numba's allocation counters (NUMBA_NRT_STATS=1, read at its start: a process of its own) over 300
+    # steps of cube_3x3x3, whose penetrating mesh pairs run EPA cold every step (a kept polytope that
+    # no longer answers, a new contact): before EPA ran on the workspace, ~20 allocations a step.
+    env = dict(os.environ, NUMBA_NRT_STATS="1")
+    run = subprocess.run([sys.executable, "-c", _STEPS, str(MODELS / "cube_3x3x3" / "scene.xml")], env=env,
+                         capture_output=True, text=True, timeout=900)
+    assert run.returncode == 0, run.stderr[-2000:]
+    allocs, penetrating = map(int, run.stdout.split())
+    assert penetrating > 1000  # real contacts, EPA's
+    assert allocs == 0

@@ -22,10 +22,9 @@ early takes more), for each configuration:
    overlap separates them), the pair of smallest bound first, then every pair whose bound is
    below the best distance so far.
 
-Each worker allocates its scratch once per call, but for one thing: a pair's signed distance, where the
-decider needs it (two round cores, or a pair GJK left undecided: `collide._kernels.distance.pair_distance`),
-and each distance of step 3 (`pair_signed_distance`) allocate their scratch (and a penetrating pair EPA's) per
-pair; the contact kernel's take theirs from its workspace (`collide._kernels.distance.WS_F_EPA`).
+Each worker allocates its scratch once per call, the signed distance's among it (EPA's included:
+`collide._kernels.distance.WS_F_EPA`), so that deciding allocates nothing per configuration; each distance
+of step 3 (`pair_signed_distance`, as ``mj_geomDistance``'s single-pair call) still allocates its own.
 """
 
 from __future__ import annotations
@@ -38,12 +37,12 @@ import numpy as np
 from ._ptr import borrow
 from ._quat import _qmat, _qmul
 from ._threads import fetch_add, set_chunksize
-from .distance import ROUNDING
+from .distance import EPA_CAP, ROUNDING, WS_F_EPA, WS_I_EPA, pair_distance_within
 from .gjk import OVERLAP, SEPARATED, gjk_within
 from .kinematics import _kinematics_world
 from .support import CYLINDER, ELLIPSOID, POINTS, support
 from .manifold import (BOX_WS, CONTACT_TOL, CONVEX, CONVEX_PAIR, MAX_PER_PAIR, OUT_DISTANCE, OUT_SIZE, PLANE, SKIPPED,
-                       _finite_pose, _pair_rows, _shape, pair_distance, pair_margins, pair_signed_distance,
+                       _finite_pose, _pair_rows, _shape, pair_margins, pair_signed_distance,
                        plane_box_contacts, scratch_caps, T_MESH)
 
 _EPS = float(np.finfo(np.float64).eps)
@@ -108,12 +107,15 @@ def geom_pose_lane(g, l, ps, xq, geom_body, geom_pos, geom_quat, xpos, xmat):
 def decider_scratch(cap, fmax):
     """One worker's scratch for `deepest_contact`, for ``cap`` support points of a geom and
     ``fmax`` vertices of a hull face at most (`collide._kernels.manifold.scratch_caps`): the
-    tuple ``(scratch, out, d0, gws, g4, hints)`` it takes (``d0``, GJK's first direction, zero:
+    tuple ``(scratch, dws, d0, gws, g4, dwi)`` it takes (``d0``, GJK's first direction, zero:
     the centres' difference)."""
     scratch = (np.empty((cap, 3)), np.empty(cap), np.zeros(4, np.int64), np.empty((MAX_PER_PAIR, 4)), np.zeros(3),
                np.empty(BOX_WS), np.empty((fmax, 3)), np.empty(fmax))  # cand, dep, sel, res, bnrm, bws, pcand, pdep
-    # GJK's W, WA, WB (4, 3), then v, pa, pb (3,); its lam, dirn
-    return scratch, np.empty(OUT_SIZE), np.zeros(3), np.zeros((4, 4, 3)), np.zeros((2, 4)), np.empty(2, np.int64)
+    # the signed distance's answer (OUT_SIZE) and scratch, EPA's included (`pair_distance_within`: nothing
+    # allocated per pair); GJK's W, WA, WB (4, 3), then v, pa, pb (3,); its lam, dirn; the int64 scratch, whose
+    # first two entries are GJK's hints
+    return (scratch, np.empty(OUT_SIZE + WS_F_EPA), np.zeros(3), np.zeros((4, 4, 3)), np.zeros((2, 4)),
+            np.empty(WS_I_EPA, np.int64))
 
 
 @nb.njit(cache=True, inline="always")
@@ -259,7 +261,7 @@ def _plane_mesh_depth(gp, gc, xpos, xmat, s, pa):
 
 @nb.njit(cache=True, inline="always")
 def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_margin, geom_gap, pair_key, pair_margin,
-                    pair_gap, override, o_margin, gtype, half, shapes, faces, scratch, out, d0, gws, g4, hints):
+                    pair_gap, override, o_margin, gtype, half, shapes, faces, scratch, dws, d0, gws, g4, dwi):
     """Whether MuJoCo would make an active contact for the pair ``(g1, g2)`` at these poses.
 
     The pair's contacts are those of `collide._kernels.manifold.collide_pairs`: the same
@@ -290,9 +292,10 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_mar
     shapes, faces, scratch : tuple
         The support and face tables and the plane and box scratch, in the tuples
         `collide._kernels.manifold.plane_box_contacts` takes (made once per worker).
-    out, d0, gws, g4, hints
-        Scratch (`check_worlds` sizes them; ``gws (4, 4, 3)``, ``g4 (2, 4)`` and ``hints (2,) int64``
-        GJK's).
+    dws, d0, gws, g4, dwi
+        Scratch (`decider_scratch` sizes them): ``dws`` the signed distance's answer (``OUT_SIZE``)
+        then its scratch, ``dwi`` its int64 scratch (`collide._kernels.distance.WS_F_EPA`,
+        ``WS_I_EPA``); ``gws (4, 4, 3)``, ``g4 (2, 4)`` GJK's, and ``dwi[:2]`` its hints.
 
     Returns
     -------
@@ -341,8 +344,8 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_mar
             r = prm[g1, 3] + prm[g2, 3]
             if _round(g1, kind, pts_num) and _round(g2, kind, pts_num):
                 # spheres and capsules: pair_distance's closed form (no iteration) decides
-                pair_distance(s1, s2, tol, d0, -1, -1, 128, out)
-                d = out[OUT_DISTANCE]
+                pair_distance_within(s1, s2, tol, math.inf, d0, -1, -1, EPA_CAP, dws[:OUT_SIZE], dws[OUT_SIZE:], dwi)
+                d = dws[OUT_DISTANCE]
                 if d <= thr:
                     if d < margin:
                         return ACTIVE
@@ -353,6 +356,7 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_mar
                 continue  # certainly no contact, before GJK
             if _apart_sat(s1, s2, r, thr + tol):
                 continue  # likewise, on the shapes' own axes
+            hints = dwi[:2]
             hints[0] = -1
             hints[1] = -1
             gws[:] = 0.0  # a fresh simplex, as pair_distance starts from
@@ -370,8 +374,8 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_mar
                 upper = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])  # |v|: a point of A - B
                 if upper - r < margin and upper - r <= thr:
                     return ACTIVE
-            pair_distance(s1, s2, tol, d0, -1, -1, 128, out)
-            d = out[OUT_DISTANCE]
+            pair_distance_within(s1, s2, tol, math.inf, d0, -1, -1, EPA_CAP, dws[:OUT_SIZE], dws[OUT_SIZE:], dwi)
+            d = dws[OUT_DISTANCE]
         if d <= thr:  # a contact is made (collide_pairs' rule) ...
             if d < margin:  # ... and active: MuJoCo's exclude == 0
                 return ACTIVE
@@ -407,7 +411,7 @@ def first_pass(cls, kind, pts_num):
 
 @nb.njit(cache=True, inline="always")
 def decide_rows(w, lane, r0, r1, src, pose, mode, label, geoms, tables, shapes, faces, xpos, xmat, stamp, scratch,
-                out, d0, gws, g4, hints):
+                dws, d0, gws, g4, dwi):
     """Configuration ``w``'s ``(hit, skipped, err)`` from its candidate rows ``r0 .. r1``: the
     answer of deciding them in row order with the early exit (the first pair whose
     `deepest_contact` is `ACTIVE` decides), found with the pairs `closed_form_pair` takes first.
@@ -418,7 +422,7 @@ def decide_rows(w, lane, r0, r1, src, pose, mode, label, geoms, tables, shapes, 
     (ps, xq, bpos, brot, bquat)``: the geom poses come from lane ``lane`` of ``ps``, ``xq``
     (`geom_pose_lane`, ``S > 0``) or from ``bpos``, ``brot``, ``bquat`` (`geom_pose`). ``geoms =
     (geom_body, geom_pos, geom_quat)``; ``stamp[g] == w`` marks geom ``g`` posed in ``xpos``,
-    ``xmat``. ``tables`` (``cls`` ... ``half``), ``shapes``, ``faces``, ``scratch`` ... ``hints``:
+    ``xmat``. ``tables`` (``cls`` ... ``half``), ``shapes``, ``faces``, ``scratch`` ... ``dwi``:
     `deepest_contact`'s arguments, in its order. The tuples hold borrowed views only
     (`_ptr.borrow`), made once per worker: a call of more than 30 arguments is compiled to a
     ``*args`` call, which numba does not inline, and an owned array in a tuple unpacked per
@@ -454,8 +458,8 @@ def decide_rows(w, lane, r0, r1, src, pose, mode, label, geoms, tables, shapes, 
             if err != 0:
                 break
             a = deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_margin, geom_gap, pair_key,
-                                pair_margin, pair_gap, override, o_margin, gtype, half, shapes, faces, scratch, out,
-                                d0, gws, g4, hints)
+                                pair_margin, pair_gap, override, o_margin, gtype, half, shapes, faces, scratch, dws,
+                                d0, gws, g4, dwi)
             if a == ACTIVE:
                 for rr in range(r0, r if p == 0 else r0):  # the rows before it that the first pass left
                     h1, h2, ok = _row(rr, keys, S, mask, nf, rows, mode, label)
@@ -586,7 +590,7 @@ def check_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, bod
         xpos = np.zeros((G, 3))
         xmat = np.zeros((G, 3, 3))
         stamp = np.full(G, -1, np.int64)
-        scratch, out, d0, gws, g4, hints = decider_scratch(cap, fmax)
+        scratch, dws, d0, gws, g4, dwi = decider_scratch(cap, fmax)
         out7 = np.empty(7)
         lb = np.empty(P if want_distance else 0)
         no_keys = np.empty(0, np.int64)  # `decide_rows`' lanes' arguments, never read here
@@ -628,8 +632,8 @@ def check_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, bod
                 hit, skipped, err = False, False, 0
                 if posed:
                     hit, skipped, err = decide_rows(w, 0, row_start_[w], row_start_[w + 1], src, pose, mode, label_,
-                                                    geoms, tables, shapes, faces, xpos, xmat, stamp, scratch, out, d0,
-                                                    gws, g4, hints)
+                                                    geoms, tables, shapes, faces, xpos, xmat, stamp, scratch, dws, d0,
+                                                    gws, g4, dwi)
                 out_hit[w] = hit
                 out_skipped[w] = skipped and not hit
                 if want_distance and err == 0:

@@ -98,7 +98,7 @@ def check_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, 
         xmat = np.zeros((G, 3, 3))
         stamp = np.full(G, -1, np.int64)
         no_rows, no_body, no_rot = np.empty((0, 3), np.int32), np.empty((0, 3)), np.empty((0, 3, 3))
-        dscratch, out, d0, gws, g4, hints = decider_scratch(cap, fmax)
+        dscratch, dws, d0, gws, g4, dwi = decider_scratch(cap, fmax)
         # the shared tables borrowed (`_ptr.borrow`): no counter the two threads take turns on
         cls_, rule_, below_, rbound_, size_ = borrow(cls), borrow(rule), borrow(below), borrow(rbound), borrow(size)
         gmargin, ggap, pkey = borrow(geom_margin), borrow(geom_gap), borrow(pair_key)
@@ -144,7 +144,7 @@ def check_lanes_kin(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, 
                     w = g0 + l
                     hit, skipped, err = decide_rows(w, l, k, min(k + world_count[w], kcap), src, pose, mode,
                                                     label_, geoms, tables, shapes, faces, xpos, xmat, stamp,
-                                                    dscratch, out, d0, gws, g4, hints)  # past kcap: runs again
+                                                    dscratch, dws, d0, gws, g4, dwi)  # past kcap: runs again
                     k += world_count[w]
                     out_hit[w] = hit
                     out_skipped[w] = skipped and not hit

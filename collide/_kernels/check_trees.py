@@ -114,7 +114,7 @@ def check_trees(qpos, qmax, qpos0, body_parent, body_pos, body_quat, body_jntadr
                          jnt_qposadr, jnt_pos, jnt_axis, bpos, brot, bquat, sc, static_span[s, 0], static_span[s, 1])
         xpos = np.zeros((G, 3))
         xmat = np.zeros((G, 3, 3))
-        scratch, out, d0, gws, g4, hints = decider_scratch(cap, fmax)
+        scratch, dws, d0, gws, g4, dwi = decider_scratch(cap, fmax)
         # the shared tables borrowed (`borrow`, as check_worlds does)
         cls_, rule_, below_, rbound_, size_ = borrow(cls), borrow(rule), borrow(below), borrow(rbound), borrow(size)
         gmargin, ggap, pkey = borrow(geom_margin), borrow(geom_gap), borrow(pair_key)
@@ -186,7 +186,7 @@ def check_trees(qpos, qmax, qpos0, body_parent, body_pos, body_quat, body_jntadr
                             continue  # left to the full path
                         a = deepest_contact(g1, g2, xpos, xmat, cls_, rule_, below_, rbound_, size_, gmargin, ggap,
                                             pkey, pmargin, pgap, override, o_margin, gtype_, half_, shapes, faces,
-                                            scratch, out, d0, gws, g4, hints)
+                                            scratch, dws, d0, gws, g4, dwi)
                         if a == ACTIVE:
                             hit = True
                             break
