@@ -343,7 +343,7 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_mar
             tol = CONTACT_TOL * (size[g1] + size[g2])
             r = prm[g1, 3] + prm[g2, 3]
             if _round(g1, kind, pts_num) and _round(g2, kind, pts_num):
-                # spheres and capsules: pair_distance's closed form (no iteration) decides
+                # spheres and capsules: pair_distance_within's closed form (`segment_distance`, no iteration) decides
                 pair_distance_within(s1, s2, tol, math.inf, d0, -1, -1, EPA_CAP, dws[:OUT_SIZE], dws[OUT_SIZE:], dwi)
                 d = dws[OUT_DISTANCE]
                 if d <= thr:
@@ -387,7 +387,7 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_mar
 def closed_form_pair(g1, g2, cls, kind, pts_num):
     """Whether `deepest_contact` decides the pair ``(g1, g2)`` without an iteration: a height
     field or SDF geom (not decided), a plane (`plane_box_contacts`' planes), or two spheres or
-    capsules (`pair_distance`'s closed form); the others may run GJK."""
+    capsules (`pair_distance_within`'s closed form, `segment_distance`); the others may run GJK."""
     if cls[g1] != CONVEX or cls[g2] != CONVEX:
         return True
     return _round(g1, kind, pts_num) and _round(g2, kind, pts_num)
@@ -395,7 +395,7 @@ def closed_form_pair(g1, g2, cls, kind, pts_num):
 
 @nb.njit(cache=True, inline="always")
 def _round(g, kind, pts_num):
-    # A sphere or a capsule: a point or segment core, which `pair_distance` takes in closed form.
+    # A sphere or a capsule: a point or segment core, which `pair_distance_within` takes in closed form.
     return kind[g] == POINTS and pts_num[g] <= 2
 
 

@@ -106,14 +106,17 @@ def _plane(V, a, b, c, out):
 def _offset_error(V, a, b, c, ln, vertex_err):
     # Bound on how far the plane offset of face (a, b, c) can move when each vertex moves by up
     # to vertex_err (rounding of the supports and of the subtraction): the normal turns by up to
-    # ~ vertex_err (|e| + |f|) / |e x f|, which the largest |vertex| turns into offset.
-    m = 0.0
-    el = 0.0
+    # ~ vertex_err (|e| + |f|) / |e x f|, which the largest |vertex| m turns into offset, plus the
+    # offset's own rounding, 8 eps m. One square root a face (this runs on every face of every
+    # certificate): m (|e| + |f|) <= sqrt(2 m^2 (|e|^2 + |f|^2)) (Cauchy-Schwarz), and a vertex is
+    # the difference of two support points whose coordinates are at most the caller's scale
+    # (vertex_err = 8 eps scale), so 8 eps m <= 8 eps 2 sqrt(3) scale < 4 vertex_err.
+    m2 = 0.0
     for x in (a, b, c):
-        m = max(m, math.sqrt(V[x, 0] ** 2 + V[x, 1] ** 2 + V[x, 2] ** 2))
-    for x in (b, c):
-        el += math.sqrt((V[x, 0] - V[a, 0]) ** 2 + (V[x, 1] - V[a, 1]) ** 2 + (V[x, 2] - V[a, 2]) ** 2)
-    return 4.0 * vertex_err * (1.0 + m * el / ln) + 8.0 * _EPS * m
+        m2 = max(m2, V[x, 0] ** 2 + V[x, 1] ** 2 + V[x, 2] ** 2)
+    e2 = (V[b, 0] - V[a, 0]) ** 2 + (V[b, 1] - V[a, 1]) ** 2 + (V[b, 2] - V[a, 2]) ** 2
+    f2 = (V[c, 0] - V[a, 0]) ** 2 + (V[c, 1] - V[a, 1]) ** 2 + (V[c, 2] - V[a, 2]) ** 2
+    return 4.0 * vertex_err * (2.0 + math.sqrt(2.0 * m2 * (e2 + f2)) / ln)
 
 
 @njit(**NO_NRT)
@@ -648,15 +651,18 @@ def _epa(sa, sb, W, WA, WB, n, hints, tol, mv, lower, res, fbuf, ibuf, bbuf, kee
     # Certificate of the upper bound (module docstring): the winding number about the origin
     # and the distance from the origin to the nearest triangle. A face's plane offset minus its
     # rounding bound is a cheap lower bound of that triangle's distance; the triangle itself is
-    # measured only where that bound does not already clear the running minimum.
+    # measured only where that bound does not already clear the running minimum; the nearest
+    # face's first, so that the others' bounds mostly clear it (the minimum, and so the answer, is
+    # the same in any order).
     # When every face's plane provably has the origin behind it (offset minus its rounding bound
     # positive), every face's solid angle is positive, so the winding number is at least 1 and the
     # solid angles need not be summed (the ball argument above needs it nonzero only).
     vertex_err = 8.0 * _EPS * scale
     inner = math.inf
     front = True
-    for g in range(nf):
-        if not alive[g]:
+    for k in range(-1, nf):
+        g = f if k < 0 else k
+        if (k >= 0 and g == f) or not alive[g]:
             continue
         a, b, c = fv[g, 0], fv[g, 1], fv[g, 2]
         bound = fo[g] - _offset_error(V, a, b, c, fl[g], vertex_err) if fl[g] > 0.0 else -math.inf
@@ -828,7 +834,10 @@ def epa_warm(sa, sb, entry, tol, res, fws, iws):
     # at least 1, as `epa`'s closed surface by construction)
     vertex_err = 8.0 * _EPS * scale
     inner = math.inf
-    for g in range(nf):
+    for k in range(-1, nf):  # the nearest face first, as in `epa`
+        g = f if k < 0 else k
+        if k >= 0 and g == f:
+            continue
         a, b, c = fv[g, 0], fv[g, 1], fv[g, 2]
         bound = fo[g] - _offset_error(V, a, b, c, fl[g], vertex_err) if fl[g] > 0.0 else -math.inf
         if not bound > 0.0:
