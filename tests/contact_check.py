@@ -117,7 +117,8 @@ def separation(table, data, g1: int, g2: int, u: np.ndarray) -> float:
 
 def _inner_points(table, g, samples: int = 512) -> np.ndarray:
     # Points on geom g's surface (geom frame) whose hull lies inside it: the cloud's own points
-    # (with its radius added by the caller), a cylinder's rims, an ellipsoid's Fibonacci points.
+    # (with its radius added by the caller, `_inner_radius`), a cylinder's rims, an ellipsoid's
+    # Fibonacci points.
     kind = int(table.kind[g])
     if kind == 0:
         a, n = table.pts_adr[g], table.pts_num[g]
@@ -129,6 +130,14 @@ def _inner_points(table, g, samples: int = 512) -> np.ndarray:
     phi = math.pi * (1.0 + 5.0 ** 0.5) * i
     rho = np.sqrt(1.0 - z * z)
     return np.c_[rho * np.cos(phi), rho * np.sin(phi), z] * table.prm[g, :3]
+
+
+def _inner_radius(table, g) -> float:
+    # The ball `_inner_points` leaves to add: a cloud's radius. A cylinder's and an ellipsoid's
+    # points are on the true surface already: the ellipsoid's prm[3] is the rolling ball of its
+    # core (`collide.support.rolling_radius`), which these points do not shrink by (adding it
+    # made hi too low by it, an inverted bracket: the adversarial review of 2026-12-01).
+    return float(table.prm[g, 3]) if int(table.kind[g]) == 0 else 0.0
 
 
 def oracle(table, data, g1: int, g2: int, normals=()) -> tuple[float, float]:
@@ -147,7 +156,7 @@ def oracle(table, data, g1: int, g2: int, normals=()) -> tuple[float, float]:
     if km.PLANE in (c1, c2):
         gp, gc = (g1, g2) if c1 == km.PLANE else (g2, g1)
         n = data.geom_xmat[gp].reshape(3, 3)[:, 2]
-        hi = float(np.min((world(gc, _inner_points(table, gc)) - data.geom_xpos[gp]) @ n)) - float(table.prm[gc, 3])
+        hi = float(np.min((world(gc, _inner_points(table, gc)) - data.geom_xpos[gp]) @ n)) - _inner_radius(table, gc)
         if table.kind[gc] == 0:
             return hi, hi
         u = n if gp == g1 else -n
@@ -161,7 +170,7 @@ def oracle(table, data, g1: int, g2: int, normals=()) -> tuple[float, float]:
         band = 0.1 * float(table.rbound[g1] + table.rbound[g2])
         p1 = p1[p1 @ u >= np.max(p1 @ u) - band]
         p2 = p2[p2 @ -u >= np.max(p2 @ -u) - band]
-    hi = testing.polytope_signed_distance(p1, p2, table.prm[g1, 3], table.prm[g2, 3])
+    hi = testing.polytope_signed_distance(p1, p2, _inner_radius(table, g1), _inner_radius(table, g2))
     if table.kind[g1] == 0 and table.kind[g2] == 0:
         return hi, hi
     lo = max([separation(table, data, g1, g2, u) for u in normals] or [-math.inf])

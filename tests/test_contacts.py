@@ -16,7 +16,7 @@ import pytest
 import collide
 import collide.mujoco as cm
 from collide import contacts as cc
-from contact_check import MODELS, Tally, contact_distance, run_scene, undecided_from
+from contact_check import MODELS, Tally, contact_distance, oracle, run_scene, undecided_from
 
 SCENES = sorted(p.name for p in MODELS.iterdir() if (p / "scene.xml").is_file()) if MODELS.is_dir() else []
 STEPS = int(os.environ.get("COLLIDE_CONTACT_STEPS", "150"))
@@ -209,6 +209,33 @@ def test_margins_scene_agrees():
     t = run_scene(model, 120, seed=5, oracle_budget=8)
     _assert_agrees(t, "margins scene")
     assert t.mj_pairs > 500 and len(t.ours_right) > 0  # MuJoCo's GJK errs on cylinder pairs here
+
+
+def test_oracle_brackets_curved_geoms_exactly():
+    # contact_check.oracle's bracket holds the true distance where it is known in closed form: a
+    # ball on an ellipsoid's or a cylinder's axis, an ellipsoid and a cylinder above a plane. (The
+    # ellipsoid's rolling ball, prm[3], was once taken off its surface points: hi too low by it.)
+    body = ('<geom name="plane" type="plane" size="3 3 .1" pos="0 0 -0.4"/>'
+            '<geom name="ell" type="ellipsoid" size="0.3 0.2 0.1"/>'
+            '<geom name="cyl" type="cylinder" size="0.1 0.2" pos="2 0 0"/>'
+            '<body name="ball" pos="0.5 0 0"><freejoint/><geom name="ball" type="sphere" size="0.1"/></body>')
+    model = _model(body)
+    data = mujoco.MjData(model)
+    col = cm.Collider(model)
+    gid = {n: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, n) for n in ("plane", "ell", "cyl", "ball")}
+    cases = [((0.5, 0.0, 0.0), "ell", 0.1), ((0.0, 0.0, 0.5), "ell", 0.3), ((0.0, -0.45, 0.0), "ell", 0.15),
+             ((-0.35, 0.0, 0.0), "ell", -0.05), ((2.0, 0.0, 0.45), "cyl", 0.15), ((2.25, 0.0, 0.0), "cyl", 0.05)]
+    for pos, other, true in cases:
+        data.qpos[:3] = pos
+        mujoco.mj_kinematics(model, data)
+        for g1, g2 in ((gid["ball"], gid[other]), (gid[other], gid["ball"])):
+            lo, hi = oracle(col.table, data, g1, g2, normals=[data.geom_xpos[g2] - data.geom_xpos[g1]])
+            assert lo - 1e-12 <= true <= hi + 1e-9, (pos, other, lo, true, hi)
+    # the plane: ellipsoid 0.4 - 0.1 above it (lo exact along the normal, hi from sampled points
+    # that miss the pole), cylinder 0.4 - 0.2 (its rims are sampled: hi exact)
+    for other, true, width in (("ell", 0.3, 1e-3), ("cyl", 0.2, 1e-9)):
+        lo, hi = oracle(col.table, data, gid["plane"], gid[other])
+        assert abs(lo - true) < 1e-12 and true <= hi < true + width, (other, lo, true, hi)
 
 
 @pytest.mark.skipif(not SCENES, reason=f"the test models are not present at {MODELS} (../shared/models)")
