@@ -318,7 +318,8 @@ class Collider:
         Raises
         ------
         ValueError
-            ``data`` of another model, or a non-finite pose (naming the body or geom).
+            ``data`` of another model, or a pose refused (naming the body or geom): non-finite, or
+            a rotation in ``geom_xmat`` not proper orthonormal (as `collide.contacts.narrow_phase`).
         """
         pairs = self.broadphase.pairs(data)  # checks data on its first use
         posed = self._posed
@@ -346,7 +347,8 @@ class Collider:
         ------
         ValueError
             As `collide.contacts.geom_distance`: a bad id, a height field or SDF geom, a geom
-            outside the narrow phase's sizes, a non-finite pose or ``distmax``.
+            outside the narrow phase's sizes, a non-finite pose or ``distmax``, a rotation not
+            proper orthonormal.
         """
         xpos, xmat = self._poses(data)
         g1, g2, distmax = _contacts._distance_args(self.table, g1, g2, distmax)

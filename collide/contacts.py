@@ -33,6 +33,7 @@ import numpy as np
 
 from . import faces as _faces
 from . import shapes as _shapes
+from ._kernels import bounds as _bounds
 from ._kernels import manifold as _km
 from ._kernels import plane as _kp
 from ._validate import _as_finite
@@ -451,8 +452,10 @@ def narrow_phase(table: GeomTable, pairs, geom_xpos, geom_xmat) -> Contacts:
     ------
     ValueError
         Wrong shapes, a geom id out of range or a pair not lower-id first, a geom the table keeps
-        outside `collide.support.SIZE_MIN` .. ``SIZE_MAX`` (one that never collides), or a
-        non-finite pose of a geom in a pair (naming it).
+        outside `collide.support.SIZE_MIN` .. ``SIZE_MAX`` (one that never collides), or the pose
+        of a geom in a pair non-finite, its rotation not proper orthonormal (within
+        `collide.articulation.POSE_ORTHO_TOL`) or its position beyond
+        `collide.hull.MAX_COORDINATE` (naming it).
     """
     P = np.asarray(pairs)
     if P.ndim == 1 and P.size == 0:  # no pairs, as an empty list: the empty (0, 2)
@@ -538,7 +541,8 @@ def contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.
     Raises
     ------
     ValueError
-        As `narrow_phase`: wrong shapes, a bad geom id, a non-finite pose of a geom in a pair.
+        As `narrow_phase`: wrong shapes, a bad geom id, a pose refused (non-finite, not a
+        rotation) of a geom in a pair.
     """
     G = table.ngeom
     if not (type(pairs) is np.ndarray and pairs.dtype == np.int32 and pairs.ndim == 2 and pairs.shape[1] == 2
@@ -548,6 +552,14 @@ def contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.
         return narrow_phase(table, pairs, xpos, xmat)
     _check_ids(table, pairs)
     return _contacts_of(table, pairs, xpos, xmat)
+
+
+def _pose_message(g, non_finite: bool) -> str:
+    # The ValueError of a geom pose the kernels refuse (`manifold._pose_error`).
+    if non_finite:
+        return f"geom_xpos/geom_xmat: non-finite pose (NaN or inf) of geom {g}"
+    return (f"geom_xmat/geom_xpos: the rotation of geom {g} is not a proper rotation (an entry of |R^T R - I| "
+            f"above {_bounds.ORTHO_TOL:g}, or a reflection), or its position is beyond {_bounds.MAX_POSITION:g}")
 
 
 def _contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.ndarray) -> Contacts:
@@ -576,8 +588,8 @@ def _contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np
         out = table._out
         r = _bound(pairs, xpos, xmat, skipped, table._ctx_addr, out[7])
     if r < 0:
-        g = (-r - 1) // 8
-        raise ValueError(f"geom_xpos/geom_xmat: non-finite pose (NaN or inf) of geom {g}")
+        g, e = divmod(-r - 1, 8)
+        raise ValueError(_pose_message(g, e == _km.ERR_POSE))
     n = r & 0xFFFFFFFF
     if n == 0 and not any_skipped:
         return table._empty
@@ -673,7 +685,7 @@ def geom_distance(table: GeomTable, g1: int, g2: int, geom_xpos, geom_xmat, dist
     ValueError
         A bad id, a height field or SDF geom (not supported), a geom outside
         `collide.support.SIZE_MIN` .. ``SIZE_MAX`` (one that never collides, kept by the table), a
-        non-finite pose or ``distmax``.
+        non-finite pose or ``distmax``, a rotation not proper orthonormal (as `narrow_phase`).
     """
     g1, g2, distmax = _distance_args(table, g1, g2, distmax)
     xpos, xmat = _poses(table, geom_xpos, geom_xmat)
@@ -711,8 +723,8 @@ def _geom_distance(table: GeomTable, g1: int, g2: int, xpos: np.ndarray, xmat: n
         if err == 2:
             raise ValueError(f"g1, g2: geom {g1 if table.cls[g1] == _km.SKIPPED else g2} is a height "
                              "field or SDF, which the narrow phase does not collide")
-        if err == 3:
-            raise ValueError(f"geom_xpos/geom_xmat: non-finite pose (NaN or inf) of geom {g1} or {g2}")
+        if err == 3 or err == 5:
+            raise ValueError(_pose_message(f"{g1} or {g2}", err == 3))
         return distmax, np.zeros(6)  # two planes, or bounding balls beyond distmax
     if not out[0] < distmax:
         return distmax, np.zeros(6)

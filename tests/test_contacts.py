@@ -405,6 +405,53 @@ def test_bad_input_names_it():
     assert col.geom_distance(data, np.int64(0), 1, np.float32(2.0))[0] == col.geom_distance(data, 0, 1, 2.0)[0]
 
 
+@pytest.mark.parametrize("bad", ["scaled", "sheared", "reflected", "far"])
+def test_a_geom_pose_that_is_not_a_rotation_is_refused(bad):
+    # geom_xmat is read as written: a scaled, sheared or mirrored matrix (or a position past the
+    # coordinates taken) is refused, naming the geom, in every entry point; the same Collider
+    # answers as before afterwards. (A diag(1, 1, 2) once moved a contact's distance by 0.1.)
+    body = ('<geom type="plane" size="1 1 .1"/><body pos="0 0 0.09"><freejoint/>'
+            '<geom type="box" size=".1 .1 .1"/></body><body pos="0.3 0 0.1"><freejoint/>'
+            '<geom type="ellipsoid" size=".1 .08 .06"/></body>')
+    model = _model(body)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    col = cm.Collider(model)
+    before = col.contacts(data)
+    assert len(before) >= 4  # the box on the plane: real contacts
+    dist_before = col.geom_distance(data, 1, 2, 1.0)[0]
+    good = data.geom_xmat[1].copy(), data.geom_xpos[1].copy()
+    m = good[0].reshape(3, 3).copy()
+    if bad == "scaled":
+        m = m @ np.diag([1.0, 1.0, 1.0 + 1e-5])
+    elif bad == "sheared":
+        m[0, 1] += 1e-3
+    elif bad == "reflected":
+        m[:, 2] *= -1.0
+    data.geom_xmat[1] = m.ravel()
+    if bad == "far":
+        data.geom_xmat[1] = good[0]
+        data.geom_xpos[1, 0] = 1e200
+    xpos, xmat = data.geom_xpos.copy(), data.geom_xmat.copy()
+    what = "position" if bad == "far" else "rotation"
+    with pytest.raises(ValueError, match=f"{what} of geom 1|geom 1 .*{what}"):
+        col.contacts(data)
+    with pytest.raises(ValueError, match="geom 1 or 2"):
+        col.geom_distance(data, 1, 2, 1.0)
+    with pytest.raises(ValueError, match="geom 0 or 1"):
+        cc.geom_distance(col.table, 0, 1, xpos, xmat, 1.0)
+    with pytest.raises(ValueError, match="geom 1"):
+        cc.narrow_phase(col.table, np.array([[0, 1], [1, 2]]), xpos, xmat)
+    # rounding-level departures (float32 rotations) are taken
+    data.geom_xmat[1] = (good[0].astype(np.float32)).astype(np.float64)
+    data.geom_xpos[1] = good[1]
+    assert len(col.contacts(data)) == len(before)
+    data.geom_xmat[1] = good[0]
+    after = col.contacts(data)
+    assert np.array_equal(after.dist, before.dist) and np.array_equal(after.geom, before.geom)
+    assert col.geom_distance(data, 1, 2, 1.0)[0] == dist_before
+
+
 def test_pairs_are_the_broad_phases():
     model = cm.default_scene(seed=2, objects=12)
     data = mujoco.MjData(model)

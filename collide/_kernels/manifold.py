@@ -48,6 +48,7 @@ import numpy as np
 from numba import njit
 
 from ._ptr import NO_NRT, bool_ptr, check_span, f64_ptr, i8_ptr, i32_ptr, i64_ptr, view_of
+from .bounds import _pose_ok
 from .distance import (OUT_DISTANCE, OUT_NORMAL, OUT_PENETRATING, OUT_POINT_A, OUT_POINT_B, OUT_SIZE, ROUNDING,
                        EPA_CAP, WS_F, WS_F_EPA, WS_I, WS_I_EPA, pair_distance, pair_distance_within, segment_distance)
 from .faces import BOX_MAX, BOX_WS, box_box, clip_faces
@@ -61,7 +62,7 @@ from .warm import (SEP_LEN, WARM_KEYS, WARM_LEN, distance_warm, sep_forget, sep_
 # This module's own names, and those of the routines moved out of it (plane, polytope), which
 # importers of `collide._kernels.manifold` still read here.
 __all__ = [
-    "CONVEX", "ERR_POSE", "MAX_PER_PAIR", "PLANE", "SKIPPED", "T_BOX", "T_CAPSULE", "T_CYLINDER", "T_ELLIPSOID",
+    "CONVEX", "ERR_POSE", "ERR_ROTATION", "MAX_PER_PAIR", "PLANE", "SKIPPED", "T_BOX", "T_CAPSULE", "T_CYLINDER", "T_ELLIPSOID",
     "T_HFIELD", "T_MESH", "T_PLANE", "T_SPHERE", "CONVEX_PAIR", "F_DIST", "F_END", "F_MARGIN", "F_NORMAL",
     "F_POS", "N_SLOTS", "SLOT_BUFFER", "SLOT_COLS", "BUFFER_DTYPES", "TI_HEADER", "carve_scratch",
     "ARENA_FIELDS", "CTX_FIELDS", "NARENA", "NCTX", "OUT_FULL", "collide_bound", "collide_pairs", "pair_margins",
@@ -93,8 +94,9 @@ CONTACT_TOL = 1e-9
 # MuJoCo's geom types (mjtGeom), as `collide.contacts` passes them in ``gtype``.
 T_PLANE, T_HFIELD, T_SPHERE, T_CAPSULE, T_ELLIPSOID, T_CYLINDER, T_BOX, T_MESH = range(8)
 
-# Errors of `collide_pairs` (negative returns: -(code + 8 * geom) - 1 for a non-finite pose).
-ERR_POSE = 1
+# Errors of `collide_pairs` (negative returns: -(code + 8 * geom) - 1 for a pose refused, `_pose_error`):
+# a non-finite entry; a rotation off orthonormal or a reflection, or a position beyond the bounds'.
+ERR_POSE, ERR_ROTATION = 1, 2
 
 
 @njit(cache=True, inline="always")
@@ -117,6 +119,19 @@ def _finite_pose(xpos, xmat, g):
             if not math.isfinite(xmat[g, i, j]):
                 return False
     return True
+
+
+@njit(**NO_NRT)
+def _pose_error(xpos, xmat, g):
+    # 0 for a geom pose the narrow phase takes; ERR_POSE for a non-finite entry; ERR_ROTATION for
+    # xmat[g] off a proper rotation (an entry of |R^T R - I| above `bounds.ORTHO_TOL`, or det <= 0)
+    # or xpos[g] beyond `bounds.MAX_POSITION`: the bodies' one test (`bounds._pose_ok`). Every
+    # support, face and plane computation takes R as a rotation: a scaled or sheared one gave a
+    # silently wrong distance (review, 2026-12-01). Which error is told apart only on failure.
+    if _pose_ok(xmat[g, 0, 0], xmat[g, 0, 1], xmat[g, 0, 2], xmat[g, 1, 0], xmat[g, 1, 1], xmat[g, 1, 2],
+                xmat[g, 2, 0], xmat[g, 2, 1], xmat[g, 2, 2], xpos[g, 0], xpos[g, 1], xpos[g, 2]):
+        return 0
+    return ERR_ROTATION if _finite_pose(xpos, xmat, g) else ERR_POSE
 
 
 @njit(**NO_NRT)
@@ -434,7 +449,9 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
     Returns
     -------
     int
-        Contacts written; ``-(8 g + ERR_POSE) - 1`` for a non-finite pose of geom ``g``.
+        Contacts written; ``-(8 g + e) - 1`` for a pose of geom ``g`` refused with error ``e``
+        (`ERR_POSE`: non-finite; `ERR_ROTATION`: not a proper rotation, or beyond the positions
+        taken).
     """
     return _collide(pairs, xpos, xmat, (cls, rule, below, rbound, size, gtype, half),
                     (kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num),
@@ -472,10 +489,12 @@ def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
             continue
         if c1 == PLANE and c2 == PLANE:
             continue  # no collision function (MuJoCo's mjCOLLISIONFUNC is NULL there)
-        if not _finite_pose(xpos, xmat, g1):
-            return -(8 * g1 + ERR_POSE) - 1
-        if not _finite_pose(xpos, xmat, g2):
-            return -(8 * g2 + ERR_POSE) - 1
+        e = _pose_error(xpos, xmat, g1)
+        if e:
+            return -(8 * g1 + e) - 1
+        e = _pose_error(xpos, xmat, g2)
+        if e:
+            return -(8 * g2 + e) - 1
         # the pair's margin and gap: an explicit pair's own, else the geoms' sums; a geom pair
         # listed in several <pair>s is collided once for each, with its own (as MuJoCo does)
         j, nent, explicit = _pair_rows(pair_key, min(g1, g2) * G + max(g1, g2))
@@ -721,7 +740,7 @@ def pair_signed_distance_bound(g1, g2, xpos, xmat, addr, cutoff, out):
     t32 = view_of(i32_ptr(ctx[C_T32]), ctx[C_T32_LEN])
     cls = _slot(t8, ti, S_CLS)
     size = _slot(tf, ti, S_SIZE)
-    if cls[g1] == CONVEX and cls[g2] == CONVEX and _finite_pose(xpos, xmat, g1) and _finite_pose(xpos, xmat, g2):
+    if cls[g1] == CONVEX and cls[g2] == CONVEX and _pose_error(xpos, xmat, g1) == 0 and _pose_error(xpos, xmat, g2) == 0:
         rbound = _slot(tf, ti, S_RBOUND)
         # Either early answer must be the full query's: a pair is only cut off when it is beyond
         # ``cutoff`` by more than the query's tolerance and the rounding of its coordinates (a
@@ -759,7 +778,8 @@ def pair_signed_distance(g1, g2, xpos, xmat, cls, kind, prm, pts, pts_adr, pts_n
     Returns
     -------
     int
-        0, or 1 when both are planes (no distance), 2 for a skipped class, 3 for a non-finite pose.
+        0, or 1 when both are planes (no distance), 2 for a skipped class, 3 for a non-finite pose,
+        5 for a pose not a proper rotation or beyond the positions taken (`_pose_error`).
     """
     c1 = cls[g1]
     c2 = cls[g2]
@@ -767,8 +787,11 @@ def pair_signed_distance(g1, g2, xpos, xmat, cls, kind, prm, pts, pts_adr, pts_n
         return 2
     if c1 == PLANE and c2 == PLANE:
         return 1
-    if not (_finite_pose(xpos, xmat, g1) and _finite_pose(xpos, xmat, g2)):
-        return 3
+    e = _pose_error(xpos, xmat, g1)
+    if e == 0:
+        e = _pose_error(xpos, xmat, g2)
+    if e:
+        return 3 if e == ERR_POSE else 5
     if c1 == PLANE or c2 == PLANE:
         gp = g1 if c1 == PLANE else g2
         gc = g2 if c1 == PLANE else g1
