@@ -62,9 +62,9 @@ from .warm import (SEP_LEN, WARM_KEYS, WARM_LEN, distance_warm, sep_forget, sep_
 # This module's own names, and those of the routines moved out of it (plane, polytope), which
 # importers of `collide._kernels.manifold` still read here.
 __all__ = [
-    "CONVEX", "ERR_POSE", "ERR_ROTATION", "MAX_PER_PAIR", "PLANE", "SKIPPED", "T_BOX", "T_CAPSULE", "T_CYLINDER", "T_ELLIPSOID",
-    "T_HFIELD", "T_MESH", "T_PLANE", "T_SPHERE", "CONVEX_PAIR", "F_DIST", "F_END", "F_MARGIN", "F_NORMAL",
-    "F_POS", "N_SLOTS", "SLOT_BUFFER", "SLOT_COLS", "BUFFER_DTYPES", "TI_HEADER", "carve_scratch",
+    "CONVEX", "ERR_POSE", "ERR_ROTATION", "MAX_PER_PAIR", "PLANE", "SKIPPED", "T_BOX", "T_CAPSULE", "T_CYLINDER",
+    "T_ELLIPSOID", "T_HFIELD", "T_MESH", "T_PLANE", "T_SPHERE", "CONVEX_PAIR", "F_DIST", "F_END", "F_MARGIN",
+    "F_NORMAL", "F_POS", "N_SLOTS", "SLOT_BUFFER", "SLOT_COLS", "BUFFER_DTYPES", "TI_HEADER", "carve_scratch",
     "ARENA_FIELDS", "CTX_FIELDS", "NARENA", "NCTX", "OUT_FULL", "collide_bound", "collide_pairs", "pair_margins",
     "scratch_caps", "scratch_sizes", "pair_signed_distance", "pair_signed_distance_bound",
     "plane_box_contacts",
@@ -740,7 +740,8 @@ def pair_signed_distance_bound(g1, g2, xpos, xmat, addr, cutoff, out):
     t32 = view_of(i32_ptr(ctx[C_T32]), ctx[C_T32_LEN])
     cls = _slot(t8, ti, S_CLS)
     size = _slot(tf, ti, S_SIZE)
-    if cls[g1] == CONVEX and cls[g2] == CONVEX and _pose_error(xpos, xmat, g1) == 0 and _pose_error(xpos, xmat, g2) == 0:
+    if (cls[g1] == CONVEX and cls[g2] == CONVEX and _pose_error(xpos, xmat, g1) == 0
+            and _pose_error(xpos, xmat, g2) == 0):
         rbound = _slot(tf, ti, S_RBOUND)
         # Either early answer must be the full query's: a pair is only cut off when it is beyond
         # ``cutoff`` by more than the query's tolerance and the rounding of its coordinates (a
