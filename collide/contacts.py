@@ -33,7 +33,7 @@ import numpy as np
 
 from . import faces as _faces
 from . import shapes as _shapes
-from ._kernels import bounds as _bounds
+from ._kernels import _pose
 from ._kernels import manifold as _km
 from ._kernels import plane as _kp
 from ._validate import _as_finite
@@ -559,7 +559,7 @@ def _pose_message(g, non_finite: bool) -> str:
     if non_finite:
         return f"geom_xpos/geom_xmat: non-finite pose (NaN or inf) of geom {g}"
     return (f"geom_xmat/geom_xpos: the rotation of geom {g} is not a proper rotation (an entry of |R^T R - I| "
-            f"above {_bounds.ORTHO_TOL:g}, or a reflection), or its position is beyond {_bounds.MAX_POSITION:g}")
+            f"above {_pose.ORTHO_TOL:g}, or a reflection), or its position is beyond {_pose.MAX_POSITION:g}")
 
 
 def _contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.ndarray) -> Contacts:

@@ -163,7 +163,8 @@ def test_dependency_files_agree_with_the_ast_on_every_package_file():
     assert lanes == {"_kernels/lanes.py", "_kernels/lane_tests.py", "_kernels/batch.py", "_kernels/step.py",
                      "_kernels/broadphase.py", "_kernels/coherence.py", "_kernels/walk.py", "_kernels/culling.py",
                      "_kernels/bounds.py", "_kernels/keys.py", "_kernels/layout.py", "_kernels/_ptr.py",
-                     "_kernels/_simd.py", "_kernels/_quat.py", "_kernels/_threads.py", "_checked.py"}
+                     "_kernels/_simd.py", "_kernels/_quat.py", "_kernels/_threads.py", "_kernels/_pose.py",
+                     "_checked.py"}
     # `from .._kernels import bounds as _k`: a submodule named in the import list
     brute = {Path(p).relative_to(PACKAGE).as_posix()
              for p in _cache.dependency_files(str(PACKAGE / "testing" / "brute.py"))}
@@ -201,7 +202,7 @@ def test_the_narrow_phase_kernel_depends_on_the_modules_it_was_split_into():
             for p in _cache.dependency_files(str(PACKAGE / "_kernels" / "manifold.py"))}
     assert deps == {"_kernels/manifold.py", "_kernels/plane.py", "_kernels/polytope.py", "_kernels/faces.py",
                     "_kernels/distance.py", "_kernels/gjk.py", "_kernels/epa.py", "_kernels/support.py",
-                    "_kernels/warm.py", "_kernels/point_distance.py",
+                    "_kernels/warm.py", "_kernels/point_distance.py", "_kernels/_pose.py",
                     "_kernels/_ptr.py", "_checked.py"}  # _ptr.borrow, and the checked mode it reads
 
 

@@ -2,10 +2,10 @@
 
 A bounds row (`layout.ROW` float64) is a body's or geom's OBB and sphere; each also has a capsule. Here:
 a row moved to the world by a pose (`_world_row`; `_pose_row` is the arithmetic the lanes replay), its
-world AABB (the OBB's cut to its capsule's), the pose check, the one sphere + separating-axis test
-(`_bounds_ok`, whose source the lanes' vector form `lane_tests.bounds8` replays), planes as
-half-spaces, a multi-geom body's geom rows, and the explicit pairs' test. Every comparison carries a
-conservative slack: rounding never separates touching bounds.
+world AABB (the OBB's cut to its capsule's), the pose check (`_pose._pose_ok`, read here), the one
+sphere + separating-axis test (`_bounds_ok`, whose source the lanes' vector form `lane_tests.bounds8`
+replays), planes as half-spaces, a multi-geom body's geom rows, and the explicit pairs' test. Every
+comparison carries a conservative slack: rounding never separates touching bounds.
 """
 
 from __future__ import annotations
@@ -13,11 +13,11 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from ._pose import MAX_POSITION, ORTHO_TOL, _pose_ok  # noqa: F401 (read here by the kernels and callers)
 from ._quat import fmuladd
 from .layout import ST_GEOM_OBB, ST_GEOM_SPHERE, ST_PLANE
 
 BIG = 1e300  # empty AABB: lo = BIG, hi = -BIG (finite, so n . lo never meets inf - inf)
-ORTHO_TOL = 1e-6  # max |R^T R - I| accepted for a body rotation (articulation.POSE_ORTHO_TOL: bounds carry the slack)
 # Conservative slack: rounding must never separate touching bounds. AbsR gets EPS_PAR (Ericson's
 # guard against near-parallel edge pairs, whose cross product is ~0); every comparison gets
 # SLACK_REL of the sizes involved plus SLACK_POS of the coordinates' magnitude (a difference of
@@ -25,12 +25,6 @@ ORTHO_TOL = 1e-6  # max |R^T R - I| accepted for a body rotation (articulation.P
 EPS_PAR = 1e-12
 SLACK_REL = 1e-12
 SLACK_POS = 1e-13
-# Body positions are refused beyond this (= `collide.hull.MAX_COORDINATE`, the geoms' own limit;
-# a test keeps the two equal):
-# near the float range, sums of coordinates overflow to inf and an inf times a zero normal
-# component is NaN, which no test passes (a ball touching a plane at 1e308 was lost; review,
-# 2026-11-22).
-MAX_POSITION = 1e150
 
 # The bounds' dot products are fused multiply-adds (`_quat.fmuladd`: one rounding each on FMA
 # hardware, fewer instructions and a shorter chain), written through `dot3` and `dot3_add` in both
@@ -157,23 +151,6 @@ def _cap_aabb(rot, b, cap, k, w, m, box, x):
     box[x, 3] = min(box[x, 3], w[0] + h0)
     box[x, 4] = min(box[x, 4], w[1] + h1)
     box[x, 5] = min(box[x, 5], w[2] + h2)
-
-
-@nb.njit(cache=True, inline="always")
-def _pose_ok(r00, r01, r02, r10, r11, r12, r20, r21, r22, p0, p1, p2):
-    # One test per body: R^T R = I within ORTHO_TOL, det > 0, a position within MAX_POSITION. Comparisons
-    # with NaN are false, and an inf in R makes a product inf or NaN, so a non-finite pose
-    # fails too (the caller tells which afterwards). det > 0 (no reflection): column 2 must
-    # agree with column 0 x column 1 in sign.
-    det = ((r10 * r21 - r20 * r11) * r02 + (r20 * r01 - r00 * r21) * r12
-           + (r00 * r11 - r10 * r01) * r22)
-    return ((abs(r00 * r00 + r10 * r10 + r20 * r20 - 1.0) <= ORTHO_TOL)
-            & (abs(r01 * r01 + r11 * r11 + r21 * r21 - 1.0) <= ORTHO_TOL)
-            & (abs(r02 * r02 + r12 * r12 + r22 * r22 - 1.0) <= ORTHO_TOL)
-            & (abs(r00 * r01 + r10 * r11 + r20 * r21) <= ORTHO_TOL)
-            & (abs(r00 * r02 + r10 * r12 + r20 * r22) <= ORTHO_TOL)
-            & (abs(r01 * r02 + r11 * r12 + r21 * r22) <= ORTHO_TOL)
-            & (det > 0.0) & (abs(p0) <= MAX_POSITION) & (abs(p1) <= MAX_POSITION) & (abs(p2) <= MAX_POSITION))
 
 
 @nb.njit(cache=True, inline="always")

@@ -109,7 +109,7 @@ def plane_hit8(typingctx, pa, mq, row):
 @intrinsic
 def pose_ok8(typingctx, psb):
     """Bit l set when lane l's pose in the `layout.LW_POSES` block ``(12, LANES)`` at address ``psb`` passes
-    `bounds._pose_ok` (its source replayed on vectors: the same outcome)."""
+    `_pose._pose_ok` (its source replayed on vectors: the same outcome)."""
     if not isinstance(psb, types.Integer):
         return None
 

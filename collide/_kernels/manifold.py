@@ -48,7 +48,7 @@ import numpy as np
 from numba import njit
 
 from ._ptr import NO_NRT, bool_ptr, check_span, f64_ptr, i8_ptr, i32_ptr, i64_ptr, view_of
-from .bounds import _pose_ok
+from ._pose import _pose_ok
 from .distance import (OUT_DISTANCE, OUT_NORMAL, OUT_PENETRATING, OUT_POINT_A, OUT_POINT_B, OUT_SIZE, ROUNDING,
                        EPA_CAP, WS_F, WS_F_EPA, WS_I, WS_I_EPA, pair_distance, pair_distance_within, segment_distance)
 from .faces import BOX_MAX, BOX_WS, box_box, clip_faces
@@ -124,8 +124,8 @@ def _finite_pose(xpos, xmat, g):
 @njit(**NO_NRT)
 def _pose_error(xpos, xmat, g):
     # 0 for a geom pose the narrow phase takes; ERR_POSE for a non-finite entry; ERR_ROTATION for
-    # xmat[g] off a proper rotation (an entry of |R^T R - I| above `bounds.ORTHO_TOL`, or det <= 0)
-    # or xpos[g] beyond `bounds.MAX_POSITION`: the bodies' one test (`bounds._pose_ok`). Every
+    # xmat[g] off a proper rotation (an entry of |R^T R - I| above `_pose.ORTHO_TOL`, or det <= 0)
+    # or xpos[g] beyond `_pose.MAX_POSITION`: the bodies' one test (`_pose._pose_ok`). Every
     # support, face and plane computation takes R as a rotation: a scaled or sheared one gave a
     # silently wrong distance (review, 2026-12-01). Which error is told apart only on failure.
     if _pose_ok(xmat[g, 0, 0], xmat[g, 0, 1], xmat[g, 0, 2], xmat[g, 1, 0], xmat[g, 1, 1], xmat[g, 1, 2],
