@@ -554,12 +554,18 @@ def contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.
     return _contacts_of(table, pairs, xpos, xmat)
 
 
-def _pose_message(g, non_finite: bool) -> str:
-    # The ValueError of a geom pose the kernels refuse (`manifold._pose_error`).
-    if non_finite:
+def _pose_problem(xpos: np.ndarray, xmat: np.ndarray, g: int) -> str | None:
+    # What the kernels' pose test (`manifold._pose_error`) refuses in geom g's pose, said for a
+    # ValueError; None where it takes it. Run only once a kernel has refused a pose.
+    p, r = xpos[g], xmat[g]
+    if not (np.isfinite(p).all() and np.isfinite(r).all()):
         return f"geom_xpos/geom_xmat: non-finite pose (NaN or inf) of geom {g}"
-    return (f"geom_xmat/geom_xpos: the rotation of geom {g} is not a proper rotation (an entry of |R^T R - I| "
-            f"above {_pose.ORTHO_TOL:g}, or a reflection), or its position is beyond {_pose.MAX_POSITION:g}")
+    if not (np.abs(p) <= _pose.MAX_POSITION).all():
+        return f"geom_xpos: the position of geom {g} is beyond {_pose.MAX_POSITION:g} (the coordinate limit)"
+    if not _pose._pose_ok.py_func(*r.ravel(), *p):
+        return (f"geom_xmat: the rotation of geom {g} is not a proper rotation (an entry of |R^T R - I| above "
+                f"{_pose.ORTHO_TOL:g}, or a reflection)")
+    return None
 
 
 def _contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.ndarray) -> Contacts:
@@ -589,7 +595,7 @@ def _contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np
         r = _bound(pairs, xpos, xmat, skipped, table._ctx_addr, out[7])
     if r < 0:
         g, e = divmod(-r - 1, 8)
-        raise ValueError(_pose_message(g, e == _km.ERR_POSE))
+        raise ValueError(_pose_problem(xpos, xmat, g) or f"geom_xpos/geom_xmat: the pose of geom {g} is refused")
     n = r & 0xFFFFFFFF
     if n == 0 and not any_skipped:
         return table._empty
@@ -724,7 +730,8 @@ def _geom_distance(table: GeomTable, g1: int, g2: int, xpos: np.ndarray, xmat: n
             raise ValueError(f"g1, g2: geom {g1 if table.cls[g1] == _km.SKIPPED else g2} is a height "
                              "field or SDF, which the narrow phase does not collide")
         if err == 3 or err == 5:
-            raise ValueError(_pose_message(f"{g1} or {g2}", err == 3))
+            raise ValueError(_pose_problem(xpos, xmat, g1) or _pose_problem(xpos, xmat, g2)
+                             or f"geom_xpos/geom_xmat: the pose of geom {g1} or {g2} is refused")
         return distmax, np.zeros(6)  # two planes, or bounding balls beyond distmax
     if not out[0] < distmax:
         return distmax, np.zeros(6)

@@ -104,6 +104,20 @@ def ours_active(col, model, data, x) -> tuple[bool, tuple]:
     return bool(np.any(v < 0)), (float(v[i]), int(c.geom[i, 0]), int(c.geom[i, 1]))
 
 
+def test_min_distance_keeps_a_pair_at_the_coordinate_limit():
+    # The narrow phase's entry points refuse a geom beyond 1e150 (`manifold._pose_error`);
+    # check_batch's distances must not drop such a pair silently (it once gave inf, closest -1:
+    # review, 2026-12-02). A plane 2e150 below a ball: MuJoCo's mj_geomDistance says 2e150.
+    m = _model('<geom type="plane" size="0 0 1" pos="0 0 -2e150"/>'
+               '<body><freejoint/><geom type="sphere" size="1"/></body>')
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    r = cm.Collider(m).check_batch(d.qpos[None].copy(), distance=True)
+    mj = mujoco.mj_geomDistance(m, d, 0, 1, 1e300, np.zeros(6))
+    assert r.closest.tolist() == [[0, 1]] and not r.in_collision[0]
+    assert abs(r.min_distance[0] - mj) <= 1e-9 * mj
+
+
 def settle(col, model, data, x, mj_says: bool, mj_deep, our_deep) -> str:
     """Who is right where in_collision and MuJoCo differ beyond the boundary: ``"mujoco missed"``
     when the independent oracle (`contact_check.oracle`: the Minkowski difference's hull for

@@ -379,7 +379,7 @@ def test_bad_input_names_it():
     data.geom_xpos[1, 2] = np.nan
     with pytest.raises(ValueError, match="geom 1"):
         col.contacts(data)
-    with pytest.raises(ValueError, match="geom 0 or 1"):
+    with pytest.raises(ValueError, match="non-finite pose .* of geom 1"):
         col.geom_distance(data, 0, 1, 1.0)
     other = _model('<body><freejoint/><geom type="sphere" size=".1"/></body>')
     with pytest.raises(ValueError, match="data"):
@@ -434,13 +434,13 @@ def test_a_geom_pose_that_is_not_a_rotation_is_refused(bad):
         data.geom_xpos[1, 0] = 1e200
     xpos, xmat = data.geom_xpos.copy(), data.geom_xmat.copy()
     what = "position" if bad == "far" else "rotation"
-    with pytest.raises(ValueError, match=f"{what} of geom 1|geom 1 .*{what}"):
+    with pytest.raises(ValueError, match=f"the {what} of geom 1 "):
         col.contacts(data)
-    with pytest.raises(ValueError, match="geom 1 or 2"):
+    with pytest.raises(ValueError, match=f"the {what} of geom 1 "):
         col.geom_distance(data, 1, 2, 1.0)
-    with pytest.raises(ValueError, match="geom 0 or 1"):
+    with pytest.raises(ValueError, match=f"the {what} of geom 1 "):
         cc.geom_distance(col.table, 0, 1, xpos, xmat, 1.0)
-    with pytest.raises(ValueError, match="geom 1"):
+    with pytest.raises(ValueError, match=f"the {what} of geom 1 "):
         cc.narrow_phase(col.table, np.array([[0, 1], [1, 2]]), xpos, xmat)
     # rounding-level departures (float32 rotations) are taken
     data.geom_xmat[1] = (good[0].astype(np.float32)).astype(np.float64)

@@ -728,7 +728,8 @@ def pair_signed_distance_bound(g1, g2, xpos, xmat, addr, cutoff, out):
     so a call passes seven arguments where `pair_signed_distance` takes eighteen (numba's dispatch
     pays for each). ``g1``, ``g2`` must be geom ids of the table and ``xpos`` ``(G, 3)``,
     ``xmat`` ``(G, 3, 3)`` its poses, C-contiguous: nothing is checked. Returns, ``cutoff`` and
-    ``out`` as `pair_signed_distance`, and 4 (``out`` not written) when the geoms' bounding balls
+    ``out`` as `pair_signed_distance`, 5 for a pose `_pose_error` refuses as not a rotation (or beyond
+    the positions taken), and 4 (``out`` not written) when the geoms' bounding balls
     are farther apart than ``cutoff`` (as ``mj_geomDistance`` first tests them). Both early
     answers (that one and GJK's cutoff) take a pair only when it is beyond ``cutoff`` by more
     than the query's tolerance and rounding, so a pair at ``cutoff`` gets the full query's answer.
@@ -740,8 +741,18 @@ def pair_signed_distance_bound(g1, g2, xpos, xmat, addr, cutoff, out):
     t32 = view_of(i32_ptr(ctx[C_T32]), ctx[C_T32_LEN])
     cls = _slot(t8, ti, S_CLS)
     size = _slot(tf, ti, S_SIZE)
-    if (cls[g1] == CONVEX and cls[g2] == CONVEX and _pose_error(xpos, xmat, g1) == 0
-            and _pose_error(xpos, xmat, g2) == 0):
+    c1 = cls[g1]
+    c2 = cls[g2]
+    if c1 != SKIPPED and c2 != SKIPPED and not (c1 == PLANE and c2 == PLANE):
+        # a pose that is not a rotation (or beyond the positions taken) is refused here, at the
+        # user's entry point; `pair_signed_distance` itself (check_batch's, on poses from our own
+        # kinematics) keeps its finiteness test
+        e = _pose_error(xpos, xmat, g1)
+        if e == 0:
+            e = _pose_error(xpos, xmat, g2)
+        if e:
+            return 3 if e == ERR_POSE else 5
+    if c1 == CONVEX and c2 == CONVEX:
         rbound = _slot(tf, ti, S_RBOUND)
         # Either early answer must be the full query's: a pair is only cut off when it is beyond
         # ``cutoff`` by more than the query's tolerance and the rounding of its coordinates (a
@@ -779,8 +790,7 @@ def pair_signed_distance(g1, g2, xpos, xmat, cls, kind, prm, pts, pts_adr, pts_n
     Returns
     -------
     int
-        0, or 1 when both are planes (no distance), 2 for a skipped class, 3 for a non-finite pose,
-        5 for a pose not a proper rotation or beyond the positions taken (`_pose_error`).
+        0, or 1 when both are planes (no distance), 2 for a skipped class, 3 for a non-finite pose.
     """
     c1 = cls[g1]
     c2 = cls[g2]
@@ -788,11 +798,8 @@ def pair_signed_distance(g1, g2, xpos, xmat, cls, kind, prm, pts, pts_adr, pts_n
         return 2
     if c1 == PLANE and c2 == PLANE:
         return 1
-    e = _pose_error(xpos, xmat, g1)
-    if e == 0:
-        e = _pose_error(xpos, xmat, g2)
-    if e:
-        return 3 if e == ERR_POSE else 5
+    if not (_finite_pose(xpos, xmat, g1) and _finite_pose(xpos, xmat, g2)):
+        return 3
     if c1 == PLANE or c2 == PLANE:
         gp = g1 if c1 == PLANE else g2
         gc = g2 if c1 == PLANE else g1
