@@ -377,6 +377,15 @@ def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = _T
         For an empty cloud, a shape or pose reaching beyond `collide.hull.MAX_COORDINATE`, a
         non-finite or non-rigid pose, an unknown shape type, or bad options.
 
+    Notes
+    -----
+    The bracket ``lower <= distance <= upper`` always holds. How narrow it gets is limited by the
+    world coordinates' precision as well as by ``tolerance``. The supports are computed in world
+    coordinates, so a shape far from the origin relative to its size has the rounding of its
+    position, about 1e-16 of it. Example: shapes of size 1e-6 placed 1e4 from the origin get
+    brackets up to about 1e-12 wide, a few millionths of their size. Pose such shapes near the
+    origin (or relative to each other) to get the full relative accuracy.
+
     Examples
     --------
     >>> from collide import PointCloud, distance
