@@ -555,7 +555,7 @@ def contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np.
 
 
 def _pose_problem(xpos: np.ndarray, xmat: np.ndarray, g: int) -> str | None:
-    # What the kernels' pose test (`manifold._pose_error`) refuses in geom g's pose, said for a
+    # What the kernels' pose test (`manifold._pose_refused`) refuses in geom g's pose, said for a
     # ValueError; None where it takes it. Run only once a kernel has refused a pose.
     p, r = xpos[g], xmat[g]
     if not (np.isfinite(p).all() and np.isfinite(r).all()):
@@ -594,7 +594,7 @@ def _contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np
         out = table._out
         r = _bound(pairs, xpos, xmat, skipped, table._ctx_addr, out[7])
     if r < 0:
-        g = (-r - 1) // 8
+        g = -r - 1
         raise ValueError(_pose_problem(xpos, xmat, g) or f"geom_xpos/geom_xmat: the pose of geom {g} is refused")
     n = r & 0xFFFFFFFF
     if n == 0 and not any_skipped:
@@ -729,7 +729,7 @@ def _geom_distance(table: GeomTable, g1: int, g2: int, xpos: np.ndarray, xmat: n
         if err == 2:
             raise ValueError(f"g1, g2: geom {g1 if table.cls[g1] == _km.SKIPPED else g2} is a height "
                              "field or SDF, which the narrow phase does not collide")
-        if err == 3 or err == 5:
+        if err == 3:
             raise ValueError(_pose_problem(xpos, xmat, g1) or _pose_problem(xpos, xmat, g2)
                              or f"geom_xpos/geom_xmat: the pose of geom {g1} or {g2} is refused")
         return distmax, np.zeros(6)  # two planes, or bounding balls beyond distmax

@@ -105,7 +105,7 @@ def ours_active(col, model, data, x) -> tuple[bool, tuple]:
 
 
 def test_min_distance_keeps_a_pair_at_the_coordinate_limit():
-    # The narrow phase's entry points refuse a geom beyond 1e150 (`manifold._pose_error`);
+    # The narrow phase's entry points refuse a geom beyond 1e150 (`manifold._pose_refused`);
     # check_batch's distances must not drop such a pair silently (it once gave inf, closest -1:
     # review, 2026-12-02). A plane 2e150 below a ball: MuJoCo's mj_geomDistance says 2e150.
     m = _model('<geom type="plane" size="0 0 1" pos="0 0 -2e150"/>'

@@ -1,6 +1,6 @@
 """The pose test: a rotation within `ORTHO_TOL` of proper orthonormal and a position within
 `MAX_POSITION` (`_pose_ok`). One test for the broad phase's bodies (`bounds`, `lane_tests`,
-`swept_motion` read it through `bounds`) and the narrow phase's geoms (`manifold._pose_error`); a
+`swept_motion` read it through `bounds`) and the narrow phase's geoms (`manifold._pose_refused`); a
 module of its own so that the narrow-phase kernel's cache does not depend on the broad phase's
 bounds and layout (`collide._cache` follows imports).
 """

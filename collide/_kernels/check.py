@@ -516,6 +516,90 @@ def _pose_pair(g1, g2, w, lane, pose, geoms, xpos, xmat, stamp, S, err):
     return err
 
 
+# `check_worlds`' worker, one call a thread: its own scratch, then chunks of configurations from the
+# shared counter until none is left. A plain compiled function rather than the ``prange`` body: numba
+# compiled the kernel with every decider inlined into its parallel loop about twice as slowly
+# (`tests/bench/compile_time.py`). Not done for the broad phase's parallel kernels (the lanes,
+# `batch`, `swept`): there it made the compile slower.
+@nb.njit(cache=True, nogil=True)
+def _check_chunks(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr,
+                  jnt_pos, jnt_axis, geom_body, geom_pos, geom_quat, rows, row_start, mode, label, dpairs, distmax,
+                  want_distance, chunks, workers, counter, cls, rule, below, kind, prm, pts, pts_adr, pts_num,
+                  nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, rbound, size, geom_margin,
+                  geom_gap, pair_key, pair_margin, pair_gap, override, o_margin, gtype, half, hv_adr, hv_num, hv,
+                  f_adr, f_num, f_normal, f_offset, f_vadr, f_vnum, f_vidx, out_hit, out_dist, out_closest,
+                  out_skipped, out_err, cap, fmax):
+    B = qpos.shape[0]
+    L = body_parent.shape[0]
+    G = geom_body.shape[0]
+    nj = jnt_type.shape[0]
+    P = dpairs.shape[0]
+    addr = counter.ctypes.data
+    bpos = np.empty((L, 3))
+    brot = np.empty((L, 3, 3))
+    bquat = np.empty((L, 4))
+    sc = np.empty((max(nj, 1), 2))
+    xpos = np.zeros((G, 3))
+    xmat = np.zeros((G, 3, 3))
+    stamp = np.full(G, -1, np.int64)
+    scratch, dws, d0, gws, g4, dwi = decider_scratch(cap, fmax)
+    out7 = np.empty(7)
+    lb = np.empty(P if want_distance else 0)
+    no_keys = np.empty(0, np.int64)  # `decide_rows`' lanes' arguments, never read here
+    no_lanes = np.empty((0, 12, 1))
+    # the shared tables borrowed (`borrow`): no counter the two threads take turns on
+    cls_, rule_, below_, rbound_, size_ = borrow(cls), borrow(rule), borrow(below), borrow(rbound), borrow(size)
+    gmargin, ggap, pkey = borrow(geom_margin), borrow(geom_gap), borrow(pair_key)
+    pmargin, pgap, gtype_, half_ = borrow(pair_margin), borrow(pair_gap), borrow(gtype), borrow(half)
+    kind_, prm_, pts_, pts_num_ = borrow(kind), borrow(prm), borrow(pts), borrow(pts_num)
+    shapes = (kind_, prm_, pts_, borrow(pts_adr), pts_num_, borrow(nbr_start), borrow(nbr_start_adr),
+              borrow(nbr_start_num), borrow(nbr), borrow(nbr_adr), borrow(nbr_num))
+    faces = (borrow(hv_adr), borrow(hv_num), borrow(hv), borrow(f_adr), borrow(f_num), borrow(f_normal),
+             borrow(f_vadr), borrow(f_vnum), borrow(f_vidx))
+    geom_body_, geom_pos_, geom_quat_ = borrow(geom_body), borrow(geom_pos), borrow(geom_quat)
+    rows_, row_start_, label_, dpairs_ = borrow(rows), borrow(row_start), borrow(label), borrow(dpairs)
+    qpos_, qpos0_, parent_, bpos0, bquat0 = borrow(qpos), borrow(qpos0), borrow(body_parent), borrow(body_pos), \
+        borrow(body_quat)
+    jntadr, jntnum, jtype, jqadr = borrow(body_jntadr), borrow(body_jntnum), borrow(jnt_type), \
+        borrow(jnt_qposadr)
+    jpos, jaxis = borrow(jnt_pos), borrow(jnt_axis)
+    # `decide_rows`' tuples, of borrowed views (the body poses are written in the loop: alive through it)
+    src = (borrow(no_keys), 0, borrow(no_keys), rows_, first_pass(cls_, kind_, pts_num_))
+    pose = (borrow(no_lanes), borrow(no_lanes), borrow(bpos), borrow(brot), borrow(bquat))
+    geoms = (geom_body_, geom_pos_, geom_quat_)
+    tables = (cls_, rule_, below_, rbound_, size_, gmargin, ggap, pkey, pmargin, pgap, override,
+              o_margin, gtype_, half_)
+    while True:
+        c = fetch_add(addr, 1)
+        if c >= chunks:
+            break
+        for w in range((B * c) // chunks, (B * (c + 1)) // chunks):
+            posed = False  # body poses only for a configuration with a pair to decide
+            for r in range(row_start_[w], row_start_[w + 1]):
+                if in_subset(mode, label_, rows_[r, 1], rows_[r, 2]):
+                    _kinematics_world(qpos_[w], qpos0_, parent_, bpos0, bquat0, jntadr, jntnum, jtype, jqadr, jpos,
+                                      jaxis, bpos, brot, bquat, sc)
+                    posed = True
+                    break
+            hit, skipped, err = False, False, 0
+            if posed:
+                hit, skipped, err = decide_rows(w, 0, row_start_[w], row_start_[w + 1], src, pose, mode, label_,
+                                                geoms, tables, shapes, faces, xpos, xmat, stamp, scratch, dws, d0,
+                                                gws, g4, dwi)
+            out_hit[w] = hit
+            out_skipped[w] = skipped and not hit
+            if want_distance and err == 0:
+                if not posed:
+                    _kinematics_world(qpos_[w], qpos0_, parent_, bpos0, bquat0, jntadr, jntnum, jtype, jqadr, jpos,
+                                      jaxis, bpos, brot, bquat, sc)
+                err = _closest(w, dpairs_, distmax, bpos, brot, bquat, geom_body_, geom_pos_, geom_quat_, xpos,
+                               xmat, stamp, lb, cls_, kind_, prm_, pts_, shapes[3], pts_num_, shapes[5],
+                               shapes[6], shapes[7], shapes[8], shapes[9], shapes[10], rbound_, size_, out7,
+                               out_dist, out_closest, out_skipped)
+            out_err[w] = err
+    return 0
+
+
 @nb.njit(cache=True, parallel=True, nogil=True)
 def check_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr,
                  jnt_pos, jnt_axis, geom_body, geom_pos, geom_quat, rows, row_start, mode, label, dpairs, distmax,
@@ -574,77 +658,16 @@ def check_worlds(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, bod
     int
         0.
     """
-    B = qpos.shape[0]
-    L = body_parent.shape[0]
-    G = geom_body.shape[0]
-    nj = jnt_type.shape[0]
-    P = dpairs.shape[0]
     cap, fmax = scratch_caps(pts_num, f_vnum)
-    addr = counter.ctypes.data
     chunksize = set_chunksize(1)  # one iteration a worker (`_threads`)
     for wk in nb.prange(workers):
-        bpos = np.empty((L, 3))
-        brot = np.empty((L, 3, 3))
-        bquat = np.empty((L, 4))
-        sc = np.empty((max(nj, 1), 2))
-        xpos = np.zeros((G, 3))
-        xmat = np.zeros((G, 3, 3))
-        stamp = np.full(G, -1, np.int64)
-        scratch, dws, d0, gws, g4, dwi = decider_scratch(cap, fmax)
-        out7 = np.empty(7)
-        lb = np.empty(P if want_distance else 0)
-        no_keys = np.empty(0, np.int64)  # `decide_rows`' lanes' arguments, never read here
-        no_lanes = np.empty((0, 12, 1))
-        # the shared tables borrowed (`borrow`): no counter the two threads take turns on
-        cls_, rule_, below_, rbound_, size_ = borrow(cls), borrow(rule), borrow(below), borrow(rbound), borrow(size)
-        gmargin, ggap, pkey = borrow(geom_margin), borrow(geom_gap), borrow(pair_key)
-        pmargin, pgap, gtype_, half_ = borrow(pair_margin), borrow(pair_gap), borrow(gtype), borrow(half)
-        kind_, prm_, pts_, pts_num_ = borrow(kind), borrow(prm), borrow(pts), borrow(pts_num)
-        shapes = (kind_, prm_, pts_, borrow(pts_adr), pts_num_, borrow(nbr_start), borrow(nbr_start_adr),
-                  borrow(nbr_start_num), borrow(nbr), borrow(nbr_adr), borrow(nbr_num))
-        faces = (borrow(hv_adr), borrow(hv_num), borrow(hv), borrow(f_adr), borrow(f_num), borrow(f_normal),
-                 borrow(f_vadr), borrow(f_vnum), borrow(f_vidx))
-        geom_body_, geom_pos_, geom_quat_ = borrow(geom_body), borrow(geom_pos), borrow(geom_quat)
-        rows_, row_start_, label_, dpairs_ = borrow(rows), borrow(row_start), borrow(label), borrow(dpairs)
-        qpos_, qpos0_, parent_, bpos0, bquat0 = borrow(qpos), borrow(qpos0), borrow(body_parent), borrow(body_pos), \
-            borrow(body_quat)
-        jntadr, jntnum, jtype, jqadr = borrow(body_jntadr), borrow(body_jntnum), borrow(jnt_type), \
-            borrow(jnt_qposadr)
-        jpos, jaxis = borrow(jnt_pos), borrow(jnt_axis)
-        # `decide_rows`' tuples, of borrowed views (the body poses are written in the loop: alive through it)
-        src = (borrow(no_keys), 0, borrow(no_keys), rows_, first_pass(cls_, kind_, pts_num_))
-        pose = (borrow(no_lanes), borrow(no_lanes), borrow(bpos), borrow(brot), borrow(bquat))
-        geoms = (geom_body_, geom_pos_, geom_quat_)
-        tables = (cls_, rule_, below_, rbound_, size_, gmargin, ggap, pkey, pmargin, pgap, override,
-                  o_margin, gtype_, half_)
-        while True:
-            c = fetch_add(addr, 1)
-            if c >= chunks:
-                break
-            for w in range((B * c) // chunks, (B * (c + 1)) // chunks):
-                posed = False  # body poses only for a configuration with a pair to decide
-                for r in range(row_start_[w], row_start_[w + 1]):
-                    if in_subset(mode, label_, rows_[r, 1], rows_[r, 2]):
-                        _kinematics_world(qpos_[w], qpos0_, parent_, bpos0, bquat0, jntadr, jntnum, jtype, jqadr, jpos,
-                                          jaxis, bpos, brot, bquat, sc)
-                        posed = True
-                        break
-                hit, skipped, err = False, False, 0
-                if posed:
-                    hit, skipped, err = decide_rows(w, 0, row_start_[w], row_start_[w + 1], src, pose, mode, label_,
-                                                    geoms, tables, shapes, faces, xpos, xmat, stamp, scratch, dws, d0,
-                                                    gws, g4, dwi)
-                out_hit[w] = hit
-                out_skipped[w] = skipped and not hit
-                if want_distance and err == 0:
-                    if not posed:
-                        _kinematics_world(qpos_[w], qpos0_, parent_, bpos0, bquat0, jntadr, jntnum, jtype, jqadr, jpos,
-                                          jaxis, bpos, brot, bquat, sc)
-                    err = _closest(w, dpairs_, distmax, bpos, brot, bquat, geom_body_, geom_pos_, geom_quat_, xpos,
-                                   xmat, stamp, lb, cls_, kind_, prm_, pts_, shapes[3], pts_num_, shapes[5],
-                                   shapes[6], shapes[7], shapes[8], shapes[9], shapes[10], rbound_, size_, out7,
-                                   out_dist, out_closest, out_skipped)
-                out_err[w] = err
+        _check_chunks(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr,
+                      jnt_pos, jnt_axis, geom_body, geom_pos, geom_quat, rows, row_start, mode, label, dpairs, distmax,
+                      want_distance, chunks, workers, counter, cls, rule, below, kind, prm, pts, pts_adr, pts_num,
+                      nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, rbound, size, geom_margin,
+                      geom_gap, pair_key, pair_margin, pair_gap, override, o_margin, gtype, half, hv_adr, hv_num, hv,
+                      f_adr, f_num, f_normal, f_offset, f_vadr, f_vnum, f_vidx, out_hit, out_dist, out_closest,
+                      out_skipped, out_err, cap, fmax)
     set_chunksize(chunksize)
     return 0
 

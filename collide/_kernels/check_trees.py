@@ -44,6 +44,109 @@ def _reach(g1, g2, cls, geom_margin, geom_gap, pair_key, pair_margin, pair_gap, 
     return out
 
 
+# `check_trees`' worker, one call a thread (as `check._check_chunks` is `check_worlds`': numba compiled
+# the deciders inlined into the parallel loop about three times as slowly, `tests/bench/compile_time.py`).
+@nb.njit(cache=True, nogil=True)
+def _tree_chunks(qpos, qmax, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr,
+                 jnt_pos, jnt_axis, geom_body, geom_pos, geom_quat, static_span, static_geom, tree_span, tree_geom,
+                 tree_geom_start, tpairs, tpair_start, chunks, cls, rule, below, kind, prm, pts, pts_adr, pts_num,
+                 nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, rbound, size, geom_margin, geom_gap,
+                 pair_key, pair_margin, pair_gap, override, o_margin, gtype, half, hv_adr, hv_num, hv, f_adr, f_num,
+                 f_normal, f_vadr, f_vnum, f_vidx, out_hit, B, L, G, nj, T, cap, fmax, addr):
+    bpos = np.zeros((L, 3))
+    brot = np.zeros((L, 3, 3))
+    bquat = np.zeros((L, 4))
+    bquat[0, 0] = 1.0  # the world body, as `_kinematics_world` poses it
+    for i in range(3):
+        brot[0, i, i] = 1.0
+    sc = np.empty((max(nj, 1), 2))
+    for s in range(static_span.shape[0]):  # no joint: q and sc are not read
+        _bodies_span(qpos[0], qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type,
+                     jnt_qposadr, jnt_pos, jnt_axis, bpos, brot, bquat, sc, static_span[s, 0], static_span[s, 1])
+    xpos = np.zeros((G, 3))
+    xmat = np.zeros((G, 3, 3))
+    scratch, dws, d0, gws, g4, dwi = decider_scratch(cap, fmax)
+    # the shared tables borrowed (`borrow`, as check_worlds does)
+    cls_, rule_, below_, rbound_, size_ = borrow(cls), borrow(rule), borrow(below), borrow(rbound), borrow(size)
+    gmargin, ggap, pkey = borrow(geom_margin), borrow(geom_gap), borrow(pair_key)
+    pmargin, pgap, gtype_, half_ = borrow(pair_margin), borrow(pair_gap), borrow(gtype), borrow(half)
+    shapes = (borrow(kind), borrow(prm), borrow(pts), borrow(pts_adr), borrow(pts_num), borrow(nbr_start),
+              borrow(nbr_start_adr), borrow(nbr_start_num), borrow(nbr), borrow(nbr_adr), borrow(nbr_num))
+    faces = (borrow(hv_adr), borrow(hv_num), borrow(hv), borrow(f_adr), borrow(f_num), borrow(f_normal),
+             borrow(f_vadr), borrow(f_vnum), borrow(f_vidx))
+    geom_body_, geom_pos_, geom_quat_ = borrow(geom_body), borrow(geom_pos), borrow(geom_quat)
+    span_, tpairs_, tstart = borrow(tree_span), borrow(tpairs), borrow(tpair_start)
+    sgeom, tgeom, tgeom_start = borrow(static_geom), borrow(tree_geom), borrow(tree_geom_start)
+    qpos_, qpos0_, parent_, bpos0, bquat0 = borrow(qpos), borrow(qpos0), borrow(body_parent), borrow(body_pos), \
+        borrow(body_quat)
+    jntadr, jntnum, jtype, jqadr = borrow(body_jntadr), borrow(body_jntnum), borrow(jnt_type), \
+        borrow(jnt_qposadr)
+    jpos, jaxis = borrow(jnt_pos), borrow(jnt_axis)
+    # the static geoms' poses (no joint above them) once, and each pair's reach for the cull:
+    # the ball test |c1 - c2| > r1 + r2 + thr squared (no root), a plane's n . (c - p) > r + thr
+    for i in range(sgeom.shape[0]):
+        geom_pose(sgeom[i], bpos, brot, bquat, geom_body_, geom_pos_, geom_quat_, xpos, xmat)
+    P = tpairs_.shape[0]
+    reach = np.empty(P)
+    for r in range(P):
+        g1 = tpairs_[r, 0]
+        g2 = tpairs_[r, 1]
+        thr = _reach(g1, g2, cls_, gmargin, ggap, pkey, pmargin, pgap, override, o_margin)
+        if cls_[g1] == PLANE or cls_[g2] == PLANE:
+            reach[r] = thr + rbound_[g2 if cls_[g1] == PLANE else g1]
+        else:
+            e = rbound_[g1] + rbound_[g2] + thr
+            reach[r] = e * e if e >= 0.0 else -1.0
+    while True:
+        c = fetch_add(addr, 1)
+        if c >= chunks:
+            break
+        for w in range((B * c) // chunks, (B * (c + 1)) // chunks):
+            q = qpos_[w]
+            hit = False
+            small = True
+            for i in range(q.shape[0]):
+                small &= abs(q[i]) <= qmax
+            for t in range(T if small else 0):
+                _half_angles_span(q, qpos0_, jtype, jqadr, sc, span_[t, 2], span_[t, 3])
+                _bodies_span(q, qpos0_, parent_, bpos0, bquat0, jntadr, jntnum, jtype, jqadr, jpos, jaxis, bpos,
+                             brot, bquat, sc, span_[t, 0], span_[t, 1])
+                ok = True
+                for i in range(tgeom_start[t], tgeom_start[t + 1]):
+                    g = tgeom[i]
+                    geom_pose(g, bpos, brot, bquat, geom_body_, geom_pos_, geom_quat_, xpos, xmat)
+                    ok &= _finite_pose(xpos, xmat, g)
+                if not ok:
+                    break  # the full path names the configuration
+                for r in range(tstart[t], tstart[t + 1]):
+                    g1 = tpairs_[r, 0]
+                    g2 = tpairs_[r, 1]
+                    if cls_[g1] == PLANE or cls_[g2] == PLANE:
+                        gp = g1 if cls_[g1] == PLANE else g2
+                        gc = g2 if cls_[g1] == PLANE else g1
+                        if (xmat[gp, 0, 2] * (xpos[gc, 0] - xpos[gp, 0]) + xmat[gp, 1, 2] * (xpos[gc, 1] - xpos[gp, 1])
+                                + xmat[gp, 2, 2] * (xpos[gc, 2] - xpos[gp, 2]) > reach[r]):
+                            continue
+                    else:
+                        d0_ = xpos[g2, 0] - xpos[g1, 0]
+                        d1_ = xpos[g2, 1] - xpos[g1, 1]
+                        d2_ = xpos[g2, 2] - xpos[g1, 2]
+                        if d0_ * d0_ + d1_ * d1_ + d2_ * d2_ > reach[r]:
+                            continue
+                    if cls_[g1] == SKIPPED or cls_[g2] == SKIPPED:
+                        continue  # left to the full path
+                    a = deepest_contact(g1, g2, xpos, xmat, cls_, rule_, below_, rbound_, size_, gmargin, ggap,
+                                        pkey, pmargin, pgap, override, o_margin, gtype_, half_, shapes, faces,
+                                        scratch, dws, d0, gws, g4, dwi)
+                    if a == ACTIVE:
+                        hit = True
+                        break
+                if hit:
+                    break
+            out_hit[w] = hit
+    return 0
+
+
 @nb.njit(cache=True, parallel=True, nogil=True)
 def check_trees(qpos, qmax, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr,
                 jnt_pos, jnt_axis, geom_body, geom_pos, geom_quat, static_span, static_geom, tree_span, tree_geom,
@@ -102,97 +205,13 @@ def check_trees(qpos, qmax, qpos0, body_parent, body_pos, body_quat, body_jntadr
     addr = counter.ctypes.data
     chunksize = set_chunksize(1)  # one iteration a worker (`_threads`)
     for wk in nb.prange(workers):
-        bpos = np.zeros((L, 3))
-        brot = np.zeros((L, 3, 3))
-        bquat = np.zeros((L, 4))
-        bquat[0, 0] = 1.0  # the world body, as `_kinematics_world` poses it
-        for i in range(3):
-            brot[0, i, i] = 1.0
-        sc = np.empty((max(nj, 1), 2))
-        for s in range(static_span.shape[0]):  # no joint: q and sc are not read
-            _bodies_span(qpos[0], qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type,
-                         jnt_qposadr, jnt_pos, jnt_axis, bpos, brot, bquat, sc, static_span[s, 0], static_span[s, 1])
-        xpos = np.zeros((G, 3))
-        xmat = np.zeros((G, 3, 3))
-        scratch, dws, d0, gws, g4, dwi = decider_scratch(cap, fmax)
-        # the shared tables borrowed (`borrow`, as check_worlds does)
-        cls_, rule_, below_, rbound_, size_ = borrow(cls), borrow(rule), borrow(below), borrow(rbound), borrow(size)
-        gmargin, ggap, pkey = borrow(geom_margin), borrow(geom_gap), borrow(pair_key)
-        pmargin, pgap, gtype_, half_ = borrow(pair_margin), borrow(pair_gap), borrow(gtype), borrow(half)
-        shapes = (borrow(kind), borrow(prm), borrow(pts), borrow(pts_adr), borrow(pts_num), borrow(nbr_start),
-                  borrow(nbr_start_adr), borrow(nbr_start_num), borrow(nbr), borrow(nbr_adr), borrow(nbr_num))
-        faces = (borrow(hv_adr), borrow(hv_num), borrow(hv), borrow(f_adr), borrow(f_num), borrow(f_normal),
-                 borrow(f_vadr), borrow(f_vnum), borrow(f_vidx))
-        geom_body_, geom_pos_, geom_quat_ = borrow(geom_body), borrow(geom_pos), borrow(geom_quat)
-        span_, tpairs_, tstart = borrow(tree_span), borrow(tpairs), borrow(tpair_start)
-        sgeom, tgeom, tgeom_start = borrow(static_geom), borrow(tree_geom), borrow(tree_geom_start)
-        qpos_, qpos0_, parent_, bpos0, bquat0 = borrow(qpos), borrow(qpos0), borrow(body_parent), borrow(body_pos), \
-            borrow(body_quat)
-        jntadr, jntnum, jtype, jqadr = borrow(body_jntadr), borrow(body_jntnum), borrow(jnt_type), \
-            borrow(jnt_qposadr)
-        jpos, jaxis = borrow(jnt_pos), borrow(jnt_axis)
-        # the static geoms' poses (no joint above them) once, and each pair's reach for the cull:
-        # the ball test |c1 - c2| > r1 + r2 + thr squared (no root), a plane's n . (c - p) > r + thr
-        for i in range(sgeom.shape[0]):
-            geom_pose(sgeom[i], bpos, brot, bquat, geom_body_, geom_pos_, geom_quat_, xpos, xmat)
-        P = tpairs_.shape[0]
-        reach = np.empty(P)
-        for r in range(P):
-            g1 = tpairs_[r, 0]
-            g2 = tpairs_[r, 1]
-            thr = _reach(g1, g2, cls_, gmargin, ggap, pkey, pmargin, pgap, override, o_margin)
-            if cls_[g1] == PLANE or cls_[g2] == PLANE:
-                reach[r] = thr + rbound_[g2 if cls_[g1] == PLANE else g1]
-            else:
-                e = rbound_[g1] + rbound_[g2] + thr
-                reach[r] = e * e if e >= 0.0 else -1.0
-        while True:
-            c = fetch_add(addr, 1)
-            if c >= chunks:
-                break
-            for w in range((B * c) // chunks, (B * (c + 1)) // chunks):
-                q = qpos_[w]
-                hit = False
-                small = True
-                for i in range(q.shape[0]):
-                    small &= abs(q[i]) <= qmax
-                for t in range(T if small else 0):
-                    _half_angles_span(q, qpos0_, jtype, jqadr, sc, span_[t, 2], span_[t, 3])
-                    _bodies_span(q, qpos0_, parent_, bpos0, bquat0, jntadr, jntnum, jtype, jqadr, jpos, jaxis, bpos,
-                                 brot, bquat, sc, span_[t, 0], span_[t, 1])
-                    ok = True
-                    for i in range(tgeom_start[t], tgeom_start[t + 1]):
-                        g = tgeom[i]
-                        geom_pose(g, bpos, brot, bquat, geom_body_, geom_pos_, geom_quat_, xpos, xmat)
-                        ok &= _finite_pose(xpos, xmat, g)
-                    if not ok:
-                        break  # the full path names the configuration
-                    for r in range(tstart[t], tstart[t + 1]):
-                        g1 = tpairs_[r, 0]
-                        g2 = tpairs_[r, 1]
-                        if cls_[g1] == PLANE or cls_[g2] == PLANE:
-                            gp = g1 if cls_[g1] == PLANE else g2
-                            gc = g2 if cls_[g1] == PLANE else g1
-                            if (xmat[gp, 0, 2] * (xpos[gc, 0] - xpos[gp, 0]) + xmat[gp, 1, 2] * (xpos[gc, 1] - xpos[gp, 1])
-                                    + xmat[gp, 2, 2] * (xpos[gc, 2] - xpos[gp, 2]) > reach[r]):
-                                continue
-                        else:
-                            d0_ = xpos[g2, 0] - xpos[g1, 0]
-                            d1_ = xpos[g2, 1] - xpos[g1, 1]
-                            d2_ = xpos[g2, 2] - xpos[g1, 2]
-                            if d0_ * d0_ + d1_ * d1_ + d2_ * d2_ > reach[r]:
-                                continue
-                        if cls_[g1] == SKIPPED or cls_[g2] == SKIPPED:
-                            continue  # left to the full path
-                        a = deepest_contact(g1, g2, xpos, xmat, cls_, rule_, below_, rbound_, size_, gmargin, ggap,
-                                            pkey, pmargin, pgap, override, o_margin, gtype_, half_, shapes, faces,
-                                            scratch, dws, d0, gws, g4, dwi)
-                        if a == ACTIVE:
-                            hit = True
-                            break
-                    if hit:
-                        break
-                out_hit[w] = hit
+        _tree_chunks(qpos, qmax, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type,
+                     jnt_qposadr, jnt_pos, jnt_axis, geom_body, geom_pos, geom_quat, static_span, static_geom,
+                     tree_span, tree_geom, tree_geom_start, tpairs, tpair_start, chunks, cls, rule, below, kind, prm,
+                     pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num, rbound,
+                     size, geom_margin, geom_gap, pair_key, pair_margin, pair_gap, override, o_margin, gtype, half,
+                     hv_adr, hv_num, hv, f_adr, f_num, f_normal, f_vadr, f_vnum, f_vidx, out_hit, B, L, G, nj, T, cap,
+                     fmax, addr)
     set_chunksize(chunksize)
     return 0
 

@@ -62,7 +62,7 @@ from .warm import (SEP_LEN, WARM_KEYS, WARM_LEN, distance_warm, sep_forget, sep_
 # This module's own names, and those of the routines moved out of it (plane, polytope), which
 # importers of `collide._kernels.manifold` still read here.
 __all__ = [
-    "CONVEX", "ERR_POSE", "ERR_ROTATION", "MAX_PER_PAIR", "PLANE", "SKIPPED", "T_BOX", "T_CAPSULE", "T_CYLINDER",
+    "CONVEX", "MAX_PER_PAIR", "PLANE", "SKIPPED", "T_BOX", "T_CAPSULE", "T_CYLINDER",
     "T_ELLIPSOID", "T_HFIELD", "T_MESH", "T_PLANE", "T_SPHERE", "CONVEX_PAIR", "F_DIST", "F_END", "F_MARGIN",
     "F_NORMAL", "F_POS", "N_SLOTS", "SLOT_BUFFER", "SLOT_COLS", "BUFFER_DTYPES", "TI_HEADER", "carve_scratch",
     "ARENA_FIELDS", "CTX_FIELDS", "NARENA", "NCTX", "OUT_FULL", "collide_bound", "collide_pairs", "pair_margins",
@@ -94,9 +94,6 @@ CONTACT_TOL = 1e-9
 # MuJoCo's geom types (mjtGeom), as `collide.contacts` passes them in ``gtype``.
 T_PLANE, T_HFIELD, T_SPHERE, T_CAPSULE, T_ELLIPSOID, T_CYLINDER, T_BOX, T_MESH = range(8)
 
-# Errors of `collide_pairs` (negative returns: -(code + 8 * geom) - 1 for a pose refused, `_pose_error`):
-# a non-finite entry; a rotation off orthonormal or a reflection, or a position beyond the bounds'.
-ERR_POSE, ERR_ROTATION = 1, 2
 
 
 @njit(cache=True, inline="always")
@@ -122,16 +119,14 @@ def _finite_pose(xpos, xmat, g):
 
 
 @njit(**NO_NRT)
-def _pose_error(xpos, xmat, g):
-    # 0 for a geom pose the narrow phase takes; ERR_POSE for a non-finite entry; ERR_ROTATION for
-    # xmat[g] off a proper rotation (an entry of |R^T R - I| above `_pose.ORTHO_TOL`, or det <= 0)
-    # or xpos[g] beyond `_pose.MAX_POSITION`: the bodies' one test (`_pose._pose_ok`). Every
-    # support, face and plane computation takes R as a rotation: a scaled or sheared one gave a
-    # silently wrong distance (review, 2026-12-01). Which error is told apart only on failure.
-    if _pose_ok(xmat[g, 0, 0], xmat[g, 0, 1], xmat[g, 0, 2], xmat[g, 1, 0], xmat[g, 1, 1], xmat[g, 1, 2],
-                xmat[g, 2, 0], xmat[g, 2, 1], xmat[g, 2, 2], xpos[g, 0], xpos[g, 1], xpos[g, 2]):
-        return 0
-    return ERR_ROTATION if _finite_pose(xpos, xmat, g) else ERR_POSE
+def _pose_refused(xpos, xmat, g):
+    # True for a geom pose the narrow phase refuses: xmat[g] off a proper rotation (an entry of
+    # |R^T R - I| above `_pose.ORTHO_TOL`, or det <= 0), a non-finite entry, or xpos[g] beyond
+    # `_pose.MAX_POSITION`: the bodies' one test (`_pose._pose_ok`). Every support, face and plane
+    # computation takes R as a rotation: a scaled or sheared one gave a silently wrong distance
+    # (review, 2026-12-01). What is wrong is worded on the Python side (`contacts._pose_problem`).
+    return not _pose_ok(xmat[g, 0, 0], xmat[g, 0, 1], xmat[g, 0, 2], xmat[g, 1, 0], xmat[g, 1, 1], xmat[g, 1, 2],
+                        xmat[g, 2, 0], xmat[g, 2, 1], xmat[g, 2, 2], xpos[g, 0], xpos[g, 1], xpos[g, 2])
 
 
 @njit(**NO_NRT)
@@ -449,9 +444,8 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
     Returns
     -------
     int
-        Contacts written; ``-(8 g + e) - 1`` for a pose of geom ``g`` refused with error ``e``
-        (`ERR_POSE`: non-finite; `ERR_ROTATION`: not a proper rotation, or beyond the positions
-        taken).
+        Contacts written; ``-g - 1`` for a pose of geom ``g`` refused (`_pose_refused`: non-finite,
+        not a proper rotation, or beyond the positions taken).
     """
     return _collide(pairs, xpos, xmat, (cls, rule, below, rbound, size, gtype, half),
                     (kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr, nbr_num),
@@ -489,12 +483,10 @@ def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
             continue
         if c1 == PLANE and c2 == PLANE:
             continue  # no collision function (MuJoCo's mjCOLLISIONFUNC is NULL there)
-        e = _pose_error(xpos, xmat, g1)
-        if e:
-            return -(8 * g1 + e) - 1
-        e = _pose_error(xpos, xmat, g2)
-        if e:
-            return -(8 * g2 + e) - 1
+        if _pose_refused(xpos, xmat, g1):
+            return -g1 - 1
+        if _pose_refused(xpos, xmat, g2):
+            return -g2 - 1
         # the pair's margin and gap: an explicit pair's own, else the geoms' sums; a geom pair
         # listed in several <pair>s is collided once for each, with its own (as MuJoCo does)
         j, nent, explicit = _pair_rows(pair_key, min(g1, g2) * G + max(g1, g2))
@@ -728,8 +720,8 @@ def pair_signed_distance_bound(g1, g2, xpos, xmat, addr, cutoff, out):
     so a call passes seven arguments where `pair_signed_distance` takes eighteen (numba's dispatch
     pays for each). ``g1``, ``g2`` must be geom ids of the table and ``xpos`` ``(G, 3)``,
     ``xmat`` ``(G, 3, 3)`` its poses, C-contiguous: nothing is checked. Returns, ``cutoff`` and
-    ``out`` as `pair_signed_distance`, 5 for a pose `_pose_error` refuses as not a rotation (or beyond
-    the positions taken), and 4 (``out`` not written) when the geoms' bounding balls
+    ``out`` as `pair_signed_distance`, 3 also for a pose `_pose_refused` refuses (not a rotation,
+    or beyond the positions taken), and 4 (``out`` not written) when the geoms' bounding balls
     are farther apart than ``cutoff`` (as ``mj_geomDistance`` first tests them). Both early
     answers (that one and GJK's cutoff) take a pair only when it is beyond ``cutoff`` by more
     than the query's tolerance and rounding, so a pair at ``cutoff`` gets the full query's answer.
@@ -747,11 +739,8 @@ def pair_signed_distance_bound(g1, g2, xpos, xmat, addr, cutoff, out):
         # a pose that is not a rotation (or beyond the positions taken) is refused here, at the
         # user's entry point; `pair_signed_distance` itself (check_batch's, on poses from our own
         # kinematics) keeps its finiteness test
-        e = _pose_error(xpos, xmat, g1)
-        if e == 0:
-            e = _pose_error(xpos, xmat, g2)
-        if e:
-            return 3 if e == ERR_POSE else 5
+        if _pose_refused(xpos, xmat, g1) or _pose_refused(xpos, xmat, g2):
+            return 3
     if c1 == CONVEX and c2 == CONVEX:
         rbound = _slot(tf, ti, S_RBOUND)
         # Either early answer must be the full query's: a pair is only cut off when it is beyond

@@ -2,7 +2,7 @@
 
     python tests/bench/pose_check.py
 
-`collide._kernels.manifold._pose_error` (a proper rotation within `bounds.ORTHO_TOL` and a position
+`collide._kernels.manifold._pose_refused` (a proper rotation within `bounds.ORTHO_TOL` and a position
 within `bounds.MAX_POSITION`, the bodies' test) against the finiteness test it replaced
 (`_finite_pose`) and an empty loop, each in a compiled loop over 200,000 random geoms of 256
 (cache-resident poses): nanoseconds a geom, medians of 9 runs, three rounds. The per-step kernel
@@ -17,14 +17,14 @@ import numba as nb
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from collide._kernels.manifold import _finite_pose, _pose_error
+from collide._kernels.manifold import _finite_pose, _pose_refused
 
 
 @nb.njit
 def _new(xpos, xmat, idx):
     s = 0
     for g in idx:
-        s += _pose_error(xpos, xmat, g)
+        s += 1 if _pose_refused(xpos, xmat, g) else 0
     return s
 
 
@@ -50,7 +50,7 @@ def main() -> None:
     xmat = Rotation.random(G, random_state=1).as_matrix().copy()
     xpos = rng.normal(size=(G, 3))
     idx = rng.integers(0, G, 200_000).astype(np.int64)
-    fns = {"_pose_error": _new, "_finite_pose": _old, "empty loop": _empty}
+    fns = {"_pose_refused": _new, "_finite_pose": _old, "empty loop": _empty}
     for f in fns.values():
         assert f(xpos, xmat, idx) == (int(np.sum(idx & 1)) if f is _empty else 0)  # compiled; every pose taken
     for _ in range(3):
