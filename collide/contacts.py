@@ -594,7 +594,7 @@ def _contacts_of(table: GeomTable, pairs: np.ndarray, xpos: np.ndarray, xmat: np
         out = table._out
         r = _bound(pairs, xpos, xmat, skipped, table._ctx_addr, out[7])
     if r < 0:
-        g = -r - 1
+        g = -r - 2  # a refused pose of geom g (`manifold._collide`)
         raise ValueError(_pose_problem(xpos, xmat, g) or f"geom_xpos/geom_xmat: the pose of geom {g} is refused")
     n = r & 0xFFFFFFFF
     if n == 0 and not any_skipped:

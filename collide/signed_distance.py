@@ -379,7 +379,7 @@ def distance(a, b, pose_a=None, pose_b=None, *, warm=None, tolerance: float = _T
 
     Notes
     -----
-    The bracket ``lower <= distance <= upper`` always holds. How narrow it gets is limited by the
+    The bracket ``lower <= true signed distance <= upper`` always holds. How narrow it gets is limited by the
     world coordinates' precision as well as by ``tolerance``. The supports are computed in world
     coordinates, so a shape far from the origin relative to its size has the rounding of its
     position, about 1e-16 of it. Example: shapes of size 1e-6 placed 1e4 from the origin get

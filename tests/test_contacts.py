@@ -8,6 +8,7 @@ hand: ``COLLIDE_CONTACT_STEPS=2000 pytest tests/test_contacts.py -k shared``).
 from __future__ import annotations
 
 import os
+import signal
 
 import mujoco
 import numpy as np
@@ -450,6 +451,41 @@ def test_a_geom_pose_that_is_not_a_rotation_is_refused(bad):
     after = col.contacts(data)
     assert np.array_equal(after.dist, before.dist) and np.array_equal(after.geom, before.geom)
     assert col.geom_distance(data, 1, 2, 1.0)[0] == dist_before
+
+
+def test_a_refused_pose_of_geom_0_raises_and_does_not_loop():
+    # The contact kernel reports a refused geom below its "arena full" code (-1): geom 0's
+    # refusal once read as -1, and Collider.contacts grew a new arena and called again forever
+    # (helper-73's review). The alarm turns such a loop into a failure instead of a hung run.
+    body = ('<geom type="plane" size="1 1 .1"/><body pos="0 0 0.09"><freejoint/>'
+            '<geom type="box" size=".1 .1 .1"/></body>')
+    model = _model(body)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    col = cm.Collider(model)
+    before = col.contacts(data)
+    assert len(before) >= 4 and np.all(before.geom == [0, 1])  # the box on the plane: real contacts
+    good = data.geom_xmat[0].copy()
+    old = signal.signal(signal.SIGALRM, lambda *_: pytest.fail("a refused pose of geom 0 did not end the call"))
+    try:
+        for bad in (np.nan, 2.0):  # non-finite; not a rotation
+            data.geom_xmat[0] = good
+            data.geom_xmat[0, 0] = bad
+            what = r"non-finite pose \(NaN or inf\)" if bad != bad else "rotation"
+            signal.alarm(60)
+            with pytest.raises(ValueError, match=f"{what} of geom 0"):
+                col.contacts(data)
+            with pytest.raises(ValueError, match=f"{what} of geom 0"):
+                cc.narrow_phase(col.table, np.array([[0, 1]]), data.geom_xpos.copy(), data.geom_xmat.copy())
+            with pytest.raises(ValueError, match=f"{what} of geom 0"):
+                col.geom_distance(data, 0, 1, 1.0)
+            signal.alarm(0)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    data.geom_xmat[0] = good
+    after = col.contacts(data)
+    assert np.array_equal(after.dist, before.dist) and np.array_equal(after.geom, before.geom)
 
 
 def test_pairs_are_the_broad_phases():

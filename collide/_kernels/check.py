@@ -520,7 +520,7 @@ def _pose_pair(g1, g2, w, lane, pose, geoms, xpos, xmat, stamp, S, err):
 # shared counter until none is left. A plain compiled function rather than the ``prange`` body: numba
 # compiled the kernel with every decider inlined into its parallel loop about twice as slowly
 # (`tests/bench/compile_time.py`). Not done for the broad phase's parallel kernels (the lanes,
-# `batch`, `swept`): there it made the compile slower.
+# `batch`, `swept`), whose compile it made slower, nor for `check_lanes_kin` (no clear gain).
 @nb.njit(cache=True, nogil=True)
 def _check_chunks(qpos, qpos0, body_parent, body_pos, body_quat, body_jntadr, body_jntnum, jnt_type, jnt_qposadr,
                   jnt_pos, jnt_axis, geom_body, geom_pos, geom_quat, rows, row_start, mode, label, dpairs, distmax,

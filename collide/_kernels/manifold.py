@@ -95,7 +95,6 @@ CONTACT_TOL = 1e-9
 T_PLANE, T_HFIELD, T_SPHERE, T_CAPSULE, T_ELLIPSOID, T_CYLINDER, T_BOX, T_MESH = range(8)
 
 
-
 @njit(cache=True, inline="always")
 def _shape(g, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr,
            nbr_num, xpos, xmat):
@@ -444,7 +443,7 @@ def collide_pairs(pairs, xpos, xmat, cls, rule, below, kind, prm, pts, pts_adr, 
     Returns
     -------
     int
-        Contacts written; ``-g - 1`` for a pose of geom ``g`` refused (`_pose_refused`: non-finite,
+        Contacts written; ``-g - 2`` for a pose of geom ``g`` refused (`_pose_refused`: non-finite,
         not a proper rotation, or beyond the positions taken).
     """
     return _collide(pairs, xpos, xmat, (cls, rule, below, rbound, size, gtype, half),
@@ -484,9 +483,9 @@ def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
         if c1 == PLANE and c2 == PLANE:
             continue  # no collision function (MuJoCo's mjCOLLISIONFUNC is NULL there)
         if _pose_refused(xpos, xmat, g1):
-            return -g1 - 1
+            return -g1 - 2  # below `OUT_FULL` (-1), which `collide_bound` returns for a full arena
         if _pose_refused(xpos, xmat, g2):
-            return -g2 - 1
+            return -g2 - 2
         # the pair's margin and gap: an explicit pair's own, else the geoms' sums; a geom pair
         # listed in several <pair>s is collided once for each, with its own (as MuJoCo does)
         j, nent, explicit = _pair_rows(pair_key, min(g1, g2) * G + max(g1, g2))
@@ -668,8 +667,8 @@ def collide_bound(pairs, xpos, xmat, skipped, addr, arena):
     -------
     int
         ``(row << 32) | n``: ``n`` contacts written from ``row`` on; `OUT_FULL` when fewer than
-        ``per_pair * K`` rows are free (nothing written, ``out_next`` unchanged); a non-finite
-        pose as `collide_pairs` reports it (``out_next`` unchanged).
+        ``per_pair * K`` rows are free (nothing written, ``out_next`` unchanged); a refused
+        pose as `collide_pairs` reports it, below `OUT_FULL` (``out_next`` unchanged).
     """
     ctx = view_of(i64_ptr(addr), NCTX)
     out = view_of(i64_ptr(arena), NARENA)

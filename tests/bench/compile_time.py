@@ -125,7 +125,8 @@ class L(event.Listener):
 event.register("numba:compile", L())
 t = time.perf_counter()
 {code}
-print(json.dumps({{"seconds": time.perf_counter() - t, "compiles": log}}))
+import collide
+print(json.dumps({{"seconds": time.perf_counter() - t, "compiles": log, "package": collide.__file__}}))
 """
 
 
@@ -133,7 +134,10 @@ def run_job(name: str, package: Path, cache: Path) -> dict | None:
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache), PYTHONPATH=str(package))
     env.pop("COLLIDE_CHECKED", None)
     code = _CHILD.format(models=str(MODELS), code=JOBS[name][1])
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=3600)
+    # cwd: `python -c` puts the current folder first on sys.path, ahead of PYTHONPATH (a checkout's
+    # root would shadow the package asked for)
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=3600,
+                         cwd=cache)
     if out.returncode != 0:
         print(f"{name}: failed\n{out.stderr[-3000:]}", file=sys.stderr)
         return None
@@ -163,12 +167,15 @@ def main() -> None:
                 print(f"{name:14s} skipped: {MODELS} is absent")
                 continue
             cache = base if i == 0 else Path(tmp) / name
-            if i > 0:
+            if i > 0 and base.is_dir():
                 shutil.copytree(base, cache)
+            cache.mkdir(exist_ok=True)
             r = run_job(name, args.package, cache)
             if r is None:
                 print(f"{name:14s} failed (its error on stderr)")
                 continue
+            if not r["package"].startswith(str(args.package.resolve())):
+                raise SystemExit(f"{name}: imported {r['package']}, not the package of {args.package}")
             total += r["seconds"]
             comp = ", ".join(f"{k} {s:.1f}" for k, s in r["compiles"] if s >= 1.0)
             print(f"{name:14s} {r['seconds']:8.1f}  {comp}", flush=True)
