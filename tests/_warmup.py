@@ -60,18 +60,28 @@ def _swept() -> None:
 
 
 def _mujoco() -> None:
-    # test_mujoco.py, test_batch_models.py: the MuJoCo adapter's contacts and batched broad phase
-    # (CI's second run, in the checked mode, compiles them here while test_broadphase.py runs).
+    # test_mujoco.py, test_batch_models.py: the MuJoCo adapter's contacts and batched broad phase.
+    # In CI's second run (the checked mode) test_broadphase.py compiles the per-step kernel
+    # meanwhile: the narrow phase comes first here, through its own entry point (a Collider
+    # compiles the per-step kernel at its first step, not when built), then the batch kernels,
+    # which load that kernel's callee (`broadphase._world`) by then.
     import mujoco
     import numpy as np
 
     import collide.mujoco as cm
+    from collide import contacts
 
     model = cm.default_scene(seed=1, objects=10)
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    cm.Collider(model).contacts(data)
-    cm.BroadPhase(model).pairs_batch(model, np.tile(model.qpos0, (4, 1)))
+    col = cm.Collider(model)
+    G = model.ngeom
+    pairs = np.array([(i, j) for i in range(G) for j in range(i + 1, G)], np.int32)
+    contacts.narrow_phase(col.table, pairs, data.geom_xpos, data.geom_xmat)
+    q = np.tile(model.qpos0, (4, 1))
+    col.broadphase.pairs_batch(model, q)
+    col.broadphase.broadphase.pairs_batch(*cm.kinematic_tree(model).poses(q))
+    col.contacts(data)
 
 
 # (the test files that need a warm-up's kernels, the warm-up), in the order they run. conftest.py

@@ -153,7 +153,6 @@ class BroadPhase(SweptCalls):
         self._info = np.zeros(4, np.int64)
         self._ctx = np.zeros(_kstep.NCTX, np.int64)
         self._ctx_addr = self._ctx.ctypes.data  # `_kstep.step_bound`'s argument: never replaced
-        self._step = _kstep.step_function()
         self._step_bound = None  # see bind
         self._lock = threading.Lock()  # see pairs
         _instances.add(self)  # a new lock in a forked child (`_new_locks`)
@@ -342,6 +341,15 @@ class BroadPhase(SweptCalls):
         self._ctx[_kstep.C_NLAST] = k
         out = self._last = self._arena[:k]
         return out
+
+    def _step(self, body_pos, body_rot, ctx) -> int:
+        # `_kstep._step`, compiled (or loaded from numba's cache) at this object's first step, not
+        # at construction: a caller that only batches or checks configurations never compiles it
+        # (the test suite's warm-up process, tests/_warmup.py, builds colliders for their batch
+        # kernels while the tests compile `_step`). The compiled function then replaces this
+        # method on the instance.
+        self._step = step = _kstep.step_function()
+        return step(body_pos, body_rot, ctx)
 
     def _rerun(self, body_pos, body_rot, k: int) -> int:
         # A bad pose raises; a full buffer is grown and the step rerun (never drop a pair).
