@@ -63,8 +63,8 @@ def _mujoco() -> None:
     # test_mujoco.py, test_batch_models.py: the MuJoCo adapter's contacts and batched broad phase.
     # In CI's second run (the checked mode) test_broadphase.py compiles the per-step kernel
     # meanwhile: the narrow phase comes first here, through its own entry point (a Collider
-    # compiles the per-step kernel at its first step, not when built), then the batch kernels,
-    # which load that kernel's callee (`broadphase._world`) by then.
+    # compiles no step kernel when built), then the batch kernels, which load the step's callee
+    # (`broadphase._world`) by then, and last the adapter's bound step (`contacts(data)`).
     import mujoco
     import numpy as np
 

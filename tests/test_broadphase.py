@@ -310,7 +310,10 @@ def test_bound_arrays_are_read_in_place():
     want = bp.pairs()
     bp._set_buffers(1, 2)  # tiny buffers: grown, rerun on the bound arrays
     assert np.array_equal(bp.pairs(), want)
+    # ... through the bound step: the per-array step (compiled at its first use) was never needed
+    assert "_step" not in vars(bp)
     assert np.array_equal(bp.pairs(pos_b.copy(), rot_b.copy()), want)  # explicit arrays still work
+    assert "_step" in vars(bp)
     rot_b[3] *= 1.01
     with pytest.raises(ValueError, match="body 3: rotation is not a proper orthonormal"):
         bp.pairs()

@@ -246,7 +246,7 @@ class BroadPhase(SweptCalls):
                     k = self._rerun(*bound, k)
             else:
                 # One call. The kernel checks the shapes; its dispatcher takes only C-contiguous
-                # float64 arrays and raises TypeError for anything else (no new compilation, ever).
+                # float64 arrays and raises TypeError for anything else (no new specialisation).
                 try:
                     k = self._step(body_pos, body_rot, self._ctx)
                 except TypeError:
@@ -343,17 +343,21 @@ class BroadPhase(SweptCalls):
         return out
 
     def _step(self, body_pos, body_rot, ctx) -> int:
-        # `_kstep._step`, compiled (or loaded from numba's cache) at this object's first step, not
-        # at construction: a caller that only batches or checks configurations never compiles it
-        # (the test suite's warm-up process, tests/_warmup.py, builds colliders for their batch
-        # kernels while the tests compile `_step`). The compiled function then replaces this
-        # method on the instance.
+        # `_kstep._step`, compiled (or loaded from numba's cache) at this object's first
+        # `pairs(body_pos, body_rot)`, not at construction: a caller that only binds its arrays
+        # (the MuJoCo adapter: `_kstep.step_bound`, compiled at `bind`), batches or checks
+        # configurations never compiles it (the test suite's warm-up process, tests/_warmup.py,
+        # builds colliders for their batch kernels while the tests compile `_step`). The compiled
+        # function then replaces this method on the instance.
         self._step = step = _kstep.step_function()
         return step(body_pos, body_rot, ctx)
 
     def _rerun(self, body_pos, body_rot, k: int) -> int:
-        # A bad pose raises; a full buffer is grown and the step rerun (never drop a pair).
+        # A bad pose raises; a full buffer is grown and the step rerun (never drop a pair). The
+        # bound arrays are rerun through the bound step (their addresses stay in the context across
+        # `_set_buffers`), so that a bound caller never needs `_step` (compiled at its first use).
         info = self._info
+        bound = self._bound is not None and body_pos is self._bound[0] and body_rot is self._bound[1]
         while k < 0:
             if k == _kstep.RET_BAD_POSE:
                 raise_pose_error(int(info[0]), int(info[1]))
@@ -361,7 +365,7 @@ class BroadPhase(SweptCalls):
                 self._set_buffers(2 * int(info[3]), len(self._keys))
             else:
                 self._set_buffers(self._bp.shape[0], 2 * int(info[2]))
-            k = self._step(body_pos, body_rot, self._ctx)
+            k = self._step_bound(self._ctx_addr) if bound else self._step(body_pos, body_rot, self._ctx)
         return k
 
     def world_bounds(self, body_pos: np.ndarray | None = None, body_rot: np.ndarray | None = None,

@@ -5,7 +5,8 @@
 Each job below runs in a fresh process with an empty numba cache (a temporary ``NUMBA_CACHE_DIR``),
 the package imported from ``DIR`` (default: this checkout; give a ``git archive`` copy of another
 revision to compare two). Every job but the first starts from the cache the first one left: the
-single-world step and the contact kernel, which most entry points share, are compiled once there.
+single-world step (the MuJoCo adapter's bound step, `step._step_bound`, and its `broadphase._world`)
+and the contact kernel, which most entry points share, are compiled once there.
 For each job: the seconds of its call and of each outermost compile (numba's ``numba:compile``
 event, which fires only on a real compile, not on a cache load). Run on a quiet machine; a compile
 is one core's work.
@@ -33,7 +34,7 @@ MODELS = ROOT.parent / "shared" / "models"
 
 # (name, what the job compiles, its code): each runs in its own process.
 JOBS = {
-    "contacts": ("step._step, manifold.collide_bound (the simulation loop's call)", """
+    "contacts": ("step._step_bound (with broadphase._world), manifold.collide_bound (the simulation loop's call)", """
 import mujoco
 import collide.mujoco as cm
 model = cm.default_scene(seed=1, objects=10)

@@ -6,10 +6,12 @@ Each signature of a function is a compile of its own (with every callee whose ar
 so a function listed here with signatures that differ only by a ``Literal[int](-1)`` against an
 ``int64``, or a ``bool`` literal, costs a compile that one plain value would save (docs/design.md,
 "The kernel cache"). Reads the cache index files (``*.nbi``) under ``FOLDER`` (default: the package
-next to this script), so run it after the code paths of interest ran once (the test suite, a
-benchmark). The index format is numba's own (a pickled version, then a pickled ``(stamp,
-overloads)``, keyed by the signature first): written for numba 0.68; a file it cannot read is
-named and skipped. ``--all``: every argument, not only those that differ between signatures.
+next to this script; or a ``NUMBA_CACHE_DIR``), so run it after the code paths of interest ran
+once (the test suite, a benchmark), best on a fresh cache: an index whose stamp did not change keeps
+the signatures of earlier runs. Of a function's index files, the newest is read. The index format
+is numba's own (a pickled version, then a pickled ``(stamp, overloads)``, keyed by the signature
+first): written for numba 0.68; a file it cannot read is named and skipped. ``--all``: every
+argument, not only those that differ between signatures.
 """
 
 from __future__ import annotations
@@ -34,8 +36,25 @@ def _signatures(path: Path) -> list[tuple]:
     with open(path, "rb") as f:
         pickle.load(f)  # numba's version
         _stamp, overloads = pickle.loads(f.read())
-    # the key's first item: the argument types (a Signature where the dispatcher was given one)
-    return [tuple(getattr(key[0], "args", key[0])) for key in overloads]
+    sigs = []
+    for key in overloads:  # (argument types, target, ...): a tuple, a Signature or the string given
+        k0 = key[0]
+        sig = (k0,) if isinstance(k0, str) else tuple(getattr(k0, "args", k0))
+        if sig not in sigs:  # one signature for two CPUs is one compile here
+            sigs.append(sig)
+    return sigs
+
+
+def _current(folder: Path) -> list[Path]:
+    # Each function's newest index file: numba names it after the function's first line
+    # (``module.function-LINE.py311.nbi``) and leaves the file of an older line where it was.
+    newest: dict[tuple, Path] = {}
+    for path in folder.rglob("*.nbi"):  # __pycache__ folders, or NUMBA_CACHE_DIR's own layout
+        func, _, rest = path.name.rpartition("-")
+        key = (path.parent, func, "_checked" in rest)
+        if key not in newest or path.stat().st_mtime > newest[key].stat().st_mtime:
+            newest[key] = path
+    return sorted(newest.values())
 
 
 def main() -> None:
@@ -43,15 +62,16 @@ def main() -> None:
     ap.add_argument("folder", nargs="?", default=str(Path(__file__).resolve().parents[2] / "collide"))
     ap.add_argument("--all", action="store_true", help="print every argument, not only the differing ones")
     args = ap.parse_args()
+    folder = Path(args.folder)
     rows = []
-    for path in sorted(Path(args.folder).rglob("__pycache__/*.nbi")):
+    for path in _current(folder):
         try:
             sigs = _signatures(path)
         except Exception as exc:  # noqa: BLE001 -- another numba's format: say so, go on
             print(f"unreadable: {path} ({type(exc).__name__}: {exc})", file=sys.stderr)
             continue
         if len(sigs) > 1:
-            rows.append((len(sigs), path.name, sigs))
+            rows.append((len(sigs), str(path.relative_to(folder)), sigs))
     for n, name, sigs in sorted(rows, key=lambda r: (-r[0], r[1])):
         print(f"{n}  {name}")
         width = min(len(s) for s in sigs)
