@@ -30,8 +30,7 @@ def _shape(pts, rot, pos):
 @njit(cache=True)
 def _within(sa, sb, tol, fws, iws, out):
     # pair_distance_within on the scratch given (the contact kernel's call, cold)
-    h_a, h_b, n_it = kd.cold_start()
-    kd.pair_distance_within(sa, sb, tol, np.inf, np.zeros(3), h_a, h_b, n_it, out, fws, iws)
+    kd.pair_distance_within(sa, sb, tol, np.inf, np.zeros(3), -1, -1, kd.EPA_CAP, out, fws, iws)
 
 
 @njit(cache=True)
@@ -46,7 +45,7 @@ def _epa_after_gjk(sa, sb, tol, cap, fws, iws, res):
     pa = np.zeros(3)
     pb = np.zeros(3)
     hints = np.full(2, -1)
-    st, n, lower, scale, it = gjk_within(sa, sb, np.zeros(3), hints, tol, np.inf, cap, W, WA, WB, lam, v, dirn, pa,
+    st, n, lower, scale, it = gjk_within(sa, sb, np.zeros(3), hints, tol, np.inf, 128, W, WA, WB, lam, v, dirn, pa,
                                          pb)
     if st != OVERLAP:
         return st, -1

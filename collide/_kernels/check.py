@@ -37,7 +37,7 @@ import numpy as np
 from ._ptr import borrow
 from ._quat import _qmat, _qmul
 from ._threads import fetch_add, set_chunksize
-from .distance import ROUNDING, WS_F_EPA, WS_I_EPA, cold_start, pair_distance_within
+from .distance import EPA_CAP, ROUNDING, WS_F_EPA, WS_I_EPA, pair_distance_within
 from .gjk import OVERLAP, SEPARATED, gjk_within
 from .kinematics import _kinematics_world
 from .support import CYLINDER, ELLIPSOID, POINTS, support
@@ -344,8 +344,7 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_mar
             r = prm[g1, 3] + prm[g2, 3]
             if _round(g1, kind, pts_num) and _round(g2, kind, pts_num):
                 # spheres and capsules: pair_distance_within's closed form (`segment_distance`, no iteration) decides
-                h_a, h_b, n_it = cold_start()
-                pair_distance_within(s1, s2, tol, math.inf, d0, h_a, h_b, n_it, dws[:OUT_SIZE], dws[OUT_SIZE:], dwi)
+                pair_distance_within(s1, s2, tol, math.inf, d0, -1, -1, EPA_CAP, dws[:OUT_SIZE], dws[OUT_SIZE:], dwi)
                 d = dws[OUT_DISTANCE]
                 if d <= thr:
                     if d < margin:
@@ -364,8 +363,7 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_mar
             g4[:] = 0.0
             # GJK stops once its certified lower bound passes thr + r (`gjk_within`): the pair is
             # then certainly beyond reach, the decision the full run's lower bound would give
-            n_it = cold_start()[2]  # as int64: the signature of `pair_distance_within`'s call
-            st, nsx, lower, scale, iters = gjk_within(s1, s2, d0, hints, tol, thr + r, n_it, gws[0], gws[1], gws[2],
+            st, nsx, lower, scale, iters = gjk_within(s1, s2, d0, hints, tol, thr + r, 128, gws[0], gws[1], gws[2],
                                                       g4[0], gws[3, 0], g4[1], gws[3, 1], gws[3, 2])
             if st == OVERLAP:
                 return ACTIVE  # cores within tol of touching: d <= tol - r
@@ -376,8 +374,7 @@ def deepest_contact(g1, g2, xpos, xmat, cls, rule, below, rbound, size, geom_mar
                 upper = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])  # |v|: a point of A - B
                 if upper - r < margin and upper - r <= thr:
                     return ACTIVE
-            h_a, h_b, n_it = cold_start()
-            pair_distance_within(s1, s2, tol, math.inf, d0, h_a, h_b, n_it, dws[:OUT_SIZE], dws[OUT_SIZE:], dwi)
+            pair_distance_within(s1, s2, tol, math.inf, d0, -1, -1, EPA_CAP, dws[:OUT_SIZE], dws[OUT_SIZE:], dwi)
             d = dws[OUT_DISTANCE]
         if d <= thr:  # a contact is made (collide_pairs' rule) ...
             if d < margin:  # ... and active: MuJoCo's exclude == 0

@@ -182,16 +182,6 @@ WS_F_EPA = WS_F + epa_sizes.py_func(EPA_CAP)[0]
 WS_I_EPA = WS_I + epa_sizes.py_func(EPA_CAP)[1]
 
 
-@njit(cache=True, inline="always")
-def cold_start():
-    """``(hint_a, hint_b, max_iter)`` of `pair_distance_within`'s cold query from a kernel: no
-    hill-climb start, `EPA_CAP` iterations, as int64 values. Not the constants themselves: numba
-    types a constant argument by its value (``Literal[int](-1)``), so kernels passing them would
-    compile `pair_distance_within` and its GJK and EPA once more, beside the int64 version that
-    the other kernels and direct Python callers (the tests) compile."""
-    return np.int64(-1), np.int64(-1), np.int64(EPA_CAP)
-
-
 @njit(**NO_NRT)
 def _closed_form(sa, sb, tol, out, fws):
     # `pair_distance_within`'s answer in closed form, where it has one certified within tol (True,

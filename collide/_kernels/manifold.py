@@ -50,7 +50,7 @@ from numba import njit
 from ._ptr import NO_NRT, bool_ptr, check_span, f64_ptr, i8_ptr, i32_ptr, i64_ptr, view_of
 from ._pose import _pose_ok
 from .distance import (OUT_DISTANCE, OUT_NORMAL, OUT_PENETRATING, OUT_POINT_A, OUT_POINT_B, OUT_SIZE, ROUNDING,
-                       WS_F, WS_F_EPA, WS_I, WS_I_EPA, cold_start, pair_distance, pair_distance_within, segment_distance)
+                       EPA_CAP, WS_F, WS_F_EPA, WS_I, WS_I_EPA, pair_distance, pair_distance_within, segment_distance)
 from .faces import BOX_MAX, BOX_WS, box_box, clip_faces
 from .plane import (PLANE_FACE_TOL, RULE_CYLINDER, RULE_POINTS, RULE_SUPPORT, RULE_VERTICES, _plane_cylinder,
                     _support_minus, plane_convex, plane_mesh, reduce_four)
@@ -530,8 +530,7 @@ def _collide(pairs, xpos, xmat, gtab, shapes, margins, faces, ws, outs):
             if key != 0 and cache[WARM_KEYS + warm_slot(key)] == key:
                 distance_warm(s1, s2, tol, thr + tol, d0, out, cache, key, dws, dwi)
             elif not (round_pair and segment_distance(s1, s2, tol, out)):  # spheres and capsules: at once
-                h_a, h_b, n_it = cold_start()
-                pair_distance_within(s1, s2, tol, thr + tol, d0, h_a, h_b, n_it, out, dws, dwi)
+                pair_distance_within(s1, s2, tol, thr + tol, d0, -1, -1, EPA_CAP, out, dws, dwi)
                 if key != 0 and out[OUT_PENETRATING] == 1.0:
                     warm_claim(cache, key)
             d = out[OUT_DISTANCE]
@@ -811,8 +810,7 @@ def pair_signed_distance(g1, g2, xpos, xmat, cls, kind, prm, pts, pts_adr, pts_n
     s2 = _shape(g2, kind, prm, pts, pts_adr, pts_num, nbr_start, nbr_start_adr, nbr_start_num, nbr, nbr_adr,
                 nbr_num, xpos, xmat)
     res = np.empty(OUT_SIZE)
-    h_a, h_b, n_it = cold_start()
-    pair_distance_within(s1, s2, 1e-12 * (size[g1] + size[g2]), cutoff, np.zeros(3), h_a, h_b, n_it, res,
+    pair_distance_within(s1, s2, 1e-12 * (size[g1] + size[g2]), cutoff, np.zeros(3), -1, -1, 128, res,
                          np.empty(WS_F), np.empty(WS_I, np.int64))
     out[0] = res[OUT_DISTANCE]
     for q in range(3):

@@ -29,8 +29,8 @@ import numpy as np
 from numba import njit
 
 from ._ptr import NO_NRT
-from .distance import (OUT_HINT_A, OUT_HINT_B, OUT_ITERATIONS, OUT_NORMAL, OUT_PENETRATING, ROUNDING,
-                       cold_start, pair_distance_within)
+from .distance import (EPA_CAP, OUT_HINT_A, OUT_HINT_B, OUT_ITERATIONS, OUT_NORMAL, OUT_PENETRATING, ROUNDING,
+                       pair_distance_within)
 from .epa import E_NV, ENTRY
 from .support import support
 
@@ -74,8 +74,7 @@ def distance_warm(sa, sb, tol, cutoff, d0, out, cache, key, fws, iws):
     row = cache[o:o + ENTRY]
     if row[E_NV] > 0:
         cache[WARM_TRIES] += 1
-    h_a, h_b, n_it = cold_start()
-    pair_distance_within(sa, sb, tol, cutoff, d0, h_a, h_b, n_it, out, fws, iws, row)
+    pair_distance_within(sa, sb, tol, cutoff, d0, -1, -1, EPA_CAP, out, fws, iws, row)
     if out[OUT_ITERATIONS] == 0:  # answered by its kept polytope
         cache[WARM_HITS] += 1
     elif out[OUT_PENETRATING] != 1.0:  # apart (or degenerate): back to the cold query
