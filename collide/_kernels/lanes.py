@@ -404,9 +404,7 @@ def _lane_group(pos_src, rot_src, l0, g0, nl, I, F, W, sap, bp, scr, stats, info
     keys_all = nb.carray(i64_ptr(kp), cap)
     for s in range(N_STATS):
         stats[s] = 0
-    # ``np.int64(l0)``, ``bool(posed)``: plain values, not the callers' constants (numba types a
-    # constant argument as a literal: `_group` was compiled once for ``0, True`` and once more)
-    if _group(pos_src, rot_src, np.int64(l0), nl, I, F, W, Jv, LW, LB, stats, bool(posed)):
+    if _group(pos_src, rot_src, l0, nl, I, F, W, Jv, LW, LB, stats, posed):
         for s in range(N_STATS):
             st[s] += stats[s]
         for l in range(nl):
