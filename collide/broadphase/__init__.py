@@ -51,12 +51,17 @@ __all__ = ["BroadPhase", "KinematicTree", "WorldBounds", "check_pose_values", "w
 # Every BroadPhase, for a forked child to give each a new lock: a thread of the parent inside
 # `pairs` at the fork holds the lock, and that thread does not exist in the child, whose calls
 # would wait for it forever (the fork of a process with threads copies only the forking one).
+# That thread may also have returned from the kernel, which advanced the output arena in the
+# context (C_OFF, C_LAST), without updating `_arena_used` and `_last` (the kernel holds the GIL, so
+# a fork lands right after it more often than not): the child would hand out the rows of another
+# call. So the child starts each one on a fresh arena, with no last result to compare with.
 _instances: weakref.WeakSet = weakref.WeakSet()
 
 
 def _new_locks() -> None:
     for bp in list(_instances):
         bp._lock = threading.Lock()
+        bp._new_arena(bp._arena_rows)
 
 
 if hasattr(os, "register_at_fork"):
