@@ -48,24 +48,38 @@ from .swept import SweptCalls
 
 __all__ = ["BroadPhase", "KinematicTree", "WorldBounds", "check_pose_values", "world_planes"]
 
-# Every BroadPhase, for a forked child to give each a new lock: a thread of the parent inside
-# `pairs` at the fork holds the lock, and that thread does not exist in the child, whose calls
-# would wait for it forever (the fork of a process with threads copies only the forking one).
-# That thread may also have returned from the kernel, which advanced the output arena in the
-# context (C_OFF, C_LAST), without updating `_arena_used` and `_last` (the kernel holds the GIL, so
-# a fork lands right after it more often than not): the child would hand out the rows of another
-# call. So the child starts each one on a fresh arena, with no last result to compare with.
+# Every BroadPhase, for a forked child to make each consistent again (the fork of a process with
+# threads copies only the forking one). A thread of the parent inside `pairs` at the fork holds the
+# lock, and does not exist in the child, whose calls would wait for it forever: a new lock. That
+# thread may also have returned from the kernel, which advanced the output arena in the context
+# (C_OFF, C_LAST), and not yet updated `_arena_used` and `_last` (the kernel holds the GIL, so a
+# fork lands right there more often than not), or have been between replacing the buffers and
+# writing their addresses to the context (`_set_buffers`, `_bind`): the child would hand out
+# another call's rows, or the kernel write to freed memory. So the child gives each its buffers,
+# its context and a fresh arena again, and the swept broad phase's likewise (coherent mode keeps
+# nothing across that: its kept list is rebuilt once). Registered at the end of `__init__`.
 _instances: weakref.WeakSet = weakref.WeakSet()
 
 
-def _new_locks() -> None:
+def _after_fork() -> None:
     for bp in list(_instances):
-        bp._lock = threading.Lock()
-        bp._new_arena(bp._arena_rows)
+        try:
+            bp._lock = threading.Lock()
+            bp._set_buffers(bp._bp.shape[0], bp._keys.size)
+            bp._new_arena(bp._arena_rows)
+            if bp._bound is not None:
+                bp._ctx[_kstep.C_POS] = bp._bound[0].ctypes.data
+                bp._ctx[_kstep.C_ROT] = bp._bound[1].ctypes.data
+            sp = bp.__dict__.get("_swept")
+            if sp is not None:
+                sp._set_keys(sp._nkeys)
+                sp._new_arena(sp._arena_rows)
+        except Exception:  # noqa: BLE001 -- one object's failure must not leave the others stale
+            pass
 
 
 if hasattr(os, "register_at_fork"):
-    os.register_at_fork(after_in_child=_new_locks)
+    os.register_at_fork(after_in_child=_after_fork)
 
 _STAT_NAMES = ("subtree_tests", "body_aabb_tests", "body_sphere_tests", "body_obb_tests",
                "geom_sphere_tests", "geom_obb_tests", "plane_tests", "pairs", "geom_aabb_tests", "reused")
@@ -160,10 +174,10 @@ class BroadPhase(SweptCalls):
         self._ctx_addr = self._ctx.ctypes.data  # `_kstep.step_bound`'s argument: never replaced
         self._step_bound = None  # see bind
         self._lock = threading.Lock()  # see pairs
-        _instances.add(self)  # a new lock in a forked child (`_new_locks`)
         self._bound = None
         self._set_buffers(4 * L + 64, 4 * G + 64)
         self._new_arena(ARENA_ROWS)
+        _instances.add(self)  # made consistent again in a forked child (`_after_fork`): built first
         lanes = None
         if batch_path != "worlds":
             lanes = _tables.lane_tables(filt, fields["gstart"], fields["pgeoms"], fields["planes"], fields["plane_ok"],

@@ -31,6 +31,7 @@ numba.set_num_threads(1)
 import mujoco, numpy as np
 import collide.mujoco as cm
 from collide import testing
+assert cm.__file__.startswith(sys.argv[1]), (cm.__file__, sys.argv[1])  # the copy asked for, not another
 out = {}
 for name in sys.argv[3:]:
     m = mujoco.MjModel.from_xml_path(f"{sys.argv[2]}/{name}/scene.xml")
@@ -54,12 +55,13 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--scenes", nargs="*", default=DEFAULT)
     args = ap.parse_args()
+    args.a, args.b = os.path.abspath(args.a), os.path.abspath(args.b)
     times = {d: {s: [] for s in args.scenes} for d in (args.a, args.b)}
     path = {}
     for _ in range(args.rounds):
         for d in (args.a, args.b):
             out = subprocess.run([sys.executable, "-c", _CHILD, d, str(MODELS), *args.scenes], capture_output=True,
-                                 text=True, check=True, cwd=os.path.dirname(os.path.abspath(d)) or "/").stdout
+                                 text=True, check=True, cwd=os.path.dirname(d)).stdout
             for s, (us, p) in json.loads(out.splitlines()[-1]).items():
                 times[d][s].append(us)
                 path[s] = p
