@@ -7,12 +7,14 @@ thread (its traceback kept), so a test states only what each thread does and wha
 
 from __future__ import annotations
 
+import os
+import signal
 import sys
 import threading
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["in_threads", "scattered_boxes"]
+__all__ = ["in_child", "in_threads", "scattered_boxes"]
 
 
 def in_threads(work: Callable[[int], Any], n: int = 2, *, timeout: float = 600.0,
@@ -68,6 +70,21 @@ def in_threads(work: Callable[[int], Any], n: int = 2, *, timeout: float = 600.0
         if exc is not None:
             raise exc
     return out
+
+
+def in_child(check: Callable[[], bool], seconds: int = 60) -> int:
+    """``check()`` in a forked child (POSIX): its exit code, 0 where it returned True, 2 where False,
+    1 where it raised or ran past ``seconds`` (an alarm); the child leaves without pytest's teardown."""
+    pid = os.fork()
+    if pid == 0:
+        code = 1
+        try:
+            signal.alarm(seconds)
+            code = 0 if check() else 2
+        finally:
+            os._exit(code)
+    _, status = os.waitpid(pid, 0)
+    return os.WEXITSTATUS(status) if os.WIFEXITED(status) else -1
 
 
 def scattered_boxes(seeds=(0, 1)) -> tuple:

@@ -3,13 +3,15 @@ of a step, against its brute-force twin and a sampling oracle."""
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 
 import collide
 from collide import shapes, testing
 from collide.testing.swept import brute_force_swept_pairs, motion_poses
-from _threads import in_threads
+from _threads import in_child, in_threads
 
 
 def _set(p):
@@ -345,3 +347,24 @@ def test_an_explicit_plane_pair_with_its_own_margin():
         assert _set(brute_force_swept_pairs(art, p0, r, end, r, tol=-1e-9)) == {(0, 1)}
     p2 = np.array([[0, 0, 0], [0, 0, 0.35]])  # 0.25 above: beyond both margins, all along
     assert _set(bp.pairs_swept(p2, r, p2 + [[0, 0, 0], [0.3, 0, 0]], r)) == set()
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="os.fork: POSIX only")
+def test_a_forked_child_answers_right_after_its_parents_thread_left_the_swept_kernel():
+    # As test_broadphase.py's fork test, for the swept step: a thread of the parent had returned
+    # from the swept kernel (which advanced its arena's offset in the context) but not run the
+    # bookkeeping after it, when another thread forked; the child handed out that call's rows
+    # (`collide.broadphase._after_fork` gives the swept broad phase its buffers and a fresh arena).
+    sc = testing.free_hulls(64, seed=6)
+    rng = np.random.default_rng(7)
+    (p0, r0), (p1, r1) = [(p[0], r[0]) for p, r in (testing.hull_motion(sc, rng, 1, 0.05) for _ in range(2))]
+    fresh = collide.BroadPhase(sc.articulation)
+    want0, want1 = fresh.pairs_swept(p0, r0, p0, r0), fresh.pairs_swept(p1, r1, p1, r1)
+    assert len(want0) > 20 and not np.array_equal(want0, want1)
+    assert _set(want0) >= _set(brute_force_swept_pairs(sc.articulation, p0, r0, p0, r0))
+    bp = collide.BroadPhase(sc.articulation)
+    assert np.array_equal(bp.pairs_swept(p1, r1, p1, r1), want1)
+    sp = bp._swept_pairs()
+    assert sp._call(p1, r1, p1, r1, sp._ctx) > 0  # the kernel ran; the Python after it did not
+    code = in_child(lambda: np.array_equal(bp.pairs_swept(p0, r0, p0, r0), want0))
+    assert code == 0, f"the child's exit code {code}"
