@@ -19,13 +19,13 @@ as the broad phase finds them, on the body poses it computed (the same answers).
 from __future__ import annotations
 
 import math
-import threading
 from dataclasses import dataclass
 
 import numba
 import numpy as np
 
 from . import contacts as _contacts
+from ._fork import new_lock, require_parallel
 from ._kernels import check as _kc
 from ._kernels import check_lanes as _kl
 from ._kernels import check_trees as _kt
@@ -266,7 +266,7 @@ class Collider:
         self._distance_pairs = None  # check_batch's filtered pairs (distance=True), likewise
         self._tree_pairs = None  # check_batch's early exit by trees (`_trees`), likewise
         self._no_function = None  # (G,) bool: the broad phase's geoms that never pair (`_in_lanes`), likewise
-        self._setup_lock = threading.Lock()
+        self._setup_lock = new_lock(self, "_setup_lock")  # a free one in a forked child
 
     def __repr__(self) -> str:
         return f"collide.mujoco.Collider({self.model.nbody} bodies, {self.model.ngeom} geoms)"
@@ -465,6 +465,9 @@ class Collider:
             ``qpos`` not ``(B, nq)`` numbers, a non-finite value (naming the configuration and
             coordinate), a configuration whose poses come out non-finite (naming it), or a NaN
             ``distmax``. The Collider works as before after it.
+        RuntimeError
+            In a process forked from one that had run numba's threads on GNU OpenMP, which
+            cannot run there: start workers with ``spawn`` or ``forkserver`` (docs/design.md).
         """
         q = self._qpos(qpos)
         if not isinstance(distance, (bool, np.bool_)):
@@ -484,6 +487,7 @@ class Collider:
         closest = np.full((B, 2), -1, np.int32) if distance else None
         if B == 0:
             return _result(hit, dist, closest, skipped)
+        require_parallel()  # not in a child forked from a GNU OpenMP parent (`collide._fork`)
         kin = self._setup_check()
         workers = max(1, numba.get_num_threads())
         kargs = self.table._kargs

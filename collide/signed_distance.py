@@ -19,12 +19,13 @@ answered to their coordinates' rounding.)
 from __future__ import annotations
 
 import math
-import threading
+import sys
 
 import numpy as np
 from numba import types as _nt
 
 from . import hull as _hull
+from ._fork import new_lock
 from ._kernels import distance as _kd
 from ._validate import as_affine, as_array, as_count, as_positive
 from ._kernels.support import ELLIPSOID
@@ -158,7 +159,7 @@ _empty, _query, _OUT_SIZE = np.empty, _kd.query, _kd.OUT_SIZE  # bound once: loo
 _A1, _A2 = _nt.float64[::1], _nt.float64[:, ::1]
 _SIGNATURE = (_nt.int64, _nt.int64, _A2, _A1, _A2, _A1) + (_nt.float64,) * 5 + (_A1, _nt.int64, _A1)
 _loaded = False  # `query`'s one signature loaded and its dispatcher closed to any other (`_load_query`)
-_load_lock = threading.Lock()
+_load_lock = new_lock(sys.modules[__name__], "_load_lock")  # a free one in a forked child
 
 
 def _load_query() -> None:
@@ -229,7 +230,7 @@ _shapes: dict = {}
 # Insertions and evictions hold it (hits do not): another thread's insertion between the
 # eviction's ``iter`` and ``next`` raised "dictionary changed size during iteration", and two
 # threads evicting at once let the cache outgrow its bound (tests/test_distance_threads.py).
-_shapes_lock = threading.Lock()
+_shapes_lock = new_lock(sys.modules[__name__], "_shapes_lock")  # a free one in a forked child
 
 
 def _described(shape, name: str) -> tuple:

@@ -10,7 +10,7 @@ hull's vertex graph (as MuJoCo and coal do for meshes); smaller ones, and flat o
 from __future__ import annotations
 
 import math
-import threading
+import sys
 from collections import OrderedDict
 from dataclasses import dataclass
 
@@ -18,6 +18,7 @@ import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
 from . import hull as _hull
+from ._fork import new_lock
 from ._kernels.support import CONE, CYLINDER, ELLIPSOID, POINTS
 from .convex import Cone, Cylinder, Ellipsoid
 from .pointcloud import PointCloud
@@ -47,7 +48,7 @@ _CACHE_SIZE = 1024
 _cache: OrderedDict = OrderedDict()
 # Held by every change to `_cache`: a hit's ``move_to_end`` raised KeyError when another thread
 # evicted the key between its ``get`` and the move (tests/test_distance_threads.py).
-_cache_lock = threading.Lock()
+_cache_lock = new_lock(sys.modules[__name__], "_cache_lock")  # a free one in a forked child
 
 _NO_ADJ = np.zeros(0, np.int32)
 

@@ -74,7 +74,8 @@ def in_threads(work: Callable[[int], Any], n: int = 2, *, timeout: float = 600.0
 
 def in_child(check: Callable[[], bool], seconds: int = 60) -> int:
     """``check()`` in a forked child (POSIX): its exit code, 0 where it returned True, 2 where False,
-    1 where it raised or ran past ``seconds`` (an alarm); the child leaves without pytest's teardown."""
+    1 where it raised; -1 where a signal ended it (an alarm after ``seconds``: a hang; SIGTERM, ...).
+    The child leaves without pytest's teardown."""
     pid = os.fork()
     if pid == 0:
         code = 1

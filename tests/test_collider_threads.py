@@ -1,5 +1,5 @@
 """One `collide.mujoco.Collider`, two threads, two MjData: each thread gets its own data's contacts;
-and a child forked while a thread of its parent was inside a call can call it (2026-11-30).
+and a child forked while threads of its parent held collide's locks can call it (2026-11-30, 2026-12-02).
 
 Found by the adversarial review (2026-11-29): ``Collider._poses`` published the last MjData's
 views and the MjData itself in two stores (``_views``, then ``_checked``) and ``contacts`` read
@@ -12,7 +12,6 @@ tracer) puts a switch point on every line, which this test installs to make the 
 from __future__ import annotations
 
 import os
-import signal
 import threading
 import time
 
@@ -20,8 +19,12 @@ import numpy as np
 import pytest
 
 mujoco = pytest.importorskip("mujoco")
+import collide._fork as _fork  # noqa: E402
 import collide.mujoco as cm  # noqa: E402
-from _threads import in_threads, scattered_boxes  # noqa: E402
+import collide.signed_distance as sd  # noqa: E402
+import collide.support as sp  # noqa: E402
+from collide import PointCloud, distance  # noqa: E402
+from _threads import in_child, in_threads, scattered_boxes  # noqa: E402
 
 
 def _signature(c) -> tuple:
@@ -61,26 +64,49 @@ def test_two_threads_two_datas_one_collider():
 
 
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="os.fork: POSIX only")
-def test_a_forked_child_calls_while_its_parent_held_the_lock():
-    # A thread inside `pairs` at an os.fork() holds the broad phase's lock, and does not exist in
-    # the child: the child gets a new lock (`collide.broadphase._after_fork`), else its first call
-    # waited forever. The parent's thread is played here by holding the lock across the fork.
+def test_a_forked_child_calls_while_its_parent_held_the_locks():
+    # A thread holding a lock at an os.fork() does not exist in the child, and the child's first
+    # call that takes that lock waited forever. Each lock of collide is made by
+    # `collide._fork.new_lock`, which gives a forked child a new, free one: the broad phase's
+    # (inside `pairs`), a Collider's set-up lock (check_batch's pairs, made at its first call),
+    # and the shape caches' and `collide.distance`'s loader (module locks). The parent's threads
+    # are played here by holding every one of them across the fork.
+    # The parent has run a batch (numba's threads started): on GNU OpenMP the child's batch calls
+    # raise a RuntimeError (numba would SIGTERM the child at their launch), and the rest works.
     m, datas = scattered_boxes()
     col = cm.Collider(m)
     ref = _signature(col.contacts(datas[0]))
-    lock = col.broadphase.broadphase._lock  # collide.mujoco.BroadPhase -> collide.BroadPhase
-    lock.acquire()
-    try:
-        pid = os.fork()
-        if pid == 0:  # the child: a call, its answer checked, then out without pytest's teardown
-            code = 1
-            try:
-                signal.alarm(60)  # still waiting after a minute: killed, the test fails
-                code = 0 if _signature(col.contacts(datas[0])) == ref else 2
-            finally:
-                os._exit(code)
-    finally:
-        lock.release()
-    _, status = os.waitpid(pid, 0)
-    assert os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0, f"the child: wait status {status}"
+    qpos = np.stack([d.qpos for d in datas])
+    other = cm.Collider(m)
+    want = other.check_batch(qpos, distance=True).min_distance  # `col`'s pairs not made yet
+    refused = _fork._gnu_openmp_started()  # the layer numba started here, read as the child reads it
+    pts = np.random.default_rng(0).normal(size=(2, 12, 3))
+    dref = distance(PointCloud(pts[0]), PointCloud(pts[1] + 3.0, 0.1)).distance
 
+    def batch_ok() -> bool:
+        if not refused:
+            return np.array_equal(col.check_batch(qpos, distance=True).min_distance, want)
+        for call in (lambda: col.check_batch(qpos), lambda: col.broadphase.pairs_batch(m, qpos),
+                     lambda: cm.kinematics_batch(m, qpos)):
+            with pytest.raises(RuntimeError, match="'spawn' or 'forkserver'"):
+                call()
+        return True
+
+    def child() -> bool:  # fresh shapes: each a miss of both shape caches, an insertion under their locks
+        return (_signature(col.contacts(datas[0])) == ref
+                and np.array_equal(col._filtered(), other._filtered())
+                and distance(PointCloud(pts[0]), PointCloud(pts[1] + 3.0, 0.1)).distance == dref
+                and batch_ok()
+                and _signature(col.contacts(datas[1])) == _signature(other.contacts(datas[1])))
+
+    locks = [col.broadphase.broadphase._lock,  # collide.mujoco.BroadPhase -> collide.BroadPhase
+             col._setup_lock, sd._load_lock, sd._shapes_lock, sp._cache_lock]
+    assert col._distance_pairs is None and np.all(np.isfinite(want)) and dref > 0.0
+    for lock in locks:
+        lock.acquire()
+    try:
+        code = in_child(child)  # 1: it raised; -1: still waiting after a minute (an alarm), or killed
+    finally:
+        for lock in locks:
+            lock.release()
+    assert code == 0, f"the child's exit code {code}"

@@ -29,11 +29,11 @@ bodies) and their AABBs, for drawing them, debugging a pair, or feeding another 
 from __future__ import annotations
 
 import os
-import threading
 import weakref
 
 import numpy as np
 
+from .._fork import new_lock
 from .._kernels import broadphase as _k
 from .._kernels import culling as _kcull
 from .._kernels import keys as _kkeys
@@ -50,21 +50,21 @@ __all__ = ["BroadPhase", "KinematicTree", "WorldBounds", "check_pose_values", "w
 
 # Every BroadPhase, for a forked child to make each consistent again (the fork of a process with
 # threads copies only the forking one). A thread of the parent inside `pairs` at the fork holds the
-# lock, and does not exist in the child, whose calls would wait for it forever: a new lock. That
-# thread may also have returned from the kernel, which advanced the output arena in the context
-# (C_OFF, C_LAST), and not yet updated `_arena_used` and `_last` (the kernel holds the GIL, so a
-# fork lands right there more often than not), or have been between replacing the buffers and
-# writing their addresses to the context (`_set_buffers`, `_bind`): the child would hand out
-# another call's rows, or the kernel write to freed memory. So the child gives each its buffers,
-# its context and a fresh arena again, and the swept broad phase's likewise (coherent mode keeps
-# nothing across that: its kept list is rebuilt once). Registered at the end of `__init__`.
+# lock, and does not exist in the child, whose calls would wait for it forever: `new_lock` gives
+# the child a new one. That thread may also have returned from the kernel, which advanced the
+# output arena in the context (C_OFF, C_LAST), and not yet updated `_arena_used` and `_last` (the
+# kernel holds the GIL, so a fork lands right there more often than not), or have been between
+# replacing the buffers and writing their addresses to the context (`_set_buffers`, `_bind`): the
+# child would hand out another call's rows, or the kernel write to freed memory. So the child gives
+# each its buffers, its context and a fresh arena again, and the swept broad phase's likewise
+# (coherent mode keeps nothing across that: its kept list is rebuilt once). Registered at the end
+# of `__init__`.
 _instances: weakref.WeakSet = weakref.WeakSet()
 
 
 def _after_fork() -> None:
     for bp in list(_instances):
         try:
-            bp._lock = threading.Lock()
             bp._set_buffers(bp._bp.shape[0], bp._keys.size)
             bp._new_arena(bp._arena_rows)
             if bp._bound is not None:
@@ -173,7 +173,7 @@ class BroadPhase(SweptCalls):
         self._ctx = np.zeros(_kstep.NCTX, np.int64)
         self._ctx_addr = self._ctx.ctypes.data  # `_kstep.step_bound`'s argument: never replaced
         self._step_bound = None  # see bind
-        self._lock = threading.Lock()  # see pairs
+        self._lock = new_lock(self, "_lock")  # see pairs; a free one in a forked child (`collide._fork`)
         self._bound = None
         self._set_buffers(4 * L + 64, 4 * G + 64)
         self._new_arena(ARENA_ROWS)
@@ -459,6 +459,9 @@ class BroadPhase(SweptCalls):
         ------
         ValueError
             As `pairs`, naming the first bad world and body.
+        RuntimeError
+            In a process forked from one that had run numba's threads on GNU OpenMP, which
+            cannot run there: start workers with ``spawn`` or ``forkserver`` (docs/design.md).
 
         Notes
         -----

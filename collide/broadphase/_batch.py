@@ -15,6 +15,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from .._fork import require_parallel
 from .._kernels import broadphase as _k
 from .._kernels import batch as _kbatch
 from .._kernels import keys as _kkeys
@@ -113,6 +114,7 @@ class Batch:
         # (CHUNKS a thread). Sized for numba's most threads, so that a call on fewer
         # (numba.set_num_threads) finds the same buffers: made afresh, they cost the next call
         # their first touch.
+        require_parallel()  # not in a child forked from a GNU OpenMP parent (`collide._fork`)
         most = numba.config.NUMBA_NUM_THREADS
         if self.lane_tables is None:
             C = max(1, min(CHUNKS * most, B))

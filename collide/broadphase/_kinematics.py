@@ -13,6 +13,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from .._fork import require_parallel
 from .._kernels import kinematics as _kin
 from .._validate import as_array
 
@@ -160,5 +161,6 @@ class KinematicTree:
         pos, rot = np.empty((b, n, 3)), np.empty((b, n, 3, 3))
         chunks = max(1, min(4 * numba.get_num_threads(), b))
         scratch = np.empty((chunks, _kin.scratch_size(n, self.joint_count)))
+        require_parallel()  # not in a child forked from a GNU OpenMP parent (`collide._fork`)
         _kin.kinematics_worlds(q, *self.arrays, pos, rot, scratch)
         return pos, rot

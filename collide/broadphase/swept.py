@@ -10,6 +10,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from .._fork import require_parallel
 from .._kernels import keys as _keys
 from .._kernels import swept as _ks
 from . import tables as _tables
@@ -207,6 +208,7 @@ class SweptPairs:
             raise ValueError(f"body_pos1: {pos1.shape[0]} worlds, body_pos0 has {B}")
         pos0, rot0 = self._check_end(pos0, rot0, (B,), 0)
         pos1, rot1 = self._check_end(pos1, rot1, (B,), 1)
+        require_parallel()  # not in a child forked from a GNU OpenMP parent (`collide._fork`)
         T = max(1, min(numba.get_num_threads(), B))
         XWs = np.zeros((T, self._XW.size), np.int64)
         Ys = np.zeros((T, self._Y.size))

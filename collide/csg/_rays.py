@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._fork import require_parallel
 from .._kernels import ray as _ray
 from .._validate import as_array, as_count, as_positive
 from ._bvh import BVH
@@ -155,6 +156,7 @@ def raycast(bvh: BVH, origins, directions) -> RayHits:
     out_b = np.zeros(r, dtype=np.int64)
     out_p = np.zeros(r, dtype=np.int64)
     if bvh.n_nodes and r:
+        require_parallel()  # not in a child forked from a GNU OpenMP parent (`collide._fork`)
         bound = {"aabb": 0, "obb": 1, "sphere": 2}[bvh.volume]
         _ray.raycast_kernel(o, d, bvh.node_kind, bvh.node_first, bvh.node_count, bvh.node_child,
                             bound, bvh.node_lo, bvh.node_hi, bvh.node_rot, bvh.node_center,
