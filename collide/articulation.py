@@ -39,7 +39,7 @@ from .pointcloud import PointCloud, union
 
 __all__ = [
     "Articulation", "BOUND_GUARD", "MARGIN_SLACK", "MIN_GEOM_SIZE", "ORTHO_TOL", "POSE_ORTHO_TOL",
-    "ROTATION_SLACK", "fit_capsule", "fit_local_obb", "fit_local_sphere",
+    "ROTATION_SLACK", "fit_capsule", "fit_local_obb", "fit_local_sphere", "not_rotations",
 ]
 
 # Relative guard added to every local bound so that the rounding of the fitters (extents measured
@@ -177,6 +177,16 @@ def _depth_first(body_parent: np.ndarray):
     return dfs_order, pos, subtree_end
 
 
+
+def not_rotations(rot: np.ndarray) -> np.ndarray:
+    """Indices of the matrices of ``rot (N, 3, 3)`` that are not proper rotations: an entry of
+    ``R^T R - I`` above `ORTHO_TOL`, or a determinant not positive (NaN included)."""
+    if len(rot) == 0:
+        return np.zeros(0, np.int64)
+    err = np.abs(np.einsum("gji,gjk->gik", rot, rot) - np.eye(3)).max(axis=(1, 2))
+    return np.flatnonzero(~((err <= ORTHO_TOL) & (np.linalg.det(rot) > 0)))
+
+
 class Articulation:
     """A kinematic tree of bodies carrying convex geoms, with collision filters.
 
@@ -304,9 +314,7 @@ class Articulation:
         gpos = np.zeros((G, 3)) if geom_pos is None else as_array(geom_pos, "geom_pos", (G, 3))
         grot = np.tile(np.eye(3), (G, 1, 1)) if geom_rot is None else as_array(geom_rot, "geom_rot", (G, 3, 3))
         if G:
-            err = np.abs(np.einsum("gji,gjk->gik", grot, grot) - np.eye(3)).max(axis=(1, 2))
-            det = np.linalg.det(grot)
-            bad = np.flatnonzero((err > ORTHO_TOL) | (det <= 0))
+            bad = not_rotations(grot)
             if len(bad):
                 raise ValueError(f"geom_rot: rotation of geom {int(bad[0])} is not a proper orthonormal matrix")
         ct = np.ones(G, np.int64) if geom_contype is None else self._int_array(geom_contype, "geom_contype", (G,))

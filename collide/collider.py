@@ -44,6 +44,10 @@ TREE_SHARE = 0.5
 TREE_SAMPLE = 256
 TREE_QMAX = 1e6
 
+# `Collider._check_kargs`' margin and gap of a pair that never makes an active contact: its contact
+# distance (margin + gap, or o_margin + gap) is below any signed distance, and finite.
+_NEVER = -1e300
+
 # MuJoCo's mjtSameFrame (tests/test_check.py checks them against the bindings).
 _SAME_BODY, _SAME_INERTIA, _SAME_BODYROT, _SAME_INERTIAROT = 1, 2, 3, 4
 
@@ -60,7 +64,9 @@ class CheckResult:
         excludes and explicit ``<pair>`` s; a contact only in the gap does not count. Decided as
         `Collider.contacts` decides, up to a tolerance: two convex geoms whose cores GJK finds
         within ``collide._kernels.manifold.CONTACT_TOL`` of their sizes of touching count as active
-        (`collide._kernels.check.deepest_contact`).
+        (`collide._kernels.check.deepest_contact`). An explicit ``<pair>`` with no degree of
+        freedom between its geoms never counts (MuJoCo's ``exclude == 3``), but in a model
+        without dofs, as in MuJoCo.
     min_distance : (B,) float64 or None
         With ``distance=True``: the signed distance of the closest checked geom pair that
         passes the filters (negative: penetration; no margin subtracted), ``+inf`` when none is
@@ -266,6 +272,7 @@ class Collider:
         self._distance_pairs = None  # check_batch's filtered pairs (distance=True), likewise
         self._tree_pairs = None  # check_batch's early exit by trees (`_trees`), likewise
         self._no_function = None  # (G,) bool: the broad phase's geoms that never pair (`_in_lanes`), likewise
+        self._kargs = None  # the check kernels' table arguments (`_check_kargs`), likewise
         self._setup_lock = new_lock(self, "_setup_lock")  # a free one in a forked child
 
     def __repr__(self) -> str:
@@ -352,7 +359,13 @@ class Collider:
         """
         xpos, xmat = self._poses(data)
         g1, g2, distmax = _contacts._distance_args(self.table, g1, g2, distmax)
-        return _contacts._geom_distance(self.table, g1, g2, xpos, xmat, distmax)
+        try:
+            return _contacts._geom_distance(self.table, g1, g2, xpos, xmat, distmax)
+        except ValueError as exc:
+            if not np.any(xmat):  # an MjData never posed: said as `pairs` and `contacts` say it
+                raise ValueError("data: geom poses are all zero; run mujoco.mj_kinematics, mj_forward or "
+                                 "mj_step on it first") from exc
+            raise
 
     # ------------------------------------------------------------------------------------------
     # Many configurations: check_batch
@@ -390,6 +403,36 @@ class Collider:
                         pairs = np.ascontiguousarray(pairs, dtype=np.int32)
                     self._distance_pairs = pairs
         return pairs
+
+    def _check_kargs(self) -> tuple:
+        # The narrow phase's table as the check kernels take it (made once). An explicit <pair>
+        # whose geoms have no degree of freedom between them (their bodies welded to one body, or
+        # both to the world or a mocap body) never makes an active contact: mj_makeConstraint
+        # flags its contact exclude = 3 ("no dofs": mj_jacDifPair's merged dof chain is empty) and
+        # makes no constraint for it, in every configuration; but in a model without dofs, where
+        # it returns before, and the contact stays included (MuJoCo 4.0.0, checked in
+        # tests/test_check.py; found by helper-77's fuzzing, 2026-12-02). Such a pair gets a
+        # contact distance no signed distance reaches (`_NEVER`, finite: no inf - inf below).
+        # `contacts` keeps it: mj_collision makes the contact.
+        kargs = self._kargs
+        if kargs is None:
+            with self._setup_lock:
+                kargs = self._kargs
+                if kargs is None:
+                    t, m = self.table, self.model
+                    G = t.cls.shape[0]
+                    weld = np.asarray(m.body_weldid)[np.asarray(m.geom_bodyid)]  # (G,) each geom's weld body
+                    fixed = np.asarray(m.body_dofnum)[weld] == 0
+                    w1, w2 = weld[t.pair_key // G], weld[t.pair_key % G]
+                    none = (w1 == w2) | (fixed[t.pair_key // G] & fixed[t.pair_key % G])
+                    if m.nv > 0 and none.any():
+                        pm, pg = t.pair_margin.copy(), t.pair_gap.copy()
+                        pm[none] = pg[none] = _NEVER
+                        kargs = t.kernel_args(pm, pg)
+                    else:
+                        kargs = t._kargs
+                    self._kargs = kargs
+        return kargs
 
     def _trees(self):
         # check_trees' static arguments (`_tree_pairs`), made once, or False where that early exit
@@ -490,7 +533,7 @@ class Collider:
         require_parallel()  # not in a child forked from a GNU OpenMP parent (`collide._fork`)
         kin = self._setup_check()
         workers = max(1, numba.get_num_threads())
-        kargs = self.table._kargs
+        kargs = self._check_kargs()
         rest = None if distance else self._early_trees(q, hit, kin, kargs, workers)
         if rest is None:
             self._full(q, None, hit, skipped, dist, closest, distmax, kin, kargs, workers)

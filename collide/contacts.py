@@ -402,12 +402,18 @@ class GeomTable:
         """``model.opt.o_margin``, read once."""
         return self._o_margin
 
-    def kernel_args(self) -> tuple:
-        """The per-geom arguments of `collide._kernels.manifold.collide_pairs`, in its order."""
+    def kernel_args(self, pair_margin: np.ndarray | None = None, pair_gap: np.ndarray | None = None) -> tuple:
+        """The per-geom arguments of `collide._kernels.manifold.collide_pairs`, in its order.
+
+        ``pair_margin``, ``pair_gap`` : (P,) float64, optional
+            In place of the table's (`collide.mujoco.Collider.check_batch`'s, see there).
+        """
+        pm = self.pair_margin if pair_margin is None else pair_margin
+        pg = self.pair_gap if pair_gap is None else pair_gap
         return (self.cls, self.rule, self.below, self.kind, self.prm, self.pts, self.pts_adr, self.pts_num,
                 self.nbr_start, self.nbr_start_adr, self.nbr_start_num, self.nbr, self.nbr_adr, self.nbr_num,
-                self.rbound, self.size, self.geom_margin, self.geom_gap, self.pair_key, self.pair_margin,
-                self.pair_gap, self.override, self.o_margin, self.gtype, self.half) + self._face_args
+                self.rbound, self.size, self.geom_margin, self.geom_gap, self.pair_key, pm, pg, self.override,
+                self.o_margin, self.gtype, self.half) + self._face_args
 
     def shape_args(self) -> tuple:
         """The per-geom arguments of `collide._kernels.manifold.pair_signed_distance`, in its order."""

@@ -2,9 +2,9 @@
 
 Correctness against MuJoCo 4 and against brute-force twins:
 
-* ``in_collision`` equals "MuJoCo made an active contact" (``mj_kinematics`` + ``mj_collision`` on
-  the same qpos, a contact with ``exclude == 0``: ``dist < includemargin``; contacts MuJoCo makes
-  in the gap do not count) on random configurations of every model in ../shared/models, inside
+* ``in_collision`` equals "MuJoCo made an active contact" (``mj_forward`` on the same qpos, a
+  contact with ``exclude == 0``: ``dist < includemargin`` and dofs between its geoms; contacts
+  MuJoCo makes in the gap do not count) on random configurations of every model in ../shared/models, inside
   and outside the joint limits. Where the two differ, the deciding pair must be within its
   tolerance (`contact_check.pair_tolerance`: 1e-9 of the size for MuJoCo's analytic functions,
   ``opt.ccd_tolerance`` for its GJK/EPA) of its margin on the side that made the contact: a nearly
@@ -74,14 +74,14 @@ def test_geoms_a_denormal_distance_apart_are_checked():
 
 
 def mujoco_active(model, data, q) -> tuple[np.ndarray, list]:
-    """MuJoCo's answer per configuration: an active contact after mj_kinematics + mj_collision,
-    and (deepest dist - includemargin, g1, g2) of each configuration's deepest contact."""
+    """MuJoCo's answer per configuration: an active contact (``exclude == 0``) after mj_forward,
+    and (deepest dist - includemargin, g1, g2) of each configuration's deepest contact. mj_forward,
+    not mj_collision alone: mj_makeConstraint sets ``exclude = 3`` on a contact without dofs."""
     out = np.zeros(len(q), bool)
     deepest = []
     for i, x in enumerate(q):
         data.qpos[:] = x
-        mujoco.mj_kinematics(model, data)
-        mujoco.mj_collision(model, data)
+        mujoco.mj_forward(model, data)
         best = (np.inf, -1, -1)
         for c in data.contact[:data.ncon]:
             v = float(c.dist - c.includemargin)
@@ -309,6 +309,40 @@ def test_explicit_pairs_and_filters_are_mujocos():
     mj, _ = mujoco_active(model, data, q)
     assert mj.any() and not mj.all()
     assert np.array_equal(res.in_collision, mj)
+
+
+def test_an_explicit_pair_without_dofs_between_its_geoms_never_counts():
+    # MuJoCo makes the contact of an explicit <pair> whose geoms have no degree of freedom between
+    # them (on bodies welded to one body, or both to the world or a mocap body), and then
+    # mj_makeConstraint flags it exclude = 3 and makes no constraint: never active. check_batch said
+    # every configuration of this scene was in collision (helper-77, 2026-12-02). The pair with dofs
+    # (the table and the arm's end) decides.
+    model = _model(
+        '<geom name="table" type="box" size=".5 .5 .05"/>'
+        '<body name="grip" mocap="true" pos="0 0 .06"><geom name="finger" size=".02"/></body>'
+        '<body name="st" pos=".1 0 .06"><geom name="post" size=".02"/></body>'
+        '<body name="arm" pos="0 0 .3"><joint type="hinge" axis="0 1 0"/>'
+        '<geom name="l1" type="capsule" fromto="0 0 0 .3 0 0" size=".03"/><geom name="l2" size=".05" pos=".3 0 0"/>'
+        '<body name="tip" pos=".3 0 0"><geom name="l3" size=".04"/></body></body>',
+        '<contact><pair geom1="table" geom2="finger"/><pair geom1="finger" geom2="post" margin=".1"/>'
+        '<pair geom1="l1" geom2="l2"/><pair geom1="l1" geom2="l3"/><pair geom1="table" geom2="l2" margin=".01"/>'
+        '</contact>')
+    data = mujoco.MjData(model)
+    q = np.linspace(-np.pi, np.pi, 64)[:, None]
+    mj, _ = mujoco_active(model, data, q)
+    assert mj.any() and not mj.all()
+    mujoco.mj_forward(model, data)
+    assert sum(int(c.exclude) == 3 for c in data.contact[:data.ncon]) == 4  # the scene's contacts without dofs
+    col = cm.Collider(model)
+    assert np.array_equal(col.check_batch(q).in_collision, mj)
+    assert np.array_equal(col.check_batch(q, distance=True).in_collision, mj)
+    assert len(col.contacts(data)) >= 4  # mj_collision makes them: contacts keeps them
+    # A model without dofs: mj_makeConstraint returns before, and the contact stays active.
+    still = _model('<geom name="table" type="box" size=".5 .5 .05"/>'
+                   '<body mocap="true" pos="0 0 .06"><geom name="finger" size=".02"/></body>',
+                   '<contact><pair geom1="table" geom2="finger"/></contact>')
+    mj0, _ = mujoco_active(still, mujoco.MjData(still), np.zeros((2, 0)))
+    assert mj0.all() and np.array_equal(cm.Collider(still).check_batch(np.zeros((2, 0))).in_collision, mj0)
 
 
 # ------------------------------------------------------------------------------------------------

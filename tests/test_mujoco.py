@@ -1026,6 +1026,60 @@ def test_flex_contacts_are_counted_apart_and_reported():
     assert f"{result['flex_contacts_total']} MuJoCo contacts involving a flex were left out" in cm.format_report(result)
 
 
+def test_a_geom_quaternion_not_of_unit_norm_is_named_as_the_model_holds_it():
+    # A quaternion set at run time to four digits: MuJoCo uses it as it is (its geom_xmat 4e-5 off
+    # a rotation). The Collider refused it naming its own internal argument "geom_rot" (helper-77,
+    # 2026-12-02): it names model.geom_quat, and builds once the quaternion is normalised.
+    model = mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><body><freejoint/><geom type="box" size=".1 .2 .3"/>'
+        '<geom type="capsule" size=".05 .2" pos=".3 0 0" euler="0 1 0"/></body></worldbody></mujoco>')
+    assert model.geom_sameframe[1] == 0  # placed by its own geom_quat
+    model.geom_quat[1] = [0.7071, 0, 0.7071, 0]
+    with pytest.raises(ValueError, match=r"model.geom_quat: geom 1's orientation is not a rotation"):
+        cm.Collider(model)
+    model.geom_quat[1] /= np.linalg.norm(model.geom_quat[1])
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    assert cm.Collider(model).geom_distance(data, 0, 1, 1.0)[0] < 1.0
+
+
+def test_compare_measures_near_misses_from_the_contact_distance():
+    # compare's counts of misses and extras "within ccd_tolerance" measured from distance 0, not
+    # from the pair's contact distance (margin + gap): an extra contact 3e-8 inside a 2e-6 margin
+    # was reported as beyond MuJoCo's tolerance (helper-77, 2026-12-02).
+    from collide.mujoco import _compare
+
+    model = mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><geom name="a" size=".1" margin=".01" gap=".002"/><body><freejoint/>'
+        '<geom name="b" size=".1" pos=".5 0 0" margin=".01" gap=".002"/><geom name="c" size=".1" pos="0 .5 0"/>'
+        '</body></worldbody><contact><pair geom1="a" geom2="c" margin=".05"/></contact></mujoco>')
+    agreement = _compare._ContactAgreement(model)
+    assert agreement._threshold(0, 1) == pytest.approx(0.024, abs=1e-15)  # both margins and gaps
+    assert agreement._threshold(0, 2) == 0.05  # the explicit pair's own
+    tol = agreement.tolerance
+    assert tol > 0
+    agreement.missed = [agreement._entry(0, (0, 1), 0.024 - tol / 2), agreement._entry(0, (0, 1), -1e-3)]
+    agreement.extra = [agreement._entry(0, (0, 2), 0.05 - tol / 2), agreement._entry(0, (0, 2), 0.0)]
+    summary = agreement.summary()
+    assert summary["missed_near_touching"] == 1 and summary["extra_near_touching"] == 1
+    assert summary["extra"][0]["threshold"] == 0.05
+
+
+def test_compare_reports_height_field_pairs_as_left_out_not_missed():
+    # A ball dropped on a height field: MuJoCo makes the contact, ours leaves the pair out
+    # (`Contacts.skipped`). The report said "MISSED" (helper-77, 2026-12-02): it says "left out".
+    model = mujoco.MjModel.from_xml_string(
+        '<mujoco><asset><hfield name="h" nrow="3" ncol="3" size=".5 .5 .05 .05" elevation="0 0 0 0 0 0 0 0 0"/>'
+        '</asset><worldbody><geom name="hf" type="hfield" hfield="h"/><body pos="0 0 .2"><freejoint/>'
+        '<geom name="ball" size=".1"/></body></worldbody></mujoco>')
+    result = cm.compare(model, steps=200, seed=0, name="hfield")
+    ct = result["contacts"]
+    assert ct["skipped"] and ct["missed"] == []  # the ball rests on the height field
+    assert {(e["name1"], e["name2"]) for e in ct["skipped"]} == {("hf", "ball")}
+    text = cm.format_report(result)
+    assert f"{len(ct['skipped'])} left out: a height field or SDF" in text and "MISSED" not in text
+
+
 def test_world_bounds_contain_mujocos_own_geoms():
     # The adapter's world bounds (what the demo draws) against MuJoCo's own geom poses: every box
     # geom's corners and every sphere geom's extreme points lie in the geom's OBB, sphere and AABB.
@@ -1056,6 +1110,11 @@ def test_world_bounds_contain_mujocos_own_geoms():
     assert bodies.aabb_min.shape == (model.nbody, 3)
     with pytest.raises(ValueError, match="body poses are all zero"):
         bp.world_bounds(mujoco.MjData(model))
+    fresh, col = mujoco.MjData(model), cm.Collider(model)  # never posed: each entry point says so
+    for call in (lambda: col.contacts(fresh), lambda: col.pairs(fresh), lambda: col.geom_distance(fresh, 1, 2, 1.0)):
+        with pytest.raises(ValueError, match="poses are all zero; run mujoco.mj_kinematics"):
+            call()
+    assert col.geom_distance(data, 1, 2, 10.0)[0] < 10.0  # then a posed one answers
     with pytest.raises(ValueError, match="inflate: expected True or False"):
         bp.world_bounds(mujoco.MjData(model), inflate="yes")  # the argument named, not the poses
     with pytest.raises(ValueError, match="of: expected 'geoms' or 'bodies'"):

@@ -14,6 +14,7 @@ import numba
 import numpy as np
 
 from .._kernels import _clock
+from .._kernels import manifold as _km
 from .._validate import as_count
 from ..collider import Collider
 from ._model import _geom_name, _model_mismatch
@@ -210,8 +211,10 @@ def compare(model: mujoco.MjModel, steps: int = 1000, seed: int = 0, name: str =
         pairs, so left out of the comparison), ``nbody`` and ``ngeom``; ``contacts`` (None without
         ``contacts``): geom pairs in contact by MuJoCo (``mujoco_pairs``), by us (``our_pairs``),
         by both (``matched``), MuJoCo's pairs we made no contact for (``missed``) and ours it
-        made none for (``extra``), lists of ``{step, geom1, geom2, name1, name2, dist}``, and how
-        many of each lie within MuJoCo's ``ccd_tolerance`` of touching (``missed_near_touching``,
+        made none for (``extra``), MuJoCo's pairs ours left out uncollided (``skipped``: a height
+        field or SDF geom, `collide.Contacts.skipped`), lists of ``{step, geom1, geom2, name1,
+        name2, dist, threshold}`` (``threshold``: the pair's contact distance, margin + gap), and
+        how many of each lie within MuJoCo's ``ccd_tolerance`` of it (``missed_near_touching``,
         ``extra_near_touching``, ``tolerance``: its GJK/EPA answers within it); contact
         counts (``mujoco_contacts``, ``our_contacts``); over the matched pairs' deepest contacts,
         the largest and median ``dist`` difference (``dist_error_max``, ``dist_error_median``; the
@@ -360,11 +363,12 @@ class _ContactAgreement:
     def __init__(self, model: mujoco.MjModel):
         self.model = model
         self.collider = Collider(model)
-        # MuJoCo's GJK/EPA answers within opt.ccd_tolerance: a pair that near touching may have
+        # MuJoCo's GJK/EPA answers within opt.ccd_tolerance: a pair that near its contact distance may have
         # a contact in one answer and not in the other.
         self.tolerance = max(float(model.opt.ccd_tolerance), 0.0)
         self.mujoco_pairs = self.ours_pairs = self.matched = 0
         self.missed: list = []
+        self.skipped: list = []  # MuJoCo's pairs ours left out: a height field or SDF (`Contacts.skipped`)
         self.extra: list = []
         self.dist_err: list = []
         self.normal_err: list = []
@@ -377,12 +381,13 @@ class _ContactAgreement:
         ours = self.collider.contacts(data)
         self.contacts_ours += len(ours)
         best = ours.deepest()
+        left_out = set(map(tuple, ours.skipped.tolist())) if len(ours.skipped) else ()
         self.mujoco_pairs += len(theirs)
         self.ours_pairs += len(best)
         for key, (dist, n, _) in theirs.items():
             i = best.get(key)
             if i is None:
-                self.missed.append(self._entry(step, key, dist))
+                (self.skipped if key in left_out else self.missed).append(self._entry(step, key, dist))
                 continue
             self.matched += 1
             self.dist_err.append(abs(float(ours.dist[i]) - dist))
@@ -397,15 +402,23 @@ class _ContactAgreement:
     def _entry(self, step: int, key: tuple, dist: float) -> dict:
         g1, g2 = key
         return {"step": step, "geom1": g1, "geom2": g2, "name1": _geom_name(self.model, g1),
-                "name2": _geom_name(self.model, g2), "dist": dist}
+                "name2": _geom_name(self.model, g2), "dist": dist, "threshold": self._threshold(g1, g2)}
+
+    def _threshold(self, g1: int, g2: int) -> float:
+        # The pair's contact distance (margin + gap: a contact is made below it), by the kernels'
+        # own rule (`manifold.pair_margins`); the largest of a geom pair's explicit <pair>s.
+        t = self.collider.table
+        j, n, explicit = _km._pair_rows(t.pair_key, g1 * t.cls.shape[0] + g2)
+        return max(float(_km.pair_margins(g1, g2, j + e, explicit, t.geom_margin, t.geom_gap, t.pair_margin,
+                                          t.pair_gap, t.override, t.o_margin)[1]) for e in range(n))
 
     def summary(self) -> dict:
         d, n = np.asarray(self.dist_err), np.asarray(self.normal_err)
         return {
             "mujoco_pairs": self.mujoco_pairs, "our_pairs": self.ours_pairs, "matched": self.matched,
-            "missed": self.missed, "extra": self.extra,
-            "missed_near_touching": sum(e["dist"] > -self.tolerance for e in self.missed),
-            "extra_near_touching": sum(e["dist"] < self.tolerance for e in self.extra),
+            "missed": self.missed, "skipped": self.skipped, "extra": self.extra,
+            "missed_near_touching": sum(abs(e["dist"] - e["threshold"]) <= self.tolerance for e in self.missed),
+            "extra_near_touching": sum(abs(e["dist"] - e["threshold"]) <= self.tolerance for e in self.extra),
             "tolerance": self.tolerance,
             "mujoco_contacts": self.contacts_mujoco, "our_contacts": self.contacts_ours,
             "dist_error_max": float(d.max()) if len(d) else 0.0,

@@ -8,7 +8,7 @@ import numpy as np
 
 from .. import shapes
 from .._validate import as_array
-from ..articulation import Articulation
+from ..articulation import Articulation, not_rotations
 from ..pointcloud import PointCloud
 from ..volumes import aabb_corners
 
@@ -253,6 +253,15 @@ def articulation(model: mujoco.MjModel) -> Articulation:
     filter_parent, excludes = exclusion_rules(model, weld)
     pairs = np.stack([model.pair_geom1, model.pair_geom2], axis=1).astype(np.int64).reshape(-1, 2)
     geom_pos, geom_rot = geom_frames(model)
+    bad = not_rotations(geom_rot)
+    if len(bad):  # named as the model holds it (the Articulation would name its own argument)
+        g = int(bad[0])
+        sf = mujoco.mjtSameFrame
+        field = ("model.body_iquat" if model.geom_sameframe[g] in (sf.mjSAMEFRAME_INERTIA, sf.mjSAMEFRAME_INERTIAROT)
+                 else "model.geom_quat")
+        raise ValueError(f"{field}: geom {g}'s orientation is not a rotation (a quaternion of norm other than 1, "
+                         "or not finite; MuJoCo uses it as it is, so its geom_xmat is no rotation either): "
+                         "normalise it")
     return Articulation(
         body_parent=np.asarray(model.body_parentid, dtype=np.int64),
         geom_body=np.asarray(model.geom_bodyid, dtype=np.int64),

@@ -44,9 +44,11 @@ def format_report(result: dict) -> str:
             "",
             f"contacts: {ct['matched']} of {ct['mujoco_pairs']} geom pairs MuJoCo made contacts for had ours "
             f"({len(ct['missed'])} missed, {ct['missed_near_touching']} of them within MuJoCo's ccd_tolerance "
-            f"{ct['tolerance']:g} of touching; {len(ct['extra'])} of ours beyond MuJoCo's, "
-            f"{ct['extra_near_touching']} within it); "
-            f"{ct['our_contacts']} contact points against MuJoCo's {ct['mujoco_contacts']}",
+            f"{ct['tolerance']:g} of their contact distance; {len(ct['extra'])} of ours beyond MuJoCo's, "
+            f"{ct['extra_near_touching']} within it"
+            + (f"; {len(ct['skipped'])} left out: a height field or SDF, which collide does not collide"
+               if ct.get("skipped") else "")
+            + f"); {ct['our_contacts']} contact points against MuJoCo's {ct['mujoco_contacts']}",
             f"  deepest contact of each pair: dist differs by {ct['dist_error_median']:.2g} (median), "
             f"{ct['dist_error_max']:.2g} (max); normals by {ct['normal_error_median_rad']:.2g} rad (median), "
             f"{ct['normal_error_max_rad']:.2g} rad (max)",
@@ -55,7 +57,7 @@ def format_report(result: dict) -> str:
         if w:
             lines.append(f"  largest dist difference: step {w['step']}, {w['name1']} ({w['geom1']}) - {w['name2']} "
                          f"({w['geom2']}): MuJoCo {w['dist']:.6g}, ours {w['ours']:.6g}")
-        for kind in ("missed", "extra"):
+        for kind in ("missed", "extra", "skipped"):
             for e in ct[kind][:5]:
                 lines.append(f"  {kind.upper()} step {e['step']}: {e['name1']} ({e['geom1']}) - {e['name2']} "
                              f"({e['geom2']}), dist {e['dist']:.3g}")
