@@ -178,6 +178,28 @@ def test_degenerate_clouds():
                 assert exact.volume() <= found * (1 + RTOL) and found <= exact.volume() * (1 + 1e-6)
 
 
+def test_a_collinear_or_flat_cloud_far_from_the_origin_is_collinear_or_flat():
+    # 20 collinear points 1e6 from the origin: centred, their coordinates' rounding (~1e-10) made
+    # them a needle 1e-9 thick, and the exact search, in proportion to 1 / thickness, ran for
+    # hours (helper-78, 2026-12-02). A spread at the coordinates' own rounding is no shape.
+    import signal
+
+    rng = np.random.default_rng(21)
+    base, u, v = rng.normal(size=3) * 1e6, rng.normal(size=3), rng.normal(size=3)
+    old = signal.signal(signal.SIGALRM, lambda *_: pytest.fail("the exact box's search did not end"))
+    signal.alarm(120)
+    try:
+        for p in (base + np.outer(rng.normal(size=20), u),  # a segment
+                  base + np.outer(rng.normal(size=30), u) + np.outer(rng.normal(size=30), v)):  # a polygon
+            for method in ("exact", "optimal"):
+                box = V.fit_obb(p, 0.0, method)
+                assert np.all(box.contains(p)) and _is_rotation(box.rotation)
+                assert np.sort(box.half_extents)[0] < 1e-8  # as thin as the rounding
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+
+
 def test_box_is_its_own_exact_box():
     rng = np.random.default_rng(14)
     corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)

@@ -24,17 +24,21 @@ def _right_handed(rot: np.ndarray) -> np.ndarray:
     return rot
 
 
-def _principal(points: np.ndarray) -> tuple[np.ndarray, int]:
+def _principal(points: np.ndarray, rounding: float = 0.0) -> tuple[np.ndarray, int]:
     # Principal axes (rows, largest spread first) and affine rank, with the thresholds of
     # hull.affine_basis but a thin SVD: hull.affine_basis takes a full one (an (n, n) factor:
-    # quadratic in time and memory, out of memory at n = 1e5).
+    # quadratic in time and memory, out of memory at n = 1e5). ``rounding``: the magnitude of
+    # the coordinates the points were rounded at before the caller moved them (fit_obb's cloud
+    # far from the origin, centred): spread at that noise level is rounding, not shape (20
+    # collinear points 1e6 from the origin came out a needle 1e-9 thick, and the exact box's
+    # search, in proportion to 1 / thickness, ran for hours: helper-78, 2026-12-02).
     centred = points - points.mean(axis=0)
     extent = float(np.abs(centred).max()) if len(points) > 1 else 0.0
     if extent == 0.0 or extent <= _hull.FLAT_TOL * float(np.abs(points.mean(axis=0)).max()):
         return np.eye(3), 0
     _, s, vt = np.linalg.svd(centred, full_matrices=len(points) < 3)
     s = np.concatenate([s, np.zeros(3 - len(s))])
-    noise = 64.0 * np.finfo(np.float64).eps * float(np.abs(points).max()) * np.sqrt(len(points))
+    noise = 64.0 * np.finfo(np.float64).eps * max(float(np.abs(points).max()), rounding) * np.sqrt(len(points))
     return vt, int(np.sum(s > max(_hull.FLAT_TOL * s[0], noise)))
 
 
@@ -55,14 +59,14 @@ def pca_axes(points: np.ndarray) -> np.ndarray:
 _CHUNK = 256
 
 
-def _hull_points(points: np.ndarray) -> tuple[np.ndarray, "ConvexHull | None"]:
+def _hull_points(points: np.ndarray, rounding: float = 0.0) -> tuple[np.ndarray, "ConvexHull | None"]:
     # Hull vertices of a cloud (centred by the caller), and Qhull's hull when it was computed
     # on the full-rank cloud (its facets serve the OBB candidates). This mirrors
     # hull.hull_indices (work in the affine hull's dimension) with the thin SVD of _principal:
     # hull.affine_basis takes a full one, quadratic in the number of points. If Qhull still
     # refuses, hull.hull_vertices reduces the cloud in chunks: hull(P) = hull(union of the
-    # chunks' hull vertices).
-    axes, rank = _principal(points)
+    # chunks' hull vertices). ``rounding``: as `_principal`'s.
+    axes, rank = _principal(points, rounding)
     if rank == 0:
         return points[:1], None
     if rank == 1:

@@ -183,9 +183,10 @@ _SEED_SUPPORTS = 1
 _EXACT_BUDGET = 300_000
 
 
-def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: float) -> np.ndarray:
+def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: float,
+                      rounding: float = 0.0) -> np.ndarray:
     # verts: hull vertices, centred; hull: Qhull's hull of a superset of verts in the same frame
-    # (None for degenerate clouds). Returns the rotation of a box within 1 % of the minimum
+    # (None for degenerate clouds); rounding: as `_axes._principal`'s. Returns the rotation of a box within 1 % of the minimum
     # volume on every cloud tested (the rule is in fit_obb's docstring): a minimal box often has
     # a face flush with a hull face (the face candidates), otherwise two adjacent faces flush
     # with hull edges (O'Rourke 1985), which the exact search on a subset and the polish reach.
@@ -195,10 +196,10 @@ def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: floa
     # face) and the polish.
     exact_rot = None
     if len(verts) <= _EXACT_HULL:
-        exact_rot, certified = _exact_rotation(verts, radius, budget=_EXACT_BUDGET)
+        exact_rot, certified = _exact_rotation(verts, radius, budget=_EXACT_BUDGET, rounding=rounding)
         if certified:
             return exact_rot
-    axes, rank = _principal(verts)
+    axes, rank = _principal(verts, rounding)
     if rank <= 1:
         return _right_handed(axes.T)
     if rank == 2:
@@ -234,7 +235,7 @@ def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: floa
         # the best starting boxes: its box is the exact one where it is certified minimal for
         # the whole hull, and otherwise one more start.
         sub_rot, certified = _exact_rotation(verts, radius, _SUBSET_ROUNDS, 0, _SUBSET_TOL,
-                                             [starts[k] for k in order[:_POLISH_STARTS]])
+                                             [starts[k] for k in order[:_POLISH_STARTS]], rounding=rounding)
         if certified:
             return sub_rot
         starts.append(sub_rot)
@@ -257,8 +258,8 @@ def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: floa
 
 def _exact_rotation(verts: np.ndarray, radius: float, rounds: int | None = None,
                     direct: int = _exact.DIRECT, tol: float = _exact.TOL, seeds=(),
-                    budget: int = -1) -> tuple[np.ndarray, bool]:
-    # verts: hull vertices (centred by the caller). Rotation of the minimum-volume box of
+                    budget: int = -1, rounding: float = 0.0) -> tuple[np.ndarray, bool]:
+    # verts: hull vertices (centred by the caller); rounding: as `_axes._principal`'s. Rotation of the minimum-volume box of
     # hull(verts) ⊕ ball(radius) and whether it is certified (always, unless ``rounds`` limits
     # the subset rounds of _obb_exact.exact_axes). By cases of the affine rank:
     # 0: any box is a cube of side 2r. 1: the segment's axis; of every box of a segment of
@@ -267,7 +268,7 @@ def _exact_rotation(verts: np.ndarray, radius: float, rounds: int | None = None,
     # vertex, bounds it). 2 with r = 0: volume 0 with the plane's normal as an axis, and among
     # those the least area (the minimal rectangle, as the "optimal" fitter). Otherwise the
     # exact search of _obb_exact over the hull's (or the polygon's) Gauss map.
-    axes, rank = _principal(verts)
+    axes, rank = _principal(verts, rounding)
     if rank <= 1:
         return _right_handed(axes.T), True
     if rank == 2 and radius == 0.0:
@@ -342,13 +343,15 @@ def fit_obb(points: np.ndarray, radius: float = 0.0, method: str = "optimal") ->
     e = int(np.frexp(float(np.abs(local).max()))[1])
     unit = np.ldexp(local, -e)
     unit_radius = min(float(np.ldexp(radius, -e)), 1e15)
-    verts, hull = _hull_points(unit)
+    # The coordinates' own rounding, in these units: a spread at its level is no shape (`_principal`).
+    rounding = float(np.ldexp(float(np.abs(points).max()), -e))
+    verts, hull = _hull_points(unit, rounding)
     if method == "pca":
         rot = pca_axes(verts)
     elif method == "exact":
-        rot = _exact_rotation(verts, unit_radius)[0]
+        rot = _exact_rotation(verts, unit_radius, rounding=rounding)[0]
     else:
-        rot = _optimal_rotation(verts, hull, unit_radius)
+        rot = _optimal_rotation(verts, hull, unit_radius, rounding)
     # Extents from every point, not only the hull vertices: _hull_points (axes only) treats
     # thickness below ~1e-12 of the spread as flat and drops it, the box must not.
     box = box_from_axes(local, radius, rot)
