@@ -260,10 +260,16 @@ def deform(cloud: PointCloud, f, bound: float | None = None, tolerance: float = 
     k = np.ones(len(simplices), dtype=np.int64)
     if M_split > 0.0 and d > 0 and size > 0.0:
         h_max = math.sqrt(tol * size / (0.5 * M_split * JUNG[d]))
-        k = np.maximum(1, np.ceil(span / h_max)).astype(np.int64)
+        # At most 2**52 pieces an edge, where a float counts them exactly: more would not fit
+        # max_points anyway, and a huge curvature (bend 1e19, taper 3e35) had the count overflow
+        # int64 to a negative one and no lattice at all (helper-78, 2026-12-02); this also keeps
+        # an h_max that underflowed to 0 from a division by it.
+        h_max = max(h_max, float(span.max()) * 2.0**-52)
+        k = np.maximum(1.0, np.ceil(span / h_max))
         while _count(k, d) > max_points:  # coarsen: still proven, only looser
             h_max *= 1.25
-            k = np.maximum(1, np.ceil(span / h_max)).astype(np.int64)
+            k = np.maximum(1.0, np.ceil(span / h_max))
+        k = k.astype(np.int64)
     parts = []
     for kk in np.unique(k):
         group = simplices[k == kk]

@@ -1,6 +1,7 @@
 """collide.deform and collide.deformations: the deformed set always inside, the bounds proven."""
 
 import itertools
+import warnings
 import zlib
 
 import numpy as np
@@ -189,6 +190,19 @@ def test_tolerance_and_point_cap():
     capped = collide.deform(cloud, f, tolerance=1e-6, max_points=20000)
     assert 1e-6 * size < capped.radius < 0.05 * size  # coarser than asked, still a proven bound
     _check(capped, testing.deformed_sample(cloud, f, 3000, rng), near=None)
+
+
+@pytest.mark.parametrize("f", [deformations.bend(1e19), deformations.taper(3e35), deformations.twist(1e20)], ids=repr)
+def test_a_huge_curvature_gives_a_loose_bound_not_a_numpy_error(f):
+    # The pieces an edge needs overflowed int64 (a RuntimeWarning, a negative count) and deform
+    # raised numpy's "need at least one array to concatenate" (helper-78, 2026-12-02): now as
+    # many pieces as max_points allows, and a proven (very loose) bound.
+    rng = np.random.default_rng(5)
+    bar = PointCloud([[x, y, z] for x in (-.1, .1) for y in (-.1, .1) for z in (-1, 1)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = collide.deform(bar, f)
+    _check(out, testing.deformed_sample(bar, f, 3000, rng), near=None)
 
 
 def test_empty_cloud():
