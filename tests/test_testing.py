@@ -107,3 +107,18 @@ def test_twins_refuse_the_poses_the_broad_phase_refuses():
         r[3] = -r[3]  # a reflection
         with pytest.raises(ValueError, match="body 3: rotation is not a proper orthonormal"):
             twin(sc.articulation, pos, r)
+
+
+@pytest.mark.parametrize("k", [-340, -120, 120, 340])
+def test_the_polytope_oracle_is_scale_free(k):
+    # The signed distance of two boxes scaled by 2**k is 2**k times theirs (exact scaling): at
+    # 1e100 the oracle's triangle distances overflowed (+1.25e100 for -0.85e100: helper-78,
+    # 2026-12-02), and it reported brackets of collide.distance as wrong.
+    rng = np.random.default_rng(8)
+    box = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    for _ in range(40):
+        a = box * rng.uniform(0.2, 1.0, 3) @ testing.random_rotation(rng).T
+        b = box * rng.uniform(0.2, 1.0, 3) @ testing.random_rotation(rng).T + rng.normal(size=3)
+        unit = testing.polytope_signed_distance(a, b)
+        assert testing.polytope_signed_distance(np.ldexp(a, k), np.ldexp(b, k)) == pytest.approx(
+            np.ldexp(unit, k), rel=1e-12, abs=0.0)

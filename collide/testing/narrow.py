@@ -109,8 +109,15 @@ def _polygon_distance(o: np.ndarray, pts: np.ndarray) -> float:
 
 def origin_signed_distance(M: np.ndarray) -> float:
     """Signed distance of the origin to ``hull(M)`` (``M (k, 3)``): positive outside, minus the
-    distance to the boundary inside; a hull thinner than `FLAT_TOL` of its spread has no inside."""
+    distance to the boundary inside; a hull thinner than `FLAT_TOL` of its spread has no inside.
+    Computed on ``M`` scaled by a power of two to unit size (exact): the triangle distances'
+    squared cross products under- and overflowed at 1e-100 and 1e100 (helper-78, 2026-12-02)."""
     M = np.asarray(M, float).reshape(-1, 3)
+    top = float(np.abs(M).max()) if M.size else 0.0
+    if top > 0.0 and math.isfinite(top):
+        e = math.frexp(top)[1]
+        if e != 0:
+            return math.ldexp(origin_signed_distance(np.ldexp(M, -e)), e)
     c = M.mean(axis=0)
     X = M - c
     spread = float(np.abs(X).max()) if len(M) > 1 else 0.0
