@@ -100,6 +100,7 @@ def swept(cloud: PointCloud, pose0, pose1, max_angle: float = math.pi / 4) -> Po
         raise ValueError(f"max_angle: must be in (0, pi], got {max_angle}")
     if cloud.is_empty:
         return PointCloud.empty()
+    _hull.require_bounded(cloud.points, "cloud", cloud.radius)  # as every bound refuses it (helper-78)
     _hull.require_not_tiny(cloud.points, "cloud", cloud.radius)
     P = _hull.hull_vertices(cloud.points)
     Y = P @ R0.T

@@ -191,6 +191,7 @@ def save_level(path: str, image: np.ndarray, bvh: csg.BVH, level: int, camera: t
     handles += [Patch(color=c, label=k) for k, c in COLOURS.items()]
     fig.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, 1 - 26 / (size + 95)), ncol=3,
                fontsize=8, frameon=False)
+    os.makedirs(os.path.dirname(path), exist_ok=True)  # a copy of the script elsewhere has none
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return {"boxes": len(nodes), "width_min": float(width.min()), "width_max": float(width.max())}

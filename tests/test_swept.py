@@ -121,6 +121,11 @@ def test_bad_arguments():
         shapes.box([1, 1, 1]).swept(p, p, max_angle=float("nan"))
     with pytest.raises(ValueError, match="cloud"):
         collide.swept(np.zeros((2, 3)), p, p)
+    # a radius beyond the coordinate limit, refused as every bound refuses it (helper-78: 1e300
+    # went through, 1.7e308 raised "radius: must be finite, got inf")
+    for r in (1e300, 1.7e308):
+        with pytest.raises(ValueError, match="cloud: coordinates plus radius reach .* beyond 1e.150"):
+            collide.swept(PointCloud([[0.0, 0.0, 0.0]], r), p, p)
 
 
 def test_a_cloud_too_small_for_its_error_terms_is_refused():
