@@ -190,6 +190,14 @@ def _announce_compiles(root: str) -> None:
             self.spent = 0.0  # seconds compiling since the last notice
             self.total = 0.0  # seconds compiling, all told
             self.timer = None
+            if hasattr(os, "register_at_fork"):  # one listener a process: registered once
+                os.register_at_fork(after_in_child=self._forked)
+
+        def _forked(self):
+            # A forked child: the timer thread and any thread compiling are the parent's, and may
+            # have held the lock (`collide._fork`); the child's next compile starts afresh.
+            self.lock = threading.Lock()
+            self.outer = self.timer = None
 
         def on_start(self, ev):
             with self.lock:

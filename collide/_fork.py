@@ -11,7 +11,7 @@ operation done or not done.
 
 numba's ``omp`` threading layer on GNU OpenMP (libgomp) cannot run a parallel kernel in a process
 forked after the parent started it: libgomp's threads are not in the child (GCC bug 52303), and
-numba's launch in a direct child prints "Terminating: fork() called from a process already using
+numba's launch in such a child prints "Terminating: fork() called from a process already using
 GNU OpenMP, this is unsafe." and sends the process SIGTERM (found 2026-12-02: a planner's worker
 forked after a `check_batch` was killed at its first one). A forked child of such a parent, and
 its own children, have every batch kernel refused instead: `require_parallel` raises a
@@ -28,8 +28,10 @@ import weakref
 
 __all__ = ["new_lock", "require_parallel"]
 
-# owner -> the names of its attributes that hold a lock of `new_lock`
-_owners: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+# id(owner) -> (weak reference to the owner, the names of its attributes holding a lock of
+# `new_lock`). Keyed by identity, not by the owner's own hash and equality (a subclass may define
+# them); the reference's callback drops the entry before the id can be reused.
+_owners: dict = {}
 _owners_guard = threading.Lock()  # `_owners` changes under it (renewed in the child first)
 _omp_forked = False  # this process was forked from one running numba's GNU OpenMP layer (or its child)
 
@@ -49,8 +51,12 @@ def new_lock(owner: object, name: str) -> threading.Lock:
     threading.Lock
         The lock, to be stored as ``owner.<name>`` by the caller.
     """
+    key = id(owner)
     with _owners_guard:
-        _owners.setdefault(owner, set()).add(name)
+        entry = _owners.get(key)
+        if entry is None or entry[0]() is not owner:
+            entry = _owners[key] = (weakref.ref(owner, lambda _, k=key: _owners.pop(k, None)), set())
+        entry[1].add(name)
     return threading.Lock()
 
 
@@ -86,8 +92,9 @@ def _after_fork() -> None:
     global _owners_guard, _omp_forked
     _owners_guard = threading.Lock()
     _omp_forked = _omp_forked or _gnu_openmp_started()
-    for owner, names in list(_owners.items()):
-        for name in names:
+    for ref, names in list(_owners.values()):
+        owner = ref()
+        for name in names if owner is not None else ():
             setattr(owner, name, threading.Lock())
 
 

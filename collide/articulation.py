@@ -177,7 +177,6 @@ def _depth_first(body_parent: np.ndarray):
     return dfs_order, pos, subtree_end
 
 
-
 def not_rotations(rot: np.ndarray) -> np.ndarray:
     """Indices of the matrices of ``rot (N, 3, 3)`` that are not proper rotations: an entry of
     ``R^T R - I`` above `ORTHO_TOL`, or a determinant not positive (NaN included)."""

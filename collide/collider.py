@@ -44,7 +44,7 @@ TREE_SHARE = 0.5
 TREE_SAMPLE = 256
 TREE_QMAX = 1e6
 
-# `Collider._check_kargs`' margin and gap of a pair that never makes an active contact: its contact
+# `Collider._check_args`' margin and gap of a pair that never makes an active contact: its contact
 # distance (margin + gap, or o_margin + gap) is below any signed distance, and finite.
 _NEVER = -1e300
 
@@ -65,12 +65,13 @@ class CheckResult:
         `Collider.contacts` decides, up to a tolerance: two convex geoms whose cores GJK finds
         within ``collide._kernels.manifold.CONTACT_TOL`` of their sizes of touching count as active
         (`collide._kernels.check.deepest_contact`). An explicit ``<pair>`` with no degree of
-        freedom between its geoms never counts (MuJoCo's ``exclude == 3``), but in a model
-        without dofs, as in MuJoCo.
+        freedom between its geoms never counts (MuJoCo's ``exclude == 3``), except in a model
+        without dofs (``nv == 0``), as in MuJoCo.
     min_distance : (B,) float64 or None
         With ``distance=True``: the signed distance of the closest checked geom pair that
         passes the filters (negative: penetration; no margin subtracted), ``+inf`` when none is
-        closer than ``distmax``. None otherwise.
+        closer than ``distmax``. None otherwise. Explicit pairs without dofs between their geoms
+        are left out, as from ``in_collision``: their distance never changes.
     closest : (B, 2) int32 or None
         With ``distance=True``: that pair, lower id first; ``-1`` where ``min_distance`` is
         ``inf``. None otherwise.
@@ -272,7 +273,7 @@ class Collider:
         self._distance_pairs = None  # check_batch's filtered pairs (distance=True), likewise
         self._tree_pairs = None  # check_batch's early exit by trees (`_trees`), likewise
         self._no_function = None  # (G,) bool: the broad phase's geoms that never pair (`_in_lanes`), likewise
-        self._kargs = None  # the check kernels' table arguments (`_check_kargs`), likewise
+        self._args = None  # the check kernels' table arguments (`_check_args`), likewise
         self._setup_lock = new_lock(self, "_setup_lock")  # a free one in a forked child
 
     def __repr__(self) -> str:
@@ -400,39 +401,46 @@ class Collider:
                         elif mode == _kc.SUBSET_TWO:
                             a, b = lab[pairs[:, 0]], lab[pairs[:, 1]]
                             pairs = pairs[(((a & 1) != 0) & ((b & 2) != 0)) | (((a & 2) != 0) & ((b & 1) != 0))]
+                        pairs = pairs[~self._no_dofs(pairs[:, 0], pairs[:, 1])]  # as in_collision (`_no_dofs`)
                         pairs = np.ascontiguousarray(pairs, dtype=np.int32)
                     self._distance_pairs = pairs
         return pairs
 
-    def _check_kargs(self) -> tuple:
-        # The narrow phase's table as the check kernels take it (made once). An explicit <pair>
-        # whose geoms have no degree of freedom between them (their bodies welded to one body, or
-        # both to the world or a mocap body) never makes an active contact: mj_makeConstraint
-        # flags its contact exclude = 3 ("no dofs": mj_jacDifPair's merged dof chain is empty) and
-        # makes no constraint for it, in every configuration; but in a model without dofs, where
-        # it returns before, and the contact stays included (MuJoCo 4.0.0, checked in
-        # tests/test_check.py; found by helper-77's fuzzing, 2026-12-02). Such a pair gets a
-        # contact distance no signed distance reaches (`_NEVER`, finite: no inf - inf below).
-        # `contacts` keeps it: mj_collision makes the contact.
-        kargs = self._kargs
-        if kargs is None:
+    def _no_dofs(self, g1: np.ndarray, g2: np.ndarray) -> np.ndarray:
+        # (n,) bool: geom pairs with no degree of freedom between them (their bodies welded to one
+        # body, or both to the world or mocap bodies), whose contacts are never active:
+        # mj_makeConstraint flags them exclude = 3 ("no dofs": mj_jacDifPair's merged dof chain is
+        # empty) and makes no constraint, in every configuration; none in a model without dofs,
+        # where it returns before and the contact stays included. MuJoCo 4.0.0, with dense, sparse
+        # and automatic Jacobians (tests/test_check.py). Only explicit <pair>s give such contacts
+        # (the filters drop the others); found by helper-77's fuzzing, 2026-12-02.
+        m = self.model
+        if m.nv == 0:
+            return np.zeros(len(g1), np.bool_)
+        weld = np.asarray(m.body_weldid)[np.asarray(m.geom_bodyid)]  # (G,) each geom's weld body
+        fixed = np.asarray(m.body_dofnum)[weld] == 0
+        return (weld[g1] == weld[g2]) | (fixed[g1] & fixed[g2])
+
+    def _check_args(self) -> tuple:
+        # The narrow phase's table as the check kernels take it (made once): a pair without dofs
+        # (`_no_dofs`) gets a contact distance no signed distance reaches (`_NEVER`, finite: no
+        # inf - inf below), so it never counts. `contacts` keeps it: mj_collision makes it.
+        args = self._args
+        if args is None:
             with self._setup_lock:
-                kargs = self._kargs
-                if kargs is None:
-                    t, m = self.table, self.model
+                args = self._args
+                if args is None:
+                    t = self.table
                     G = t.cls.shape[0]
-                    weld = np.asarray(m.body_weldid)[np.asarray(m.geom_bodyid)]  # (G,) each geom's weld body
-                    fixed = np.asarray(m.body_dofnum)[weld] == 0
-                    w1, w2 = weld[t.pair_key // G], weld[t.pair_key % G]
-                    none = (w1 == w2) | (fixed[t.pair_key // G] & fixed[t.pair_key % G])
-                    if m.nv > 0 and none.any():
+                    none = self._no_dofs(t.pair_key // G, t.pair_key % G)
+                    if none.any():
                         pm, pg = t.pair_margin.copy(), t.pair_gap.copy()
                         pm[none] = pg[none] = _NEVER
-                        kargs = t.kernel_args(pm, pg)
+                        args = t.kernel_args(pm, pg)
                     else:
-                        kargs = t._kargs
-                    self._kargs = kargs
-        return kargs
+                        args = t._kargs
+                    self._args = args
+        return args
 
     def _trees(self):
         # check_trees' static arguments (`_tree_pairs`), made once, or False where that early exit
@@ -533,7 +541,7 @@ class Collider:
         require_parallel()  # not in a child forked from a GNU OpenMP parent (`collide._fork`)
         kin = self._setup_check()
         workers = max(1, numba.get_num_threads())
-        kargs = self._check_kargs()
+        kargs = self._check_args()
         rest = None if distance else self._early_trees(q, hit, kin, kargs, workers)
         if rest is None:
             self._full(q, None, hit, skipped, dist, closest, distmax, kin, kargs, workers)

@@ -405,7 +405,9 @@ class GeomTable:
     def kernel_args(self, pair_margin: np.ndarray | None = None, pair_gap: np.ndarray | None = None) -> tuple:
         """The per-geom arguments of `collide._kernels.manifold.collide_pairs`, in its order.
 
-        ``pair_margin``, ``pair_gap`` : (P,) float64, optional
+        Parameters
+        ----------
+        pair_margin, pair_gap : (P,) float64, optional
             In place of the table's (`collide.mujoco.Collider.check_batch`'s, see there).
         """
         pm = self.pair_margin if pair_margin is None else pair_margin

@@ -88,7 +88,8 @@ def swept(cloud: PointCloud, pose0, pose1, max_angle: float = math.pi / 4) -> Po
     ------
     ValueError
         Naming the argument: not a PointCloud, a cloud of non-zero extent below
-        `collide.hull.MIN_EXTENT`, a pose that is not a rotation and a translation, non-finite
+        `collide.hull.MIN_EXTENT` or reaching, with its radius, beyond
+        `collide.hull.MAX_COORDINATE`, a pose that is not a rotation and a translation, non-finite
         entries, ``max_angle`` not in ``(0, pi]``.
     """
     if not isinstance(cloud, PointCloud):

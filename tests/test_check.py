@@ -2,7 +2,7 @@
 
 Correctness against MuJoCo 4 and against brute-force twins:
 
-* ``in_collision`` equals "MuJoCo made an active contact" (``mj_forward`` on the same qpos, a
+* ``in_collision`` equals "MuJoCo made an active contact" (``mj_fwdPosition`` on the same qpos, a
   contact with ``exclude == 0``: ``dist < includemargin`` and dofs between its geoms; contacts
   MuJoCo makes in the gap do not count) on random configurations of every model in ../shared/models, inside
   and outside the joint limits. Where the two differ, the deciding pair must be within its
@@ -74,14 +74,15 @@ def test_geoms_a_denormal_distance_apart_are_checked():
 
 
 def mujoco_active(model, data, q) -> tuple[np.ndarray, list]:
-    """MuJoCo's answer per configuration: an active contact (``exclude == 0``) after mj_forward,
-    and (deepest dist - includemargin, g1, g2) of each configuration's deepest contact. mj_forward,
-    not mj_collision alone: mj_makeConstraint sets ``exclude = 3`` on a contact without dofs."""
+    """MuJoCo's answer per configuration: an active contact (``exclude == 0``) after
+    mj_fwdPosition, and (deepest dist - includemargin, g1, g2) of each configuration's deepest
+    contact. Not mj_collision alone: mj_makeConstraint (in mj_fwdPosition) sets ``exclude = 3`` on
+    a contact without dofs."""
     out = np.zeros(len(q), bool)
     deepest = []
     for i, x in enumerate(q):
         data.qpos[:] = x
-        mujoco.mj_forward(model, data)
+        mujoco.mj_fwdPosition(model, data)
         best = (np.inf, -1, -1)
         for c in data.contact[:data.ncon]:
             v = float(c.dist - c.includemargin)
@@ -311,38 +312,53 @@ def test_explicit_pairs_and_filters_are_mujocos():
     assert np.array_equal(res.in_collision, mj)
 
 
-def test_an_explicit_pair_without_dofs_between_its_geoms_never_counts():
+@pytest.mark.parametrize("jacobian", ["dense", "sparse", "auto"])
+def test_an_explicit_pair_without_dofs_between_its_geoms_never_counts(jacobian):
     # MuJoCo makes the contact of an explicit <pair> whose geoms have no degree of freedom between
     # them (on bodies welded to one body, or both to the world or a mocap body), and then
-    # mj_makeConstraint flags it exclude = 3 and makes no constraint: never active. check_batch said
-    # every configuration of this scene was in collision (helper-77, 2026-12-02). The pair with dofs
-    # (the table and the arm's end) decides.
+    # mj_makeConstraint flags it exclude = 3 and makes no constraint: never active, with every
+    # Jacobian. check_batch said every configuration of this scene was in collision (helper-77,
+    # 2026-12-02). The pair with dofs (the table and the arm's end) decides; min_distance leaves
+    # the others out too (their distance never changes).
     model = _model(
         '<geom name="table" type="box" size=".5 .5 .05"/>'
         '<body name="grip" mocap="true" pos="0 0 .06"><geom name="finger" size=".02"/></body>'
         '<body name="st" pos=".1 0 .06"><geom name="post" size=".02"/></body>'
         '<body name="arm" pos="0 0 .3"><joint type="hinge" axis="0 1 0"/>'
         '<geom name="l1" type="capsule" fromto="0 0 0 .3 0 0" size=".03"/><geom name="l2" size=".05" pos=".3 0 0"/>'
-        '<body name="tip" pos=".3 0 0"><geom name="l3" size=".04"/></body></body>',
+        '<body name="tip" pos=".3 0 0"><geom name="l3" size=".04"/></body></body>'
+        '<body name="free" pos="2 0 .5"><freejoint/><geom name="fa" size=".1"/>'
+        '<geom name="fb" size=".1" pos=".05 0 0"/></body>',
         '<contact><pair geom1="table" geom2="finger"/><pair geom1="finger" geom2="post" margin=".1"/>'
-        '<pair geom1="l1" geom2="l2"/><pair geom1="l1" geom2="l3"/><pair geom1="table" geom2="l2" margin=".01"/>'
-        '</contact>')
+        '<pair geom1="l1" geom2="l2"/><pair geom1="l1" geom2="l3"/><pair geom1="fa" geom2="fb"/>'
+        '<pair geom1="table" geom2="l2" margin=".01"/></contact>', f'jacobian="{jacobian}"')
     data = mujoco.MjData(model)
-    q = np.linspace(-np.pi, np.pi, 64)[:, None]
+    q = np.tile(model.qpos0, (64, 1))
+    q[:, 0] = np.linspace(-np.pi, np.pi, 64)
     mj, _ = mujoco_active(model, data, q)
     assert mj.any() and not mj.all()
     mujoco.mj_forward(model, data)
-    assert sum(int(c.exclude) == 3 for c in data.contact[:data.ncon]) == 4  # the scene's contacts without dofs
+    frozen = {tuple(sorted(int(g) for g in c.geom)) for c in data.contact[:data.ncon] if int(c.exclude) == 3}
+    assert len(frozen) == 5  # the scene's contacts without dofs
     col = cm.Collider(model)
     assert np.array_equal(col.check_batch(q).in_collision, mj)
-    assert np.array_equal(col.check_batch(q, distance=True).in_collision, mj)
-    assert len(col.contacts(data)) >= 4  # mj_collision makes them: contacts keeps them
+    r = col.check_batch(q, distance=True)
+    assert np.array_equal(r.in_collision, mj)
+    assert len(col.contacts(data)) >= 5  # mj_collision makes them: contacts keeps them
+    # min_distance: the brute force over the filtered pairs but those MuJoCo flags exclude 3
+    pairs = [p for p in testing.all_filtered_pairs(col.broadphase.articulation).tolist() if tuple(p) not in frozen]
+    for i in range(0, 64, 9):
+        data.qpos[:] = q[i]
+        mujoco.mj_kinematics(model, data)
+        want, _ = testing.brute_force_min_distance(col.table, pairs, data.geom_xpos, data.geom_xmat, 1e9)
+        assert r.min_distance[i] == pytest.approx(want, abs=DIST_TOL)
     # A model without dofs: mj_makeConstraint returns before, and the contact stays active.
     still = _model('<geom name="table" type="box" size=".5 .5 .05"/>'
                    '<body mocap="true" pos="0 0 .06"><geom name="finger" size=".02"/></body>',
                    '<contact><pair geom1="table" geom2="finger"/></contact>')
     mj0, _ = mujoco_active(still, mujoco.MjData(still), np.zeros((2, 0)))
-    assert mj0.all() and np.array_equal(cm.Collider(still).check_batch(np.zeros((2, 0))).in_collision, mj0)
+    r0 = cm.Collider(still).check_batch(np.zeros((2, 0)), distance=True)
+    assert mj0.all() and np.array_equal(r0.in_collision, mj0) and np.all(r0.min_distance < 0)
 
 
 # ------------------------------------------------------------------------------------------------

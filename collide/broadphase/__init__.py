@@ -509,6 +509,9 @@ class BroadPhase(SweptCalls):
         ValueError
             A tree of another body count; a ``qpos`` of the wrong shape or with a NaN or inf
             (naming the entry); a pose the broad phase refuses (naming the world and body).
+        RuntimeError
+            In a process forked from one that had run numba's threads on GNU OpenMP, which
+            cannot run there: start workers with ``spawn`` or ``forkserver`` (docs/design.md).
         """
         if not isinstance(tree, KinematicTree):
             raise ValueError(f"tree: expected a collide.broadphase.KinematicTree, got {type(tree).__name__}")

@@ -302,6 +302,9 @@ class SweptCalls:
         ------
         ValueError
             As `pairs_swept`, naming the first bad world.
+        RuntimeError
+            In a process forked from one that had run numba's threads on GNU OpenMP, which
+            cannot run there: start workers with ``spawn`` or ``forkserver`` (docs/design.md).
         """
         with self._lock:
             return self._swept_pairs().pairs_batch(body_pos0, body_rot0, body_pos1, body_rot1)

@@ -406,11 +406,13 @@ class _ContactAgreement:
 
     def _threshold(self, g1: int, g2: int) -> float:
         # The pair's contact distance (margin + gap: a contact is made below it), by the kernels'
-        # own rule (`manifold.pair_margins`); the largest of a geom pair's explicit <pair>s.
+        # own rule (`manifold.pair_margins`, its Python source: no compile for these arguments);
+        # the largest of a geom pair's explicit <pair>s.
         t = self.collider.table
-        j, n, explicit = _km._pair_rows(t.pair_key, g1 * t.cls.shape[0] + g2)
-        return max(float(_km.pair_margins(g1, g2, j + e, explicit, t.geom_margin, t.geom_gap, t.pair_margin,
-                                          t.pair_gap, t.override, t.o_margin)[1]) for e in range(n))
+        j, n, explicit = _km._pair_rows.py_func(t.pair_key, g1 * t.cls.shape[0] + g2)
+        return max(float(_km.pair_margins.py_func(g1, g2, j + e, explicit, t.geom_margin, t.geom_gap,
+                                                  t.pair_margin, t.pair_gap, t.override, t.o_margin)[1])
+                   for e in range(n))
 
     def summary(self) -> dict:
         d, n = np.asarray(self.dist_err), np.asarray(self.normal_err)

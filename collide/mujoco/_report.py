@@ -58,7 +58,7 @@ def format_report(result: dict) -> str:
             lines.append(f"  largest dist difference: step {w['step']}, {w['name1']} ({w['geom1']}) - {w['name2']} "
                          f"({w['geom2']}): MuJoCo {w['dist']:.6g}, ours {w['ours']:.6g}")
         for kind in ("missed", "extra", "skipped"):
-            for e in ct[kind][:5]:
+            for e in ct.get(kind, [])[:5]:
                 lines.append(f"  {kind.upper()} step {e['step']}: {e['name1']} ({e['geom1']}) - {e['name2']} "
                              f"({e['geom2']}), dist {e['dist']:.3g}")
     if result.get("mujoco_count_replayed") is False:

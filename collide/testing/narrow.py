@@ -117,7 +117,7 @@ def origin_signed_distance(M: np.ndarray) -> float:
     if top > 0.0 and math.isfinite(top):
         e = math.frexp(top)[1]
         if e != 0:
-            return math.ldexp(origin_signed_distance(np.ldexp(M, -e)), e)
+            return float(np.ldexp(origin_signed_distance(np.ldexp(M, -e)), e))  # inf past the float range
     c = M.mean(axis=0)
     X = M - c
     spread = float(np.abs(X).max()) if len(M) > 1 else 0.0

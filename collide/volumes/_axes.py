@@ -31,7 +31,7 @@ def _principal(points: np.ndarray, rounding: float = 0.0) -> tuple[np.ndarray, i
     # the coordinates the points were rounded at before the caller moved them (fit_obb's cloud
     # far from the origin, centred): spread at that noise level is rounding, not shape (20
     # collinear points 1e6 from the origin came out a needle 1e-9 thick, and the exact box's
-    # search, in proportion to 1 / thickness, ran for hours: helper-78, 2026-12-02).
+    # search, in proportion to 1 / thickness, did not end: helper-78, 2026-12-02).
     centred = points - points.mean(axis=0)
     extent = float(np.abs(centred).max()) if len(points) > 1 else 0.0
     if extent == 0.0 or extent <= _hull.FLAT_TOL * float(np.abs(points.mean(axis=0)).max()):

@@ -186,7 +186,8 @@ _EXACT_BUDGET = 300_000
 def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: float,
                       rounding: float = 0.0) -> np.ndarray:
     # verts: hull vertices, centred; hull: Qhull's hull of a superset of verts in the same frame
-    # (None for degenerate clouds); rounding: as `_axes._principal`'s. Returns the rotation of a box within 1 % of the minimum
+    # (None for degenerate clouds); rounding: as `_axes._principal`'s.
+    # Returns the rotation of a box within 1 % of the minimum
     # volume on every cloud tested (the rule is in fit_obb's docstring): a minimal box often has
     # a face flush with a hull face (the face candidates), otherwise two adjacent faces flush
     # with hull edges (O'Rourke 1985), which the exact search on a subset and the polish reach.
@@ -259,7 +260,8 @@ def _optimal_rotation(verts: np.ndarray, hull: "ConvexHull | None", radius: floa
 def _exact_rotation(verts: np.ndarray, radius: float, rounds: int | None = None,
                     direct: int = _exact.DIRECT, tol: float = _exact.TOL, seeds=(),
                     budget: int = -1, rounding: float = 0.0) -> tuple[np.ndarray, bool]:
-    # verts: hull vertices (centred by the caller); rounding: as `_axes._principal`'s. Rotation of the minimum-volume box of
+    # verts: hull vertices (centred by the caller); rounding: as `_axes._principal`'s.
+    # Rotation of the minimum-volume box of
     # hull(verts) ⊕ ball(radius) and whether it is certified (always, unless ``rounds`` limits
     # the subset rounds of _obb_exact.exact_axes). By cases of the affine rank:
     # 0: any box is a cube of side 2r. 1: the segment's axis; of every box of a segment of
