@@ -90,8 +90,9 @@ def _mujoco() -> None:
 # where its name puts it) would compile the same kernels beside this process, on both cores.
 WARMUPS = (
     (frozenset({"test_check.py", "test_check_lanes.py", "test_check_trees.py", "test_adversary_decide.py",
-                "test_adversary_lanes.py", "test_cli.py", "test_readme.py"}), _check),
-    # test_cli: the motion-planning demo; test_readme: the README's check_batch example
+                "test_adversary_lanes.py", "test_cli.py", "test_readme.py", "test_collider_threads.py"}), _check),
+    # test_cli: the motion-planning demo; test_readme: the README's check_batch example;
+    # test_collider_threads: the fork test's check_batch
     (frozenset({"test_swept_pairs.py", "test_swept_reuse.py"}), _swept),
     (frozenset({"test_mujoco.py", "test_batch_models.py"}), _mujoco),
 )
