@@ -1043,6 +1043,23 @@ def test_a_geom_quaternion_not_of_unit_norm_is_named_as_the_model_holds_it():
     assert cm.Collider(model).geom_distance(data, 0, 1, 1.0)[0] < 1.0
 
 
+def test_a_body_inertial_quaternion_not_of_unit_norm_is_named_as_the_model_holds_it():
+    # A geom on its body's inertial frame (geom_sameframe INERTIA) is placed by body_iquat, which
+    # the error must name. It named geom_quat: the branch compared a numpy scalar with the
+    # bindings' enum, which is never equal (found writing this test, 2026-12-02).
+    model = mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><body><freejoint/><geom type="box" size=".1 .2 .3" euler="0 .5 0"/></body>'
+        '<body pos="1 0 0"><freejoint/><geom type="box" size=".1 .2 .3"/></body></worldbody></mujoco>')
+    assert int(model.geom_sameframe[0]) == int(mujoco.mjtSameFrame.mjSAMEFRAME_INERTIA)
+    model.body_iquat[1] = [0.7071, 0, 0.7071, 0]
+    with pytest.raises(ValueError, match=r"model.body_iquat: geom 0's orientation is not a rotation"):
+        cm.Collider(model)
+    model.body_iquat[1] /= np.linalg.norm(model.body_iquat[1])
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    assert cm.Collider(model).geom_distance(data, 0, 1, 2.0)[0] < 2.0
+
+
 def test_compare_measures_near_misses_from_the_contact_distance():
     # compare's counts of misses and extras "within ccd_tolerance" measured from distance 0, not
     # from the pair's contact distance (margin + gap): an extra contact 3e-8 inside a 2e-6 margin
