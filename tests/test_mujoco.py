@@ -1045,8 +1045,8 @@ def test_a_geom_quaternion_not_of_unit_norm_is_named_as_the_model_holds_it():
 
 def test_a_body_inertial_quaternion_not_of_unit_norm_is_named_as_the_model_holds_it():
     # A geom on its body's inertial frame (geom_sameframe INERTIA) is placed by body_iquat, which
-    # the error must name. It named geom_quat: the branch compared a numpy scalar with the
-    # bindings' enum, which is never equal (found writing this test, 2026-12-02).
+    # the error must name. It named geom_quat: ``in`` compared the bindings' enum (on the
+    # left, whose __eq__ answers False) with a numpy scalar (found writing this test, 2026-12-02).
     model = mujoco.MjModel.from_xml_string(
         '<mujoco><worldbody><body><freejoint/><geom type="box" size=".1 .2 .3" euler="0 .5 0"/></body>'
         '<body pos="1 0 0"><freejoint/><geom type="box" size=".1 .2 .3"/></body></worldbody></mujoco>')

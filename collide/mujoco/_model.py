@@ -257,8 +257,9 @@ def articulation(model: mujoco.MjModel) -> Articulation:
     if len(bad):  # named as the model holds it (the Articulation would name its own argument)
         g = int(bad[0])
         sf = mujoco.mjtSameFrame
-        # int(): a numpy scalar never equals a binding's enum value (``np.uint8(2) == sf.X`` is
-        # False), so ``in`` on the raw element named geom_quat for every geom
+        # int(): ``in`` compares with the tuple's item on the left, and the enum's own __eq__
+        # answers False for a numpy scalar (``sf.X == np.uint8(2)``), so ``in`` on the raw element
+        # named geom_quat for every geom
         inertial = int(model.geom_sameframe[g]) in (int(sf.mjSAMEFRAME_INERTIA), int(sf.mjSAMEFRAME_INERTIAROT))
         field = "model.body_iquat" if inertial else "model.geom_quat"
         raise ValueError(f"{field}: geom {g}'s orientation is not a rotation (a quaternion of norm other than 1, "
