@@ -1026,35 +1026,29 @@ def test_flex_contacts_are_counted_apart_and_reported():
     assert f"{result['flex_contacts_total']} MuJoCo contacts involving a flex were left out" in cm.format_report(result)
 
 
-def test_a_geom_quaternion_not_of_unit_norm_is_named_as_the_model_holds_it():
+@pytest.mark.parametrize("field, row, geom, xml", [
+    # geom 1 placed by its own geom_quat (sameframe NONE)
+    ("geom_quat", 1, 1, '<body><freejoint/><geom type="box" size=".1 .2 .3"/>'
+                        '<geom type="capsule" size=".05 .2" pos=".3 0 0" euler="0 1 0"/></body>'),
+    # geom 0 on its body's inertial frame (sameframe INERTIA): placed by body 1's body_iquat
+    ("body_iquat", 1, 0, '<body><freejoint/><geom type="box" size=".1 .2 .3" euler="0 .5 0"/></body>'
+                         '<body pos="1 0 0"><freejoint/><geom type="box" size=".1 .2 .3"/></body>'),
+])
+def test_a_quaternion_not_of_unit_norm_is_named_as_the_model_holds_it(field, row, geom, xml):
     # A quaternion set at run time to four digits: MuJoCo uses it as it is (its geom_xmat 4e-5 off
     # a rotation). The Collider refused it naming its own internal argument "geom_rot" (helper-77,
-    # 2026-12-02): it names model.geom_quat, and builds once the quaternion is normalised.
-    model = mujoco.MjModel.from_xml_string(
-        '<mujoco><worldbody><body><freejoint/><geom type="box" size=".1 .2 .3"/>'
-        '<geom type="capsule" size=".05 .2" pos=".3 0 0" euler="0 1 0"/></body></worldbody></mujoco>')
-    assert model.geom_sameframe[1] == 0  # placed by its own geom_quat
-    model.geom_quat[1] = [0.7071, 0, 0.7071, 0]
-    with pytest.raises(ValueError, match=r"model.geom_quat: geom 1's orientation is not a rotation"):
+    # 2026-12-02): it names the model's field, and builds once the quaternion is normalised. A
+    # geom on its inertial frame was named geom_quat too: ``in`` compared the bindings' enum (on
+    # the left, whose __eq__ answers False) with a numpy scalar (2026-12-02).
+    model = mujoco.MjModel.from_xml_string(f"<mujoco><worldbody>{xml}</worldbody></mujoco>")
+    same = mujoco.mjtSameFrame
+    want = same.mjSAMEFRAME_INERTIA if field == "body_iquat" else same.mjSAMEFRAME_NONE
+    assert int(model.geom_sameframe[geom]) == int(want)
+    quat = getattr(model, field)
+    quat[row] = [0.7071, 0, 0.7071, 0]
+    with pytest.raises(ValueError, match=rf"model.{field}: geom {geom}'s orientation is not a rotation"):
         cm.Collider(model)
-    model.geom_quat[1] /= np.linalg.norm(model.geom_quat[1])
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    assert cm.Collider(model).geom_distance(data, 0, 1, 1.0)[0] < 1.0
-
-
-def test_a_body_inertial_quaternion_not_of_unit_norm_is_named_as_the_model_holds_it():
-    # A geom on its body's inertial frame (geom_sameframe INERTIA) is placed by body_iquat, which
-    # the error must name. It named geom_quat: ``in`` compared the bindings' enum (on the
-    # left, whose __eq__ answers False) with a numpy scalar (found writing this test, 2026-12-02).
-    model = mujoco.MjModel.from_xml_string(
-        '<mujoco><worldbody><body><freejoint/><geom type="box" size=".1 .2 .3" euler="0 .5 0"/></body>'
-        '<body pos="1 0 0"><freejoint/><geom type="box" size=".1 .2 .3"/></body></worldbody></mujoco>')
-    assert int(model.geom_sameframe[0]) == int(mujoco.mjtSameFrame.mjSAMEFRAME_INERTIA)
-    model.body_iquat[1] = [0.7071, 0, 0.7071, 0]
-    with pytest.raises(ValueError, match=r"model.body_iquat: geom 0's orientation is not a rotation"):
-        cm.Collider(model)
-    model.body_iquat[1] /= np.linalg.norm(model.body_iquat[1])
+    quat[row] /= np.linalg.norm(quat[row])
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     assert cm.Collider(model).geom_distance(data, 0, 1, 2.0)[0] < 2.0
